@@ -1,0 +1,255 @@
+"""The developability equation f(t, T) = 0 as a piecewise bivariate polynomial.
+
+On the cell made of span i of c and span j of d, with local variables s, σ in
+[0, 1], f is sum_ab M[i, j, a, b] s^a σ^b. The matrix comes from one product
+M = L_c Ω L_d^T of the tangent-line Plücker polynomials (DESIGN §1.2), so that for a
+batch of t values the polynomial in T on every span of d is one matrix product.
+
+The coefficients are divided by the span widths so that the field is the global
+f(t, T) = det[C, C_t, D, D_T] (continuous across knots), or, for polynomial curves
+on parallel planes, g = h (x'(t) Y'(T) - y'(t) X'(T)) of degree (p-1, q-1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from math import factorial
+
+import numpy as np
+
+from .nurbs import NurbsCurve
+from .plucker import reciprocal_matrix, tangent_line_polynomials
+from .polyroots import real_roots_unit_interval
+
+GENERAL = "general"
+PARALLEL_PLANES = "parallel_planes"
+COPLANAR = "coplanar"
+
+
+@dataclass(frozen=True)
+class PlaneFit:
+    """Least-squares plane of a point set: unit normal (3,), offset = normal . x, max distance.
+
+    ``collinear`` is True when the points lie on a line (the normal is then any
+    direction perpendicular to ``direction``).
+    """
+
+    normal: np.ndarray
+    offset: float
+    max_distance: float
+    collinear: bool
+    direction: np.ndarray
+
+
+def fit_plane(points: np.ndarray, relative: float) -> PlaneFit:
+    """Plane through (N, 3) points by SVD; distances relative to the point spread."""
+    centre = points.mean(axis=0)
+    _, sing, vt = np.linalg.svd(points - centre, full_matrices=True)
+    size = max(float(sing[0]), 1e-300)
+    collinear = len(sing) < 2 or float(sing[1]) <= relative * size
+    normal = vt[2]
+    distance = np.abs((points - centre) @ normal)
+    return PlaneFit(normal, float(normal @ centre), float(distance.max()), collinear, vt[0])
+
+
+def classify_pair(c: NurbsCurve, d: NurbsCurve, relative: float) -> tuple[str, dict]:
+    """'coplanar', 'parallel_planes' (polynomial curves only) or 'general', with the plane data."""
+    pc, pd = c.control_points, d.control_points
+    size = float(np.ptp(np.vstack([pc, pd]), axis=0).max())
+    both = fit_plane(np.vstack([pc, pd]), relative)
+    if both.max_distance <= relative * size:
+        return COPLANAR, {"normal": both.normal}
+    if c.is_rational or d.is_rational:
+        return GENERAL, {}
+    fc, fd = fit_plane(pc, relative), fit_plane(pd, relative)
+    if fc.collinear and fd.collinear:
+        normal = np.cross(fc.direction, fd.direction)
+        if np.linalg.norm(normal) <= relative:
+            return GENERAL, {}  # parallel lines are coplanar, handled above
+        normal /= np.linalg.norm(normal)
+    elif fc.collinear:
+        normal = fd.normal
+        if abs(fc.direction @ normal) > relative or fd.max_distance > relative * size:
+            return GENERAL, {}
+    elif fd.collinear:
+        normal = fc.normal
+        if abs(fd.direction @ normal) > relative or fc.max_distance > relative * size:
+            return GENERAL, {}
+    else:
+        if fc.max_distance > relative * size or fd.max_distance > relative * size:
+            return GENERAL, {}
+        if np.linalg.norm(np.cross(fc.normal, fd.normal)) > relative:
+            return GENERAL, {}
+        normal = fc.normal
+    height = float(np.mean(pd @ normal) - np.mean(pc @ normal))
+    return PARALLEL_PLANES, {"normal": normal, "height": height}
+
+
+def _inplane_derivative_polynomials(curve: NurbsCurve, basis: np.ndarray) -> np.ndarray:
+    """Span polynomials of (x'(s), y'(s)) in the plane basis (2, 3), shape (n_spans, p, 2)."""
+    power = curve.power_coefficients  # constant weight w0: c = C_xyz / w0
+    xyz = power[:, :, :3] / power[:, :1, 3:4]
+    deriv = xyz[:, 1:, :] * np.arange(1, curve.degree + 1)[None, :, None]
+    return deriv @ basis.T
+
+
+@dataclass(frozen=True, eq=False)
+class DevelopabilityField:
+    """f(t, T) on the parameter rectangle, cell by cell.
+
+    Attributes
+    ----------
+    c, d : the boundary curves
+    kind : 'general' or 'parallel_planes'
+    cells : (n_c_spans, n_d_spans, A, B) coefficients in local (s, σ), divided by the
+        span widths so that evaluation gives the global, continuous f
+    scale : typical magnitude of f (for relative zero tests)
+    """
+
+    c: NurbsCurve
+    d: NurbsCurve
+    kind: str
+    cells: np.ndarray
+    scale: float
+
+    @property
+    def degree_in_T(self) -> int:
+        return self.cells.shape[3] - 1
+
+    @property
+    def degree_in_t(self) -> int:
+        return self.cells.shape[2] - 1
+
+    # ------------------------------------------------------------ evaluation
+    def _local(self, curve: NurbsCurve, x: np.ndarray, forced=None):
+        idx = curve.span_index(x) if forced is None else np.full(x.shape, forced, dtype=int)
+        b = curve.breakpoints
+        width = b[idx + 1] - b[idx]
+        return idx, (x - b[idx]) / width, width
+
+    @staticmethod
+    def _powers(x: np.ndarray, n: int, order: int) -> np.ndarray:
+        """Rows of d^order/dx^order (1, x, ..., x^(n-1)), shape (N, n)."""
+        out = np.zeros((x.size, n))
+        for a in range(order, n):
+            out[:, a] = factorial(a) / factorial(a - order) * x ** (a - order)
+        return out
+
+    def __call__(self, t, T, dt: int = 0, dT: int = 0, spans=None) -> np.ndarray:
+        """∂^dt_t ∂^dT_T f at matching arrays t, T (global parameters), shape (N,).
+
+        ``spans = (i, j)`` forces the cell (one-sided values at knots).
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        T = np.atleast_1d(np.asarray(T, dtype=np.float64))
+        t, T = np.broadcast_arrays(t, T)
+        i, s, hc = self._local(self.c, t.ravel(), None if spans is None else spans[0])
+        j, sig, hd = self._local(self.d, T.ravel(), None if spans is None else spans[1])
+        ps = self._powers(s, self.cells.shape[2], dt)
+        pt = self._powers(sig, self.cells.shape[3], dT)
+        val = np.einsum("na,nab,nb->n", ps, self.cells[i, j], pt)
+        return (val / hc**dt / hd**dT).reshape(t.shape)
+
+    def gradient(self, t, T) -> np.ndarray:
+        """(f_t, f_T), shape (N, 2)."""
+        return np.stack([self(t, T, 1, 0), self(t, T, 0, 1)], axis=-1)
+
+    # ------------------------------------------------------- roots on lines
+    def polynomials_in_T(self, t: np.ndarray) -> np.ndarray:
+        """Coefficients of f(t_k, ·) on every span of d in the local σ, shape (N, n_d_spans, B).
+
+        One matrix product for the whole batch.
+        """
+        i, s, _ = self._local(self.c, np.atleast_1d(np.asarray(t, dtype=np.float64)))
+        ps = self._powers(s, self.cells.shape[2], 0)
+        return np.einsum("na,njab->njb", ps, self.cells[i])
+
+    def polynomials_in_t(self, T: np.ndarray) -> np.ndarray:
+        """Coefficients of f(·, T_k) on every span of c in the local s, shape (N, n_c_spans, A)."""
+        j, sig, _ = self._local(self.d, np.atleast_1d(np.asarray(T, dtype=np.float64)))
+        pt = self._powers(sig, self.cells.shape[3], 0)
+        return np.einsum("nb,niab->nia", pt, self.cells[:, j].transpose(1, 0, 2, 3))
+
+    def _roots(self, coefs: np.ndarray, curve: NurbsCurve, zero_relative: float):
+        n, n_spans, width = coefs.shape
+        flat = coefs.reshape(n * n_spans, width)
+        row, root, vanishing = real_roots_unit_interval(
+            flat, zero_relative=zero_relative)
+        # identically zero on the line, relative to the field scale (a fan on the line)
+        vanishing = vanishing | (np.abs(flat).max(axis=1) <= zero_relative * self.scale)
+        keep = ~vanishing[row]
+        row, root = row[keep], root[keep]
+        line, span = np.divmod(row, n_spans)
+        b = curve.breakpoints
+        value = b[span] + root * (b[span + 1] - b[span])
+        # a root at a breakpoint is found from both neighbouring spans
+        order = np.lexsort((value, line))
+        line, value = line[order], value[order]
+        tol = 1e-12 * (1.0 + np.ptp(curve.domain))
+        dup = np.zeros(line.size, dtype=bool)
+        dup[1:] = (line[1:] == line[:-1]) & (np.abs(value[1:] - value[:-1]) <= tol)
+        return line[~dup], value[~dup], vanishing.reshape(n, n_spans)
+
+    def roots_in_T(self, t: np.ndarray, zero_relative: float = 1e-11):
+        """Every real root T of f(t_k, T) = 0 for a batch of t.
+
+        Returns (line index (R,), T (R,), vanishing (N, n_d_spans)): vanishing marks
+        spans of d on which f(t_k, ·) is identically zero (a fan with apex c(t_k)).
+        """
+        return self._roots(self.polynomials_in_T(t), self.d, zero_relative)
+
+    def roots_in_t(self, T: np.ndarray, zero_relative: float = 1e-11):
+        """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
+        return self._roots(self.polynomials_in_t(T), self.c, zero_relative)
+
+    @cached_property
+    def identically_zero(self) -> bool:
+        return bool(np.abs(self.cells).max() <= 1e-11 * self.scale)
+
+
+def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
+                         plane: dict | None = None) -> DevelopabilityField:
+    """Build the cell coefficients of f for the pair (c, d).
+
+    ``kind`` is 'general' (the homogeneous 4x4 determinant, degree 2p-2 by 2q-2) or
+    'parallel_planes' (polynomial curves on parallel planes, degree p-1 by q-1, with
+    ``plane = {'normal': n, 'height': h}``).
+    """
+    wc = np.diff(c.breakpoints)
+    wd = np.diff(d.breakpoints)
+    if kind == PARALLEL_PLANES:
+        normal = np.asarray(plane["normal"], dtype=np.float64)
+        e1 = np.cross(normal, [1.0, 0.0, 0.0])
+        if np.linalg.norm(e1) < 0.5:
+            e1 = np.cross(normal, [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(normal, e1)
+        basis = np.vstack([e1, e2])
+        xc = _inplane_derivative_polynomials(c, basis)  # (nc, p, 2)
+        xd = _inplane_derivative_polynomials(d, basis)  # (nd, q, 2)
+        rot = np.array([[0.0, 1.0], [-1.0, 0.0]])
+        cells = plane["height"] * np.einsum("iak,kl,jbl->ijab", xc, rot, xd)
+        scale_c = np.abs(xc).max() / wc.min()
+        scale_d = np.abs(xd).max() / wd.min()
+        scale = abs(plane["height"]) * scale_c * scale_d
+    else:
+        lc = tangent_line_polynomials(c.power_coefficients)  # (nc, 2p-1, 6)
+        ld = tangent_line_polynomials(d.power_coefficients)  # (nd, 2q-1, 6)
+        cells = np.einsum("iak,kl,jbl->ijab", lc, reciprocal_matrix(), ld)
+        scale_c = np.abs(lc).max() / wc.min()
+        scale_d = np.abs(ld).max() / wd.min()
+        scale = scale_c * scale_d
+    cells = cells / (wc[:, None, None, None] * wd[None, :, None, None])
+    cells.setflags(write=False)
+    return DevelopabilityField(c, d, kind, cells, float(max(scale, 1e-300)))
+
+
+def normalized_residual(c: NurbsCurve, d: NurbsCurve, t, T) -> np.ndarray:
+    """|g| / (|c'| |d'| |d - c|) with g = det(c'(t), d'(T), d(T) - c(t)), shape (N,)."""
+    pc, dc = c.derivatives(np.atleast_1d(t), 1)
+    pd, dd = d.derivatives(np.atleast_1d(T), 1)
+    diff = pd - pc
+    g = np.einsum("ij,ij->i", np.cross(dc, dd), diff)
+    norm = (np.linalg.norm(dc, axis=1) * np.linalg.norm(dd, axis=1) * np.linalg.norm(diff, axis=1))
+    return np.abs(g) / np.maximum(norm, 1e-300)

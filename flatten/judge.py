@@ -1,0 +1,400 @@
+"""Judge the branches of Z: acceptable and regression pieces, turning points,
+Theorem 2's curvature signs, continuity at knots, and the best acceptable path.
+
+All functions take traces in the unit square (u, U) and the developability field.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .equation import DevelopabilityField
+from .nurbs import NurbsCurve
+from .solution import (Branch, Coverage, CurvatureMismatch, KnotCrossing, Path, Piece,
+                       TurningPoint)
+from .tracer import Trace
+
+
+class UnitMap:
+    """Conversions between the unit square and the curves' parameters."""
+
+    def __init__(self, field: DevelopabilityField):
+        self.field = field
+        self.lo = np.array([field.c.domain[0], field.d.domain[0]])
+        self.width = np.array([np.ptp(field.c.domain), np.ptp(field.d.domain)])
+
+    def to_params(self, x: np.ndarray) -> np.ndarray:
+        return self.lo + np.asarray(x) * self.width
+
+    def to_unit(self, p: np.ndarray) -> np.ndarray:
+        return (np.asarray(p) - self.lo) / self.width
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """(F_u, F_U) at (N, 2) unit points, shape (N, 2)."""
+        p = self.to_params(x)
+        g = self.field.gradient(p[:, 0], p[:, 1])
+        return g * self.width
+
+    def hessian_terms(self, x: np.ndarray):
+        p = self.to_params(x)
+        f = self.field
+        w = self.width
+        return (f(p[:, 0], p[:, 1], 2, 0) * w[0] ** 2, f(p[:, 0], p[:, 1], 1, 1) * w[0] * w[1],
+                f(p[:, 0], p[:, 1], 0, 2) * w[1] ** 2)
+
+    def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
+        """Newton along the gradient onto f = 0, batched, staying in the unit square."""
+        x = np.array(x, dtype=np.float64, copy=True)
+        for _ in range(iterations):
+            p = self.to_params(x)
+            f = self.field(p[:, 0], p[:, 1])
+            g = self.gradient(x)
+            gg = np.einsum("ij,ij->i", g, g)
+            ok = gg > 0
+            step = np.zeros_like(x)
+            step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
+            # a point on a side stays on it (ends of branches, fans on the boundary)
+            on_side = (x <= 0.0) | (x >= 1.0)
+            step[on_side] = 0.0
+            x = np.clip(x - step, 0.0, 1.0)
+        return x
+
+
+# ------------------------------------------------------------------ classes
+def acceptable_points(unit: UnitMap, x: np.ndarray, orientation: int = 1) -> np.ndarray:
+    """True where neighbouring rulings do not cross inside the strip, with T moving
+    against t in the given orientation (+1: T' >= 0, -1: T' <= 0), fans included, (N,).
+
+    Rulings cross inside the strip (regression) exactly when c(t) and d(T(t)) move to
+    opposite sides of the ruling: with a, b the components of c' and dd/dt normal to
+    the ruling in the tangent plane, the crossing lies at v* = a / (a - T' b), which is
+    outside [0, 1] iff T' a b >= 0, i.e. f_t f_T a b <= 0.
+    """
+    g = unit.gradient(x)
+    gg = np.einsum("ij,ij->i", g, g)
+    p = unit.to_params(x)
+    pc, dc = unit.field.c.derivatives(p[:, 0], 1)
+    pd, dd = unit.field.d.derivatives(p[:, 1], 1)
+    ruling = pd - pc
+    rr = np.maximum(np.einsum("ij,ij->i", ruling, ruling), 1e-300)
+    perp_c = dc - (np.einsum("ij,ij->i", dc, ruling) / rr)[:, None] * ruling
+    perp_d = dd - (np.einsum("ij,ij->i", dd, ruling) / rr)[:, None] * ruling
+    ab = np.einsum("ij,ij->i", perp_c, perp_d)
+    ab_scale = np.linalg.norm(perp_c, axis=1) * np.linalg.norm(perp_d, axis=1)
+    product = g[:, 0] * g[:, 1]
+    same_side = product * ab <= 1e-9 * gg * ab_scale
+    oriented = orientation * product <= 1e-9 * gg
+    return same_side & oriented
+
+
+def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, str]:
+    """Solve f = 0 and f_t = 0 (or f_T = 0) between two unit points by Newton."""
+    ga, gb = unit.gradient(np.vstack([a, b]))
+    which = 0 if np.sign(ga[0]) != np.sign(gb[0]) else 1
+    x = 0.5 * (a + b)
+    lo, hi = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
+    for _ in range(30):
+        p = unit.to_params(x[None])
+        f = unit.field(p[:, 0], p[:, 1])[0]
+        g = unit.gradient(x[None])[0]
+        fuu, fuU, fUU = (h[0] for h in unit.hessian_terms(x[None]))
+        second = np.array([fuu, fuU]) if which == 0 else np.array([fuU, fUU])
+        jac = np.array([g, second])
+        rhs = np.array([f, g[which]])
+        try:
+            step = np.linalg.solve(jac, rhs)
+        except np.linalg.LinAlgError:
+            break
+        x = x - step
+        if np.hypot(*step) < 1e-15:
+            break
+    if not (np.all(x >= lo) and np.all(x <= hi)):
+        x = 0.5 * (a + b)
+    kind = "dT/dt=0" if which == 0 else "dt/dT=0"
+    return np.clip(x, 0.0, 1.0), kind
+
+
+# ---------------------------------------------------------------- junctions
+def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
+    """(k, fa, l, fb, point) for every crossing of polyline a's segment k with b's segment l."""
+    p, r = a[:-1], np.diff(a, axis=0)
+    q, s = b[:-1], np.diff(b, axis=0)
+    out = []
+    if len(r) == 0 or len(s) == 0:
+        return out
+    lo_a, hi_a = np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:])
+    lo_b, hi_b = np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:])
+    near = ((lo_a[:, None, 0] <= hi_b[None, :, 0] + 1e-12) & (lo_b[None, :, 0] <= hi_a[:, None, 0] + 1e-12)
+            & (lo_a[:, None, 1] <= hi_b[None, :, 1] + 1e-12) & (lo_b[None, :, 1] <= hi_a[:, None, 1] + 1e-12))
+    ks, ls = np.nonzero(near)
+    for k, l in zip(ks, ls):
+        if same and abs(int(k) - int(l)) <= 1:
+            continue
+        denom = r[k, 0] * s[l, 1] - r[k, 1] * s[l, 0]
+        if denom == 0.0:
+            continue
+        qp = q[l] - p[k]
+        fa = (qp[0] * s[l, 1] - qp[1] * s[l, 0]) / denom
+        fb = (qp[0] * r[k, 1] - qp[1] * r[k, 0]) / denom
+        if -1e-12 <= fa <= 1 + 1e-12 and -1e-12 <= fb <= 1 + 1e-12:
+            out.append((int(k), float(fa), int(l), float(fb), p[k] + fa * r[k]))
+    return out
+
+
+def _point_on_polyline(point: np.ndarray, poly: np.ndarray, tol: float):
+    """(segment, fraction) of the nearest point of poly if within tol, else None."""
+    if len(poly) < 2:
+        return None
+    p, r = poly[:-1], np.diff(poly, axis=0)
+    rr = np.einsum("ij,ij->i", r, r)
+    frac = np.clip(np.einsum("ij,ij->i", point - p, r) / np.where(rr > 0, rr, 1.0), 0.0, 1.0)
+    dist = np.hypot(*(p + frac[:, None] * r - point).T)
+    k = int(np.argmin(dist))
+    return (k, float(frac[k])) if dist[k] <= tol else None
+
+
+# ------------------------------------------------------------------- pieces
+def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, orientation: int = 1):
+    """Cut every trace at turning points and junctions; returns pieces (unit points,
+    acceptable flag, trace index) and turning points (unit point, kind, trace)."""
+    cuts: list[list[tuple[int, float, np.ndarray]]] = [[] for _ in traces]
+    turning = []
+    classes = []
+    for n, trace in enumerate(traces):
+        x = trace.points
+        acc = acceptable_points(unit, x, orientation)
+        g = unit.gradient(x)
+        gnorm = np.hypot(*g.T)
+        weak = gnorm < 1e-8 * max(np.median(gnorm), 1e-300)
+        for k in range(1, len(acc)):  # singular points carry no class
+            if weak[k]:
+                acc[k] = acc[k - 1]
+        classes.append(acc)
+        for k in np.flatnonzero(acc[1:] != acc[:-1]):
+            point, kind = _turning_point(unit, x[k], x[k + 1])
+            seg = x[k + 1] - x[k]
+            frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
+            cuts[n].append((int(k), frac, point))
+            turning.append((point, kind, n))
+    for i in range(len(traces)):
+        for j in range(i, len(traces)):
+            for k, fa, l, fb, point in _segment_intersections(traces[i].points, traces[j].points, i == j):
+                cuts[i].append((k, fa, point))
+                cuts[j].append((l, fb, point))
+        for j in range(len(traces)):  # an end of trace i lying on trace j
+            if i == j or traces[i].closed:
+                continue
+            for end in (traces[i].points[0], traces[i].points[-1]):
+                hit = _point_on_polyline(end, traces[j].points, tol)
+                if hit is not None:
+                    cuts[j].append((hit[0], hit[1], end.copy()))
+    pieces = []
+    for n, trace in enumerate(traces):
+        for part in _cut_polyline(trace.points, trace.closed, cuts[n], tol):
+            if len(part) < 2:
+                continue
+            mid = part[len(part) // 2] if len(part) > 2 else 0.5 * (part[0] + part[1])
+            acc = bool(acceptable_points(unit, mid[None], orientation)[0]) if len(part) > 2 else \
+                bool(orientation * np.prod(part[-1] - part[0]) >= -1e-18)
+            pieces.append((part, acc, n))
+    return pieces, turning
+
+
+def _cut_polyline(points: np.ndarray, closed: bool, cuts, tol: float) -> list[np.ndarray]:
+    """Split a polyline at (segment, fraction, point) cuts; a closed one is rotated first."""
+    if not cuts:
+        return [points]
+    cuts = sorted(cuts, key=lambda c: (c[0], c[1]))
+    parts, current = [], [points[0]]
+    cursor = 0
+    for k, frac, point in cuts:
+        while cursor < k:
+            cursor += 1
+            current.append(points[cursor])
+        current.append(point)
+        parts.append(np.array(current))
+        current = [point]
+    for m in range(cursor + 1, len(points)):
+        current.append(points[m])
+    parts.append(np.array(current))
+    if closed and len(parts) > 1:
+        parts[0] = np.vstack([parts[-1], parts[0][1:]])
+        parts.pop()
+    cleaned = []
+    for part in parts:
+        keep = np.ones(len(part), dtype=bool)
+        keep[1:] = np.hypot(*np.diff(part, axis=0).T) > 1e-15
+        part = part[keep]
+        if len(part) >= 2 and np.hypot(*(part[-1] - part[0])) > 0.1 * tol or len(part) > 2:
+            cleaned.append(part)
+    return cleaned
+
+
+# ------------------------------------------------------------ branch kinds
+def branch_kind(x: np.ndarray, closed: bool) -> str:
+    if closed:
+        return "loop"
+    if np.ptp(x[:, 0]) <= 1e-9:
+        return "fan_c"
+    if np.ptp(x[:, 1]) <= 1e-9:
+        return "fan_d"
+    du = np.diff(x[:, 0])
+    return "graph" if np.all(du >= -1e-12) or np.all(du <= 1e-12) else "curve"
+
+
+# ----------------------------------------------------------- Theorem 2
+def curvature_signs(c: NurbsCurve, d: NurbsCurve, params: np.ndarray):
+    """Normal curvature signs of c and d against the strip normal along each ruling.
+
+    Returns (kc, kd) (N,), the normal curvatures c''.ν / |c'|^2 and d''.ν / |d'|^2.
+    """
+    t, T = params[:, 0], params[:, 1]
+    pc, dc, ddc = c.derivatives(t, 2)
+    pd, dd, ddd = d.derivatives(T, 2)
+    ruling = pd - pc
+    normal = np.cross(dc, ruling)
+    weak = np.linalg.norm(normal, axis=1) <= 1e-12 * np.linalg.norm(dc, axis=1) * np.linalg.norm(ruling, axis=1)
+    normal[weak] = np.cross(dd[weak], ruling[weak])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+    kc = np.einsum("ij,ij->i", ddc, normal) / np.einsum("ij,ij->i", dc, dc)
+    kd = np.einsum("ij,ij->i", ddd, normal) / np.einsum("ij,ij->i", dd, dd)
+    return kc, kd
+
+
+def curvature_mismatches(c: NurbsCurve, d: NurbsCurve, branch: int, params: np.ndarray,
+                         relative: float = 1e-9) -> list[CurvatureMismatch]:
+    """Runs of branch points where kc and kd have strictly opposite signs."""
+    kc, kd = curvature_signs(c, d, params)
+    scale = max(np.abs(kc).max(initial=0.0), np.abs(kd).max(initial=0.0), 1e-300)
+    bad = kc * kd < -(relative * scale) ** 2
+    out = []
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(int), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        run = params[a:b]
+        worst = a + int(np.argmin((kc * kd)[a:b]))
+        ends = run[[0, -1]]
+        out.append(CurvatureMismatch(
+            branch, (float(run[:, 0].min()), float(run[:, 0].max())),
+            (float(run[:, 1].min()), float(run[:, 1].max())),
+            c(ends[:, 0]), d(ends[:, 1]), (float(params[worst, 0]), float(params[worst, 1]))))
+    return out
+
+
+# ------------------------------------------------------------------- knots
+def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) -> list[KnotCrossing]:
+    """One-sided T' and T'' at every interior knot of c or d the branch crosses."""
+    out = []
+    for axis, curve, name in ((0, field.c, "c"), (1, field.d, "d")):
+        inner = curve.breakpoints[1:-1]
+        classes = curve.knot_continuity()
+        for knot, cls in zip(inner, classes):
+            hits = np.flatnonzero(np.abs(params[:, axis] - knot) <= 1e-12 * (1 + abs(knot)))
+            for h in hits:
+                t, T = params[h]
+                ic, jd = int(field.c.span_index(t)), int(field.d.span_index(T))
+                sides = []
+                for shift in (-1, 0):
+                    spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)
+                    if min(spans) < 0:
+                        break
+                    ft, fT = field(t, T, 1, 0, spans)[0], field(t, T, 0, 1, spans)[0]
+                    ftt, ftT, fTT = (field(t, T, a, b, spans)[0] for a, b in ((2, 0), (1, 1), (0, 2)))
+                    if fT == 0.0:
+                        break
+                    slope = -ft / fT
+                    sides.append((slope, -(ftt + 2 * ftT * slope + fTT * slope**2) / fT))
+                if len(sides) != 2:
+                    continue
+                (s1, c1), (s2, c2) = sides
+                out.append(KnotCrossing(branch, name, float(knot), float(t), float(T), int(cls) - 1,
+                                        abs(s1 - s2) / (1 + abs(s1)), abs(c1 - c2) / (1 + abs(c1))))
+    return out
+
+
+# -------------------------------------------------------------------- path
+def coverage(c: NurbsCurve, d: NurbsCurve, t_interval, T_interval) -> Coverage:
+    lc = c.arc_length_at(np.asarray(t_interval))
+    ld = d.arc_length_at(np.asarray(T_interval))
+    return Coverage((float(t_interval[0]), float(t_interval[1])),
+                    (float(T_interval[0]), float(T_interval[1])),
+                    float(lc[1] - lc[0]), float(ld[1] - ld[0]),
+                    float((lc[1] - lc[0]) / c.length), float((ld[1] - ld[0]) / d.length))
+
+
+def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
+                min_gain: float, orientation: int = 1) -> Path | None:
+    """Longest monotone chain of acceptable pieces, measured by covered arc length
+    fraction of c plus that of d (the pieces meet at turning points and junctions).
+
+    ``orientation = -1`` looks for T decreasing while t increases (d runs the other
+    way); pieces must have been classified for that orientation.
+    """
+    mirror = np.array([1.0, float(orientation)])
+    candidates = []
+    for p in pieces:
+        if not p.acceptable:
+            continue
+        pts = p.points * mirror
+        if pts[-1].sum() < pts[0].sum():
+            pts = pts[::-1]
+        candidates.append((p.index, pts * mirror))
+    if not candidates:
+        return None
+    gains = []
+    for _, pts in candidates:
+        cov = coverage(c, d, sorted(pts[[0, -1], 0]), sorted(pts[[0, -1], 1]))
+        gains.append(cov.c_fraction + cov.d_fraction)
+    scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
+    flat = np.vstack([pts[[0, -1]] for _, pts in candidates]) / scale
+    node = -np.ones(len(flat), dtype=int)
+    n_nodes = 0
+    for k in range(len(flat)):
+        if node[k] >= 0:
+            continue
+        close = np.hypot(*(flat - flat[k]).T) <= tol
+        node[close & (node < 0)] = n_nodes
+        n_nodes += 1
+    start_node, end_node = node[0::2], node[1::2]
+    order = np.argsort([(flat[2 * i] * mirror).sum() for i in range(len(candidates))])
+    best = np.zeros(n_nodes)
+    came_from: dict[int, int] = {}
+    for i in order:
+        if gains[i] < min_gain:
+            continue
+        value = best[start_node[i]] + gains[i]
+        if value > best[end_node[i]]:
+            best[end_node[i]] = value
+            came_from[int(end_node[i])] = int(i)
+    if not came_from:
+        return None
+    last = int(np.argmax(best))
+    chain = []
+    while last in came_from and len(chain) <= len(candidates):
+        i = came_from[last]
+        chain.append(i)
+        last = int(start_node[i])
+    chain.reverse()
+    points = np.vstack([candidates[i][1] if k == 0 else candidates[i][1][1:]
+                        for k, i in enumerate(chain)])
+    points[:, 0] = np.maximum.accumulate(points[:, 0])
+    points[:, 1] = np.maximum.accumulate(points[:, 1] * orientation) * orientation
+    fans = []
+    for i in chain:
+        pts = candidates[i][1]
+        if np.ptp(pts[:, 0]) <= 1e-9 * scale[0]:
+            fans.append({"apex_on": "c", "t": float(pts[0, 0]),
+                         "T_interval": sorted([float(pts[0, 1]), float(pts[-1, 1])])})
+        elif np.ptp(pts[:, 1]) <= 1e-9 * scale[1]:
+            fans.append({"apex_on": "d", "T": float(pts[0, 1]),
+                         "t_interval": [float(pts[0, 0]), float(pts[-1, 0])]})
+    cov = coverage(c, d, (points[0, 0], points[-1, 0]), sorted((points[0, 1], points[-1, 1])))
+    return Path(points, tuple(candidates[i][0] for i in chain), cov, tuple(fans), orientation)
+
+
+def make_branch(index: int, params: np.ndarray, trace: Trace, unit_points: np.ndarray) -> Branch:
+    return Branch(index, params, trace.closed, trace.ends, branch_kind(unit_points, trace.closed))
+
+
+def make_turning_point(c: NurbsCurve, d: NurbsCurve, params: np.ndarray, kind: str, branch: int) -> TurningPoint:
+    return TurningPoint(branch, float(params[0]), float(params[1]), kind,
+                        c(params[:1])[0], d(params[1:])[0])

@@ -1,0 +1,303 @@
+"""NURBS curves: validation, evaluation, derivatives, spans, arc length, curvature.
+
+A curve of degree p has control points P_i (n+1, 3), weights w_i > 0 and knots U
+(n+p+2,). It is evaluated in homogeneous form Pw_i = (w_i P_i, w_i), a polynomial
+B-spline in R^4 evaluated by :class:`scipy.interpolate.BSpline` (no hand-written de
+Boor). Parameters live on the curve's own knot domain [U_p, U_{n+1}].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from math import comb
+
+import numpy as np
+from scipy.interpolate import BSpline, PPoly
+
+from .errors import InvalidCurveError
+
+# Gauss-Legendre rule used for arc length on every sub-interval of a span.
+_GAUSS_ORDER = 12
+_ARC_SUBDIVISIONS = 8
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.array(array, dtype=np.float64, copy=True)
+    array.setflags(write=False)
+    return array
+
+
+def clamped_uniform_knots(n_points: int, degree: int) -> np.ndarray:
+    """Clamped uniform knot vector on [0, 1] for ``n_points`` control points, shape (n_points + degree + 1,)."""
+    interior = np.linspace(0.0, 1.0, n_points - degree + 1)[1:-1]
+    return np.concatenate([np.zeros(degree + 1), interior, np.ones(degree + 1)])
+
+
+@dataclass(frozen=True, eq=False)
+class NurbsCurve:
+    """A validated NURBS curve. Build it with :func:`nurbs_curve`.
+
+    Attributes
+    ----------
+    degree : int
+    control_points : (n+1, 3) float array, read-only, model units
+    weights : (n+1,) float array, read-only, all > 0
+    knots : (n+degree+2,) float array, read-only, non-decreasing
+    name : str, used in messages
+    """
+
+    degree: int
+    control_points: np.ndarray
+    weights: np.ndarray
+    knots: np.ndarray
+    name: str = "curve"
+
+    # ------------------------------------------------------------------ basics
+    @cached_property
+    def homogeneous(self) -> BSpline:
+        """The homogeneous B-spline C(t) = sum N_i(t) (w_i P_i, w_i), values in R^4."""
+        pw = np.hstack([self.control_points * self.weights[:, None], self.weights[:, None]])
+        return BSpline(self.knots, pw, self.degree, extrapolate=True)
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """Parameter interval (U_p, U_{n+1})."""
+        return float(self.knots[self.degree]), float(self.knots[-self.degree - 1])
+
+    @cached_property
+    def is_rational(self) -> bool:
+        """False when all weights are equal (the curve is a polynomial B-spline)."""
+        return bool(np.ptp(self.weights) > 1e-14 * np.max(self.weights))
+
+    @cached_property
+    def breakpoints(self) -> np.ndarray:
+        """Distinct knots inside the domain, ends included, shape (n_spans + 1,)."""
+        lo, hi = self.domain
+        inner = self.knots[(self.knots >= lo) & (self.knots <= hi)]
+        return _readonly(np.unique(inner))
+
+    @property
+    def n_spans(self) -> int:
+        return len(self.breakpoints) - 1
+
+    def knot_continuity(self) -> np.ndarray:
+        """Continuity order C^k at each interior breakpoint, shape (n_spans - 1,): k = degree - multiplicity."""
+        inner = self.breakpoints[1:-1]
+        mult = np.array([np.count_nonzero(self.knots == k) for k in inner], dtype=int)
+        return self.degree - mult
+
+    def reversed(self) -> "NurbsCurve":
+        """The same point set traversed backwards, on the mirrored knot domain."""
+        lo, hi = self.domain
+        knots = (lo + hi) - self.knots[::-1]
+        return NurbsCurve(self.degree, _readonly(self.control_points[::-1]),
+                          _readonly(self.weights[::-1]), _readonly(knots), self.name)
+
+    # -------------------------------------------------------------- evaluation
+    def homogeneous_derivatives(self, t: np.ndarray, order: int) -> np.ndarray:
+        """Derivatives 0..order of C(t) in R^4, shape (order+1, N, 4)."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        spline = self.homogeneous
+        return np.stack([spline(t, nu=k) for k in range(order + 1)])
+
+    def derivatives(self, t: np.ndarray, order: int = 2) -> np.ndarray:
+        """Point and derivatives 1..order of the rational curve c(t), shape (order+1, N, 3).
+
+        Leibniz rule on A = w c: c^(k) = (A^(k) - sum_{i=1..k} C(k,i) w^(i) c^(k-i)) / w.
+        """
+        hom = self.homogeneous_derivatives(t, order)
+        a, w = hom[..., :3], hom[..., 3]
+        out = np.empty_like(a)
+        for k in range(order + 1):
+            acc = a[k].copy()
+            for i in range(1, k + 1):
+                acc -= comb(k, i) * w[i][:, None] * out[k - i]
+            out[k] = acc / w[0][:, None]
+        return out
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Points c(t), shape (N, 3)."""
+        return self.derivatives(t, 0)[0]
+
+    # ------------------------------------------------------------------- spans
+    @cached_property
+    def power_coefficients(self) -> np.ndarray:
+        """Homogeneous span polynomials, shape (n_spans, degree+1, 4).
+
+        Entry [i, k] is the coefficient of s^k with s = (t - b_i) / (b_{i+1} - b_i)
+        in [0, 1] on span i (b = :attr:`breakpoints`).
+        """
+        pw = self.homogeneous.c
+        coefs = []
+        for axis in range(4):
+            pp = PPoly.from_spline(BSpline(self.knots, pw[:, axis], self.degree))
+            coefs.append(pp)
+        starts = self.breakpoints[:-1]
+        widths = np.diff(self.breakpoints)
+        out = np.empty((len(starts), self.degree + 1, 4))
+        for axis, pp in enumerate(coefs):
+            idx = np.searchsorted(pp.x, starts, side="right") - 1
+            desc = pp.c[:, idx]  # (degree+1, n_spans), powers of (t - x_i) descending
+            asc = desc[::-1].T  # (n_spans, degree+1) ascending
+            out[:, :, axis] = asc * widths[:, None] ** np.arange(self.degree + 1)
+        return _readonly(out)
+
+    @cached_property
+    def bezier_control_points(self) -> np.ndarray:
+        """Homogeneous Bezier control points of every span, shape (n_spans, degree+1, 4)."""
+        p = self.degree
+        # power -> Bernstein: b_j = sum_{k<=j} C(j,k)/C(p,k) a_k
+        conv = np.array([[comb(j, k) / comb(p, k) if k <= j else 0.0 for k in range(p + 1)]
+                         for j in range(p + 1)])
+        return _readonly(np.einsum("jk,skd->sjd", conv, self.power_coefficients))
+
+    def span_index(self, t: np.ndarray) -> np.ndarray:
+        """Span containing each parameter (the last span includes the domain end), shape (N,)."""
+        t = np.asarray(t, dtype=np.float64)
+        idx = np.searchsorted(self.breakpoints, t, side="right") - 1
+        return np.clip(idx, 0, self.n_spans - 1)
+
+    # -------------------------------------------------------------- arc length
+    @cached_property
+    def _arc_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """Sub-interval edges (M+1,) and cumulative arc length at them (M+1,)."""
+        edges = np.concatenate([np.linspace(a, b, _ARC_SUBDIVISIONS + 1)[:-1]
+                                for a, b in zip(self.breakpoints[:-1], self.breakpoints[1:])]
+                               + [self.breakpoints[-1:]])
+        pieces = self._gauss_length(edges[:-1], edges[1:])
+        return edges, np.concatenate([[0.0], np.cumsum(pieces)])
+
+    def _gauss_length(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        x, w = np.polynomial.legendre.leggauss(_GAUSS_ORDER)
+        a = np.asarray(a, dtype=np.float64)
+        b = np.asarray(b, dtype=np.float64)
+        half = 0.5 * (b - a)
+        nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]
+        speed = np.linalg.norm(self.derivatives(nodes.ravel(), 1)[1], axis=1).reshape(nodes.shape)
+        return half * (speed @ w)
+
+    def arc_length_at(self, t: np.ndarray) -> np.ndarray:
+        """Arc length from the domain start to each t, shape (N,), model units."""
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=np.float64)), *self.domain)
+        edges, cumulative = self._arc_table
+        idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
+        return cumulative[idx] + self._gauss_length(edges[idx], t)
+
+    @property
+    def length(self) -> float:
+        """Total arc length, model units."""
+        return float(self._arc_table[1][-1])
+
+    def parameter_at_length(self, s: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`arc_length_at` by Newton iterations, shape (N,)."""
+        s = np.clip(np.atleast_1d(np.asarray(s, dtype=np.float64)), 0.0, self.length)
+        edges, cumulative = self._arc_table
+        idx = np.clip(np.searchsorted(cumulative, s, side="right") - 1, 0, len(edges) - 2)
+        frac = (s - cumulative[idx]) / np.maximum(cumulative[idx + 1] - cumulative[idx], 1e-300)
+        t = edges[idx] + frac * (edges[idx + 1] - edges[idx])
+        for _ in range(30):
+            speed = np.linalg.norm(self.derivatives(t, 1)[1], axis=1)
+            step = (self.arc_length_at(t) - s) / np.maximum(speed, 1e-300)
+            t = np.clip(t - step, edges[idx], edges[idx + 1])
+            if np.max(np.abs(step), initial=0.0) < 1e-15 * (1.0 + np.ptp(self.domain)):
+                break
+        return t
+
+    # --------------------------------------------------------------- curvature
+    def curvature(self, t: np.ndarray) -> np.ndarray:
+        """Curvature |c' x c''| / |c'|^3, shape (N,), 1/model units."""
+        _, d1, d2 = self.derivatives(t, 2)
+        return np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+
+    def normal_curvature(self, t: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Normal curvature c'' . n / |c'|^2 against unit surface normals n (N, 3), shape (N,)."""
+        _, d1, d2 = self.derivatives(t, 2)
+        return np.einsum("ij,ij->i", d2, normals) / np.einsum("ij,ij->i", d1, d1)
+
+
+def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
+                name: str = "curve") -> NurbsCurve:
+    """Validate the definition of a NURBS curve and build it.
+
+    Parameters
+    ----------
+    control_points : (n+1, 3) array_like, model units
+    degree : int >= 1
+    weights : (n+1,) array_like of positive floats, default all 1
+    knots : (n+degree+2,) array_like, non-decreasing, default clamped uniform on [0, 1]
+    name : str, names the curve in error messages ("c", "curves.d", ...)
+
+    Raises
+    ------
+    InvalidCurveError
+        Naming the field and the offending value.
+    """
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)):
+        raise InvalidCurveError(f"{name}.degree must be an integer, got {degree!r}")
+    if degree < 1:
+        raise InvalidCurveError(f"{name}.degree must be >= 1, got {degree}")
+    try:
+        points = np.asarray(control_points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidCurveError(f"{name}.control_points are not numbers: {exc}") from None
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InvalidCurveError(f"{name}.control_points must have shape (n, 3), got {points.shape}")
+    bad = np.argwhere(~np.isfinite(points))
+    if len(bad):
+        i, j = bad[0]
+        raise InvalidCurveError(f"{name}.control_points[{i}][{j}] is not finite: {points[i, j]}")
+    n_points = len(points)
+    if n_points < degree + 1:
+        raise InvalidCurveError(
+            f"{name}.control_points has {n_points} points; degree {degree} needs at least {degree + 1}")
+
+    if weights is None:
+        w = np.ones(n_points)
+    else:
+        try:
+            w = np.asarray(weights, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidCurveError(f"{name}.weights are not numbers: {exc}") from None
+        if w.shape != (n_points,):
+            raise InvalidCurveError(
+                f"{name}.weights has {w.size} values for {n_points} control points")
+        for i, value in enumerate(w):
+            if not np.isfinite(value) or value <= 0:
+                raise InvalidCurveError(f"{name}.weights[{i}] must be finite and > 0, got {value}")
+
+    if knots is None:
+        u = clamped_uniform_knots(n_points, degree)
+    else:
+        try:
+            u = np.asarray(knots, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidCurveError(f"{name}.knots are not numbers: {exc}") from None
+        expected = n_points + degree + 1
+        if u.ndim != 1 or u.size != expected:
+            raise InvalidCurveError(
+                f"{name}.knots has {u.size} values; {n_points} control points of degree {degree} "
+                f"need {expected}")
+        for i, value in enumerate(u):
+            if not np.isfinite(value):
+                raise InvalidCurveError(f"{name}.knots[{i}] is not finite: {value}")
+        drops = np.flatnonzero(np.diff(u) < 0)
+        if len(drops):
+            i = drops[0] + 1
+            raise InvalidCurveError(
+                f"{name}.knots must be non-decreasing: knots[{i}] = {u[i]} < knots[{i - 1}] = {u[i - 1]}")
+        lo, hi = u[degree], u[-degree - 1]
+        if not hi > lo:
+            raise InvalidCurveError(f"{name}.knots give an empty domain [{lo}, {hi}]")
+        inner = u[(u > lo) & (u < hi)]
+        values, counts = np.unique(inner, return_counts=True)
+        if np.any(counts > degree):
+            k = values[np.argmax(counts)]
+            raise InvalidCurveError(
+                f"{name}.knots: interior knot {k} has multiplicity {counts.max()} > degree {degree}, "
+                "the curve would be discontinuous")
+
+    size = float(np.max(np.ptp(points, axis=0)))
+    if size == 0.0:
+        raise InvalidCurveError(f"{name} has zero length: all control points equal {points[0].tolist()}")
+    return NurbsCurve(int(degree), _readonly(points), _readonly(w), _readonly(u), name)

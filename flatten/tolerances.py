@@ -1,0 +1,52 @@
+"""Numerical tolerances, gathered in one frozen object passed explicitly."""
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Every threshold the geometry core uses.
+
+    Attributes
+    ----------
+    residual : float
+        Bound on the normalised developability residual
+        |g| / (|c'| |d'| |d - c|) a polished ruling must reach.
+    zero_relative : float
+        A polynomial coefficient (or a determinant) below this fraction of its
+        natural scale counts as zero: flat plates, degree drops, fans.
+    planarity : float
+        Largest distance from a plane, relative to the curve size, for a curve
+        to count as planar.
+    coincidence : float
+        Largest distance between the curves, relative to their size, for them to
+        count as coincident (bad input).
+    grid_lines_per_span : int
+        Seed lines per knot span and direction for the branch tracer.
+    min_grid_lines : int
+        Seed lines over the whole parameter range, whatever the span count.
+    trace_step : float
+        Largest tracer step in the unit parameter square.
+    trace_min_step : float
+        Smallest tracer step before the tracer tries to jump a singular point.
+    junction : float
+        Distance in the unit parameter square below which two branch points are
+        the same point (junctions, loop closure, seed matching).
+    min_piece_coverage : float
+        Pieces covering less than this fraction of both curves are ignored when
+        choosing a path (isolated touching points).
+    """
+
+    residual: float = 1e-12
+    zero_relative: float = 1e-11
+    planarity: float = 1e-10
+    coincidence: float = 1e-9
+    grid_lines_per_span: int = 6
+    min_grid_lines: int = 48
+    trace_step: float = 4e-3
+    trace_min_step: float = 1e-6
+    junction: float = 1e-6
+    min_piece_coverage: float = 1e-6
+
+
+DEFAULT_TOLERANCES = Tolerances()
