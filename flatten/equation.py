@@ -203,6 +203,43 @@ class DevelopabilityField:
         """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
         return self._roots(self.polynomials_in_t(T), self.c, zero_relative)
 
+    def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4) -> np.ndarray:
+        """Newton on f(t_k, ·) from T_guess for a batch, shape (N,).
+
+        Grouped by cell: one (n, A) x (A, B) product gives the polynomial in σ of every
+        t in the cell, then Horner iterations on B coefficients. Points whose root lies
+        in a neighbouring span of d are redone there.
+        """
+        t = np.asarray(t, dtype=np.float64)
+        T = np.array(T_guess, dtype=np.float64, copy=True)
+        i, s, _ = self._local(self.c, t)
+        ps = s[:, None] ** np.arange(self.cells.shape[2])
+        bd = self.d.breakpoints
+        todo = np.arange(t.size)
+        for _ in range(3):
+            j = self.d.span_index(T[todo])
+            moved = []
+            for key in np.unique(i[todo] * self.cells.shape[1] + j):
+                ci, cj = divmod(int(key), self.cells.shape[1])
+                sel = todo[(i[todo] == ci) & (j == cj)]
+                coef = ps[sel] @ self.cells[ci, cj]  # (n, B), ascending in σ
+                width = bd[cj + 1] - bd[cj]
+                sig = (T[sel] - bd[cj]) / width
+                for _ in range(iterations):
+                    value = np.zeros_like(sig)
+                    slope = np.zeros_like(sig)
+                    for k in range(coef.shape[1] - 1, -1, -1):
+                        slope = slope * sig + value
+                        value = value * sig + coef[:, k]
+                    sig = sig - np.divide(value, slope, out=np.zeros_like(value), where=slope != 0)
+                outside = ((sig < 0) & (cj > 0)) | ((sig > 1) & (cj < len(bd) - 2))
+                T[sel] = np.clip(bd[cj] + sig * width, bd[0], bd[-1])
+                moved.append(sel[outside])
+            todo = np.concatenate(moved) if moved else np.zeros(0, dtype=int)
+            if todo.size == 0:
+                break
+        return T
+
     @cached_property
     def identically_zero(self) -> bool:
         return bool(np.abs(self.cells).max() <= 1e-11 * self.scale)

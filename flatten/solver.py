@@ -162,10 +162,4 @@ def rulings_on_path(solution: SolutionSet, t: np.ndarray, iterations: int = 4) -
     T = np.interp(t, pts[:, 0], pts[:, 1])  # t is non-decreasing along every path
     if field is None:  # flat plate: arc-length correspondence
         return T
-    lo, hi = field.d.domain
-    for _ in range(iterations):
-        f = field(t, T)
-        slope = field(t, T, 0, 1)
-        step = np.divide(f, slope, out=np.zeros_like(f), where=slope != 0)
-        T = np.clip(T - step, lo, hi)
-    return T
+    return field.refine_T(t, T, iterations)

@@ -1,0 +1,122 @@
+"""Solver speed: batched rulings vs a per-ruling baseline, in one run.
+
+    python bench/bench_solver.py [--rulings 1000000] [--baseline 2000]
+
+Prints rulings solved per second for
+  1. the path solver (batched Newton on f(t, .) seeded by the traced branch) against
+     scipy.optimize.brentq on g(t, .) one ruling at a time, bracketed by the same branch;
+  2. the all-roots solver (every real root on every span of d, batched companion
+     eigenvalues after a Bernstein sign filter) against numpy.roots per t and span;
+and the ratios. Single-threaded BLAS, cubic curves with 5 spans each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+import numpy as np  # noqa: E402
+from scipy.optimize import brentq  # noqa: E402
+
+from flatten import normalized_residual, nurbs_curve, rulings_on_path, solve  # noqa: E402
+
+
+def plate_pair():
+    """Two cubic B-splines (8 poles, 5 spans) bounding a gently curved plate, metres."""
+    x = np.linspace(0.0, 12.0, 8)
+    c = nurbs_curve(np.column_stack([x, 0.4 * np.sin(x / 4), 0.05 * x]), 3,
+                    knots=[0, 0, 0, 0, 0.15, 0.35, 0.45, 0.7, 1, 1, 1, 1], name="c")
+    d = nurbs_curve(np.column_stack([x * 1.02, 2.2 + 0.6 * np.sin(x / 4 + 0.2), 1.5 + 0.08 * x]), 3,
+                    knots=[0, 0, 0, 0, 0.2, 0.3, 0.5, 0.8, 1, 1, 1, 1], name="d")
+    return c, d
+
+
+def g_scalar(c, d, t, T):
+    pc, dc = c.derivatives(np.array([t]), 1)
+    pd, dd = d.derivatives(np.array([T]), 1)
+    return float(np.cross(dc[0], dd[0]) @ (pd[0] - pc[0]))
+
+
+def timed(fn, *args):
+    start = time.perf_counter()
+    out = fn(*args)
+    return time.perf_counter() - start, out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rulings", type=int, default=1_000_000)
+    parser.add_argument("--baseline", type=int, default=2000)
+    args = parser.parse_args(argv)
+    c, d = plate_pair()
+    solve_time, solution = timed(solve, c, d)
+    assert solution, solution.message
+    path = solution.path
+    t_lo, t_hi = path.points[0, 0], path.points[-1, 0]
+    print(f"machine: {platform.machine()} {platform.processor() or ''} python {platform.python_version()}, "
+          f"numpy {np.__version__}")
+    print(f"full solve (all branches, judged, path chosen): {solve_time:.3f} s, "
+          f"{len(solution.branches)} branches, coverage c {path.coverage.c_fraction:.4f} "
+          f"d {path.coverage.d_fraction:.4f}")
+
+    # 1. rulings on the chosen path
+    t = np.linspace(t_lo, t_hi, args.rulings)
+    rulings_on_path(solution, t[:1000])  # warm up
+    ours_time, T = timed(rulings_on_path, solution, t)
+    sample = np.random.default_rng(0).choice(len(t), 20000, replace=False)
+    residual = normalized_residual(c, d, t[sample], T[sample]).max()
+
+    tb = np.linspace(t_lo, t_hi, args.baseline)
+    guess = np.interp(tb, path.points[:, 0], path.points[:, 1])
+    width = 0.02 * np.ptp(d.domain)
+
+    def baseline_rulings():
+        out = np.empty_like(tb)
+        for k, (tk, Tk) in enumerate(zip(tb, guess)):
+            lo, hi = max(Tk - width, d.domain[0]), min(Tk + width, d.domain[1])
+            out[k] = brentq(lambda x: g_scalar(c, d, tk, x), lo, hi, xtol=1e-15, rtol=1e-15)
+        return out
+
+    base_time, T_base = timed(baseline_rulings)
+    agree = np.abs(T_base - rulings_on_path(solution, tb)).max()
+    ours_rate = args.rulings / ours_time
+    base_rate = args.baseline / base_time
+    print()
+    print(f"{'rulings on the chosen path':<44}{'rulings/s':>14}{'max residual':>16}")
+    print(f"{'devflat batched Newton (' + str(args.rulings) + ')':<44}{ours_rate:>14.3e}{residual:>16.2e}")
+    print(f"{'scipy brentq per ruling (' + str(args.baseline) + ')':<44}{base_rate:>14.3e}{'':>16}")
+    print(f"{'ratio':<44}{ours_rate / base_rate:>14.1f}x   (max |T diff| {agree:.1e})")
+
+    # 2. every real root on every span of d
+    n_all = max(args.rulings // 10, 1000)
+    ta = np.linspace(*c.domain, n_all)
+    all_time, (line, roots, _) = timed(solution.field.roots_in_T, ta)
+    tn = np.linspace(*c.domain, args.baseline)
+
+    def baseline_all_roots():
+        coefs = solution.field.polynomials_in_T(tn)
+        count = 0
+        for row in coefs:
+            for poly in row:
+                r = np.roots(poly[::-1])
+                count += np.count_nonzero((np.abs(r.imag) < 1e-9) & (r.real >= 0) & (r.real <= 1))
+        return count
+
+    base_all_time, _ = timed(baseline_all_roots)
+    print()
+    print(f"{'all roots in T for a batch of t':<44}{'lines/s':>14}{'roots/line':>16}")
+    print(f"{'devflat batched (' + str(n_all) + ')':<44}{n_all / all_time:>14.3e}{len(roots) / n_all:>16.2f}")
+    print(f"{'numpy.roots per t and span (' + str(args.baseline) + ')':<44}{args.baseline / base_all_time:>14.3e}")
+    print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
