@@ -53,6 +53,9 @@ class UnitMap:
             ok = gg > 0
             step = np.zeros_like(x)
             step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
+            # near a singular point (branch crossing) the gradient vanishes with f:
+            # a long step would throw the point onto another branch
+            step[np.hypot(*step.T) > 1e-4] = 0.0
             # a point on a side stays on it (ends of branches, fans on the boundary)
             on_side = (x <= 0.0) | (x >= 1.0)
             step[on_side] = 0.0
@@ -115,6 +118,37 @@ def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
 
 
 # ---------------------------------------------------------------- junctions
+def _singular_point(unit: UnitMap, x: np.ndarray, tol: float):
+    """Two branches can only cross where f and its gradient vanish. Newton on the
+    gradient (Hessian system) from the polyline intersection; returns the crossing
+    point, or None when the polylines cross only because they are chords of two
+    branches that pass close to each other without meeting."""
+    y = x.copy()
+    converged = False
+    for _ in range(30):
+        g = unit.gradient(y[None])[0]
+        fuu, fuU, fUU = (h[0] for h in unit.hessian_terms(y[None]))
+        hessian = np.array([[fuu, fuU], [fuU, fUU]])
+        try:
+            step = np.linalg.solve(hessian, g)
+        except np.linalg.LinAlgError:
+            break
+        y = y - step
+        if not np.all(np.isfinite(y)) or np.hypot(*(y - x)) > 1e-2:
+            break
+        if np.hypot(*step) < 1e-15:
+            converged = True
+            break
+    if not converged:
+        return None
+    p = unit.to_params(y[None])
+    f0 = abs(unit.field(p[:, 0], p[:, 1])[0])
+    curvature = np.abs(np.linalg.eigvalsh(hessian)).max()
+    # the two branches of a saddle f = f0 pass sqrt(2 |f0| / |λ|) apart
+    gap = np.sqrt(2.0 * f0 / curvature) if curvature > 0 else np.inf
+    return np.clip(y, 0.0, 1.0) if gap <= 10.0 * tol else None
+
+
 def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
     """(k, fa, l, fb, point) for every crossing of polyline a's segment k with b's segment l."""
     p, r = a[:-1], np.diff(a, axis=0)
@@ -179,6 +213,9 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, orientation: in
     for i in range(len(traces)):
         for j in range(i, len(traces)):
             for k, fa, l, fb, point in _segment_intersections(traces[i].points, traces[j].points, i == j):
+                point = _singular_point(unit, point, tol)
+                if point is None:
+                    continue
                 cuts[i].append((k, fa, point))
                 cuts[j].append((l, fb, point))
         for j in range(len(traces)):  # an end of trace i lying on trace j

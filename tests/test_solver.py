@@ -205,6 +205,10 @@ def test_random_pairs_every_point_polished_and_no_root_missed(seed, rational, li
         if len(roots):
             found = distance_to_branches(solution, np.column_stack([np.full(len(roots), t), roots]))
             assert found.max() <= 1e-3, (t, roots, found)
+        # and conversely: as many branch crossings of the line as roots on it
+        crossings = sum(np.count_nonzero(np.diff(b.points[:, 0] >= t))
+                        for b in solution.branches if b.kind != "fan_c")
+        assert crossings == len(roots), (t, crossings, roots)
         T = d.domain[0] + u * np.ptp(d.domain)
         _, roots, _ = field.roots_in_t(np.array([T]))
         if len(roots):
