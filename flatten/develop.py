@@ -1,0 +1,174 @@
+"""Isometric development of a developable strip into the plane (DESIGN §1.4).
+
+The exact development integrates along c: the developed curve has the speed |c'| and
+turns at the geodesic curvature of c on the strip, κ_g = c'' . (n x c') / |c'|^3 with
+n ∥ c' x (d - c); each ruling leaves it at its 3D angle to c' and keeps its length.
+The integrals are spectral (Chebyshev-Lobatto nodes, exact indefinite integration of
+the interpolant) on pieces split at every knot of c and every knot of d crossed by T(t),
+so the result is exact to round-off whatever the ruling density.
+
+The classic shipyard triangle-by-triangle unfolding is kept as the cross-check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.polynomial import chebyshev
+
+from .equation import DevelopabilityField
+from .nurbs import NurbsCurve
+
+_NODES = 24
+_MAX_PIECE = 1.0 / 64.0
+
+
+@lru_cache(maxsize=4)
+def _lobatto_integration(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Chebyshev-Lobatto nodes on [-1, 1] (ascending) and the matrix Q with
+    (Q f)_i = ∫_{-1}^{x_i} p(x) dx for the interpolant p of f at the nodes."""
+    x = -np.cos(np.pi * np.arange(n) / (n - 1))
+    vander = chebyshev.chebvander(x, n - 1)
+    inv = np.linalg.inv(vander)
+    integ = np.zeros((n, n))
+    for k in range(n):
+        coef = np.zeros(n)
+        coef[k] = 1.0
+        integ[:, k] = chebyshev.chebval(x, chebyshev.chebint(coef, lbnd=-1.0))
+    q = integ @ inv
+    x.setflags(write=False)
+    q.setflags(write=False)
+    return x, q
+
+
+@dataclass(frozen=True)
+class Development:
+    """Flat positions of the ruling ends: along_c (K, 2), along_d (K, 2), model units,
+    seen from the strip normal c' x (d - c)."""
+
+    along_c: np.ndarray
+    along_d: np.ndarray
+
+    def vertices(self, samples: np.ndarray) -> np.ndarray:
+        """Flat positions of the strip vertices (K * m, 2) for ruling samples v (m,)."""
+        v = np.asarray(samples)
+        pts = self.along_c[:, None, :] * (1 - v)[None, :, None] + self.along_d[:, None, :] * v[None, :, None]
+        return pts.reshape(-1, 2)
+
+
+def _interval_breaks(c: NurbsCurve, d: NurbsCurve, field: DevelopabilityField | None,
+                     rulings: np.ndarray) -> np.ndarray:
+    """Sorted t values splitting the rulings' t range at knots of c and where T(t)
+    crosses a knot of d; rulings' own t values included."""
+    t, T = rulings[:, 0], rulings[:, 1]
+    breaks = [t]
+    lo, hi = t.min(), t.max()
+    inner_c = c.breakpoints[(c.breakpoints > lo) & (c.breakpoints < hi)]
+    breaks.append(inner_c)
+    if field is not None:
+        for knot in d.breakpoints[1:-1]:
+            crossing = np.flatnonzero((T[:-1] - knot) * (T[1:] - knot) < 0)
+            if crossing.size == 0:
+                continue
+            line, roots, _ = field.roots_in_t(np.array([knot]))
+            for k in crossing:
+                inside = roots[(roots > t[k]) & (roots < t[k + 1])]
+                breaks.append(inside[:1])
+    out = np.unique(np.concatenate(breaks))
+    # cap the piece length so the spectral rule never works on a long interval
+    pieces = [out[:1]]
+    width = max(np.ptp(c.domain), 1e-300)
+    for a, b in zip(out[:-1], out[1:]):
+        n = int(np.ceil((b - a) / (width * _MAX_PIECE)))
+        pieces.append(np.linspace(a, b, n + 1)[1:])
+    return np.concatenate(pieces)
+
+
+def _T_of_t(field: DevelopabilityField | None, rulings: np.ndarray, t: np.ndarray) -> np.ndarray:
+    guess = np.interp(t, rulings[:, 0], rulings[:, 1])
+    return guess if field is None else field.refine_T(t, guess, iterations=6)
+
+
+def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
+            field: DevelopabilityField | None) -> Development:
+    """Exact development of the strip with the given rulings (K, 2) [t, T] (t
+    non-decreasing; repeated t is a fan with its apex on c). ``field`` is None for a
+    flat plate, whose T(t) is then interpolated between rulings."""
+    rulings = np.asarray(rulings, dtype=np.float64)
+    breaks = _interval_breaks(c, d, field, rulings)
+    x, q = _lobatto_integration(_NODES)
+    a, b = breaks[:-1], breaks[1:]
+    half = 0.5 * (b - a)
+    nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]  # (P, N)
+    t = nodes.ravel()
+    T = _T_of_t(field, rulings, t)
+    pc, dc, ddc = c.derivatives(t, 2)
+    ruling = d(T) - pc
+    normal = np.cross(dc, ruling)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+    speed2 = np.einsum("ij,ij->i", dc, dc)
+    turn_rate = np.einsum("ij,ij->i", ddc, np.cross(normal, dc)) / speed2  # dθ/dt
+    shape = nodes.shape
+    theta_local = (turn_rate.reshape(shape) @ q.T) * half[:, None]
+    theta_start = np.concatenate([[0.0], np.cumsum(theta_local[:, -1])[:-1]])
+    theta = theta_local + theta_start[:, None]
+    speed = np.sqrt(speed2).reshape(shape)
+    xs = ((speed * np.cos(theta)) @ q.T) * half[:, None]
+    ys = ((speed * np.sin(theta)) @ q.T) * half[:, None]
+    x_start = np.concatenate([[0.0], np.cumsum(xs[:, -1])[:-1]])
+    y_start = np.concatenate([[0.0], np.cumsum(ys[:, -1])[:-1]])
+    # state at every break: the start node of each piece, plus the end of the last one
+    break_theta = np.concatenate([theta[:, 0], theta[-1:, -1]])
+    break_xy = np.column_stack([np.concatenate([x_start + xs[:, 0], [x_start[-1] + xs[-1, -1]]]),
+                                np.concatenate([y_start + ys[:, 0], [y_start[-1] + ys[-1, -1]]])])
+    if len(a) == 0:  # a single fan: c does not move at all
+        break_theta, break_xy = np.zeros(1), np.zeros((1, 2))
+    idx = np.clip(np.searchsorted(breaks, rulings[:, 0]), 0, len(breaks) - 1)
+    base_theta, base_xy = break_theta[idx], break_xy[idx]
+    # each ruling leaves the developed c at its 3D angle to c'
+    pc_k, dc_k = c.derivatives(rulings[:, 0], 1)
+    r_k = d(rulings[:, 1]) - pc_k
+    cos_phi = np.einsum("ij,ij->i", dc_k, r_k)
+    sin_phi = np.linalg.norm(np.cross(dc_k, r_k), axis=1)
+    phi = np.arctan2(sin_phi, cos_phi)
+    length = np.linalg.norm(r_k, axis=1)
+    along_d = base_xy + length[:, None] * np.column_stack([np.cos(base_theta + phi), np.sin(base_theta + phi)])
+    return Development(base_xy, along_d)
+
+
+def unfold_triangles(vertices_c: np.ndarray, vertices_d: np.ndarray, first: Development) -> Development:
+    """Classic triangle-by-triangle unfolding of the strip's outer triangles
+    (A_k, B_k, A_k+1), (A_k+1, B_k, B_k+1) from their 3D edge lengths, starting from
+    the first ruling of ``first``. Keeps every edge length; drifts by O(h^2)."""
+    n = len(vertices_c)
+    a2 = np.zeros((n, 2))
+    b2 = np.zeros((n, 2))
+    a2[0], b2[0] = first.along_c[0], first.along_d[0]
+
+    def place(p, q, p3, q3, x3, side):
+        """Point at 3D distances from p3, q3, on the given side of p -> q."""
+        base = q - p
+        L = np.hypot(*base)
+        r1 = np.linalg.norm(x3 - p3)
+        r2 = np.linalg.norm(x3 - q3)
+        if L == 0.0:
+            return p.copy()
+        along = (r1**2 - r2**2 + L**2) / (2 * L)
+        h = np.sqrt(max(r1**2 - along**2, 0.0))
+        e = base / L
+        return p + along * e + side * h * np.array([-e[1], e[0]])
+
+    for k in range(n - 1):
+        A3, B3, A3n, B3n = vertices_c[k], vertices_d[k], vertices_c[k + 1], vertices_d[k + 1]
+        if np.linalg.norm(A3n - A3) == 0.0:
+            a2[k + 1] = a2[k]
+        else:
+            # A_k+1 lies on the c side of ruling k: to the right of A -> B when seen from n
+            a2[k + 1] = place(a2[k], b2[k], A3, B3, A3n, -1.0)
+        if np.linalg.norm(B3n - B3) == 0.0:
+            b2[k + 1] = b2[k]
+        else:
+            b2[k + 1] = place(a2[k + 1], b2[k], A3n, B3, B3n, -1.0)
+    return Development(a2, b2)

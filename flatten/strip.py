@@ -1,0 +1,129 @@
+"""The developable strip as rulings and a triangle mesh with its ruling structure kept."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .judge import UnitMap
+from .nurbs import NurbsCurve
+from .solution import SolutionSet
+
+
+@dataclass(frozen=True)
+class Strip:
+    """Rulings of a strip and its triangle mesh.
+
+    rulings : (K, 2) [t, T] on c and d
+    samples : (m,) ruling parameters v in [0, 1] of the vertices on each ruling (m >= 3)
+    vertices : (K * m, 3) model units; vertex k * m + j lies at v = samples[j] on ruling k
+    faces : (2 (K-1) (m-1), 3) int, counter-clockwise seen from c' x (d - c)
+    max_chord_error : (2,) largest distance between the boundary chords and c, d
+    """
+
+    rulings: np.ndarray
+    samples: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+    max_chord_error: np.ndarray
+
+    @property
+    def n_rulings(self) -> int:
+        return len(self.rulings)
+
+    def ruling_edges(self) -> np.ndarray:
+        """(K (m-1), 2) vertex pairs along rulings."""
+        m = len(self.samples)
+        k, j = np.meshgrid(np.arange(self.n_rulings), np.arange(m - 1), indexing="ij")
+        start = (k * m + j).ravel()
+        return np.column_stack([start, start + 1])
+
+
+def grid_faces(n_rulings: int, m: int) -> np.ndarray:
+    """Two triangles per quad of a K x m vertex grid, shape (2 (K-1) (m-1), 3)."""
+    k, j = np.meshgrid(np.arange(n_rulings - 1), np.arange(m - 1), indexing="ij")
+    a = (k * m + j).ravel()
+    b, c, d = a + 1, a + m, a + m + 1
+    return np.vstack([np.column_stack([a, c, b]), np.column_stack([b, c, d])])
+
+
+def sample_path(solution: SolutionSet, fractions: np.ndarray) -> np.ndarray:
+    """Points of the chosen path at fractions of its length in the unit square, polished, (N, 2)."""
+    path = solution.path.points
+    if solution.field is None:  # flat plate: the path is an arc-length correspondence
+        lam = np.linspace(0.0, 1.0, len(path))
+        return np.column_stack([np.interp(fractions, lam, path[:, 0]), np.interp(fractions, lam, path[:, 1])])
+    unit = UnitMap(solution.field)
+    x = unit.to_unit(path)
+    steps = np.hypot(*np.diff(x, axis=0).T)
+    lam = np.concatenate([[0.0], np.cumsum(steps)])
+    lam /= lam[-1]
+    pts = np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
+    return unit.to_params(unit.polish(pts, iterations=6))
+
+
+def chord_errors(curve: NurbsCurve, params: np.ndarray) -> float:
+    """Largest distance of the curve from its chords between consecutive parameters."""
+    if len(params) < 2:
+        return 0.0
+    s = np.linspace(0.0, 1.0, 9)[1:-1]
+    a, b = params[:-1], params[1:]
+    mids = a[:, None] + s[None, :] * (b - a)[:, None]
+    pa, pb = curve(a), curve(b)
+    on_curve = curve(mids.ravel()).reshape(len(a), len(s), 3)
+    # distance to the chord, measured perpendicular to it
+    seg = pb - pa
+    length2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-300)
+    rel = on_curve - pa[:, None, :]
+    along = np.einsum("nsj,nj->ns", rel, seg) / length2[:, None]
+    perp = rel - along[..., None] * seg[:, None, :]
+    return float(np.sqrt(np.einsum("nsj,nsj->ns", perp, perp)).max())
+
+
+def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
+                   chord_tolerance: float | None = None, n_rulings: int | None = None,
+                   max_rulings: int = 20000) -> np.ndarray:
+    """Rulings along the chosen path, (K, 2) [t, T].
+
+    With ``n_rulings``: evenly spaced along the path. With ``chord_tolerance`` (model
+    units): spaced so that both boundaries' chord errors stay below it, using the
+    sagitta κ Δs² / 8 and doubling where a check finds it exceeded.
+    """
+    if n_rulings is not None:
+        return sample_path(solution, np.linspace(0.0, 1.0, max(int(n_rulings), 2)))
+    dense = np.linspace(0.0, 1.0, 2049)
+    pts = sample_path(solution, dense)
+    curves = (c, d)
+    density = np.zeros(len(dense))
+    for axis, curve in enumerate(curves):
+        s = curve.arc_length_at(pts[:, axis])
+        kappa = curve.curvature(pts[:, axis])
+        ds = np.abs(np.gradient(s, dense))
+        density = np.maximum(density, np.sqrt(np.maximum(kappa, 0.0) / (8.0 * chord_tolerance)) * ds)
+    cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(dense))])
+    count = int(np.clip(np.ceil(cumulative[-1] * 1.2) + 1, 2, max_rulings))
+    for _ in range(6):
+        if cumulative[-1] > 0:
+            fractions = np.interp(np.linspace(0, cumulative[-1], count), cumulative, dense)
+        else:
+            fractions = np.linspace(0.0, 1.0, count)
+        rulings = sample_path(solution, fractions)
+        worst = max(chord_errors(curve, rulings[:, axis]) for axis, curve in enumerate(curves))
+        if worst <= chord_tolerance or count >= max_rulings:
+            return rulings
+        count = min(2 * count, max_rulings)
+    return rulings
+
+
+def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_ruling: int = 5) -> Strip:
+    """Mesh of the ruled surface along the given rulings, vertices on each ruling at
+    evenly spaced v (>= 3 per ruling so that interior vertices exist)."""
+    m = max(int(samples_per_ruling), 3)
+    v = np.linspace(0.0, 1.0, m)
+    pc = c(rulings[:, 0])
+    pd = d(rulings[:, 1])
+    vertices = (pc[:, None, :] * (1 - v)[None, :, None] + pd[:, None, :] * v[None, :, None]).reshape(-1, 3)
+    faces = grid_faces(len(rulings), m)
+    errors = np.array([chord_errors(c, rulings[:, 0]), chord_errors(d, rulings[:, 1])])
+    return Strip(rulings, v, vertices, faces, errors)

@@ -1,0 +1,103 @@
+"""Command line: `devflat run CONFIG --out DIR`, `devflat check CONFIG`.
+
+Exit codes: 0 every part written; 1 a geometric failure for at least one part;
+2 bad configuration or input (message names file, field and value; no traceback
+without --debug). ``main`` is the only place that decides the exit code.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+from pathlib import Path
+
+from flatten.errors import DevflatError
+from flatten.solver import check_pair
+from flatten.tolerances import DEFAULT_TOLERANCES
+
+from .config import ConfigError, RunConfig, load_config
+from .report import summary_table
+
+EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="devflat", description="Developable strips from two NURBS curves, "
+                                     "unrolled into DXF cutting patterns.")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run every part of a configuration and write the files")
+    run.add_argument("config", type=Path)
+    run.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
+    check = sub.add_parser("check", help="validate a configuration without running it")
+    check.add_argument("config", type=Path)
+    return parser
+
+
+def validate(path: Path) -> RunConfig:
+    """Load the config and check each part's curve pair (coincident curves are bad input)."""
+    config = load_config(path)
+    for part in config.parts:
+        try:
+            check_pair(part.c, part.d, DEFAULT_TOLERANCES)
+        except DevflatError as exc:
+            raise ConfigError(f"{path}: part {part.name}: {exc}") from None
+    return config
+
+
+def command_run(args) -> int:
+    from .export import export_part
+    from .stages import run_part
+
+    config = validate(args.config)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
+    parts = config.parts
+    progress = None
+    if len(parts) > 1 and not args.quiet:
+        from tqdm import tqdm
+        progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
+    results = []
+    for part in parts:
+        result = run_part(part, config)
+        export_part(result, config, args.out)
+        results.append(result)
+        if progress is not None:
+            progress.set_postfix_str(part.name)
+            progress.update()
+    if progress is not None:
+        progress.close()
+    if not args.quiet:
+        print(summary_table(results))
+    return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
+
+
+def command_check(args) -> int:
+    config = validate(args.config)
+    print(f"{args.config}: valid, {len(config.parts)} part(s): " + ", ".join(p.name for p in config.parts))
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse already printed its message
+        return EXIT_INPUT if exc.code else EXIT_OK
+    try:
+        if args.command == "run":
+            return command_run(args)
+        return command_check(args)
+    except (ConfigError, DevflatError) as exc:
+        if args.debug:
+            traceback.print_exc()
+        print(f"devflat: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+
+
+def entry_point() -> None:
+    sys.exit(main())

@@ -1,0 +1,167 @@
+"""The stages of one part: solve -> strip -> check -> unroll -> pattern.
+
+Each stage is a function of typed inputs; a geometric failure is a result with a reason,
+never an exception. No file is written here (see :mod:`pipeline.export`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flatten import DEFAULT_TOLERANCES, SolutionSet, solve
+from flatten.develop import Development, develop, unfold_triangles
+from flatten.meshcheck import angle_defects, naive_reference, ruling_residuals
+from flatten.metrics import distortion, polyline_length, triangle_areas
+from flatten.strip import Strip, build_strip, choose_rulings
+
+from .config import Part, RunConfig
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """The flat part in the plane (model units), placed with its bounding box at the origin.
+
+    outline : (N, 2) closed cut contour (c side, then d side backwards), not repeated
+    bend_lines : (K, 2, 2) ruling segments
+    vertices : (V, 2) flat strip vertices (same order as the 3D mesh)
+    """
+
+    outline: np.ndarray
+    bend_lines: np.ndarray
+    vertices: np.ndarray
+
+
+@dataclass
+class PartResult:
+    """Everything known about one part after the run, success or not."""
+
+    name: str
+    part: Part
+    status: str = "failed"
+    reason: str = ""
+    warnings: list[str] = field(default_factory=list)
+    solution: SolutionSet | None = None
+    strip: Strip | None = None
+    development: Development | None = None
+    pattern: Pattern | None = None
+    figures: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def place_flat(points: np.ndarray, along_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rigid motion putting the developed c chord along +x and the bounding box at the origin.
+    Returns (rotation (2, 2), translation (2,)) for p -> R p + t."""
+    chord = along_c[-1] - along_c[0]
+    angle = -np.arctan2(chord[1], chord[0]) if np.hypot(*chord) > 0 else 0.0
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    moved = points @ rot.T
+    return rot, -moved.min(axis=0)
+
+
+def stage_strip(result: PartResult, config: RunConfig) -> None:
+    res = config.spec.resolution
+    part, solution = result.part, result.solution
+    # chord_tolerance is in the config's units, like the curves
+    rulings = choose_rulings(solution, part.c, part.d, chord_tolerance=res.chord_tolerance,
+                             n_rulings=res.rulings)
+    result.strip = build_strip(part.c, part.d, rulings, res.samples_per_ruling)
+    result.figures["rulings"] = {"count": len(rulings), "samples_per_ruling": res.samples_per_ruling,
+                                 "max_chord_error_c": float(result.strip.max_chord_error[0]),
+                                 "max_chord_error_d": float(result.strip.max_chord_error[1])}
+
+
+def stage_check(result: PartResult, config: RunConfig) -> bool:
+    """Analytic residual and libigl angle defects, beside the naive surface T = t."""
+    strip, part, check = result.strip, result.part, config.spec.check
+    size = float(np.ptp(strip.vertices, axis=0).max())
+    residual = ruling_residuals(part.c, part.d, strip.rulings)
+    mesh = angle_defects(strip.vertices, strip.faces)
+    naive = naive_reference(part.c, part.d, strip.n_rulings, len(strip.samples))
+    flat_plate = result.solution.kind == "coplanar"
+    curvature = mesh.max_abs_K * size**2
+    passed_residual = flat_plate or float(residual.max()) <= check.max_residual
+    passed_curvature = curvature <= check.max_curvature
+    result.figures["developability"] = {
+        "max_residual": 0.0 if flat_plate else float(residual.max()),
+        "residual_limit": check.max_residual,
+        "mesh": mesh.as_dict(),
+        "naive_T_equals_t": naive.as_dict(),
+        "max_abs_K_times_size_squared": curvature,
+        "naive_max_abs_K_times_size_squared": naive.max_abs_K * size**2,
+        "curvature_limit": check.max_curvature,
+        "passed": bool(passed_residual and passed_curvature),
+    }
+    if not passed_residual:
+        result.reason = (f"strip not developable: residual {residual.max():.3g} above the limit "
+                         f"{check.max_residual:.3g} at t = {strip.rulings[np.argmax(residual), 0]:.6g}")
+        return False
+    if not passed_curvature:
+        result.reason = (f"strip not developable: max |K| size^2 = {curvature:.3g} above the limit "
+                         f"{check.max_curvature:.3g}")
+        return False
+    return True
+
+
+def stage_unroll(result: PartResult) -> None:
+    strip, part = result.strip, result.part
+    development = develop(part.c, part.d, strip.rulings, result.solution.field)
+    m = len(strip.samples)
+    k = np.arange(strip.n_rulings) * m
+    flat = development.vertices(strip.samples)
+    figures = distortion(strip.vertices, flat, strip.faces, strip.ruling_edges(), k, k + m - 1,
+                         part.c, part.d, strip.rulings)
+    unfolded = unfold_triangles(strip.vertices[k], strip.vertices[k + m - 1], development)
+    size = float(np.ptp(flat, axis=0).max())
+    drift = max(np.abs(unfolded.along_c - development.along_c).max(),
+                np.abs(unfolded.along_d - development.along_d).max())
+    figures["triangle_unfold_drift"] = float(drift)
+    figures["triangle_unfold_drift_relative"] = float(drift / size) if size > 0 else 0.0
+    result.development = development
+    result.figures["unroll"] = figures
+    rot, shift = place_flat(flat, development.along_c)
+    placed = flat @ rot.T + shift
+    c_side = placed[k]
+    d_side = placed[k + m - 1]
+    outline = np.vstack([c_side, d_side[::-1]])
+    keep = np.ones(len(outline), dtype=bool)
+    keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-12 * max(size, 1.0)
+    outline = outline[keep]
+    result.pattern = Pattern(outline, np.stack([c_side, d_side], axis=1), placed)
+
+
+def run_part(part: Part, config: RunConfig) -> PartResult:
+    """All geometric stages of one part; never raises for a geometric failure."""
+    result = PartResult(part.name, part)
+    solution = solve(part.c, part.d, DEFAULT_TOLERANCES)
+    result.solution = solution
+    if not solution:
+        result.reason = solution.message
+        return result
+    cov = solution.path.coverage
+    result.figures["coverage"] = cov.as_dict()
+    if min(cov.c_fraction, cov.d_fraction) < config.spec.check.min_coverage:
+        result.reason = (f"coverage too low: the acceptable strip covers {100 * cov.c_fraction:.1f}% of c and "
+                         f"{100 * cov.d_fraction:.1f}% of d (min_coverage {config.spec.check.min_coverage:g})")
+        return result
+    if min(cov.c_fraction, cov.d_fraction) < 1.0 - 1e-9:
+        result.warnings.append(f"partial coverage: {100 * cov.c_fraction:.2f}% of c, {100 * cov.d_fraction:.2f}% of d")
+    stage_strip(result, config)
+    if not stage_check(result, config):
+        return result
+    stage_unroll(result)
+    area_model = float(triangle_areas(result.pattern.vertices, result.strip.faces).sum())
+    area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
+    steel = part.steel
+    result.figures["steel"] = {"thickness_mm": steel.thickness, "material": steel.material,
+                               "density_kg_m3": steel.density, "marked_side": steel.marked_side,
+                               "area_m2": area_m2,
+                               "weight_kg": area_m2 * steel.thickness / 1000.0 * steel.density,
+                               "outline_length": polyline_length(np.vstack([result.pattern.outline,
+                                                                            result.pattern.outline[:1]]))}
+    result.status = "ok"
+    return result
