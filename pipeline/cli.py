@@ -48,14 +48,10 @@ def validate(path: Path) -> RunConfig:
 
 
 def command_run(args) -> int:
-    from .export import export_part
+    from .export import export_part, export_textile, textile_pieces
     from .stages import run_part
 
     config = validate(args.config)
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
     parts = config.parts
     progress = None
     if len(parts) > 1 and not args.quiet:
@@ -63,14 +59,22 @@ def command_run(args) -> int:
         progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
     results = []
     for part in parts:
-        result = run_part(part, config)
-        export_part(result, config, args.out)
-        results.append(result)
+        results.append(run_part(part, config))
         if progress is not None:
             progress.set_postfix_str(part.name)
             progress.update()
     if progress is not None:
         progress.close()
+    # textile options are checked against the pieces before anything is written
+    pieces = textile_pieces(results, config) if config.spec.profile == "textile" else []
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
+    for result in results:
+        export_part(result, config, args.out)
+    if pieces:
+        export_textile(pieces, config, args.out, config.spec.name or config.source.stem)
     if not args.quiet:
         print(summary_table(results))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY

@@ -80,6 +80,74 @@ class Layers(_Strict):
         return value
 
 
+class SeamAllowance(_Strict):
+    """Per-edge widths (config units): the c edge, the d edge, the start and end rulings."""
+
+    c: float = Field(10.0, ge=0)
+    d: float = Field(10.0, ge=0)
+    start: float = Field(10.0, ge=0)
+    end: float = Field(10.0, ge=0)
+
+
+class NotchSpec(_Strict):
+    """Notches at arc lengths along a boundary curve, measured from the curve's own start
+    (so that neighbouring pieces sharing the curve get matching notches), or at both
+    ends of a ruling of this piece."""
+
+    curve: int | Literal["c", "d"] | None = None
+    at: list[float] = Field(default_factory=list)
+    ruling: int | None = Field(None, ge=0)
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.curve is None) == (self.ruling is None):
+            raise ValueError("a notch gives either curve + at (arc lengths) or ruling")
+        if self.curve is not None and not self.at:
+            raise ValueError("a notch on a curve needs at least one arc length in 'at'")
+        return self
+
+
+class Grain(_Strict):
+    """Grain line: along a ruling, a 3D direction projected onto the piece, or an angle
+    (degrees) against the piece's x axis."""
+
+    ruling: int | None = Field(None, ge=0)
+    direction: tuple[float, float, float] | None = None
+    angle: float | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        given = [k for k in ("ruling", "direction", "angle") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"grain needs exactly one of ruling, direction, angle; got {given or 'none'}")
+        if self.direction is not None and not np.any(self.direction):
+            raise ValueError("grain direction must not be the zero vector")
+        return self
+
+
+class Textile(_Strict):
+    seam_allowance: float | SeamAllowance = 10.0
+    notches: list[NotchSpec] = Field(default_factory=list)
+    notch_length: float = Field(6.0, gt=0)
+    grain: Grain = Grain(angle=0.0)
+    size: str = Field("M", pattern=r"^[A-Za-z0-9.-]+$")
+    quantity: int = Field(1, ge=1)
+    fabric: str = "fabric"
+    internal_rulings: bool = False
+    printout: bool = True
+
+    @field_validator("seam_allowance")
+    @classmethod
+    def _non_negative(cls, value):
+        if isinstance(value, float) and value < 0:
+            raise ValueError(f"seam allowance must be >= 0, got {value}")
+        return value
+
+    def allowances(self) -> SeamAllowance:
+        a = self.seam_allowance
+        return a if isinstance(a, SeamAllowance) else SeamAllowance(c=a, d=a, start=a, end=a)
+
+
 class Output(_Strict):
     dxf: bool = True
     obj: bool = True
@@ -95,26 +163,28 @@ class PartSpec(_Strict):
 
 class RunSpec(_Strict):
     units: Literal["mm", "cm", "m", "in"] = "mm"
-    profile: Literal["steel"] = "steel"
+    profile: Literal["steel", "textile"] = "steel"
     resolution: Resolution = Resolution()
     steel: Steel = Steel()
+    textile: Textile = Textile()
     check: Check = Check()
     output: Output = Output()
     # single-part form
     name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=80)
     curves: CurvesSpec | None = None
+    # consecutive curves c0, c1, ..., ck: one part per neighbouring pair, named NAME_1..NAME_k
+    sequence: list[CurveSpec] | None = Field(None, min_length=2)
     # several parts
     parts: list[PartSpec] | None = None
 
     @model_validator(mode="after")
     def _parts(self):
-        single = self.name is not None or self.curves is not None
-        if single and self.parts is not None:
-            raise ValueError("give either name + curves (one part) or parts (several), not both")
-        if not single and not self.parts:
-            raise ValueError("no part: give name + curves, or a non-empty parts list")
-        if single and (self.name is None or self.curves is None):
-            raise ValueError("a single part needs both name and curves")
+        forms = [self.curves is not None, self.sequence is not None, self.parts is not None]
+        if sum(forms) != 1:
+            raise ValueError("give exactly one of curves (one part), sequence (consecutive curves) "
+                             "or parts (several)")
+        if (self.curves is not None or self.sequence is not None) and self.name is None:
+            raise ValueError("curves and sequence need a name")
         names = [p.name for p in self.parts] if self.parts else []
         if len(names) != len(set(names)):
             raise ValueError(f"part names must be unique, got {names}")
@@ -122,10 +192,14 @@ class RunSpec(_Strict):
 
 
 class Part:
-    """One part ready to run: validated curves and the settings that apply to it."""
+    """One part ready to run: validated curves and the settings that apply to it.
 
-    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel):
+    curve_ids : the identities of c and d for notches ('c'/'d', or sequence indices)
+    """
+
+    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel, curve_ids=("c", "d")):
         self.name, self.c, self.d, self.steel = name, c, d, steel
+        self.curve_ids = curve_ids
 
 
 class RunConfig:
@@ -207,25 +281,53 @@ def load_config(path: str | Path) -> RunConfig:
         value_text = "" if not loc else f" (value: {value!r})"
         more = f" [+{len(exc.errors()) - 1} more]" if len(exc.errors()) > 1 else ""
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: {field}: {message}{value_text}{more}") from None
-    return RunConfig(spec, _build_parts(spec, path, lines), path)
+    parts = _build_parts(spec, path, lines)
+    _check_notch_curves(spec, parts, path, lines)
+    return RunConfig(spec, parts, path)
+
+
+def _check_notch_curves(spec: RunSpec, parts: list[Part], path: Path, lines: dict) -> None:
+    """Every notch names a curve of the run and lies on it (0 <= at <= its length)."""
+    curves = {}
+    for part in parts:
+        curves[part.curve_ids[0]] = part.c
+        curves[part.curve_ids[1]] = part.d
+    for k, notch in enumerate(spec.textile.notches):
+        loc = ("textile", "notches", k)
+        where = f"{path}{':' + str(_line_of(lines, loc)) if _line_of(lines, loc) else ''}"
+        if notch.curve is None:
+            continue
+        if notch.curve not in curves:
+            raise ConfigError(f"{where}: textile.notches[{k}].curve: no curve {notch.curve!r} in this run "
+                              f"(curves: {sorted(map(str, curves))})")
+        length = curves[notch.curve].length
+        for j, s in enumerate(notch.at):
+            if not 0.0 <= s <= length:
+                raise ConfigError(f"{where}: textile.notches[{k}].at[{j}] = {s} lies outside the edge: "
+                                  f"curve {notch.curve!r} is {length:.6g} long")
+
+
+def _curve(cs: CurveSpec, loc: tuple, path: Path, lines: dict) -> NurbsCurve:
+    try:
+        return nurbs_curve(np.array(cs.control_points, dtype=float), cs.degree, cs.weights, cs.knots,
+                           name=_format_path(loc))
+    except InvalidCurveError as exc:
+        line = _line_of(lines, loc)
+        raise ConfigError(f"{path}{':' + str(line) if line else ''}: {exc}") from None
 
 
 def _build_parts(spec: RunSpec, path: Path, lines: dict) -> list[Part]:
+    if spec.sequence is not None:
+        curves = [_curve(cs, ("sequence", k), path, lines) for k, cs in enumerate(spec.sequence)]
+        return [Part(f"{spec.name}_{k + 1}", curves[k], curves[k + 1], spec.steel, (k, k + 1))
+                for k in range(len(curves) - 1)]
     if spec.parts is None:
         entries = [((), spec.name, spec.curves, None)]
     else:
         entries = [(("parts", k), p.name, p.curves, p.steel) for k, p in enumerate(spec.parts)]
     parts = []
     for prefix, name, curves, steel in entries:
-        built = {}
-        for key in ("c", "d"):
-            cs: CurveSpec = getattr(curves, key)
-            loc = prefix + ("curves", key)
-            try:
-                built[key] = nurbs_curve(np.array(cs.control_points, dtype=float), cs.degree,
-                                         cs.weights, cs.knots, name=_format_path(loc))
-            except InvalidCurveError as exc:
-                line = _line_of(lines, loc)
-                raise ConfigError(f"{path}{':' + str(line) if line else ''}: {exc}") from None
-        parts.append(Part(name, built["c"], built["d"], steel or spec.steel))
+        c = _curve(curves.c, prefix + ("curves", "c"), path, lines)
+        d = _curve(curves.d, prefix + ("curves", "d"), path, lines)
+        parts.append(Part(name, c, d, steel or spec.steel))
     return parts

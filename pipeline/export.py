@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from .atomic import write_text
 from .config import RunConfig
 from .dxf_steel import write_steel_dxf
@@ -34,7 +36,7 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
     if result.ok:
         scale = config.mm_per_unit
         pattern = result.pattern
-        if out.dxf:
+        if out.dxf and config.spec.profile == "steel":
             path = out_dir / f"{name}.dxf"
             errors = write_steel_dxf(path, pattern.outline * scale, pattern.bend_lines * scale,
                                      steel_texts(result), out.layers)
@@ -60,3 +62,55 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
     written.append(path)
     return written
 
+
+
+def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
+    """Build every successful part's textile piece, side by side; raises ConfigError for
+    textile options that do not fit a piece (before anything is written)."""
+    from .stages import place_flat
+    from .textile import build_piece
+
+    pieces = []
+    cursor = 0.0
+    gap = 50.0 / config.mm_per_unit
+    for result in results:
+        if not result.ok:
+            continue
+        flat = result.development.vertices(result.strip.samples)
+        transform = place_flat(flat, result.development.along_c)
+        piece = build_piece(result, config.spec.textile, transform)
+        shift = np.array([cursor - piece.cut[:, 0].min(), -piece.cut[:, 1].min()])
+        piece = piece.translated(shift)
+        cursor = piece.cut[:, 0].max() + gap
+        result.figures["textile"] = {
+            "allowances": dict(zip(piece.edge_names, piece.allowances)),
+            "sew_line_length": float(np.linalg.norm(np.diff(np.vstack([piece.sew, piece.sew[:1]]), axis=0),
+                                                    axis=1).sum()),
+            "cut_line_length": float(np.linalg.norm(np.diff(np.vstack([piece.cut, piece.cut[:1]]), axis=0),
+                                                    axis=1).sum()),
+            "notches": [{"edge": n.edge, "arc_length": n.arc_length, "sew_point": n.sew_point.tolist()}
+                        for n in piece.notches],
+            "grain": piece.grain.tolist(),
+            "offset_in_sheet": shift.tolist(),
+        }
+        pieces.append(piece)
+    return pieces
+
+
+def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -> list[Path]:
+    """All pieces into one AAMA DXF, and the 1:1 printout."""
+    from .aama import write_aama
+    from .printout import write_printout
+
+    written = []
+    if not pieces:
+        return written
+    if config.spec.output.dxf:
+        path = out_dir / f"{style}.dxf"
+        write_aama(path, pieces, style, config.mm_per_unit)
+        written.append(path)
+    if config.spec.textile.printout:
+        targets = [out_dir / f"{style}_print.pdf", out_dir / f"{style}_print.svg"]
+        write_printout(targets, pieces, config.mm_per_unit, f"{style}: {len(pieces)} piece(s), 1:1")
+        written += targets
+    return written

@@ -50,7 +50,10 @@ def part_report(result: PartResult, units: str) -> dict:
         "resolution": result.figures.get("rulings"),
         "developability": result.figures.get("developability"),
         "unroll": result.figures.get("unroll"),
+        "area_m2": result.figures.get("area_m2"),
         "steel": result.figures.get("steel"),
+        "textile": result.figures.get("textile"),
+        "files": result.figures.get("files"),
     }
     return report
 
@@ -84,8 +87,7 @@ def summary_table(results: list[PartResult]) -> str:
         cov = r.figures.get("coverage") or {}
         cover = f"{100 * cov['c_fraction']:.1f}/{100 * cov['d_fraction']:.1f}" if cov else "-"
         rulings = (r.figures.get("rulings") or {}).get("count", "-")
-        steel = r.figures.get("steel") or {}
-        area = f"{steel['area_m2']:.4f}" if steel else "-"
+        area = f"{r.figures['area_m2']:.4f}" if "area_m2" in r.figures else "-"
         unroll = r.figures.get("unroll") or {}
         dist = (f"{max(abs(unroll['boundary_error_c_mm_per_m']), abs(unroll['boundary_error_d_mm_per_m'])):.3f}"
                 if unroll else "-")

@@ -156,12 +156,14 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     stage_unroll(result)
     area_model = float(triangle_areas(result.pattern.vertices, result.strip.faces).sum())
     area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
-    steel = part.steel
-    result.figures["steel"] = {"thickness_mm": steel.thickness, "material": steel.material,
-                               "density_kg_m3": steel.density, "marked_side": steel.marked_side,
-                               "area_m2": area_m2,
-                               "weight_kg": area_m2 * steel.thickness / 1000.0 * steel.density,
-                               "outline_length": polyline_length(np.vstack([result.pattern.outline,
-                                                                            result.pattern.outline[:1]]))}
+    result.figures["area_m2"] = area_m2
+    if config.spec.profile == "steel":
+        steel = part.steel
+        outline = np.vstack([result.pattern.outline, result.pattern.outline[:1]])
+        result.figures["steel"] = {"thickness_mm": steel.thickness, "material": steel.material,
+                                   "density_kg_m3": steel.density, "marked_side": steel.marked_side,
+                                   "area_m2": area_m2,
+                                   "weight_kg": area_m2 * steel.thickness / 1000.0 * steel.density,
+                                   "outline_length": polyline_length(outline)}
     result.status = "ok"
     return result
