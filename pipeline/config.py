@@ -6,6 +6,7 @@ The one module that reads YAML.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, Literal
 
@@ -233,13 +234,24 @@ def _format_path(loc) -> str:
     return text
 
 
-def _lookup(data: Any, loc) -> Any:
+_UNION_TAG = re.compile(r"^(float|int|str|bool|none|literal\[.*\]|[A-Z]\w*)$")
+
+
+def _input_path(data: Any, loc) -> tuple:
+    """A pydantic error location without the union member tags ('float',
+    'SeamAllowance', "literal['c','d']"), which are not keys of the input."""
+    path = []
     for part in loc:
-        try:
+        if isinstance(part, str) and _UNION_TAG.match(part) and not (isinstance(data, dict) and part in data):
+            continue
+        path.append(part)
+        if isinstance(data, dict):
+            data = data.get(part)
+        elif isinstance(data, list) and isinstance(part, int) and part < len(data):
             data = data[part]
-        except (KeyError, IndexError, TypeError):
-            return "<missing>"
-    return data
+        else:
+            data = None
+    return tuple(path)
 
 
 def _line_of(lines: dict, loc) -> int | None:
@@ -269,8 +281,9 @@ def load_config(path: str | Path) -> RunConfig:
     try:
         spec = RunSpec.model_validate(data)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        loc = err["loc"]
+        # the most specific error (a union reports one per member); drop the member tags
+        err = max(exc.errors(), key=lambda e: len(_input_path(data, e["loc"])))
+        loc = _input_path(data, err["loc"])
         line = _line_of(lines, loc)
         field = _format_path(loc) or "<top level>"
         value = err.get("input") if loc else None

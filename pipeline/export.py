@@ -91,6 +91,8 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             "notches": [{"edge": n.edge, "arc_length": n.arc_length, "sew_point": n.sew_point.tolist()}
                         for n in piece.notches],
             "grain": piece.grain.tolist(),
+            "edges": {"c": (result.pattern.bend_lines[:, 0] + shift).tolist(),
+                      "d": (result.pattern.bend_lines[:, 1] + shift).tolist()},
             "offset_in_sheet": shift.tolist(),
         }
         pieces.append(piece)

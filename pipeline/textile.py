@@ -123,12 +123,15 @@ def cut_ring(edges: tuple[np.ndarray, ...], widths: tuple[float, ...]) -> np.nda
     return _dedupe(np.vstack(pieces))
 
 
-def _edge_tangent(edge: np.ndarray, point: np.ndarray) -> np.ndarray:
+def _snap_to_edge(edge: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest point of the edge polyline (the exact developed point is off the chords by
+    at most the chord tolerance) and the unit tangent of its segment."""
     seg = np.diff(edge, axis=0)
     rel = point - edge[:-1]
     frac = np.clip(np.einsum("ij,ij->i", rel, seg) / np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-300), 0, 1)
-    k = int(np.argmin(np.hypot(*(edge[:-1] + frac[:, None] * seg - point).T)))
-    return seg[k] / np.hypot(*seg[k])
+    foot = edge[:-1] + frac[:, None] * seg
+    k = int(np.argmin(np.hypot(*(foot - point).T)))
+    return foot[k], seg[k] / np.hypot(*seg[k])
 
 
 def _flat_point_at(result: PartResult, which: str, param: float, transform) -> np.ndarray:
@@ -215,10 +218,10 @@ def build_piece(result: PartResult, settings: Textile, transform) -> TextilePiec
 
 def _notch(edge_name, arc_length, point, edges, names, widths, length) -> Notch:
     index = names.index(edge_name)
-    tangent = _edge_tangent(edges[index], point)
+    foot, tangent = _snap_to_edge(edges[index], np.asarray(point, dtype=float))
     outward = np.array([tangent[1], -tangent[0]])  # right of a counter-clockwise ring
-    start = point + widths[index] * outward
-    return Notch(edge_name, arc_length, np.asarray(point, dtype=float), np.vstack([start, start - length * outward]))
+    start = foot + widths[index] * outward  # on the cut line: the slit starts at the edge
+    return Notch(edge_name, arc_length, foot, np.vstack([start, start - length * outward]))
 
 
 def _grain(result: PartResult, settings: Textile, sew_poly: Polygon) -> np.ndarray:
