@@ -180,3 +180,26 @@ def test_bad_textile_input_exits_2_naming_the_field(tmp_path, capsys, textile, e
     for piece in expected:
         assert piece in err, (piece, err)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("grain", [{"ruling": 5}, {"angle": 30.0}, {"direction": [0, 0, 1]}],
+                         ids=["ruling", "angle", "direction"])
+def test_grain_line_options(tmp_path, grain):
+    config = textile_config(tmp_path, grain=grain, printout=False)
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    for piece in read_aama(out / "lampshade.dxf").pieces:
+        rep = json.loads((out / f"{piece.name}.json").read_text())
+        g = piece.grain[0][1] - piece.grain[0][0]
+        g /= np.linalg.norm(g)
+        c_edge, d_edge = (np.array(rep["textile"]["edges"][k]) for k in ("c", "d"))
+        if "angle" in grain:
+            assert abs(abs(g @ [np.cos(np.pi / 6), np.sin(np.pi / 6)]) - 1) <= 1e-12
+            continue
+        k = 5 if "ruling" in grain else len(c_edge) // 2
+        ruling = d_edge[k] - c_edge[k]
+        ruling /= np.linalg.norm(ruling)
+        # on a cone with a vertical axis the vertical direction lies along the generators,
+        # so the projected grain runs along the middle ruling
+        assert abs(abs(g @ ruling) - 1) <= 1e-9
+        assert Polygon(piece.sew).buffer(1e-9).contains(Point(piece.grain[0][0]))
