@@ -104,14 +104,15 @@ class DevelopabilityField:
     kind : 'general' or 'parallel_planes'
     cells : (n_c_spans, n_d_spans, A, B) coefficients in local (s, σ), divided by the
         span widths so that evaluation gives the global, continuous f
-    scale : typical magnitude of f (for relative zero tests)
+    scale : (n_c_spans, n_d_spans) natural magnitude of f on each cell, |L_c| |L_d| / widths
+        (for relative zero tests: spans of very different lengths have very different f)
     """
 
     c: NurbsCurve
     d: NurbsCurve
     kind: str
     cells: np.ndarray
-    scale: float
+    scale: np.ndarray
 
     @property
     def degree_in_T(self) -> int:
@@ -171,13 +172,13 @@ class DevelopabilityField:
         pt = self._powers(sig, self.cells.shape[3], 0)
         return np.einsum("nb,niab->nia", pt, self.cells[:, j].transpose(1, 0, 2, 3))
 
-    def _roots(self, coefs: np.ndarray, curve: NurbsCurve, zero_relative: float):
+    def _roots(self, coefs: np.ndarray, curve: NurbsCurve, zero_relative: float, scale: np.ndarray):
         n, n_spans, width = coefs.shape
         flat = coefs.reshape(n * n_spans, width)
         row, root, vanishing = real_roots_unit_interval(
             flat, zero_relative=zero_relative)
-        # identically zero on the line, relative to the field scale (a fan on the line)
-        vanishing = vanishing | (np.abs(flat).max(axis=1) <= zero_relative * self.scale)
+        # identically zero on the line, relative to the cell's scale (a fan on the line)
+        vanishing = vanishing | (np.abs(flat).max(axis=1) <= zero_relative * scale.ravel())
         keep = ~vanishing[row]
         row, root = row[keep], root[keep]
         line, span = np.divmod(row, n_spans)
@@ -197,11 +198,13 @@ class DevelopabilityField:
         Returns (line index (R,), T (R,), vanishing (N, n_d_spans)): vanishing marks
         spans of d on which f(t_k, ·) is identically zero (a fan with apex c(t_k)).
         """
-        return self._roots(self.polynomials_in_T(t), self.d, zero_relative)
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        return self._roots(self.polynomials_in_T(t), self.d, zero_relative, self.scale[self.c.span_index(t)])
 
     def roots_in_t(self, T: np.ndarray, zero_relative: float = 1e-11):
         """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
-        return self._roots(self.polynomials_in_t(T), self.c, zero_relative)
+        T = np.atleast_1d(np.asarray(T, dtype=np.float64))
+        return self._roots(self.polynomials_in_t(T), self.c, zero_relative, self.scale[:, self.d.span_index(T)].T)
 
     def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton on f(t_k, ·) from T_guess for a batch, shape (N,).
@@ -242,7 +245,7 @@ class DevelopabilityField:
 
     @cached_property
     def identically_zero(self) -> bool:
-        return bool(np.abs(self.cells).max() <= 1e-11 * self.scale)
+        return bool(np.all(np.abs(self.cells).max(axis=(2, 3)) <= 1e-11 * self.scale))
 
 
 def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
@@ -267,19 +270,21 @@ def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
         xd = _inplane_derivative_polynomials(d, basis)  # (nd, q, 2)
         rot = np.array([[0.0, 1.0], [-1.0, 0.0]])
         cells = plane["height"] * np.einsum("iak,kl,jbl->ijab", xc, rot, xd)
-        scale_c = np.abs(xc).max() / wc.min()
-        scale_d = np.abs(xd).max() / wd.min()
-        scale = abs(plane["height"]) * scale_c * scale_d
+        scale_c = np.abs(xc).max(axis=(1, 2)) / wc
+        scale_d = np.abs(xd).max(axis=(1, 2)) / wd
+        scale = abs(plane["height"]) * np.outer(scale_c, scale_d)
     else:
         lc = tangent_line_polynomials(c.power_coefficients)  # (nc, 2p-1, 6)
         ld = tangent_line_polynomials(d.power_coefficients)  # (nd, 2q-1, 6)
         cells = np.einsum("iak,kl,jbl->ijab", lc, reciprocal_matrix(), ld)
-        scale_c = np.abs(lc).max() / wc.min()
-        scale_d = np.abs(ld).max() / wd.min()
-        scale = scale_c * scale_d
+        scale_c = np.abs(lc).max(axis=(1, 2)) / wc
+        scale_d = np.abs(ld).max(axis=(1, 2)) / wd
+        scale = np.outer(scale_c, scale_d)
     cells = cells / (wc[:, None, None, None] * wd[None, :, None, None])
     cells.setflags(write=False)
-    return DevelopabilityField(c, d, kind, cells, float(max(scale, 1e-300)))
+    scale = np.maximum(scale, 1e-300)
+    scale.setflags(write=False)
+    return DevelopabilityField(c, d, kind, cells, scale)
 
 
 def normalized_residual(c: NurbsCurve, d: NurbsCurve, t, T) -> np.ndarray:

@@ -13,7 +13,7 @@ from functools import cached_property
 from math import comb
 
 import numpy as np
-from scipy.interpolate import BSpline, PPoly
+from scipy.interpolate import BSpline, PPoly, insert
 
 from .errors import InvalidCurveError
 
@@ -93,6 +93,25 @@ class NurbsCurve:
         knots = (lo + hi) - self.knots[::-1]
         return NurbsCurve(self.degree, _readonly(self.control_points[::-1]),
                           _readonly(self.weights[::-1]), _readonly(knots), self.name)
+
+    def segment(self, a: float, b: float) -> "NurbsCurve":
+        """The exact piece of the curve over [a, b] (knot insertion to full multiplicity)."""
+        lo, hi = self.domain
+        if not lo <= a < b <= hi:
+            raise InvalidCurveError(f"{self.name}: segment [{a}, {b}] is not inside the domain [{lo}, {hi}]")
+        p = self.degree
+        spline = self.homogeneous
+        for x in (a, b):
+            have = int(np.count_nonzero(spline.t == x))
+            if lo < x < hi and have < p:
+                spline = insert(x, spline, m=p - have)
+        t = spline.t
+        first_a = int(np.flatnonzero(t == a)[-1]) - p
+        first_b = int(np.flatnonzero(t == b)[0]) - 1
+        pw = spline.c[first_a:first_b + 1]
+        inner = t[(t > a) & (t < b)]
+        knots = np.concatenate([np.full(p + 1, a), inner, np.full(p + 1, b)])
+        return NurbsCurve(p, _readonly(pw[:, :3] / pw[:, 3:]), _readonly(pw[:, 3]), _readonly(knots), self.name)
 
     # -------------------------------------------------------------- evaluation
     def homogeneous_derivatives(self, t: np.ndarray, order: int) -> np.ndarray:

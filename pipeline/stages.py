@@ -18,6 +18,8 @@ from flatten.strip import Strip, build_strip, choose_rulings
 
 from .config import Part, RunConfig
 
+CHECK_RULINGS = 256
+
 
 @dataclass(frozen=True)
 class Pattern:
@@ -80,8 +82,14 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
     strip, part, check = result.strip, result.part, config.spec.check
     size = float(np.ptp(strip.vertices, axis=0).max())
     residual = ruling_residuals(part.c, part.d, strip.rulings)
-    mesh = angle_defects(strip.vertices, strip.faces)
-    naive = naive_reference(part.c, part.d, strip.n_rulings, len(strip.samples))
+    # the surface is checked, not the export mesh: angle defects of a coarse mesh of a
+    # developable strip with skew rulings are discretisation error, so check at least
+    # CHECK_RULINGS rulings (the naive surface T = t gets the same mesh density)
+    n_check = max(strip.n_rulings, CHECK_RULINGS)
+    dense = strip if n_check == strip.n_rulings else build_strip(
+        part.c, part.d, choose_rulings(result.solution, part.c, part.d, n_rulings=n_check), len(strip.samples))
+    mesh = angle_defects(dense.vertices, dense.faces)
+    naive = naive_reference(part.c, part.d, n_check, len(strip.samples))
     flat_plate = result.solution.kind == "coplanar"
     curvature = mesh.max_abs_K * size**2
     passed_residual = flat_plate or float(residual.max()) <= check.max_residual
@@ -91,6 +99,7 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
         "residual_limit": check.max_residual,
         "mesh": mesh.as_dict(),
         "naive_T_equals_t": naive.as_dict(),
+        "check_rulings": n_check,
         "max_abs_K_times_size_squared": curvature,
         "naive_max_abs_K_times_size_squared": naive.max_abs_K * size**2,
         "curvature_limit": check.max_curvature,

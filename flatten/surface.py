@@ -1,0 +1,88 @@
+"""Tensor-product NURBS surfaces: evaluation and iso-parameter curves as NURBS curves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from .errors import InvalidCurveError
+from .nurbs import NurbsCurve, nurbs_curve
+
+
+def expand_knots(knots, multiplicities) -> np.ndarray:
+    """Knot vector from distinct knots and their multiplicities (OpenCASCADE / STEP style)."""
+    return np.repeat(np.asarray(knots, dtype=np.float64), np.asarray(multiplicities, dtype=int))
+
+
+@dataclass(frozen=True, eq=False)
+class NurbsSurface:
+    """Poles (nu, nv, 3), weights (nu, nv), knots_u (nu + pu + 1,), knots_v (nv + pv + 1,)."""
+
+    degree_u: int
+    degree_v: int
+    poles: np.ndarray
+    weights: np.ndarray
+    knots_u: np.ndarray
+    knots_v: np.ndarray
+    name: str = "surface"
+
+    @cached_property
+    def _homogeneous(self) -> np.ndarray:
+        return np.concatenate([self.poles * self.weights[..., None], self.weights[..., None]], axis=-1)
+
+    @property
+    def domain_u(self) -> tuple[float, float]:
+        return float(self.knots_u[self.degree_u]), float(self.knots_u[-self.degree_u - 1])
+
+    @property
+    def domain_v(self) -> tuple[float, float]:
+        return float(self.knots_v[self.degree_v]), float(self.knots_v[-self.degree_v - 1])
+
+    def iso_u(self, u: float, name: str | None = None) -> NurbsCurve:
+        """The curve v -> S(u, v) as an exact NURBS curve of degree pv."""
+        nu, nv, _ = self._homogeneous.shape
+        spline = BSpline(self.knots_u, self._homogeneous.reshape(nu, nv * 4), self.degree_u)
+        row = spline(float(u)).reshape(nv, 4)
+        return nurbs_curve(row[:, :3] / row[:, 3:], self.degree_v, row[:, 3], self.knots_v,
+                           name=name or f"{self.name}.iso_u({u:g})")
+
+    def iso_v(self, v: float, name: str | None = None) -> NurbsCurve:
+        """The curve u -> S(u, v) as an exact NURBS curve of degree pu."""
+        nu, nv, _ = self._homogeneous.shape
+        spline = BSpline(self.knots_v, self._homogeneous.transpose(1, 0, 2).reshape(nv, nu * 4), self.degree_v)
+        col = spline(float(v)).reshape(nu, 4)
+        return nurbs_curve(col[:, :3] / col[:, 3:], self.degree_u, col[:, 3], self.knots_u,
+                           name=name or f"{self.name}.iso_v({v:g})")
+
+    def __call__(self, u, v) -> np.ndarray:
+        """Points S(u_k, v_k) for matching arrays, shape (N, 3)."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        v = np.atleast_1d(np.asarray(v, dtype=np.float64))
+        nu, nv, _ = self._homogeneous.shape
+        bu = BSpline.design_matrix(np.clip(u, *self.domain_u), self.knots_u, self.degree_u).toarray()
+        bv = BSpline.design_matrix(np.clip(v, *self.domain_v), self.knots_v, self.degree_v).toarray()
+        hom = np.einsum("ni,ijk,nj->nk", bu, self._homogeneous, bv)
+        return hom[:, :3] / hom[:, 3:]
+
+
+def nurbs_surface(degree_u, degree_v, poles, knots_u, knots_v, weights=None, name="surface") -> NurbsSurface:
+    """Validate and build a surface (errors name the field, like :func:`nurbs_curve`)."""
+    poles = np.asarray(poles, dtype=np.float64)
+    if poles.ndim != 3 or poles.shape[2] != 3:
+        raise InvalidCurveError(f"{name}.poles must have shape (nu, nv, 3), got {poles.shape}")
+    if not np.all(np.isfinite(poles)):
+        raise InvalidCurveError(f"{name}.poles hold a value that is not finite")
+    nu, nv, _ = poles.shape
+    w = np.ones((nu, nv)) if weights is None else np.asarray(weights, dtype=np.float64)
+    if w.shape != (nu, nv) or not np.all(w > 0):
+        raise InvalidCurveError(f"{name}.weights must be positive with shape {(nu, nv)}")
+    ku, kv = np.asarray(knots_u, dtype=np.float64), np.asarray(knots_v, dtype=np.float64)
+    for label, knots, n, p in (("knots_u", ku, nu, degree_u), ("knots_v", kv, nv, degree_v)):
+        if knots.size != n + p + 1:
+            raise InvalidCurveError(f"{name}.{label} has {knots.size} values; {n} poles of degree {p} need {n + p + 1}")
+        if np.any(np.diff(knots) < 0):
+            raise InvalidCurveError(f"{name}.{label} must be non-decreasing")
+    return NurbsSurface(int(degree_u), int(degree_v), poles, w, ku, kv, name)

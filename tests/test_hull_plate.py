@@ -1,0 +1,60 @@
+"""A real hull plate: the Series 60 hull surface, seams along iso-parameter curves."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flatten import normalized_residual, solve
+from flatten.surface import expand_knots, nurbs_surface
+
+DATA = Path(__file__).resolve().parent / "data" / "ship" / "s60_bsplines.json"
+
+
+def s60_surface():
+    s = json.loads(DATA.read_text())["surfaces"][0]
+    return nurbs_surface(s["degree_u"], s["degree_v"], s["poles"], expand_knots(s["knots_u"], s["mults_u"]),
+                         expand_knots(s["knots_v"], s["mults_v"]), name="s60")
+
+
+def s60_plate(u1=0.4, u2=0.5, v0=0.3, v1=0.5):
+    surface = s60_surface()
+    return surface.iso_u(u1).segment(v0, v1), surface.iso_u(u2).segment(v0, v1), surface
+
+
+def test_iso_curves_and_segments_lie_on_the_surface():
+    c, d, surface = s60_plate()
+    v = np.linspace(0.3, 0.5, 11)
+    np.testing.assert_allclose(c(v), surface(np.full(11, 0.4), v), atol=1e-9)
+    np.testing.assert_allclose(d(v), surface(np.full(11, 0.5), v), atol=1e-9)
+    assert c.domain == (0.3, 0.5)
+
+
+def test_s60_plate_with_short_spans_is_solved_not_taken_for_flat():
+    c, d, _ = s60_plate()
+    assert min(np.diff(c.breakpoints)) < 0.1 * max(np.diff(c.breakpoints))  # very uneven spans
+    solution = solve(c, d)
+    assert solution.kind == "general" and solution
+    cov = solution.path.coverage
+    assert cov.c_fraction > 0.9 and cov.d_fraction > 0.75
+    pts = solution.path.points
+    assert normalized_residual(c, d, pts[:, 0], pts[:, 1]).max() <= 1e-12
+
+
+def test_s60_plate_runs_end_to_end(tmp_path):
+    import yaml
+    from pipeline.cli import main
+    c, d, _ = s60_plate()
+    curve = lambda k: {"degree": k.degree, "control_points": k.control_points.tolist(),  # noqa: E731
+                       "weights": k.weights.tolist(), "knots": k.knots.tolist()}
+    config = tmp_path / "s60.yaml"
+    config.write_text(yaml.safe_dump({"name": "s60_plate", "units": "mm", "curves": {"c": curve(c), "d": curve(d)},
+                                      "resolution": {"chord_tolerance": 1.0}}))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    rep = json.loads((tmp_path / "o" / "s60_plate.json").read_text())
+    assert rep["developability"]["passed"]
+    assert rep["unroll"]["ruling_edge_max_relative_error"] <= 1e-12
+    assert rep["developability"]["naive_max_abs_K_times_size_squared"] > rep["developability"]["curvature_limit"]
+    assert rep["warnings"] and "partial coverage" in rep["warnings"][0]
+    assert rep["steel"]["area_m2"] == pytest.approx(rep["unroll"]["area_3d"] / 1e6, rel=1e-3)
