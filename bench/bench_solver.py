@@ -115,7 +115,49 @@ def main(argv=None) -> int:
     print(f"{'devflat batched (' + str(n_all) + ')':<44}{n_all / all_time:>14.3e}{len(roots) / n_all:>16.2f}")
     print(f"{'numpy.roots per t and span (' + str(args.baseline) + ')':<44}{args.baseline / base_all_time:>14.3e}")
     print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
+    stage_breakdown()
     return 0
+
+
+def stage_breakdown() -> None:
+    """One plate end to end (configs/plate.yaml), time per stage."""
+    import tempfile
+    from pathlib import Path
+
+    from pipeline.config import load_config
+    from pipeline.export import export_part
+    from pipeline.stages import PartResult, stage_check, stage_strip, stage_unroll
+
+    root = Path(__file__).resolve().parents[1]
+    config = load_config(root / "configs" / "plate.yaml")
+    part = config.parts[0]
+    result = PartResult(part.name, part)
+    times = {}
+    start = time.perf_counter()
+    result.solution = solve(part.c, part.d)
+    times["solve (all branches)"] = time.perf_counter() - start
+    t0 = time.perf_counter()
+    stage_strip(result, config)
+    times["strip"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stage_check(result, config)
+    times["check (libigl, 256-ruling check mesh)"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stage_unroll(result)
+    times["unroll + cross-check + metrics"] = time.perf_counter() - t0
+    result.status = "ok"
+    result.figures["steel"] = {"thickness_mm": 12, "material": "S355", "area_m2": 1.0, "weight_kg": 1.0,
+                               "marked_side": "moulded"}
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        export_part(result, config, Path(tmp))
+        times["export (DXF, OBJ, JSON, 2 PNG)"] = time.perf_counter() - t0
+    total = sum(times.values())
+    print()
+    print(f"one plate end to end: configs/plate.yaml, {result.strip.n_rulings} rulings")
+    for name, value in times.items():
+        print(f"  {name:<42}{value:>8.3f} s {100 * value / total:>5.1f}%")
+    print(f"  {'total':<42}{total:>8.3f} s")
 
 
 if __name__ == "__main__":

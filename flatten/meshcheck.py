@@ -34,12 +34,20 @@ def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
     pointwise K = defect / Voronoi area."""
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
-    defect = igl.gaussian_curvature(v, f)
-    interior = ~np.asarray(igl.is_border_vertex(f), dtype=bool)
-    interior &= np.isfinite(defect)
+    defect = np.full(len(v), np.nan)
+    got = igl.gaussian_curvature(v, f)
+    defect[: len(got)] = got
+    border = np.ones(len(v), dtype=bool)
+    flags = np.asarray(igl.is_border_vertex(f), dtype=bool)
+    border[: len(flags)] = flags
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    interior = ~border & used & np.isfinite(defect)
     if not interior.any():
         return CurvatureFigures(0.0, 0.0, 0.0, 0)
-    area = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    area = np.zeros(len(v))
+    diag = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    area[: len(diag)] = diag
     k = defect[interior] / np.maximum(area[interior], 1e-300)
     return CurvatureFigures(float(np.abs(defect[interior]).max()), float(np.abs(defect[interior]).sum()),
                             float(np.abs(k).max()), int(interior.sum()))

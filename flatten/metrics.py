@@ -12,8 +12,11 @@ def edge_lengths(vertices: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 
 def unique_edges(faces: np.ndarray) -> np.ndarray:
-    e = np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    return np.unique(np.sort(e, axis=1), axis=0)
+    """Undirected edges of a triangle mesh, each once, sorted, shape (E, 2)."""
+    e = np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1).astype(np.int64)
+    n = int(e.max()) + 1 if len(e) else 1
+    keys = np.unique(e[:, 0] * n + e[:, 1])
+    return np.column_stack([keys // n, keys % n])
 
 
 def triangle_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -41,9 +44,9 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, faces: np.ndarray, ruli
     rule3 = edge_lengths(vertices3d, ruling_edges)
     rule2 = edge_lengths(flat, ruling_edges)
     all_edges = unique_edges(faces)
-    is_ruling = np.zeros(len(all_edges), dtype=bool)
-    key = {tuple(e) for e in np.sort(ruling_edges, axis=1)}
-    is_ruling[:] = [tuple(e) in key for e in all_edges]
+    n = int(max(all_edges.max(), ruling_edges.max())) + 1
+    sorted_rulings = np.sort(ruling_edges, axis=1).astype(np.int64)
+    is_ruling = np.isin(all_edges[:, 0] * n + all_edges[:, 1], sorted_rulings[:, 0] * n + sorted_rulings[:, 1])
     other = all_edges[~is_ruling]
     l3, l2 = edge_lengths(vertices3d, other), edge_lengths(flat, other)
     positive = rule3 > 0

@@ -1,0 +1,63 @@
+"""The exact development against the closed-form frustum sector at any ruling density, and
+the triangle-unfolding cross-check's O(h^2) drift."""
+
+import numpy as np
+import pytest
+
+from flatten import solve
+from flatten.develop import develop, unfold_triangles
+from flatten.strip import build_strip, choose_rulings
+from tests import oracles
+
+R1, R2, H, ANGLE = 3.0, 2.0, 1.5, 2 * np.pi / 3
+
+
+def sector_errors(c, d, n):
+    solution = solve(c, d)
+    rulings = choose_rulings(solution, c, d, n_rulings=n)
+    dev = develop(c, d, rulings, solution.field)
+    s = np.hypot(R1 - R2, H)
+    rho1, rho2 = R1 * s / (R1 - R2), R2 * s / (R1 - R2)
+    a, b = dev.along_c, dev.along_d
+    apex = (a + (b - a) * (rho1 / (rho1 - rho2))).mean(axis=0)
+    radius_error = max(np.abs(np.hypot(*(a - apex).T) - rho1).max() / rho1,
+                       np.abs(np.hypot(*(b - apex).T) - rho2).max() / rho2)
+    # developed polar angle = 3D polar angle x |r1 - r2| / s
+    polar3d = np.arctan2(*c(rulings[:, 0])[:, [1, 0]].T)
+    polar2d = np.unwrap(np.arctan2(*(a - apex)[:, [1, 0]].T))
+    angle_error = np.abs((polar2d - polar2d[0]) - polar3d * (R1 - R2) / s).max()
+    return radius_error, angle_error, rulings, dev
+
+
+@pytest.mark.parametrize("n", [2, 10, 200, 3000])
+def test_frustum_development_is_exact_whatever_the_ruling_density(n):
+    c, d = oracles.frustum_pair(R1, R2, H, ANGLE)
+    radius_error, angle_error, _, _ = sector_errors(c, d, n)
+    assert radius_error <= 1e-12
+    assert angle_error <= 1e-12
+
+
+def test_multispan_frustum_development_is_exact():
+    c, d = oracles.frustum_pair(R1, R2, H, 3 * np.pi / 2, n_spans=3)
+    s = np.hypot(R1 - R2, H)
+    radius_error, _, rulings, dev = sector_errors(c, d, 25)
+    assert radius_error <= 1e-12
+    a = dev.along_c
+    apex = (a + (dev.along_d - a) * (R1 / (R1 - R2))).mean(axis=0)
+    ends = a[[0, -1]] - apex
+    swept = np.arctan2(np.cross(ends[0], ends[1]), ends[0] @ ends[1]) % (2 * np.pi)
+    assert swept == pytest.approx(3 * np.pi / 2 * (R1 - R2) / s, rel=1e-12)
+
+
+def test_triangle_unfolding_drifts_quadratically():
+    c, d = oracles.frustum_pair(R1, R2, H, ANGLE)
+    drifts = []
+    for n in (50, 100, 200):
+        solution = solve(c, d)
+        rulings = choose_rulings(solution, c, d, n_rulings=n)
+        strip = build_strip(c, d, rulings, 3)
+        dev = develop(c, d, rulings, solution.field)
+        unf = unfold_triangles(strip.vertices[0::3], strip.vertices[2::3], dev)
+        drifts.append(np.abs(unf.along_c - dev.along_c).max())
+    assert drifts[0] / drifts[1] == pytest.approx(4.0, rel=0.15)
+    assert drifts[1] / drifts[2] == pytest.approx(4.0, rel=0.15)
