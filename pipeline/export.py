@@ -67,7 +67,6 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     """Build every successful part's textile piece, side by side; raises ConfigError for
     textile options that do not fit a piece (before anything is written)."""
-    from .stages import place_flat
     from .textile import build_piece
 
     pieces = []
@@ -76,9 +75,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     for result in results:
         if not result.ok:
             continue
-        flat = result.development.vertices(result.strip.samples)
-        transform = place_flat(flat, result.development.along_c)
-        piece = build_piece(result, config.spec.textile, transform)
+        piece = build_piece(result, config.spec.textile, result.pattern.placement)
         shift = np.array([cursor - piece.cut[:, 0].min(), -piece.cut[:, 1].min()])
         piece = piece.translated(shift)
         cursor = piece.cut[:, 0].max() + gap

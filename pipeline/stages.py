@@ -28,11 +28,13 @@ class Pattern:
     outline : (N, 2) closed cut contour (c side, then d side backwards), not repeated
     bend_lines : (K, 2, 2) ruling segments
     vertices : (V, 2) flat strip vertices (same order as the 3D mesh)
+    placement : (rotation (2, 2), translation (2,)) taking the development to these coordinates
     """
 
     outline: np.ndarray
     bend_lines: np.ndarray
     vertices: np.ndarray
+    placement: tuple
 
 
 @dataclass
@@ -140,7 +142,7 @@ def stage_unroll(result: PartResult) -> None:
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-12 * max(size, 1.0)
     outline = outline[keep]
-    result.pattern = Pattern(outline, np.stack([c_side, d_side], axis=1), placed)
+    result.pattern = Pattern(outline, np.stack([c_side, d_side], axis=1), placed, (rot, shift))
 
 
 def run_part(part: Part, config: RunConfig) -> PartResult:
