@@ -195,3 +195,33 @@ def test_multi_part_run_with_progress_and_summary(tmp_path, capsys):
     pts = np.array(doc.modelspace().query("LWPOLYLINE")[0].get_points("xy"))
     assert np.ptp(pts[:, 0]) > 100  # metres scaled to millimetres
     assert rep["units"] == "m"
+
+
+def test_reversing_d_or_changing_units_gives_the_same_plate(tmp_path):
+    base = yaml.safe_load((CONFIGS / "plate.yaml").read_text())
+    variants = {"same": base}
+    rev = yaml.safe_load(yaml.safe_dump(base))
+    rev["curves"]["d"]["control_points"] = rev["curves"]["d"]["control_points"][::-1]
+    variants["reversed"] = rev
+    metres = yaml.safe_load(yaml.safe_dump(base))
+    metres["units"] = "m"
+    metres["resolution"]["chord_tolerance"] = base["resolution"]["chord_tolerance"] / 1000
+    for key in ("c", "d"):
+        metres["curves"][key]["control_points"] = [[x / 1000 for x in p] for p in base["curves"][key]["control_points"]]
+    variants["metres"] = metres
+    reports = {}
+    for label, data in variants.items():
+        data["name"] = label
+        config = tmp_path / f"{label}.yaml"
+        config.write_text(yaml.safe_dump(data))
+        assert run(config, tmp_path) == 0
+        reports[label] = report(tmp_path, label)
+    assert reports["reversed"]["solver"]["path"]["orientation"] == -1
+    for label in ("reversed", "metres"):
+        assert reports[label]["steel"]["area_m2"] == pytest.approx(reports["same"]["steel"]["area_m2"], rel=1e-9)
+        assert reports[label]["steel"]["weight_kg"] == pytest.approx(reports["same"]["steel"]["weight_kg"], rel=1e-9)
+    outlines = {}
+    for label in variants:
+        pts = np.array(ezdxf.readfile(tmp_path / f"{label}.dxf").modelspace().query("LWPOLYLINE")[0].get_points("xy"))
+        outlines[label] = np.sort(np.linalg.norm(pts - pts.mean(axis=0), axis=1))  # rigid-motion invariant
+    np.testing.assert_allclose(outlines["metres"], outlines["same"], rtol=1e-9)

@@ -189,7 +189,7 @@ def random_pair(seed, rational):
     return c, d
 
 
-@settings(max_examples=12, derandomize=True, deadline=None)
+@settings(max_examples=25, derandomize=True, deadline=None)
 @given(seed=st.integers(0, 100_000), rational=st.booleans(), lines=st.lists(st.floats(0.001, 0.999), min_size=3, max_size=3))
 def test_random_pairs_every_point_polished_and_no_root_missed(seed, rational, lines):
     c, d = random_pair(seed, rational)
