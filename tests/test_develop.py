@@ -45,7 +45,8 @@ def test_multispan_frustum_development_is_exact():
     a = dev.along_c
     apex = (a + (dev.along_d - a) * (R1 / (R1 - R2))).mean(axis=0)
     ends = a[[0, -1]] - apex
-    swept = np.arctan2(np.cross(ends[0], ends[1]), ends[0] @ ends[1]) % (2 * np.pi)
+    cross = ends[0, 0] * ends[1, 1] - ends[0, 1] * ends[1, 0]
+    swept = np.arctan2(cross, ends[0] @ ends[1]) % (2 * np.pi)
     assert swept == pytest.approx(3 * np.pi / 2 * (R1 - R2) / s, rel=1e-12)
 
 
