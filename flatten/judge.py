@@ -42,6 +42,18 @@ class UnitMap:
         return (f(p[:, 0], p[:, 1], 2, 0) * w[0] ** 2, f(p[:, 0], p[:, 1], 1, 1) * w[0] * w[1],
                 f(p[:, 0], p[:, 1], 0, 2) * w[1] ** 2)
 
+    def project_along(self, x: np.ndarray, direction: np.ndarray, iterations: int = 8) -> np.ndarray:
+        """Move points (N, 2) along one unit direction (2,) onto f = 0 (Newton on the
+        line): a chord's points land on the arc beside them, never on another branch."""
+        x = np.array(x, dtype=np.float64, copy=True)
+        for _ in range(iterations):
+            p = self.to_params(x)
+            f = self.field(p[:, 0], p[:, 1])
+            slope = self.gradient(x) @ direction
+            step = np.divide(f, slope, out=np.zeros_like(f), where=np.abs(slope) > 0)
+            x -= step[:, None] * direction
+        return x
+
     def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton along the gradient onto f = 0, batched, staying in the unit square."""
         x = np.array(x, dtype=np.float64, copy=True)
@@ -90,31 +102,33 @@ def acceptable_points(unit: UnitMap, x: np.ndarray, orientation: int = 1) -> np.
     return same_side & oriented
 
 
-def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, str]:
-    """Solve f = 0 and f_t = 0 (or f_T = 0) between two unit points by Newton."""
+def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):
+    """Solve f = 0 and f_t = 0 (or f_T = 0) between two unit points by Newton; returns
+    (point, kind) or None when Newton does not converge inside the segment's box."""
     ga, gb = unit.gradient(np.vstack([a, b]))
     which = 0 if np.sign(ga[0]) != np.sign(gb[0]) else 1
     x = 0.5 * (a + b)
     lo, hi = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
+    converged = False
     for _ in range(30):
         p = unit.to_params(x[None])
         f = unit.field(p[:, 0], p[:, 1])[0]
         g = unit.gradient(x[None])[0]
         fuu, fuU, fUU = (h[0] for h in unit.hessian_terms(x[None]))
         second = np.array([fuu, fuU]) if which == 0 else np.array([fuU, fUU])
-        jac = np.array([g, second])
-        rhs = np.array([f, g[which]])
         try:
-            step = np.linalg.solve(jac, rhs)
+            step = np.linalg.solve(np.array([g, second]), np.array([f, g[which]]))
         except np.linalg.LinAlgError:
             break
         x = x - step
-        if np.hypot(*step) < 1e-15:
+        if not np.all(np.isfinite(x)):
             break
-    if not (np.all(x >= lo) and np.all(x <= hi)):
-        x = 0.5 * (a + b)
-    kind = "dT/dt=0" if which == 0 else "dt/dT=0"
-    return np.clip(x, 0.0, 1.0), kind
+        if np.hypot(*step) < 1e-13:  # round-off keeps the last steps near 1e-16, not 0
+            converged = True
+            break
+    if not converged or not (np.all(x >= lo) and np.all(x <= hi)):
+        return None
+    return np.clip(x, 0.0, 1.0), "dT/dt=0" if which == 0 else "dt/dT=0"
 
 
 # ---------------------------------------------------------------- junctions
@@ -188,28 +202,64 @@ def _point_on_polyline(point: np.ndarray, poly: np.ndarray, tol: float):
 
 
 # ------------------------------------------------------------------- pieces
-def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, orientation: int = 1):
-    """Cut every trace at turning points and junctions; returns pieces (unit points,
-    acceptable flag, trace index) and turning points (unit point, kind, trace)."""
+def _classes(unit: UnitMap, x: np.ndarray) -> np.ndarray:
+    """(N, 2) acceptability of points for orientation +1 and -1; points at singular
+    points (vanishing gradient) take the class of the point before them."""
+    acc = np.column_stack([acceptable_points(unit, x, 1), acceptable_points(unit, x, -1)])
+    g = unit.gradient(x)
+    gnorm = np.hypot(*g.T)
+    weak = gnorm < 1e-8 * max(np.median(gnorm), 1e-300)
+    for k in range(1, len(acc)):
+        if weak[k]:
+            acc[k] = acc[k - 1]
+    return acc
+
+
+def _class_boundary(unit: UnitMap, a: np.ndarray, b: np.ndarray, column: int) -> tuple[np.ndarray, str]:
+    """Where a branch changes class between two of its points: a turning point (f_t = 0
+    or f_T = 0, by Newton) or else by bisection along the branch (also where c' or d'
+    runs along the ruling)."""
+    ga, gb = unit.gradient(np.vstack([a, b]))
+    kind = "dT/dt=0" if np.sign(ga[0]) != np.sign(gb[0]) else "dt/dT=0"
+    if np.sign(ga[0]) != np.sign(gb[0]) or np.sign(ga[1]) != np.sign(gb[1]):
+        found = _turning_point(unit, a, b)
+        if found is not None:
+            return found
+    else:
+        kind = "ruling tangent to a curve"
+    orientation = 1 if column == 0 else -1
+    lo, hi = a, b
+    start = acceptable_points(unit, a[None], orientation)[0]
+    chord = (b - a) / max(np.hypot(*(b - a)), 1e-300)
+    normal = np.array([-chord[1], chord[0]])
+    for _ in range(4):  # batched bisection: 64 points a round, 64^4 = 1.7e7 subdivisions
+        frac = np.linspace(0.0, 1.0, 65)[:, None]
+        pts = unit.project_along(lo + frac * (hi - lo), normal)
+        same = acceptable_points(unit, pts, orientation) == start
+        k = int(np.argmin(same)) if not same.all() else len(pts) - 1
+        lo, hi = pts[max(k - 1, 0)], pts[k]
+    return unit.project_along(0.5 * (lo + hi)[None], normal)[0], kind
+
+
+def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
+    """Cut every trace where its class changes (for either orientation of d against c)
+    and at junctions.
+
+    Returns pieces as (unit points, (acceptable for +1, acceptable for -1), trace index)
+    and class boundaries as (unit point, kind, trace index, orientation).
+    """
     cuts: list[list[tuple[int, float, np.ndarray]]] = [[] for _ in traces]
     turning = []
-    classes = []
     for n, trace in enumerate(traces):
         x = trace.points
-        acc = acceptable_points(unit, x, orientation)
-        g = unit.gradient(x)
-        gnorm = np.hypot(*g.T)
-        weak = gnorm < 1e-8 * max(np.median(gnorm), 1e-300)
-        for k in range(1, len(acc)):  # singular points carry no class
-            if weak[k]:
-                acc[k] = acc[k - 1]
-        classes.append(acc)
-        for k in np.flatnonzero(acc[1:] != acc[:-1]):
-            point, kind = _turning_point(unit, x[k], x[k + 1])
-            seg = x[k + 1] - x[k]
-            frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
-            cuts[n].append((int(k), frac, point))
-            turning.append((point, kind, n))
+        acc = _classes(unit, x)
+        for column, orientation in ((0, 1), (1, -1)):
+            for k in np.flatnonzero(acc[1:, column] != acc[:-1, column]):
+                point, kind = _class_boundary(unit, x[k], x[k + 1], column)
+                seg = x[k + 1] - x[k]
+                frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
+                cuts[n].append((int(k), frac, point))
+                turning.append((point, kind, n, orientation))
     for i in range(len(traces)):
         for j in range(i, len(traces)):
             for k, fa, l, fb, point in _segment_intersections(traces[i].points, traces[j].points, i == j):
@@ -230,9 +280,11 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, orientation: in
         for part in _cut_polyline(trace.points, trace.closed, cuts[n], tol):
             if len(part) < 2:
                 continue
-            mid = part[len(part) // 2] if len(part) > 2 else 0.5 * (part[0] + part[1])
-            acc = bool(acceptable_points(unit, mid[None], orientation)[0]) if len(part) > 2 else \
-                bool(orientation * np.prod(part[-1] - part[0]) >= -1e-18)
+            if len(part) > 2:
+                acc = tuple(bool(v) for v in _classes(unit, part[len(part) // 2][None])[0])
+            else:  # a two-point piece: judge by its direction
+                slope = np.prod(part[-1] - part[0])
+                acc = (bool(slope >= -1e-18), bool(slope <= 1e-18))
             pieces.append((part, acc, n))
     return pieces, turning
 

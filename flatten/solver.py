@@ -94,18 +94,18 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
     branches = tuple(make_branch(k, unit.to_params(tr.points), tr, tr.points)
                      for k, tr in enumerate(traces))
     # judge both orientations of d against c; keep the one with the better strip
+    raw_pieces, raw_turning = split_pieces(unit, traces, tol.junction)
     best = None
-    for orientation in (1, -1):
-        raw_pieces, raw_turning = split_pieces(unit, traces, tol.junction, orientation)
-        pieces = tuple(Piece(k, n, unit.to_params(unit.polish(x)), acc)
+    for column, orientation in ((0, 1), (1, -1)):
+        pieces = tuple(Piece(k, n, unit.to_params(unit.polish(x)), acc[column])
                        for k, (x, acc, n) in enumerate(raw_pieces))
         path = choose_path(c, d, list(pieces), tol.junction, tol.min_piece_coverage, orientation)
         score = -1.0 if path is None else path.coverage.c_fraction + path.coverage.d_fraction
         if best is None or score > best[0] + 1e-12:
-            best = (score, pieces, raw_turning, path)
-    _, pieces, raw_turning, path = best
+            best = (score, pieces, orientation, path)
+    _, pieces, orientation, path = best
     turning = tuple(make_turning_point(c, d, unit.to_params(unit.polish(x[None])[0]), kind_, n)
-                    for x, kind_, n in raw_turning)
+                    for x, kind_, n, o in raw_turning if o == orientation)
     mismatches = []
     crossings = []
     for branch in branches:
