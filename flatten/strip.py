@@ -32,6 +32,12 @@ class Strip:
     def n_rulings(self) -> int:
         return len(self.rulings)
 
+    def mesh(self):
+        """The strip as a :class:`trimesh.Trimesh` with the vertex order kept (process=False)."""
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+
     def ruling_edges(self) -> np.ndarray:
         """(K (m-1), 2) vertex pairs along rulings."""
         m = len(self.samples)

@@ -48,6 +48,7 @@ def part_report(result: PartResult, units: str) -> dict:
         "coverage": result.figures.get("coverage"),
         "rulings": None if result.strip is None else result.strip.rulings.tolist(),
         "resolution": result.figures.get("rulings"),
+        "mesh": result.figures.get("mesh"),
         "developability": result.figures.get("developability"),
         "unroll": result.figures.get("unroll"),
         "area_m2": result.figures.get("area_m2"),

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import trimesh
 
 from flatten import DEFAULT_TOLERANCES, SolutionSet, solve
 from flatten.develop import Development, develop, unfold_triangles
@@ -74,6 +75,10 @@ def stage_strip(result: PartResult, config: RunConfig) -> None:
     rulings = choose_rulings(solution, part.c, part.d, chord_tolerance=res.chord_tolerance,
                              n_rulings=res.rulings)
     result.strip = build_strip(part.c, part.d, rulings, res.samples_per_ruling)
+    mesh = result.strip.mesh()
+    boundary_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+    result.figures["mesh"] = {"vertices": len(mesh.vertices), "faces": len(mesh.faces), "area_3d": float(mesh.area),
+                              "euler_number": int(mesh.euler_number), "boundary_edges": boundary_edges}
     result.figures["rulings"] = {"count": len(rulings), "samples_per_ruling": res.samples_per_ruling,
                                  "max_chord_error_c": float(result.strip.max_chord_error[0]),
                                  "max_chord_error_d": float(result.strip.max_chord_error[1])}

@@ -105,6 +105,11 @@ def test_obj_ruling_edges_keep_their_length_and_other_edges_match_the_chord_disc
     discrepancy = rep["unroll"]["chord_discrepancy_max_relative"]
     assert np.max(np.abs(e2 - e3) / e3) <= discrepancy * (1 + 1e-9)
     assert rep["unroll"]["ruling_edge_max_relative_error"] <= 1e-12
+    # the strip is one disc (trimesh, vertex order kept) bounded by its two seams and end rulings
+    mesh, k = rep["mesh"], rep["resolution"]["count"]
+    assert mesh["vertices"] == len(v) and mesh["euler_number"] == 1
+    assert mesh["boundary_edges"] == 2 * (k - 1) + 2 * (m - 1)
+    assert mesh["area_3d"] == pytest.approx(rep["unroll"]["area_3d"], rel=1e-12)
 
 
 def test_dxf_reads_back_with_layers_units_and_the_flat_outline(tmp_path):
