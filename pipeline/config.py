@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator,
+                      model_validator)
 
 from flatten import InvalidCurveError, NurbsCurve, nurbs_curve
 from flatten.errors import DevflatError
@@ -35,9 +36,81 @@ class CurveSpec(_Strict):
     knots: list[float] | None = None
 
 
+class IsoSpec(_Strict):
+    u: float | None = None
+    v: float | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.u is None) == (self.v is None):
+            raise ValueError("iso gives exactly one of u, v")
+        return self
+
+
+class IgesCurveSource(_Strict):
+    """Entity 126 of an IGES file, or an iso-curve of an entity 128 surface (with iso).
+    The entity is picked by its index among entities of its type, its directory number
+    or its label. The path is relative to the config file."""
+
+    iges: str
+    entity: int | None = Field(None, ge=0)
+    directory: int | None = Field(None, ge=1)
+    label: str | None = None
+    iso: IsoSpec | None = None
+    segment: tuple[float, float] | None = None
+
+    @model_validator(mode="after")
+    def _pick(self):
+        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"pick the entity by one of entity, directory, label; got {given}")
+        if not given:
+            object.__setattr__(self, "entity", 0)
+        return self
+
+
+class DxfCurveSource(_Strict):
+    """A SPLINE (taken exactly) or a polyline (fitted within tolerance) of a DXF file."""
+
+    dxf: str
+    layer: str | None = None
+    handle: str | None = None
+    tolerance: float = Field(0.1, gt=0)
+
+    @model_validator(mode="after")
+    def _pick(self):
+        if (self.layer is None) == (self.handle is None):
+            raise ValueError("pick the DXF entity by exactly one of layer, handle")
+        return self
+
+
+class PointsCurveSource(_Strict):
+    """Offsets / a point list, fitted to a cubic B-spline within tolerance (config units)."""
+
+    points: list[tuple[float, float, float]] = Field(min_length=4)
+    tolerance: float = Field(gt=0)
+
+
+def _curve_kind(value) -> str:
+    """Which curve source a mapping describes, by its one distinguishing key."""
+    if isinstance(value, dict):
+        for key, tag in (("iges", "Iges"), ("dxf", "Dxf"), ("points", "Points")):
+            if key in value:
+                return tag
+    elif isinstance(value, BaseModel):
+        return {IgesCurveSource: "Iges", DxfCurveSource: "Dxf", PointsCurveSource: "Points"}.get(type(value), "Inline")
+    return "Inline"
+
+
+# tags are capitalised so that error locations can drop them (they are no input keys)
+CurveSource = Annotated[Union[Annotated[CurveSpec, Tag("Inline")], Annotated[IgesCurveSource, Tag("Iges")],
+                              Annotated[DxfCurveSource, Tag("Dxf")], Annotated[PointsCurveSource, Tag("Points")]],
+                        Discriminator(_curve_kind)]
+
+
 class CurvesSpec(_Strict):
-    c: CurveSpec
-    d: CurveSpec
+    c: CurveSource
+    d: CurveSource
 
 
 class Resolution(_Strict):
@@ -174,7 +247,7 @@ class RunSpec(_Strict):
     name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=80)
     curves: CurvesSpec | None = None
     # consecutive curves c0, c1, ..., ck: one part per neighbouring pair, named NAME_1..NAME_k
-    sequence: list[CurveSpec] | None = Field(None, min_length=2)
+    sequence: list[CurveSource] | None = Field(None, min_length=2)
     # several parts
     parts: list[PartSpec] | None = None
 
@@ -198,9 +271,10 @@ class Part:
     curve_ids : the identities of c and d for notches ('c'/'d', or sequence indices)
     """
 
-    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel, curve_ids=("c", "d")):
+    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel, curve_ids=("c", "d"), fits=None):
         self.name, self.c, self.d, self.steel = name, c, d, steel
         self.curve_ids = curve_ids
+        self.fits = fits or {}
 
 
 class RunConfig:
@@ -320,19 +394,37 @@ def _check_notch_curves(spec: RunSpec, parts: list[Part], path: Path, lines: dic
                                   f"curve {notch.curve!r} is {length:.6g} long")
 
 
-def _curve(cs: CurveSpec, loc: tuple, path: Path, lines: dict) -> NurbsCurve:
+def _curve(cs, loc: tuple, path: Path, lines: dict, mm_per_unit: float, fits: dict) -> NurbsCurve:
+    """Build a curve from any source; errors name the config file and line as well."""
+    from .sources import SourceError, dxf_source, fit_points, iges_source
+
+    name = _format_path(loc)
+    line = _line_of(lines, loc)
+    where = f"{path}{':' + str(line) if line else ''}"
     try:
-        return nurbs_curve(np.array(cs.control_points, dtype=float), cs.degree, cs.weights, cs.knots,
-                           name=_format_path(loc))
+        if isinstance(cs, CurveSpec):
+            return nurbs_curve(np.array(cs.control_points, dtype=float), cs.degree, cs.weights, cs.knots, name=name)
+        if isinstance(cs, IgesCurveSource):
+            return iges_source(cs, path.parent, mm_per_unit, name)
+        if isinstance(cs, DxfCurveSource):
+            curve, report = dxf_source(cs, path.parent, name)
+        else:
+            curve, report = fit_points(np.array(cs.points, dtype=float), cs.tolerance, name)
+        if report is not None:
+            fits[name] = report
+        return curve
     except InvalidCurveError as exc:
-        line = _line_of(lines, loc)
-        raise ConfigError(f"{path}{':' + str(line) if line else ''}: {exc}") from None
+        raise ConfigError(f"{where}: {exc}") from None
+    except SourceError as exc:
+        raise ConfigError(f"{where}: {name}: {exc}") from None
 
 
 def _build_parts(spec: RunSpec, path: Path, lines: dict) -> list[Part]:
+    mm = UNIT_TO_MM[spec.units]
+    fits: dict = {}
     if spec.sequence is not None:
-        curves = [_curve(cs, ("sequence", k), path, lines) for k, cs in enumerate(spec.sequence)]
-        return [Part(f"{spec.name}_{k + 1}", curves[k], curves[k + 1], spec.steel, (k, k + 1))
+        curves = [_curve(cs, ("sequence", k), path, lines, mm, fits) for k, cs in enumerate(spec.sequence)]
+        return [Part(f"{spec.name}_{k + 1}", curves[k], curves[k + 1], spec.steel, (k, k + 1), fits)
                 for k in range(len(curves) - 1)]
     if spec.parts is None:
         entries = [((), spec.name, spec.curves, None)]
@@ -340,7 +432,7 @@ def _build_parts(spec: RunSpec, path: Path, lines: dict) -> list[Part]:
         entries = [(("parts", k), p.name, p.curves, p.steel) for k, p in enumerate(spec.parts)]
     parts = []
     for prefix, name, curves, steel in entries:
-        c = _curve(curves.c, prefix + ("curves", "c"), path, lines)
-        d = _curve(curves.d, prefix + ("curves", "d"), path, lines)
-        parts.append(Part(name, c, d, steel or spec.steel))
+        c = _curve(curves.c, prefix + ("curves", "c"), path, lines, mm, fits)
+        d = _curve(curves.d, prefix + ("curves", "d"), path, lines, mm, fits)
+        parts.append(Part(name, c, d, steel or spec.steel, fits=fits))
     return parts
