@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.interpolate import BSpline
+from scipy.interpolate import BSpline, PPoly
 
 from .errors import InvalidCurveError
 from .nurbs import NurbsCurve, nurbs_curve
@@ -56,6 +56,36 @@ class NurbsSurface:
         col = spline(float(v)).reshape(nu, 4)
         return nurbs_curve(col[:, :3] / col[:, 3:], self.degree_u, col[:, 3], self.knots_u,
                            name=name or f"{self.name}.iso_v({v:g})")
+
+    def plane_section_points(self, point, normal, lines: int = 400) -> np.ndarray:
+        """Points of the section by the plane through ``point`` with ``normal``, (N, 3).
+
+        Along iso-curves of the direction whose iso-curves cross the plane once each: on
+        each, n . A(s) - h w(s) is a polynomial B-spline whose roots are found exactly.
+        Raises ValueError when the plane misses the surface or cuts it more than once per
+        iso-curve in both directions.
+        """
+        n = np.asarray(normal, dtype=np.float64)
+        n = n / np.linalg.norm(n)
+        h = float(n @ np.asarray(point, dtype=np.float64))
+        for along_u in (True, False):
+            lo, hi = self.domain_u if along_u else self.domain_v
+            found = []
+            for value in np.linspace(lo, hi, lines):
+                curve = self.iso_u(value) if along_u else self.iso_v(value)
+                spline = curve.homogeneous
+                coef = spline.c[:, :3] @ n - h * spline.c[:, 3]
+                roots = PPoly.from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
+                a, b = curve.domain
+                roots = np.unique(np.round(roots[(roots >= a) & (roots <= b)], 14))
+                if len(roots) > 1:
+                    break
+                if len(roots) == 1:
+                    found.append(curve(roots)[0])
+            else:
+                if len(found) >= 4:
+                    return np.array(found)
+        raise ValueError("the plane misses the surface or cuts its iso-curves more than once in both directions")
 
     def __call__(self, u, v) -> np.ndarray:
         """Points S(u_k, v_k) for matching arrays, shape (N, 3)."""

@@ -47,8 +47,23 @@ class IsoSpec(_Strict):
         return self
 
 
+class PlaneSpec(_Strict):
+    """A plane through a point (config units) with a normal."""
+
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]
+
+    @field_validator("normal")
+    @classmethod
+    def _non_zero(cls, value):
+        if not any(value):
+            raise ValueError("the normal must not be the zero vector")
+        return value
+
+
 class IgesCurveSource(_Strict):
-    """Entity 126 of an IGES file, or an iso-curve of an entity 128 surface (with iso).
+    """Entity 126 of an IGES file, or an iso-curve (iso) or a plane section (section, fitted
+    within tolerance) of an entity 128 surface.
     The entity is picked by its index among entities of its type, its directory number
     or its label. The path is relative to the config file."""
 
@@ -57,10 +72,14 @@ class IgesCurveSource(_Strict):
     directory: int | None = Field(None, ge=1)
     label: str | None = None
     iso: IsoSpec | None = None
+    section: "PlaneSpec | None" = None
+    tolerance: float = Field(0.5, gt=0, description="fit tolerance of a plane section (config units)")
     segment: tuple[float, float] | None = None
 
     @model_validator(mode="after")
     def _pick(self):
+        if self.iso is not None and self.section is not None:
+            raise ValueError("give either iso or section, not both")
         given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
         if len(given) > 1:
             raise ValueError(f"pick the entity by one of entity, directory, label; got {given}")
@@ -405,7 +424,10 @@ def _curve(cs, loc: tuple, path: Path, lines: dict, mm_per_unit: float, fits: di
         if isinstance(cs, CurveSpec):
             return nurbs_curve(np.array(cs.control_points, dtype=float), cs.degree, cs.weights, cs.knots, name=name)
         if isinstance(cs, IgesCurveSource):
-            return iges_source(cs, path.parent, mm_per_unit, name)
+            curve, report = iges_source(cs, path.parent, mm_per_unit, name)
+            if report is not None:
+                fits[name] = report
+            return curve
         if isinstance(cs, DxfCurveSource):
             curve, report = dxf_source(cs, path.parent, name)
         else:

@@ -76,23 +76,32 @@ def _pick(entities, spec, where: str, kind: str):
     return found[0]
 
 
-def iges_source(spec, base: Path, mm_per_unit: float, name: str) -> NurbsCurve:
-    """A curve from an IGES file: entity 126, or an iso-curve of entity 128; scaled from
-    the file's unit to the config's."""
+def iges_source(spec, base: Path, mm_per_unit: float, name: str) -> tuple[NurbsCurve, FitReport | None]:
+    """A curve from an IGES file: entity 126, or an iso-curve or a plane section (fitted)
+    of entity 128; scaled from the file's unit to the config's."""
     path = (base / spec.iges).resolve()
+    report = None
     try:
         iges = read_iges(path)
         scale = iges.unit_mm / mm_per_unit
-        if spec.iso is None:
+        if spec.iso is None and spec.section is None:
             entity = _pick(iges.of_type(126), spec, str(path), "entity-126 curve")
             curve = iges_curve(iges, entity, scale, name)
         else:
             entity = _pick(iges.of_type(128), spec, str(path), "entity-128 surface")
             surface = iges_surface(iges, entity, scale, name)
-            curve = _iso(surface, spec.iso, f"{path}: entity 128 at D{entity.directory}", name)
+            where = f"{path}: entity 128 at D{entity.directory}"
+            if spec.iso is not None:
+                curve = _iso(surface, spec.iso, where, name)
+            else:
+                try:
+                    points = surface.plane_section_points(spec.section.point, spec.section.normal)
+                except ValueError as exc:
+                    raise SourceError(f"{where}: section {spec.section.point} / {spec.section.normal}: {exc}") from None
+                curve, report = fit_points(points, spec.tolerance, name)
         if spec.segment is not None:
             curve = curve.segment(*spec.segment)
-        return curve
+        return curve, report
     except (IgesError, InvalidCurveError) as exc:
         raise SourceError(str(exc)) from None
 

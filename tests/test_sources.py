@@ -124,3 +124,27 @@ def test_bad_sources_exit_2_naming_file_and_entity(tmp_path, capsys, source, exp
     for piece in expected:
         assert piece in err, (piece, err)
     assert not (tmp_path / "out").exists()
+
+
+def test_plane_section_of_a_hull_surface_is_fitted_within_tolerance(tmp_path):
+    from pipeline.config import load_config
+    from pipeline.iges import iges_surface
+    data = {"name": "p", "units": "mm",
+            "curves": {"c": {"iges": str(SHIP / "test_1_hull_exported.igs"), "section":
+                             {"point": [0, 0, 2000], "normal": [0, 0, 1]}, "tolerance": 1.0},
+                       "d": {"iges": str(SHIP / "test_1_hull_exported.igs"), "section":
+                             {"point": [0, 0, 6000], "normal": [0, 0, 1]}, "tolerance": 1.0}}}
+    config = tmp_path / "wl.yaml"
+    config.write_text(yaml.safe_dump(data))
+    part = load_config(config).parts[0]
+    # waterlines: every point of the fitted curves at z = 2 m and 6 m, within the tolerance
+    for curve, z in ((part.c, 2000.0), (part.d, 6000.0)):
+        pts = curve(np.linspace(*curve.domain, 200))
+        assert np.abs(pts[:, 2] - z).max() <= 1.0
+        assert np.ptp(pts[:, 0]) > 100_000
+    assert part.fits["curves.c"].max_error <= 1.0
+    # and the section points themselves lie on the surface and in the plane (exact roots)
+    iges = read_iges(SHIP / "test_1_hull_exported.igs")
+    surface = iges_surface(iges, iges.of_type(128)[0], 1000.0, "hull")
+    points = surface.plane_section_points([0, 0, 2000], [0, 0, 1])
+    np.testing.assert_allclose(points[:, 2], 2000.0, atol=1e-6)
