@@ -20,6 +20,9 @@ class Strip:
     vertices : (K * m, 3) model units; vertex k * m + j lies at v = samples[j] on ruling k
     faces : (2 (K-1) (m-1), 3) int, counter-clockwise seen from c' x (d - c)
     max_chord_error : (2,) largest distance between the boundary chords and c, d
+    trim : (K, 2) or None, the interval of v each ruling keeps when the strip is trimmed
+        (by butt planes); vertex k * m + j then lies at v = trim[k, 0] + (trim[k, 1] -
+        trim[k, 0]) samples[j]
     """
 
     rulings: np.ndarray
@@ -27,6 +30,7 @@ class Strip:
     vertices: np.ndarray
     faces: np.ndarray
     max_chord_error: np.ndarray
+    trim: np.ndarray | None = None
 
     @property
     def n_rulings(self) -> int:

@@ -31,8 +31,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("config", type=Path)
     run.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     run.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
+    run.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
     check = sub.add_parser("check", help="validate a configuration without running it")
     check.add_argument("config", type=Path)
+    for sub_parser in (run, check):
+        sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
     return parser
 
 
@@ -48,7 +51,7 @@ def validate(path: Path) -> RunConfig:
 
 
 def command_run(args) -> int:
-    from .export import export_part, export_textile, textile_pieces
+    from .export import export_part, export_summary, export_textile, textile_pieces
     from .stages import run_part
 
     config = validate(args.config)
@@ -58,13 +61,22 @@ def command_run(args) -> int:
         from tqdm import tqdm
         progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
     results = []
-    for part in parts:
-        results.append(run_part(part, config))
-        if progress is not None:
-            progress.set_postfix_str(part.name)
-            progress.update()
-    if progress is not None:
-        progress.close()
+    if args.jobs > 1 and len(parts) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from functools import partial
+
+        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+            for result in pool.map(partial(run_part, config=config), parts):
+                results.append(result)
+                if progress is not None:
+                    progress.set_postfix_str(result.name)
+                    progress.update()
+    else:
+        for part in parts:
+            results.append(run_part(part, config))
+            if progress is not None:
+                progress.set_postfix_str(part.name)
+                progress.update()
     # textile options are checked against the pieces before anything is written
     pieces = textile_pieces(results, config) if config.spec.profile == "textile" else []
     try:
@@ -75,6 +87,7 @@ def command_run(args) -> int:
         export_part(result, config, args.out)
     if pieces:
         export_textile(pieces, config, args.out, config.spec.name or config.source.stem)
+    export_summary(results, config, args.out)
     if not args.quiet:
         print(summary_table(results))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY

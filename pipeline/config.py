@@ -163,8 +163,9 @@ class Layers(_Strict):
     cut: str = "CUT_OUTER"
     bend: str = "MARK_BEND"
     text: str = "MARK_TEXT"
+    frame: str = "MARK_FRAME"
 
-    @field_validator("cut", "bend", "text")
+    @field_validator("cut", "bend", "text", "frame")
     @classmethod
     def _layer_name(cls, value: str) -> str:
         bad = set('<>/\\":;?*|=`') & set(value)
@@ -254,6 +255,46 @@ class PartSpec(_Strict):
     steel: Steel | None = None
 
 
+class SurfaceSource(_Strict):
+    """An entity-128 surface of an IGES file (by index among surfaces, or directory number)."""
+
+    iges: str
+    entity: int | None = Field(None, ge=0)
+    directory: int | None = Field(None, ge=1)
+    label: str | None = None
+
+
+class SeamSpec(_Strict):
+    iso: IsoSpec
+
+
+class FrameSpec(_Strict):
+    """Frame planes x = start + k * spacing (config units), marked on the plates they cross."""
+
+    spacing: float = Field(gt=0)
+    start: float = 0.0
+
+
+class StrakeSpec(_Strict):
+    """Plates of a strake: between consecutive seams (iso-curves of the hull surface) and
+    consecutive butts (planes x = const, config units), each computed on its seams extended
+    past the butts by ``margin`` times the plate length and trimmed by the butt planes."""
+
+    surface: SurfaceSource
+    seams: list[SeamSpec] = Field(min_length=2)
+    butts: list[float] = Field(min_length=2)
+    frames: FrameSpec | None = None
+    margin: float = Field(0.1, ge=0, le=1)
+    fit_tolerance: float = Field(5.0, gt=0, description="largest distance from the hull surface")
+
+    @field_validator("butts")
+    @classmethod
+    def _increasing(cls, value):
+        if any(b <= a for a, b in zip(value, value[1:])):
+            raise ValueError(f"butts must increase, got {value}")
+        return value
+
+
 class RunSpec(_Strict):
     units: Literal["mm", "cm", "m", "in"] = "mm"
     profile: Literal["steel", "textile"] = "steel"
@@ -269,15 +310,18 @@ class RunSpec(_Strict):
     sequence: list[CurveSource] | None = Field(None, min_length=2)
     # several parts
     parts: list[PartSpec] | None = None
+    # the plates of a hull strake
+    strake: StrakeSpec | None = None
 
     @model_validator(mode="after")
     def _parts(self):
-        forms = [self.curves is not None, self.sequence is not None, self.parts is not None]
+        forms = [self.curves is not None, self.sequence is not None, self.parts is not None,
+                 self.strake is not None]
         if sum(forms) != 1:
-            raise ValueError("give exactly one of curves (one part), sequence (consecutive curves) "
-                             "or parts (several)")
-        if (self.curves is not None or self.sequence is not None) and self.name is None:
-            raise ValueError("curves and sequence need a name")
+            raise ValueError("give exactly one of curves (one part), sequence (consecutive curves), "
+                             "parts (several) or strake (hull plates)")
+        if (self.curves is not None or self.sequence is not None or self.strake is not None) and self.name is None:
+            raise ValueError("curves, sequence and strake need a name")
         names = [p.name for p in self.parts] if self.parts else []
         if len(names) != len(set(names)):
             raise ValueError(f"part names must be unique, got {names}")
@@ -290,10 +334,12 @@ class Part:
     curve_ids : the identities of c and d for notches ('c'/'d', or sequence indices)
     """
 
-    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel, curve_ids=("c", "d"), fits=None):
+    def __init__(self, name: str, c: NurbsCurve, d: NurbsCurve, steel: Steel, curve_ids=("c", "d"), fits=None,
+                 hull=None):
         self.name, self.c, self.d, self.steel = name, c, d, steel
         self.curve_ids = curve_ids
         self.fits = fits or {}
+        self.hull = hull  # a pipeline.strake.HullPlate for plates of a strake
 
 
 class RunConfig:
@@ -444,6 +490,15 @@ def _curve(cs, loc: tuple, path: Path, lines: dict, mm_per_unit: float, fits: di
 def _build_parts(spec: RunSpec, path: Path, lines: dict) -> list[Part]:
     mm = UNIT_TO_MM[spec.units]
     fits: dict = {}
+    if spec.strake is not None:
+        from .sources import SourceError
+        from .strake import strake_parts
+
+        try:
+            return strake_parts(spec, path, mm)
+        except SourceError as exc:
+            line = _line_of(lines, ("strake",))
+            raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
     if spec.sequence is not None:
         curves = [_curve(cs, ("sequence", k), path, lines, mm, fits) for k, cs in enumerate(spec.sequence)]
         return [Part(f"{spec.name}_{k + 1}", curves[k], curves[k + 1], spec.steel, (k, k + 1), fits)

@@ -14,7 +14,7 @@ from ezdxf import units
 
 from .atomic import atomic_path
 
-LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3}  # red, blue, green
+LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6}  # red, blue, green, magenta
 
 
 def polygon_centroid(points: np.ndarray) -> np.ndarray:
@@ -27,7 +27,8 @@ def polygon_centroid(points: np.ndarray) -> np.ndarray:
     return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * area)
 
 
-def build_document(outline_mm: np.ndarray, bend_lines_mm: np.ndarray, texts: list[str], layers) -> ezdxf.document.Drawing:
+def build_document(outline_mm: np.ndarray, bend_lines_mm: np.ndarray, texts: list[str], layers,
+                   frame_lines_mm=(), labels_mm=()) -> ezdxf.document.Drawing:
     doc = ezdxf.new("R2000", setup=False)
     doc.units = units.MM
     doc.header["$INSUNITS"] = 4
@@ -41,6 +42,13 @@ def build_document(outline_mm: np.ndarray, bend_lines_mm: np.ndarray, texts: lis
         msp.add_line(tuple(a), tuple(b), dxfattribs={"layer": layers.bend})
     size = float(np.ptp(outline_mm, axis=0).max())
     height = max(min(0.02 * size, 50.0), 2.5)
+    for x, line in frame_lines_mm:
+        msp.add_lwpolyline([tuple(p) for p in line], format="xy", dxfattribs={"layer": layers.frame})
+        msp.add_text(f"FR x={x:g}", height=0.6 * height, dxfattribs={"layer": layers.text}).set_placement(
+            tuple(line[len(line) // 2]))
+    for text, position, angle in labels_mm:
+        msp.add_text(text, height=0.8 * height, rotation=angle, dxfattribs={"layer": layers.text}).set_placement(
+            tuple(position))
     anchor = polygon_centroid(outline_mm)
     for k, text in enumerate(texts):
         msp.add_text(text, height=height, dxfattribs={"layer": layers.text}).set_placement(
@@ -49,9 +57,9 @@ def build_document(outline_mm: np.ndarray, bend_lines_mm: np.ndarray, texts: lis
 
 
 def write_steel_dxf(target: str | Path, outline_mm: np.ndarray, bend_lines_mm: np.ndarray,
-                    texts: list[str], layers) -> int:
+                    texts: list[str], layers, frame_lines_mm=(), labels_mm=()) -> int:
     """Write the pattern; returns the number of audit errors (0 expected)."""
-    doc = build_document(outline_mm, bend_lines_mm, texts, layers)
+    doc = build_document(outline_mm, bend_lines_mm, texts, layers, frame_lines_mm, labels_mm)
     auditor = doc.audit()
     with atomic_path(target) as tmp:
         doc.saveas(tmp)

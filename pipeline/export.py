@@ -39,7 +39,9 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
         if out.dxf and config.spec.profile == "steel":
             path = out_dir / f"{name}.dxf"
             errors = write_steel_dxf(path, pattern.outline * scale, pattern.bend_lines * scale,
-                                     steel_texts(result), out.layers)
+                                     steel_texts(result), out.layers,
+                                     [(x * scale, line * scale) for x, line in pattern.frame_lines],
+                                     [(t, p * scale, a) for t, p, a in pattern.labels])
             result.figures["dxf_audit_errors"] = errors
             written.append(path)
         if out.obj:
@@ -112,4 +114,30 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
         targets = [out_dir / f"{style}_print.pdf", out_dir / f"{style}_print.svg"]
         write_printout(targets, pieces, config.mm_per_unit, f"{style}: {len(pieces)} piece(s), 1:1")
         written += targets
+    return written
+
+
+def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:
+    """The run summary: summary.csv and summary.json of every part; for hull strakes also a
+    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns."""
+    from .plots import hull_png, sheet_png
+    from .report import summary_csv, summary_json
+
+    style = config.spec.name or config.source.stem
+    written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
+    write_text(written[0], summary_csv(results))
+    write_text(written[1], summary_json(results))
+    if config.spec.output.png and len(results) > 1:
+        ok = [r for r in results if r.ok]
+        if ok:
+            path = out_dir / f"{style}_sheet.png"
+            sheet_png(path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok], config.spec.units)
+            written.append(path)
+        hull = [r for r in results if r.part.hull is not None and r.strip is not None and r.strip.trim is not None]
+        if hull:
+            path = out_dir / f"{style}_hull.png"
+            hull_png(path, [(r.name, r.strip.vertices, len(r.strip.samples),
+                             (r.figures.get("hull_fit") or {}).get("max_distance", 0.0)) for r in hull],
+                     hull[0].part.hull.fit_tolerance, config.spec.units)
+            written.append(path)
     return written

@@ -61,3 +61,52 @@ def solution_diagram_png(target: str | Path, solution: SolutionSet, c_domain, d_
     with atomic_path(target) as tmp:
         fig.savefig(tmp, format="png")
     plt.close(fig)
+
+
+def sheet_png(target: str | Path, patterns, units: str) -> None:
+    """All flat patterns of a run on one sheet, in a grid, each with its name."""
+    n = len(patterns)
+    cols = int(np.ceil(np.sqrt(n)))
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.4 * rows), dpi=100, squeeze=False)
+    for ax in axes.ravel():
+        ax.set_axis_off()
+    for ax, (name, outline, bend_lines) in zip(axes.ravel(), patterns):
+        closed = np.vstack([outline, outline[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="crimson", lw=0.8)
+        for a, b in bend_lines:
+            ax.plot([a[0], b[0]], [a[1], b[1]], color="steelblue", lw=0.3)
+        ax.set_aspect("equal")
+        ax.set_title(name, fontsize=7)
+    fig.suptitle(f"flat patterns ({units})", fontsize=9)
+    fig.tight_layout()
+    with atomic_path(target) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def hull_png(target: str | Path, plates, tolerance: float, units: str) -> None:
+    """Side view (x, z) of the plates on the hull, coloured by their largest deviation."""
+    from matplotlib.collections import PolyCollection
+
+    fig, ax = plt.subplots(figsize=(10, 4), dpi=110)
+    polygons, values = [], []
+    for name, vertices, m, deviation in plates:
+        grid = vertices.reshape(-1, m, 3)
+        ring = np.vstack([grid[:, 0], grid[::-1, -1]])
+        polygons.append(ring[:, [0, 2]])
+        values.append(deviation)
+        centre = ring[:, [0, 2]].mean(axis=0)
+        ax.text(centre[0], centre[1], name.split("_", 1)[-1], fontsize=6, ha="center", va="center")
+    collection = PolyCollection(polygons, array=np.array(values), cmap="viridis", edgecolor="black",
+                                linewidth=0.4, clim=(0.0, tolerance))
+    ax.add_collection(collection)
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x ({units})")
+    ax.set_ylabel(f"z ({units})")
+    fig.colorbar(collection, ax=ax, label=f"max distance from the hull ({units}), tolerance {tolerance:g}")
+    fig.tight_layout()
+    with atomic_path(target) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)

@@ -53,6 +53,9 @@ def part_report(result: PartResult, units: str) -> dict:
         "unroll": result.figures.get("unroll"),
         "area_m2": result.figures.get("area_m2"),
         "steel": result.figures.get("steel"),
+        "hull_fit": result.figures.get("hull_fit"),
+        "plate_coverage": result.figures.get("plate_coverage"),
+        "trim": result.figures.get("trim"),
         "textile": result.figures.get("textile"),
         "files": result.figures.get("files"),
     }
@@ -81,17 +84,56 @@ def report_json(result: PartResult, units: str) -> str:
     return json.dumps(sanitize(part_report(result, units)), indent=1, default=default, allow_nan=False)
 
 
-def summary_table(results: list[PartResult]) -> str:
-    header = f"{'part':<22}{'status':<8}{'cover c/d %':>14}{'rulings':>9}{'area m2':>10}{'dist mm/m':>11}  reason"
-    rows = [header, "-" * len(header)]
+def summary_rows(results: list[PartResult]) -> list[dict]:
+    """One flat record per part for the run summary (CSV and JSON)."""
+    rows = []
     for r in results:
-        cov = r.figures.get("coverage") or {}
-        cover = f"{100 * cov['c_fraction']:.1f}/{100 * cov['d_fraction']:.1f}" if cov else "-"
-        rulings = (r.figures.get("rulings") or {}).get("count", "-")
-        area = f"{r.figures['area_m2']:.4f}" if "area_m2" in r.figures else "-"
+        cov = r.figures.get("plate_coverage") or {}
+        if not cov and r.figures.get("coverage"):
+            cov = {"c": r.figures["coverage"]["c_fraction"], "d": r.figures["coverage"]["d_fraction"]}
         unroll = r.figures.get("unroll") or {}
-        dist = (f"{max(abs(unroll['boundary_error_c_mm_per_m']), abs(unroll['boundary_error_d_mm_per_m'])):.3f}"
-                if unroll else "-")
-        reason = r.reason if not r.ok else "; ".join(r.warnings)
-        rows.append(f"{r.name:<22}{r.status:<8}{cover:>14}{rulings!s:>9}{area:>10}{dist:>11}  {reason}")
-    return "\n".join(rows)
+        steel = r.figures.get("steel") or {}
+        fit = r.figures.get("hull_fit") or {}
+        rows.append({
+            "id": r.name, "status": r.status,
+            "area_m2": r.figures.get("area_m2"), "weight_kg": steel.get("weight_kg"),
+            "max_hull_deviation": fit.get("max_distance"), "rms_hull_deviation": fit.get("rms_distance"),
+            "distortion_mm_per_m": (max(abs(unroll["boundary_error_c_mm_per_m"]), abs(unroll["boundary_error_d_mm_per_m"]))
+                                    if unroll else None),
+            "coverage_c": cov.get("c"), "coverage_d": cov.get("d"),
+            "rulings": (r.figures.get("rulings") or {}).get("count"),
+            "reason": r.reason, "warnings": "; ".join(r.warnings)})
+    return rows
+
+
+def summary_table(results: list[PartResult]) -> str:
+    header = (f"{'part':<22}{'status':<8}{'cover c/d %':>14}{'rulings':>9}{'area m2':>10}{'dist mm/m':>11}"
+              f"{'hull dev':>10}  reason")
+    lines = [header, "-" * len(header)]
+    for row in summary_rows(results):
+        cover = (f"{100 * row['coverage_c']:.1f}/{100 * row['coverage_d']:.1f}"
+                 if row["coverage_c"] is not None else "-")
+        area = f"{row['area_m2']:.4f}" if row["area_m2"] is not None else "-"
+        dist = f"{row['distortion_mm_per_m']:.3f}" if row["distortion_mm_per_m"] is not None else "-"
+        dev = f"{row['max_hull_deviation']:.2f}" if row["max_hull_deviation"] is not None else "-"
+        reason = row["reason"] if row["status"] != "ok" else row["warnings"]
+        lines.append(f"{row['id']:<22}{row['status']:<8}{cover:>14}{row['rulings'] or '-'!s:>9}{area:>10}{dist:>11}"
+                     f"{dev:>10}  {reason}")
+    return "\n".join(lines)
+
+
+def summary_csv(results: list[PartResult]) -> str:
+    import csv
+    import io
+
+    rows = summary_rows(results)
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=list(rows[0].keys()) if rows else ["id"], lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return buffer.getvalue()
+
+
+def summary_json(results: list[PartResult]) -> str:
+    return json.dumps(sanitize({"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
+                                "failed": [r.name for r in results if not r.ok]}), indent=1)

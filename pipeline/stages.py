@@ -36,6 +36,8 @@ class Pattern:
     bend_lines: np.ndarray
     vertices: np.ndarray
     placement: tuple
+    frame_lines: tuple = ()  # ((x, (N, 2) polyline), ...) for hull plates
+    labels: tuple = ()  # ((text, (2,) position, angle in degrees), ...) seam and butt names
 
 
 @dataclass
@@ -74,6 +76,15 @@ def stage_strip(result: PartResult, config: RunConfig) -> None:
     # chord_tolerance is in the config's units, like the curves
     rulings = choose_rulings(solution, part.c, part.d, chord_tolerance=res.chord_tolerance,
                              n_rulings=res.rulings)
+    if part.hull is not None:  # rulings through the plate corners make the trim exact there
+        from .strake import corner_rulings
+
+        corners = corner_rulings(solution, part.c, part.d, part.hull.x_range)
+        rulings = np.vstack([rulings, corners])
+        rulings = rulings[np.lexsort((rulings[:, 1] * solution.path.orientation, rulings[:, 0]))]
+        distinct = np.ones(len(rulings), dtype=bool)
+        distinct[1:] = np.any(np.abs(np.diff(rulings, axis=0)) > 1e-12, axis=1)
+        rulings = rulings[distinct]
     result.strip = build_strip(part.c, part.d, rulings, res.samples_per_ruling)
     mesh = result.strip.mesh()
     boundary_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
@@ -170,6 +181,11 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     if not stage_check(result, config):
         return result
     stage_unroll(result)
+    if part.hull is not None:
+        from .strake import stage_trim
+
+        if not stage_trim(result, config.spec.check.min_coverage):
+            return result
     area_model = float(triangle_areas(result.pattern.vertices, result.strip.faces).sum())
     area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
     result.figures["area_m2"] = area_m2

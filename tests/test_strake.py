@@ -1,0 +1,120 @@
+"""Hull strakes: plates between seams and butts, trimmed, fitted to the hull, marked."""
+
+import csv
+import json
+from pathlib import Path
+
+import ezdxf
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.cli import main
+from pipeline.meshio import read_obj
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / "configs" / "hullmod_strake.yaml"
+
+
+@pytest.fixture(scope="module")
+def strake(tmp_path_factory):
+    out = tmp_path_factory.mktemp("strake")
+    assert main(["run", str(CONFIG), "--out", str(out), "--quiet"]) == 0
+    spec = yaml.safe_load(CONFIG.read_text())["strake"]
+    return out, spec
+
+
+def plate_names(spec):
+    return [f"hullmod_S{i + 1}_B{j + 1}" for i in range(len(spec["seams"]) - 1)
+            for j in range(len(spec["butts"]) - 1)]
+
+
+def test_every_plate_fits_the_hull_and_stays_between_its_butts(strake):
+    out, spec = strake
+    names = plate_names(spec)
+    assert len(names) == 10
+    for name in names:
+        rep = json.loads((out / f"{name}.json").read_text())
+        assert rep["status"] == "ok"
+        fit = rep["hull_fit"]
+        assert fit["passed"] and fit["max_distance"] <= spec["fit_tolerance"]
+        assert rep["plate_coverage"]["c"] == pytest.approx(1.0) and rep["plate_coverage"]["d"] == pytest.approx(1.0)
+        x_lo, x_hi = rep["trim"]["x_range"]
+        v, vt, _ = read_obj(out / f"{name}.obj")
+        assert v[:, 0].min() >= x_lo - 1e-6 and v[:, 0].max() <= x_hi + 1e-6
+        # trimmed rulings keep their length in the flat pattern
+        m = rep["resolution"]["samples_per_ruling"]
+        l3 = np.linalg.norm(v[m - 1::m] - v[0::m], axis=1)
+        l2 = np.linalg.norm(vt[m - 1::m] - vt[0::m], axis=1)
+        assert np.abs(l3 - l2).max() <= 1e-9 * l3.max()
+
+
+def test_neighbouring_plates_meet_at_their_butt(strake):
+    out, spec = strake
+    for i in range(len(spec["seams"]) - 1):
+        for j in range(len(spec["butts"]) - 2):
+            left, _, _ = read_obj(out / f"hullmod_S{i + 1}_B{j + 1}.obj")
+            right, _, _ = read_obj(out / f"hullmod_S{i + 1}_B{j + 2}.obj")
+            x = spec["butts"][j + 1]
+            # the corners on both seams at the butt plane are shared (exact corner rulings)
+            for corner in (left[np.abs(left[:, 0] - x) < 1e-6],):
+                assert len(corner) >= 2
+                gaps = np.min(np.linalg.norm(corner[:, None] - right[None], axis=2), axis=1)
+                assert np.sort(gaps)[:2].max() <= 1e-6
+
+
+def test_frame_lines_butt_and_seam_names_are_marked(strake):
+    out, spec = strake
+    rep = json.loads((out / "hullmod_S1_B2.json").read_text())
+    frames = rep["trim"]["frames"]
+    assert frames == [x for x in np.arange(0, 200000, spec["frames"]["spacing"]) if 72000 < x < 88000]
+    doc = ezdxf.readfile(out / "hullmod_S1_B2.dxf")
+    msp = doc.modelspace()
+    assert len(msp.query("LWPOLYLINE[layer=='MARK_FRAME']")) == len(frames)
+    texts = " ".join(t.dxf.text for t in msp.query("TEXT"))
+    for word in ("SEAM 1", "SEAM 2", "BUTT 2", "BUTT 3", "PART hullmod_S1_B2", "THK 14 MM", "AH36", "WEIGHT"):
+        assert word in texts
+    assert len(doc.audit().errors) == 0
+
+
+def test_run_summary_csv_json_and_pictures(strake):
+    out, spec = strake
+    rows = list(csv.DictReader((out / "hullmod_summary.csv").open()))
+    assert [r["id"] for r in rows] == plate_names(spec)
+    assert all(r["status"] == "ok" and float(r["max_hull_deviation"]) <= 5.0 for r in rows)
+    summary = json.loads((out / "hullmod_summary.json").read_text())
+    assert summary["schema_version"] == "1.0" and summary["failed"] == []
+    assert (out / "hullmod_hull.png").stat().st_size > 0 and (out / "hullmod_sheet.png").stat().st_size > 0
+
+
+def test_parallel_run_gives_the_same_plates(strake, tmp_path):
+    out, spec = strake
+    assert main(["run", str(CONFIG), "--out", str(tmp_path), "--quiet", "--jobs", "2"]) == 0
+    for name in plate_names(spec):
+        a = json.loads((out / f"{name}.json").read_text())
+        b = json.loads((tmp_path / f"{name}.json").read_text())
+        assert a["area_m2"] == pytest.approx(b["area_m2"], rel=1e-12)
+        assert a["hull_fit"]["max_distance"] == pytest.approx(b["hull_fit"]["max_distance"], rel=1e-9)
+
+
+def test_a_failing_plate_never_stops_the_others(tmp_path):
+    data = yaml.safe_load(CONFIG.read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data["strake"]["fit_tolerance"] = 0.5  # only the flatter plates pass
+    config = tmp_path / "tight.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    summary = json.loads((tmp_path / "o" / "hullmod_summary.json").read_text())
+    failed = set(summary["failed"])
+    assert failed and len(failed) < len(summary["parts"])
+    for row in summary["parts"]:
+        assert (tmp_path / "o" / f"{row['id']}.dxf").exists() == (row["id"] not in failed)
+        if row["id"] in failed:
+            assert "deviates from the hull" in row["reason"]
+
+
+def test_dtmb5415_plates(tmp_path):
+    assert main(["run", str(ROOT / "configs" / "dtmb5415_strake.yaml"), "--out", str(tmp_path), "--quiet"]) == 0
+    summary = json.loads((tmp_path / "dtmb5415_summary.json").read_text())
+    assert len(summary["parts"]) == 3
+    assert all(r["max_hull_deviation"] <= 1.0 for r in summary["parts"])
