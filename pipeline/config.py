@@ -263,6 +263,15 @@ class SurfaceSource(_Strict):
     directory: int | None = Field(None, ge=1)
     label: str | None = None
 
+    @model_validator(mode="after")
+    def _pick(self):
+        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"pick the surface by one of entity, directory, label; got {given}")
+        if not given:
+            object.__setattr__(self, "entity", 0)
+        return self
+
 
 class SeamSpec(_Strict):
     iso: IsoSpec

@@ -47,6 +47,8 @@ def part_report(result: PartResult, units: str) -> dict:
         "solver": _solver_section(result),
         "coverage": result.figures.get("coverage"),
         "rulings": None if result.strip is None else result.strip.rulings.tolist(),
+        "curve_fits": {name: vars(fit) for name, fit in result.part.fits.items()
+                       if name.startswith(("curves", "sequence", "parts"))} or None,
         "resolution": result.figures.get("rulings"),
         "mesh": result.figures.get("mesh"),
         "developability": result.figures.get("developability"),
