@@ -148,3 +148,16 @@ def test_plane_section_of_a_hull_surface_is_fitted_within_tolerance(tmp_path):
     surface = iges_surface(iges, iges.of_type(128)[0], 1000.0, "hull")
     points = surface.plane_section_points([0, 0, 2000], [0, 0, 1])
     np.testing.assert_allclose(points[:, 2], 2000.0, atol=1e-6)
+
+
+def test_point_sources_report_their_fit_error(tmp_path):
+    s = np.linspace(0, 1, 25)
+    c = np.column_stack([3000 * s, 400 * np.sin(2 * s), 0 * s]).tolist()
+    d = np.column_stack([3000 * s, 400 * np.sin(2 * s) + 100, 0 * s + 1500]).tolist()
+    data = {"name": "offsets", "curves": {"c": {"points": c, "tolerance": 0.2}, "d": {"points": d, "tolerance": 0.2}}}
+    code, _ = run_config(tmp_path, data, "offsets")
+    assert code == 0
+    rep = json.loads((tmp_path / "out" / "offsets.json").read_text())
+    for key in ("curves.c", "curves.d"):
+        fit = rep["curve_fits"][key]
+        assert fit["points"] == 25 and fit["max_error"] <= 0.2 and fit["tolerance"] == 0.2
