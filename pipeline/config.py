@@ -61,30 +61,39 @@ class PlaneSpec(_Strict):
         return value
 
 
-class IgesCurveSource(_Strict):
-    """Entity 126 of an IGES file, or an iso-curve (iso) or a plane section (section, fitted
-    within tolerance) of an entity 128 surface.
-    The entity is picked by its index among entities of its type, its directory number
-    or its label. The path is relative to the config file."""
+class SurfaceSource(_Strict):
+    """An IGES entity picked by its index among entities of its type (default 0), its
+    directory number or its label; the path is relative to the config file. As it stands:
+    an entity-128 surface."""
 
     iges: str
     entity: int | None = Field(None, ge=0)
     directory: int | None = Field(None, ge=1)
     label: str | None = None
+
+    @model_validator(mode="after")
+    def _pick(self):
+        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"pick the entity by one of entity, directory, label; got {given}")
+        if not given:
+            object.__setattr__(self, "entity", 0)
+        return self
+
+
+class IgesCurveSource(SurfaceSource):
+    """Entity 126 of an IGES file, or an iso-curve (iso) or a plane section (section, fitted
+    within tolerance) of an entity 128 surface, picked as in :class:`SurfaceSource`."""
+
     iso: IsoSpec | None = None
     section: "PlaneSpec | None" = None
     tolerance: float = Field(0.5, gt=0, description="fit tolerance of a plane section (config units)")
     segment: tuple[float, float] | None = None
 
     @model_validator(mode="after")
-    def _pick(self):
+    def _one_kind(self):
         if self.iso is not None and self.section is not None:
             raise ValueError("give either iso or section, not both")
-        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
-        if len(given) > 1:
-            raise ValueError(f"pick the entity by one of entity, directory, label; got {given}")
-        if not given:
-            object.__setattr__(self, "entity", 0)
         return self
 
 
@@ -253,24 +262,6 @@ class PartSpec(_Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=80)
     curves: CurvesSpec
     steel: Steel | None = None
-
-
-class SurfaceSource(_Strict):
-    """An entity-128 surface of an IGES file (by index among surfaces, or directory number)."""
-
-    iges: str
-    entity: int | None = Field(None, ge=0)
-    directory: int | None = Field(None, ge=1)
-    label: str | None = None
-
-    @model_validator(mode="after")
-    def _pick(self):
-        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
-        if len(given) > 1:
-            raise ValueError(f"pick the surface by one of entity, directory, label; got {given}")
-        if not given:
-            object.__setattr__(self, "entity", 0)
-        return self
 
 
 class SeamSpec(_Strict):
