@@ -277,12 +277,13 @@ class FrameSpec(_Strict):
 
 class StrakeSpec(_Strict):
     """Plates of a strake: between consecutive seams (iso-curves of the hull surface) and
-    consecutive butts (planes x = const, config units), each computed on its seams extended
+    consecutive butts (planes x = const given as numbers, or planes {point, normal}, config
+    units; listed from aft to fore), each computed on its seams extended
     past the butts by ``margin`` times the plate length and trimmed by the butt planes."""
 
     surface: SurfaceSource
     seams: list[SeamSpec] = Field(min_length=2)
-    butts: list[float] = Field(min_length=2)
+    butts: list[float | PlaneSpec] = Field(min_length=2)
     frames: FrameSpec | None = None
     margin: float = Field(0.1, ge=0, le=1)
     fit_tolerance: float = Field(5.0, gt=0, description="largest distance from the hull surface")
@@ -290,7 +291,8 @@ class StrakeSpec(_Strict):
     @field_validator("butts")
     @classmethod
     def _increasing(cls, value):
-        if any(b <= a for a, b in zip(value, value[1:])):
+        xs = [b if isinstance(b, (int, float)) else None for b in value]
+        if all(x is not None for x in xs) and any(b <= a for a, b in zip(xs, xs[1:])):
             raise ValueError(f"butts must increase, got {value}")
         return value
 

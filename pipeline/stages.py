@@ -79,7 +79,7 @@ def stage_strip(result: PartResult, config: RunConfig) -> None:
     if part.hull is not None:  # rulings through the plate corners make the trim exact there
         from .strake import corner_rulings
 
-        corners = corner_rulings(solution, part.c, part.d, part.hull.x_range)
+        corners = corner_rulings(solution, part.c, part.d, part.hull.butts)
         rulings = np.vstack([rulings, corners])
         rulings = rulings[np.lexsort((rulings[:, 1] * solution.path.orientation, rulings[:, 0]))]
         distinct = np.ones(len(rulings), dtype=bool)

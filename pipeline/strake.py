@@ -22,23 +22,54 @@ from .iges import IgesError, iges_surface, read_iges
 from .sources import SourceError, _pick
 
 
+@dataclass(frozen=True)
+class Plane:
+    """The plane n . p = offset, n a unit normal pointing towards the plate's far butt."""
+
+    normal: tuple[float, float, float]
+    offset: float
+
+    def signed(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points) @ np.asarray(self.normal) - self.offset
+
+    def shifted(self, distance: float) -> "Plane":
+        return Plane(self.normal, self.offset + distance)
+
+    def describe(self) -> str:
+        n = self.normal
+        if abs(n[0] - 1.0) < 1e-12:
+            return f"x = {self.offset:g}"
+        return f"{n[0]:.4g} x + {n[1]:.4g} y + {n[2]:.4g} z = {self.offset:g}"
+
+
+def butt_plane(spec) -> Plane:
+    """A butt given as x (a float) or as {point, normal}; the normal is turned towards +x."""
+    if isinstance(spec, (int, float)):
+        return Plane((1.0, 0.0, 0.0), float(spec))
+    n = np.asarray(spec.normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    if n[0] < 0:
+        n = -n
+    return Plane(tuple(float(v) for v in n), float(n @ np.asarray(spec.point, dtype=np.float64)))
+
+
 @dataclass
 class HullPlate:
-    """What a strake plate knows beyond its two seams."""
+    """What a strake plate knows beyond its two seams: the hull, its two butt planes."""
 
     surface: NurbsSurface
-    x_range: tuple[float, float]
+    butts: tuple[Plane, Plane]
     frames: list[float] = field(default_factory=list)
     seam_names: tuple[str, str] = ("", "")
     butt_names: tuple[str, str] = ("", "")
     fit_tolerance: float = 5.0
 
 
-def plane_crossings(curve: NurbsCurve, x: float) -> np.ndarray:
-    """Parameters where the curve's x coordinate equals ``x`` (exact roots of the
-    homogeneous B-spline A_x - x w), sorted."""
+def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
+    """Parameters where the curve meets the plane (exact roots of the homogeneous B-spline
+    n . A - offset w), sorted."""
     spline = curve.homogeneous
-    coef = spline.c[:, 0] - x * spline.c[:, 3]
+    coef = spline.c[:, :3] @ np.asarray(plane.normal) - plane.offset * spline.c[:, 3]
     roots = PPoly.from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
     lo, hi = curve.domain
     return np.unique(roots[(roots >= lo) & (roots <= hi)])
@@ -54,17 +85,18 @@ def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
         raise SourceError(str(exc)) from None
 
 
-def _extended_segment(seam: NurbsCurve, x_lo: float, x_hi: float, margin: float, name: str) -> NurbsCurve:
+def _extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: float, name: str) -> NurbsCurve:
     """The seam between the butts, extended past each by ``margin`` times the plate length
     (or to the seam's end where it ends first)."""
     lo, hi = seam.domain
-    cross_lo, cross_hi = plane_crossings(seam, x_lo), plane_crossings(seam, x_hi)
+    cross_lo, cross_hi = plane_crossings(seam, planes[0]), plane_crossings(seam, planes[1])
     if len(cross_lo) != 1 or len(cross_hi) != 1:
-        raise SourceError(f"seam {name} crosses the butt planes x = {x_lo:g} and x = {x_hi:g} "
+        raise SourceError(f"seam {name} crosses the butt planes {planes[0].describe()} and {planes[1].describe()} "
                           f"{len(cross_lo)} and {len(cross_hi)} times (once each expected)")
     t1, t2 = cross_lo[0], cross_hi[0]
-    extra = margin * (x_hi - x_lo)
-    ext1, ext2 = plane_crossings(seam, x_lo - extra), plane_crossings(seam, x_hi + extra)
+    extra = margin * float(np.linalg.norm(seam([t2])[0] - seam([t1])[0]))
+    ext1 = plane_crossings(seam, planes[0].shifted(-extra))
+    ext2 = plane_crossings(seam, planes[1].shifted(extra))
     e1 = ext1[0] if len(ext1) == 1 else (lo if t1 < t2 else hi)
     e2 = ext2[0] if len(ext2) == 1 else (hi if t2 > t1 else lo)
     a, b = sorted((e1, e2))
@@ -88,28 +120,30 @@ def strake_parts(spec, config_path: Path, mm_per_unit: float) -> list:
             if not surface.domain_v[0] <= iso.v <= surface.domain_v[1]:
                 raise SourceError(f"seams[{k}].iso.v = {iso.v} lies outside the surface's v domain {surface.domain_v}")
             seams.append(surface.iso_v(iso.v, f"seam{k + 1}"))
-    frames = []
-    if strake.frames is not None:
-        lo, hi = strake.butts[0], strake.butts[-1]
-        k0 = int(np.ceil((lo - strake.frames.start) / strake.frames.spacing))
-        k1 = int(np.floor((hi - strake.frames.start) / strake.frames.spacing))
-        frames = [strake.frames.start + k * strake.frames.spacing for k in range(k0, k1 + 1)]
+    planes = [butt_plane(b) for b in strake.butts]
     parts = []
     for i in range(len(seams) - 1):
-        for j in range(len(strake.butts) - 1):
-            x_lo, x_hi = strake.butts[j], strake.butts[j + 1]
+        for j in range(len(planes) - 1):
+            pair = (planes[j], planes[j + 1])
             name = f"{spec.name}_S{i + 1}_B{j + 1}"
-            c = _extended_segment(seams[i], x_lo, x_hi, strake.margin, f"{name}.seam{i + 1}")
-            d = _extended_segment(seams[i + 1], x_lo, x_hi, strake.margin, f"{name}.seam{i + 2}")
-            hull = HullPlate(surface, (x_lo, x_hi), [f for f in frames if x_lo < f < x_hi],
-                             (f"SEAM {i + 1}", f"SEAM {i + 2}"), (f"BUTT {j + 1}", f"BUTT {j + 2}"),
-                             strake.fit_tolerance)
+            c = _extended_segment(seams[i], pair, strake.margin, f"{name}.seam{i + 1}")
+            d = _extended_segment(seams[i + 1], pair, strake.margin, f"{name}.seam{i + 2}")
+            corners = np.array([curve([plane_crossings(curve, p)[0]])[0] for curve in (c, d) for p in pair])
+            frames = []
+            if strake.frames is not None:
+                lo, hi = corners[:, 0].min(), corners[:, 0].max()
+                first = int(np.ceil((lo - strake.frames.start) / strake.frames.spacing))
+                last = int(np.floor((hi - strake.frames.start) / strake.frames.spacing))
+                frames = [strake.frames.start + k * strake.frames.spacing for k in range(first, last + 1)
+                          if lo < strake.frames.start + k * strake.frames.spacing < hi]
+            hull = HullPlate(surface, pair, frames, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
+                             (f"BUTT {j + 1}", f"BUTT {j + 2}"), strake.fit_tolerance)
             parts.append(Part(name, c, d, spec.steel, ("c", "d"), {}, hull))
     return parts
 
 
 # ------------------------------------------------------------ trimming
-def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, x_range, per_zone: int = 32) -> np.ndarray:
+def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int = 32) -> np.ndarray:
     """Rulings through the four plate corners (where the butt planes cross the seams), and
     ``per_zone`` more between the two corners of each butt, where the butt line crosses
     the rulings: the trim is then sampled finely whatever the ruling spacing elsewhere."""
@@ -122,12 +156,12 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, x_range, per_zone: in
         return field_.refine_T(np.atleast_1d(t), np.atleast_1d(guess), 8)
 
     extra = []
-    for x in x_range:
+    for plane in planes:
         corners_t = []
-        for t in plane_crossings(c, x):
+        for t in plane_crossings(c, plane):
             if path[0, 0] <= t <= path[-1, 0]:
                 corners_t.append(t)
-        for T in plane_crossings(d, x):
+        for T in plane_crossings(d, plane):
             if path[order[0], 1] <= T <= path[order[-1], 1]:
                 t = float(np.interp(T, path[order, 1], path[order, 0]))
                 for _ in range(8):  # Newton on f(., T) = 0
@@ -142,21 +176,25 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, x_range, per_zone: in
     return np.array(extra).reshape(-1, 2)
 
 
-def trim_intervals(ends_c: np.ndarray, ends_d: np.ndarray, x_range) -> np.ndarray:
-    """Per ruling, the interval of v in [0, 1] between the butt planes, (K, 2); NaN rows
-    for rulings wholly outside."""
-    x_lo, x_hi = x_range
-    xa, xb = ends_c[:, 0], ends_d[:, 0]
-    dx = xb - xa
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v1 = (x_lo - xa) / dx
-        v2 = (x_hi - xa) / dx
-    lo = np.where(dx != 0, np.minimum(v1, v2), np.where((xa >= x_lo) & (xa <= x_hi), 0.0, np.nan))
-    hi = np.where(dx != 0, np.maximum(v1, v2), np.where((xa >= x_lo) & (xa <= x_hi), 1.0, np.nan))
+def trim_intervals(ends_c: np.ndarray, ends_d: np.ndarray, planes: tuple[Plane, Plane]) -> np.ndarray:
+    """Per ruling, the interval of v in [0, 1] between the two butt planes (on the positive
+    side of the first, the negative side of the second), (K, 2); NaN rows for rulings
+    wholly outside."""
+    lo = np.zeros(len(ends_c))
+    hi = np.ones(len(ends_c))
+    for plane, sign in zip(planes, (1.0, -1.0)):
+        sa, sb = sign * plane.signed(ends_c), sign * plane.signed(ends_d)
+        ds = sb - sa
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cut = -sa / ds  # where sign * s(v) = 0
+        rising = ds > 0
+        lo = np.where(rising, np.maximum(lo, cut), lo)
+        hi = np.where(ds < 0, np.minimum(hi, cut), hi)
+        outside = (ds == 0) & (sa < 0)
+        hi = np.where(outside, -1.0, hi)
     lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
-    empty = ~(hi > lo + 1e-12)
     out = np.column_stack([lo, hi])
-    out[empty] = np.nan
+    out[~(hi > lo + 1e-12)] = np.nan
     return out
 
 
@@ -257,10 +295,11 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     m = len(strip.samples)
     k = np.arange(strip.n_rulings) * m
     a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
-    intervals = trim_intervals(a3, b3, hull.x_range)
+    intervals = trim_intervals(a3, b3, hull.butts)
     keep = ~np.isnan(intervals[:, 0])
     if keep.sum() < 2:
-        result.reason = f"the strip does not reach across the butts x = {hull.x_range}"
+        result.reason = (f"the strip does not reach across the butts {hull.butts[0].describe()} and "
+                         f"{hull.butts[1].describe()}")
         return False
     lo, hi = intervals[keep, 0], intervals[keep, 1]
     v = lo[:, None] + (hi - lo)[:, None] * strip.samples[None, :]
@@ -290,7 +329,7 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     path = result.solution.path.points
     covered = {}
     for key, curve, column in (("c", result.part.c, 0), ("d", result.part.d, 1)):
-        ends = np.sort([plane_crossings(curve, x)[0] for x in hull.x_range])
+        ends = np.sort([plane_crossings(curve, plane)[0] for plane in hull.butts])
         lo_t, hi_t = np.sort(path[[0, -1], column])
         span = curve.arc_length_at(ends)
         inside = curve.arc_length_at(np.clip(ends, lo_t, hi_t))
@@ -315,7 +354,8 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
                                   "worst_point": vertices[worst].tolist(),
                                   "tolerance": hull.fit_tolerance,
                                   "passed": bool(distance.max() <= hull.fit_tolerance)}
-    result.figures["trim"] = {"x_range": list(hull.x_range), "rulings_kept": int(keep.sum()),
+    result.figures["trim"] = {"butt_planes": [{"normal": list(p.normal), "offset": p.offset} for p in hull.butts],
+                              "rulings_kept": int(keep.sum()),
                               "frames": [x for x, _ in frame_lines]}
     if distance.max() > hull.fit_tolerance:
         result.reason = (f"plate deviates from the hull by {distance.max():.4g} (tolerance "

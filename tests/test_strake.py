@@ -39,7 +39,9 @@ def test_every_plate_fits_the_hull_and_stays_between_its_butts(strake):
         fit = rep["hull_fit"]
         assert fit["passed"] and fit["max_distance"] <= spec["fit_tolerance"]
         assert rep["plate_coverage"]["c"] == pytest.approx(1.0) and rep["plate_coverage"]["d"] == pytest.approx(1.0)
-        x_lo, x_hi = rep["trim"]["x_range"]
+        planes = rep["trim"]["butt_planes"]
+        assert [p["normal"] for p in planes] == [[1.0, 0.0, 0.0]] * 2
+        x_lo, x_hi = (p["offset"] for p in planes)
         v, vt, _ = read_obj(out / f"{name}.obj")
         assert v[:, 0].min() >= x_lo - 1e-6 and v[:, 0].max() <= x_hi + 1e-6
         # trimmed rulings keep their length in the flat pattern
@@ -118,3 +120,27 @@ def test_dtmb5415_plates(tmp_path):
     summary = json.loads((tmp_path / "dtmb5415_summary.json").read_text())
     assert len(summary["parts"]) == 3
     assert all(r["max_hull_deviation"] <= 1.0 for r in summary["parts"])
+
+
+def test_slanted_butt_planes(tmp_path):
+    data = yaml.safe_load(CONFIG.read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data["strake"]["seams"] = data["strake"]["seams"][:2]
+    normal = [1.0, 0.0, 0.3]
+    data["strake"]["butts"] = [{"point": [x, 0.0, 0.0], "normal": normal} for x in (72000.0, 88000.0, 104000.0)]
+    config = tmp_path / "slanted.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    n = np.array(normal) / np.linalg.norm(normal)
+    plates = []
+    for j, (x_lo, x_hi) in enumerate(((72000.0, 88000.0), (88000.0, 104000.0))):
+        v, _, _ = read_obj(tmp_path / "o" / f"hullmod_S1_B{j + 1}.obj")
+        s = v @ n
+        assert s.min() >= n[0] * x_lo - 1e-6 and s.max() <= n[0] * x_hi + 1e-6
+        rep = json.loads((tmp_path / "o" / f"hullmod_S1_B{j + 1}.json").read_text())
+        assert rep["hull_fit"]["passed"]
+        plates.append(v)
+    # the shared butt: corner points of both plates on the slanted plane coincide
+    on_left = plates[0][np.abs(plates[0] @ n - n[0] * 88000.0) < 1e-6]
+    gaps = np.min(np.linalg.norm(on_left[:, None] - plates[1][None], axis=2), axis=1)
+    assert len(on_left) >= 2 and np.sort(gaps)[:2].max() <= 1e-6
