@@ -265,7 +265,16 @@ class PartSpec(_Strict):
 
 
 class SeamSpec(_Strict):
-    iso: IsoSpec
+    """A seam: an iso-curve of the strake's surface, or a given curve (any curve source)."""
+
+    iso: IsoSpec | None = None
+    curve: "CurveSource | None" = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.iso is None) == (self.curve is None):
+            raise ValueError("a seam is either iso or curve")
+        return self
 
 
 class FrameSpec(_Strict):
@@ -328,6 +337,11 @@ class RunSpec(_Strict):
         if len(names) != len(set(names)):
             raise ValueError(f"part names must be unique, got {names}")
         return self
+
+
+SeamSpec.model_rebuild()
+StrakeSpec.model_rebuild()
+RunSpec.model_rebuild()
 
 
 class Part:

@@ -111,6 +111,11 @@ def strake_parts(spec, config_path: Path, mm_per_unit: float) -> list:
     surface = load_surface(strake.surface, config_path.parent, mm_per_unit)
     seams = []
     for k, seam in enumerate(strake.seams):
+        if seam.curve is not None:
+            from .config import _curve
+
+            seams.append(_curve(seam.curve, ("strake", "seams", k, "curve"), config_path, {}, mm_per_unit, {}))
+            continue
         iso = seam.iso
         if iso.u is not None:
             if not surface.domain_u[0] <= iso.u <= surface.domain_u[1]:

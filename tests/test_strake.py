@@ -144,3 +144,22 @@ def test_slanted_butt_planes(tmp_path):
     on_left = plates[0][np.abs(plates[0] @ n - n[0] * 88000.0) < 1e-6]
     gaps = np.min(np.linalg.norm(on_left[:, None] - plates[1][None], axis=2), axis=1)
     assert len(on_left) >= 2 and np.sort(gaps)[:2].max() <= 1e-6
+
+
+def test_a_given_curve_as_seam_the_deck_line(tmp_path):
+    ship = ROOT / "tests" / "data" / "ship"
+    data = {"name": "sheer", "units": "mm", "resolution": {"chord_tolerance": 1.0},
+            "strake": {"surface": {"iges": str(ship / "test_1_hull_exported.igs")},
+                       "seams": [{"iso": {"v": 5.7}}, {"curve": {"iges": str(ship / "test_1_deck.igs")}}],
+                       "butts": [56000, 72000, 88000], "margin": 0.2, "fit_tolerance": 5.0}}
+    config = tmp_path / "sheer.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    rows = json.loads((tmp_path / "o" / "sheer_summary.json").read_text())["parts"]
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert all(r["max_hull_deviation"] <= 5.0 for r in rows)
+    # the top edge of the sheer strake is the deck line itself: z = 10 m
+    v, _, _ = read_obj(tmp_path / "o" / "sheer_S1_B2.obj")
+    rep = json.loads((tmp_path / "o" / "sheer_S1_B2.json").read_text())
+    m = rep["resolution"]["samples_per_ruling"]
+    np.testing.assert_allclose(v[m - 1::m, 2], 10000.0, atol=1e-6)
