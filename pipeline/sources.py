@@ -61,7 +61,8 @@ def fit_points(points: np.ndarray, tolerance: float, name: str) -> tuple[NurbsCu
     return curve, FitReport(len(pts), n, float(error.max()), float(np.sqrt(np.mean(error**2))), tolerance)
 
 
-def _pick(entities, spec, where: str, kind: str):
+def pick_entity(entities, spec, where: str, kind: str):
+    """The entity a source names by index among its type, directory number or label."""
     if spec.directory is not None:
         found = [e for e in entities if e.directory == spec.directory]
         what = f"directory entry D{spec.directory}"
@@ -85,10 +86,10 @@ def iges_source(spec, base: Path, mm_per_unit: float, name: str) -> tuple[NurbsC
         iges = read_iges(path)
         scale = iges.unit_mm / mm_per_unit
         if spec.iso is None and spec.section is None:
-            entity = _pick(iges.of_type(126), spec, str(path), "entity-126 curve")
+            entity = pick_entity(iges.of_type(126), spec, str(path), "entity-126 curve")
             curve = iges_curve(iges, entity, scale, name)
         else:
-            entity = _pick(iges.of_type(128), spec, str(path), "entity-128 surface")
+            entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
             surface = iges_surface(iges, entity, scale, name)
             where = f"{path}: entity 128 at D{entity.directory}"
             if spec.iso is not None:

@@ -19,7 +19,7 @@ from flatten import NurbsCurve
 from flatten.surface import NurbsSurface
 
 from .iges import IgesError, iges_surface, read_iges
-from .sources import SourceError, _pick
+from .sources import SourceError, pick_entity
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
     path = (base / spec.iges).resolve()
     try:
         iges = read_iges(path)
-        entity = _pick(iges.of_type(128), spec, str(path), "entity-128 surface")
+        entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
         return iges_surface(iges, entity, iges.unit_mm / mm_per_unit, "hull")
     except IgesError as exc:
         raise SourceError(str(exc)) from None
