@@ -95,10 +95,11 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
                      for k, tr in enumerate(traces))
     # judge both orientations of d against c; keep the one with the better strip
     raw_pieces, raw_turning = split_pieces(unit, traces, tol.junction)
+    piece_points = [unit.to_params(unit.polish(x)) for x, _, _ in raw_pieces]
     best = None
     for column, orientation in ((0, 1), (1, -1)):
-        pieces = tuple(Piece(k, n, unit.to_params(unit.polish(x)), acc[column])
-                       for k, (x, acc, n) in enumerate(raw_pieces))
+        pieces = tuple(Piece(k, n, points, acc[column])
+                       for k, ((_, acc, n), points) in enumerate(zip(raw_pieces, piece_points)))
         path = choose_path(c, d, list(pieces), tol.junction, tol.min_piece_coverage, orientation)
         score = -1.0 if path is None else path.coverage.c_fraction + path.coverage.d_fraction
         if best is None or score > best[0] + 1e-12:

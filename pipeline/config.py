@@ -28,6 +28,10 @@ class ConfigError(DevflatError, ValueError):
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
+    def _given(self, *names: str) -> list[str]:
+        """Which of the named alternative fields this model was given."""
+        return [k for k in names if getattr(self, k) is not None]
+
 
 class CurveSpec(_Strict):
     degree: int = Field(3, ge=1, le=9)
@@ -42,7 +46,7 @@ class IsoSpec(_Strict):
 
     @model_validator(mode="after")
     def _one(self):
-        if (self.u is None) == (self.v is None):
+        if len(self._given("u", "v")) != 1:
             raise ValueError("iso gives exactly one of u, v")
         return self
 
@@ -73,7 +77,7 @@ class SurfaceSource(_Strict):
 
     @model_validator(mode="after")
     def _pick(self):
-        given = [k for k in ("entity", "directory", "label") if getattr(self, k) is not None]
+        given = self._given("entity", "directory", "label")
         if len(given) > 1:
             raise ValueError(f"pick the entity by one of entity, directory, label; got {given}")
         if not given:
@@ -107,7 +111,7 @@ class DxfCurveSource(_Strict):
 
     @model_validator(mode="after")
     def _pick(self):
-        if (self.layer is None) == (self.handle is None):
+        if len(self._given("layer", "handle")) != 1:
             raise ValueError("pick the DXF entity by exactly one of layer, handle")
         return self
 
@@ -203,7 +207,7 @@ class NotchSpec(_Strict):
 
     @model_validator(mode="after")
     def _one(self):
-        if (self.curve is None) == (self.ruling is None):
+        if len(self._given("curve", "ruling")) != 1:
             raise ValueError("a notch gives either curve + at (arc lengths) or ruling")
         if self.curve is not None and not self.at:
             raise ValueError("a notch on a curve needs at least one arc length in 'at'")
@@ -220,7 +224,7 @@ class Grain(_Strict):
 
     @model_validator(mode="after")
     def _one(self):
-        given = [k for k in ("ruling", "direction", "angle") if getattr(self, k) is not None]
+        given = self._given("ruling", "direction", "angle")
         if len(given) != 1:
             raise ValueError(f"grain needs exactly one of ruling, direction, angle; got {given or 'none'}")
         if self.direction is not None and not np.any(self.direction):
@@ -272,7 +276,7 @@ class SeamSpec(_Strict):
 
     @model_validator(mode="after")
     def _one(self):
-        if (self.iso is None) == (self.curve is None):
+        if len(self._given("iso", "curve")) != 1:
             raise ValueError("a seam is either iso or curve")
         return self
 
