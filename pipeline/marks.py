@@ -1,0 +1,79 @@
+"""Marks on a hull plate: frame lines and the names of its seams and butts.
+
+Computed on the developed (flat) plate; knows nothing of file formats.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def frame_polylines(result, frames, lo, hi, keep, n_v: int = 41):
+    """Each frame plane x = X on the plate, as developed points (unplaced): along lines of
+    constant v the crossing between two rulings is solved exactly (secant on t with T(t)
+    from f = 0), and the crossing points are developed exactly (one development with those
+    rulings added)."""
+    from flatten.develop import develop
+
+    part, solution, strip = result.part, result.solution, result.strip
+    field_ = solution.field
+    rulings = strip.rulings
+    m = len(strip.samples)
+    k = np.arange(strip.n_rulings) * m
+    a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
+    v = np.linspace(0.0, 1.0, n_v)
+    lines = []
+    for x in frames:
+        xs = a3[:, None, 0] + v[None, :] * (b3 - a3)[:, None, 0]  # (K, n_v)
+        crossings = []
+        for j in range(n_v):
+            idx = np.flatnonzero(np.diff(np.sign(xs[:, j] - x)) != 0)
+            for i in idx[:1]:
+                frac = (x - xs[i, j]) / (xs[i + 1, j] - xs[i, j])
+                crossings.append((v[j], rulings[i, 0] + frac * (rulings[i + 1, 0] - rulings[i, 0]),
+                                  rulings[i, 0], rulings[i + 1, 0]))
+        if len(crossings) < 2:
+            continue
+        vv = np.array([cr[0] for cr in crossings])
+        t = np.array([cr[1] for cr in crossings])
+        t_lo = np.array([cr[2] for cr in crossings])
+        t_hi = np.array([cr[3] for cr in crossings])
+
+        def x_at(tt):
+            TT = field_.refine_T(tt, np.interp(tt, rulings[:, 0], rulings[:, 1]), 8)
+            pc, pd = part.c(tt), part.d(TT)
+            return pc[:, 0] + vv * (pd[:, 0] - pc[:, 0]) - x, TT
+
+        g0, _ = x_at(t_lo)
+        g1, _ = x_at(t_hi)
+        for _ in range(40):  # regula falsi (Illinois) inside the bracket
+            g, _ = x_at(t)
+            left = np.sign(g) == np.sign(g0)
+            t_lo, g0 = np.where(left, t, t_lo), np.where(left, g, g0)
+            t_hi, g1 = np.where(left, t_hi, t), np.where(left, g1, g)
+            t = np.where(g1 != g0, t_hi - g1 * (t_hi - t_lo) / (g1 - g0), t)
+            if np.abs(g).max() <= 1e-9 * (1 + abs(x)):
+                break
+        _, T = x_at(t)
+        merged = np.vstack([rulings, np.column_stack([t, T])])
+        order = np.lexsort((merged[:, 1] * solution.path.orientation, merged[:, 0]))
+        dev = develop(part.c, part.d, merged[order], field_)
+        position = np.empty(len(merged), dtype=int)
+        position[order] = np.arange(len(merged))
+        new = position[len(rulings):]
+        pts = dev.along_c[new] + vv[:, None] * (dev.along_d[new] - dev.along_c[new])
+        lines.append((float(x), pts))
+    return lines
+
+
+def edge_labels(hull, lower: np.ndarray, upper: np.ndarray) -> list:
+    """Seam names along the c and d sides (lower, upper: (K, 2) placed flat points), butt
+    names along the end lines; ((text, (2,) position, angle in degrees), ...)."""
+    labels = []
+    for text, line in ((hull.seam_names[0], lower), (hull.seam_names[1], upper),
+                       (hull.butt_names[0], np.vstack([lower[0], upper[0]])),
+                       (hull.butt_names[1], np.vstack([lower[-1], upper[-1]]))):
+        mid = line[len(line) // 2] if len(line) > 2 else line.mean(axis=0)
+        direction = line[-1] - line[0]
+        labels.append((text, mid, float(np.degrees(np.arctan2(direction[1], direction[0])))))
+    return labels
