@@ -17,7 +17,6 @@ from flatten.solver import check_pair
 from flatten.tolerances import DEFAULT_TOLERANCES
 
 from .config import ConfigError, RunConfig, load_config
-from .report import summary_table
 
 EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2
 
@@ -52,6 +51,7 @@ def validate(path: Path) -> RunConfig:
 
 def command_run(args) -> int:
     from .export import export_part, export_summary, export_textile, textile_pieces
+    from .report import summary_table
     from .stages import run_part
 
     config = validate(args.config)

@@ -11,9 +11,7 @@ import numpy as np
 
 from .atomic import write_text
 from .config import RunConfig
-from .dxf_steel import write_steel_dxf
 from .meshio import write_obj
-from .plots import flat_pattern_png, solution_diagram_png
 from .report import report_json
 from .stages import PartResult
 
@@ -37,6 +35,8 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
         scale = config.mm_per_unit
         pattern = result.pattern
         if out.dxf and config.spec.profile == "steel":
+            from .dxf_steel import write_steel_dxf  # ezdxf: imported only when a steel DXF is written
+
             path = out_dir / f"{name}.dxf"
             errors = write_steel_dxf(path, pattern.outline * scale, pattern.bend_lines * scale,
                                      steel_texts(result), out.layers,
@@ -49,11 +49,15 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             write_obj(path, result.strip.vertices, pattern.vertices, result.strip.faces, name)
             written.append(path)
         if out.png:
+            from .plots import flat_pattern_png  # matplotlib: imported only for previews
+
             path = out_dir / f"{name}_flat.png"
             flat_pattern_png(path, pattern.outline, pattern.bend_lines,
                              f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)
             written.append(path)
     if out.png and result.solution is not None and result.solution.kind != "coplanar":
+        from .plots import solution_diagram_png
+
         path = out_dir / f"{name}_solutions.png"
         solution_diagram_png(path, result.solution, result.part.c.domain, result.part.d.domain,
                              f"{name}: {result.solution.message}")

@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import trimesh
 
 from flatten import DEFAULT_TOLERANCES, SolutionSet, solve
 from flatten.develop import Development, develop, unfold_triangles
@@ -86,8 +85,10 @@ def stage_strip(result: PartResult, config: RunConfig) -> None:
         distinct[1:] = np.any(np.abs(np.diff(rulings, axis=0)) > 1e-12, axis=1)
         rulings = rulings[distinct]
     result.strip = build_strip(part.c, part.d, rulings, res.samples_per_ruling)
+    from trimesh.grouping import group_rows  # trimesh costs ~0.1 s to import: only where the mesh is made
+
     mesh = result.strip.mesh()
-    boundary_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+    boundary_edges = len(group_rows(mesh.edges_sorted, require_count=1))
     result.figures["mesh"] = {"vertices": len(mesh.vertices), "faces": len(mesh.faces), "area_3d": float(mesh.area),
                               "euler_number": int(mesh.euler_number), "boundary_edges": boundary_edges}
     result.figures["rulings"] = {"count": len(rulings), "samples_per_ruling": res.samples_per_ruling,
