@@ -66,13 +66,25 @@ def frame_polylines(result, frames, lo, hi, keep, n_v: int = 41):
     return lines
 
 
-def edge_labels(hull, lower: np.ndarray, upper: np.ndarray) -> list:
+def butt_order(butts, first_3d: np.ndarray, last_3d: np.ndarray) -> tuple[int, int]:
+    """Which butt plane each end of the plate lies on, decided in 3D: (index of the butt
+    at the first ruling, index at the last). first_3d, last_3d: (m, 3) points of the end
+    rulings. The assignment with the smaller total distance to the planes wins, so a seam
+    running towards -x gets its butts the other way round."""
+    straight = sum(float(np.abs(b.signed(p)).max()) for b, p in zip(butts, (first_3d, last_3d)))
+    swapped = sum(float(np.abs(b.signed(p)).max()) for b, p in zip(butts, (last_3d, first_3d)))
+    return (0, 1) if straight <= swapped else (1, 0)
+
+
+def edge_labels(hull, lower: np.ndarray, upper: np.ndarray, grid_3d: np.ndarray) -> list:
     """Seam names along the c and d sides (lower, upper: (K, 2) placed flat points), butt
-    names along the end lines; ((text, (2,) position, angle in degrees), ...)."""
+    names along the end lines, each butt named by the plane its end ruling lies on in 3D
+    (grid_3d: (K, m, 3) trimmed strip vertices); ((text, (2,) position, angle in degrees), ...)."""
+    first, last = butt_order(hull.butts, grid_3d[0], grid_3d[-1])
     labels = []
     for text, line in ((hull.seam_names[0], lower), (hull.seam_names[1], upper),
-                       (hull.butt_names[0], np.vstack([lower[0], upper[0]])),
-                       (hull.butt_names[1], np.vstack([lower[-1], upper[-1]]))):
+                       (hull.butt_names[first], np.vstack([lower[0], upper[0]])),
+                       (hull.butt_names[last], np.vstack([lower[-1], upper[-1]]))):
         mid = line[len(line) // 2] if len(line) > 2 else line.mean(axis=0)
         direction = line[-1] - line[0]
         labels.append((text, mid, float(np.degrees(np.arctan2(direction[1], direction[0])))))

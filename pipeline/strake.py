@@ -264,7 +264,7 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     lower, upper = grid[:, 0], grid[:, -1]
     outline = np.vstack([lower, upper[::-1]])
     frame_lines = [(x, pts @ rot.T + shift) for x, pts in frame_polylines(result, hull.frames, lo, hi, keep)]
-    labels = edge_labels(hull, lower, upper)
+    labels = edge_labels(hull, lower, upper, vertices.reshape(-1, m, 3))
     # how much of each seam between the butts the plate covers (the extended seams' own
     # coverage is partial by design)
     path = result.solution.path.points
