@@ -1,76 +1,163 @@
-"""ASTM D6673 / AAMA DXF for textile pieces: writer and reader (DESIGN §5).
+"""ASTM D6673 / AAMA DXF for textile pieces: writer and reader (DESIGN §5, §7).
 
-R12, numeric layers (1 cut boundary and piece texts, 4 notches, 7 grain line, 8 internal
-lines, 14 sew line), one block per piece named PIECE_SIZE, INSERTs at the origin, units
-stated in the model-space texts. Written with ezdxf's gerber_D6673 exporter. The reader
-serves our files and the real AccuMark / CLO files alike.
+Written the way Gerber AccuMark and CLO write it (the real files in tests/data/textile):
+R12, one block per piece named PIECE_SIZE (block flags 64) holding the cut line (layer
+1, closed POLYLINE) and the piece texts `Piece Name:`, `Size:`, `Quantity:`,
+`Fabric:`; turn points (layer 2) at the corners and curve points (layer 3) at the other
+vertices of the cut and sew lines; notches as POINTs on layer 4 at the cut line (group
+30 depth, 39 opening width: 0 for a slit, > 0 for a V notch, 50 the direction into the
+piece in degrees); the grain line (LINE, layer 7); internal lines (layer 8) and the sew
+line, a closed POLYLINE on layer 8 (an internal line: drawn, not cut) or on the
+standard's layer 14. Model space: the style texts (`Style Name:`, `Creation Date:`,
+`Creation Time:`, `Author:`, `Product:`, `Version:`, `Sample Size:`, `Units:`) and one
+INSERT per piece at the origin on layer 1. Unlike the real files a LAYER table declares
+the layers (FreeCAD's importer needs one). Like ezdxf's gerber_D6673 exporter the file has
+no $MODEL_SPACE / $PAPER_SPACE blocks and no HEADER variables: AAMA readers take every
+block for a piece. The reader serves our files and the real AccuMark / CLO files alike.
 """
 
 from __future__ import annotations
 
 import datetime
+import io
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import ezdxf
 import numpy as np
-from ezdxf.addons import gerber_D6673
+from ezdxf.lldxf.tagwriter import TagWriter
 
 from .atomic import atomic_path
-from .textile import TextilePiece
+from .textile import TextilePiece, label_anchor
 
-LAYER_BOUNDARY, LAYER_NOTCH, LAYER_GRAIN, LAYER_INTERNAL, LAYER_SEW = "1", "4", "7", "8", "14"
+LAYER_BOUNDARY, LAYER_TURN, LAYER_CURVE, LAYER_NOTCH = "1", "2", "3", "4"
+LAYER_GRAIN, LAYER_INTERNAL, LAYER_SEW = "7", "8", "14"
+# colours only help a person looking at the file in a CAD viewer
+LAYER_COLOURS = {LAYER_BOUNDARY: 7, LAYER_TURN: 3, LAYER_CURVE: 4, LAYER_NOTCH: 1, LAYER_GRAIN: 5,
+                 LAYER_INTERNAL: 6, LAYER_SEW: 2}
+TEXT_HEIGHT_MM = 5.0
 
 
 def block_name(piece: TextilePiece, size: str) -> str:
     return f"{piece.name}_{size}"
 
 
+def creation_time() -> datetime.datetime:
+    """Now, or SOURCE_DATE_EPOCH when set (reproducible files)."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch and epoch.isdigit():
+        return datetime.datetime.fromtimestamp(int(epoch), tz=datetime.timezone.utc)
+    return datetime.datetime.now()
+
+
+def notch_angle(line: np.ndarray) -> float:
+    """Direction (degrees, counter-clockwise from +x) of a notch line (2, 2) into the piece."""
+    d = line[1] - line[0]
+    return float(np.degrees(np.arctan2(d[1], d[0])))
+
+
 def build_document(pieces: list[TextilePiece], style: str, scale: float) -> ezdxf.document.Drawing:
     """Pieces in model units, written in millimetres (``scale`` = mm per model unit)."""
     doc = ezdxf.new("R12")
-    for layer in (LAYER_BOUNDARY, LAYER_NOTCH, LAYER_GRAIN, LAYER_INTERNAL, LAYER_SEW):
-        doc.layers.add(layer)
+    for layer, colour in LAYER_COLOURS.items():
+        doc.layers.add(layer, color=colour)
     msp = doc.modelspace()
-    now = datetime.date.today()
+    now = creation_time()
     sizes = sorted({p.settings.size for p in pieces})
-    header = [f"Style Name: {style}", f"Creation Date: {now:%d-%m-%Y}", "Author: devflat",
-              "Product: devflat", "Version: 1", f"Sample Size: {sizes[0] if sizes else ''}", "Units: METRIC"]
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        ours = version("devflat")
+    except PackageNotFoundError:
+        ours = "source"
+    header = [f"Style Name: {style}", f"Creation Date: {now.day:2d}-{now.month:d}-{now.year:d}",
+              f"Creation Time: {now.hour:2d}:{now.minute:02d}", "Author: devflat", "Product: devflat",
+              f"Version: {ours}", f"Sample Size: {sizes[0] if sizes else ''}", "Units: METRIC"]
     for k, text in enumerate(header):
-        msp.add_text(text, height=5.0, dxfattribs={"layer": LAYER_BOUNDARY}).set_placement((0, -10.0 * (k + 1)))
+        msp.add_text(text, height=TEXT_HEIGHT_MM, dxfattribs={"layer": LAYER_BOUNDARY}).set_placement(
+            (0, -1.5 * TEXT_HEIGHT_MM * (k + 1)))
     for piece in pieces:
         s = piece.settings
         name = block_name(piece, s.size)
         block = doc.blocks.new(name=name)
-        centre = piece.sew.mean(axis=0) * scale
-        texts = [f"Piece Name: {piece.name}", f"Size: {s.size}", f"Quantity: {s.quantity}",
-                 f"Material: {s.fabric}"]
+        block.block.dxf.flags = 64  # as AccuMark and CLO write their piece blocks
+        texts = [f"Piece Name: {piece.name}", f"Size: {s.size}", f"Quantity: {s.quantity}", f"Fabric: {s.fabric}"]
+        # the texts sit inside the sew line, clear of the grain line and the notches
+        box = np.array([0.9 * max(map(len, texts)), 1.5 * len(texts)]) * TEXT_HEIGHT_MM
+        at = label_anchor(piece, box[1] / scale, box[0] / scale)
+        at = (piece.sew.mean(axis=0) if at is None else at) * scale
         for k, text in enumerate(texts):
-            block.add_text(text, height=5.0, dxfattribs={"layer": LAYER_BOUNDARY}).set_placement(
-                (centre[0], centre[1] - 8.0 * k))
+            block.add_text(text, height=TEXT_HEIGHT_MM, dxfattribs={"layer": LAYER_BOUNDARY}).set_placement(
+                (at[0] - box[0] / 2, at[1] + box[1] / 2 - 1.5 * TEXT_HEIGHT_MM * (k + 1)))
         block.add_polyline2d([tuple(p) for p in piece.cut * scale], close=True,
                              dxfattribs={"layer": LAYER_BOUNDARY})
-        block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True, dxfattribs={"layer": LAYER_SEW})
+        turns, curves = piece.turn_and_curve_points()
+        for layer, points in ((LAYER_TURN, turns), (LAYER_CURVE, curves)):
+            for p in points * scale:
+                block.add_point((p[0], p[1]), dxfattribs={"layer": layer})
+        width = s.notch_width * scale if s.notch_type == "v" else 0.0
         for notch in piece.notches:
-            block.add_line(tuple(notch.line[0] * scale), tuple(notch.line[1] * scale),
-                           dxfattribs={"layer": LAYER_NOTCH})
+            x, y = notch.line[0] * scale
+            depth = float(np.hypot(*np.diff(notch.line, axis=0)[0])) * scale
+            block.add_point((x, y, depth), dxfattribs={"layer": LAYER_NOTCH, "thickness": width,
+                                                       "angle": notch_angle(notch.line)})
         block.add_line(tuple(piece.grain[0] * scale), tuple(piece.grain[1] * scale), dxfattribs={"layer": LAYER_GRAIN})
+        if s.sew_line_layer is not None:
+            block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True,
+                                 dxfattribs={"layer": str(s.sew_line_layer)})
         for a, b in piece.internal_lines * scale:
             block.add_line(tuple(a), tuple(b), dxfattribs={"layer": LAYER_INTERNAL})
-        msp.add_blockref(name, (0, 0))
+        msp.add_blockref(name, (0, 0), dxfattribs={"layer": LAYER_BOUNDARY})
     return doc
 
 
+def export_text(doc: ezdxf.document.Drawing) -> str:
+    """The R12 file: empty HEADER, TABLES with the line types and layers, the piece
+    blocks only (no layout blocks), ENTITIES."""
+    if doc.dxfversion != ezdxf.const.DXF12:
+        raise ezdxf.DXFVersionError("AAMA files are DXF R12")
+    stream = io.StringIO()
+    writer = TagWriter(stream, write_handles=False, dxfversion=ezdxf.const.DXF12)
+    writer.write_str("  0\nSECTION\n  2\nHEADER\n")
+    writer.write_tag2(0, "ENDSEC")
+    writer.write_str("  0\nSECTION\n  2\nTABLES\n")
+    doc.tables.linetypes.export_dxf(writer)
+    doc.tables.layers.export_dxf(writer)
+    writer.write_tag2(0, "ENDSEC")
+    writer.write_str("  0\nSECTION\n  2\nBLOCKS\n")
+    for record in doc.block_records:
+        if record.is_block_layout:
+            record.export_block_definition(writer)
+    writer.write_tag2(0, "ENDSEC")
+    writer.write_str("  0\nSECTION\n  2\nENTITIES\n")
+    doc.modelspace().entity_space.export_dxf(writer)
+    writer.write_tag2(0, "ENDSEC")
+    writer.write_tag2(0, "EOF")
+    return stream.getvalue()
+
+
 def write_aama(target: str | Path, pieces: list[TextilePiece], style: str, scale: float) -> None:
-    doc = build_document(pieces, style, scale)
+    text = export_text(build_document(pieces, style, scale))
     with atomic_path(target) as tmp:
-        gerber_D6673.export_file(doc, tmp)
+        # the standard allows 7-bit ASCII only
+        Path(tmp).write_bytes(text.encode("ascii", errors="replace"))
 
 
 # ------------------------------------------------------------------ reader
 @dataclass
+class ReadNotch:
+    """A notch read back: position (2,), direction into the piece (degrees, None when the
+    file gives none), depth and opening width (file units; width 0 is a slit)."""
+
+    point: np.ndarray
+    angle: float | None = None
+    depth: float = 0.0
+    width: float = 0.0
+
+
+@dataclass
 class ReadPiece:
-    """A piece read back: texts by lower-case key, rings and lines per layer (mm or inch)."""
+    """A piece read back: texts by lower-case key, rings, points and lines per layer (mm or inch)."""
 
     block: str
     texts: dict = field(default_factory=dict)
@@ -79,6 +166,9 @@ class ReadPiece:
     notches: list = field(default_factory=list)
     grain: list = field(default_factory=list)
     internal: list = field(default_factory=list)
+    turn_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    curve_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    flags: int = 0
 
     @property
     def name(self) -> str:
@@ -90,6 +180,8 @@ class ReadFile:
     units: str
     header: dict
     pieces: list[ReadPiece]
+    layers: tuple[str, ...] = ()
+    insert_layers: tuple[str, ...] = ()
 
 
 def _polyline_points(entity) -> tuple[np.ndarray, bool]:
@@ -129,26 +221,40 @@ def _ring_area(ring: np.ndarray) -> float:
     return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
+def _notch(entity) -> ReadNotch:
+    if entity.dxftype() == "LINE":  # devflat before AAMA notch points: a slit from the cut line inwards
+        a, b = np.array(tuple(entity.dxf.start)[:2]), np.array(tuple(entity.dxf.end)[:2])
+        return ReadNotch(a, notch_angle(np.vstack([a, b])), float(np.hypot(*(b - a))), 0.0)
+    loc = tuple(entity.dxf.location)
+    angle = float(entity.dxf.angle) if entity.dxf.hasattr("angle") else None
+    return ReadNotch(np.array(loc[:2]), angle, abs(float(loc[2])), float(entity.dxf.get("thickness", 0.0)))
+
+
 def read_aama(path: str | Path) -> ReadFile:
-    """Pieces of an AAMA / ASTM D6673 file: one per block that holds a boundary."""
+    """Pieces of an AAMA / ASTM D6673 file: one per block that holds a boundary. The sew
+    line is the ring on layer 14, else a closed polyline on layer 8 (how devflat writes
+    it; the real files have no closed internal lines)."""
     doc = ezdxf.readfile(path)
     header = {}
-    for e in doc.modelspace().query("TEXT"):
+    msp = doc.modelspace()
+    for e in msp.query("TEXT"):
         key, _, value = e.dxf.text.partition(":")
         header[key.strip().lower()] = value.strip()
     pieces = []
     for block in doc.blocks:
         if block.name.startswith("*"):
             continue
-        piece = ReadPiece(block.name)
+        piece = ReadPiece(block.name, flags=int(block.block.dxf.get("flags", 0)))
         boundary_parts, sew_parts = [], []
-        closed_boundary, closed_sew = [], []
+        closed_boundary, closed_sew, closed_internal = [], [], []
+        turns, curves = [], []
         for e in block:
             layer = e.dxf.layer
             kind = e.dxftype()
             if kind == "TEXT":
                 key, _, value = e.dxf.text.partition(":")
-                piece.texts[key.strip().lower()] = value.strip()
+                if layer == LAYER_BOUNDARY:
+                    piece.texts[key.strip().lower()] = value.strip()
             elif kind in ("POLYLINE", "LWPOLYLINE"):
                 pts, closed = _polyline_points(e)
                 if layer == LAYER_BOUNDARY:
@@ -156,26 +262,38 @@ def read_aama(path: str | Path) -> ReadFile:
                 elif layer == LAYER_SEW:
                     (closed_sew if closed else sew_parts).append(pts)
                 elif layer == LAYER_INTERNAL:
-                    piece.internal.append(pts)
+                    (closed_internal if closed else piece.internal).append(pts)
             elif kind == "LINE":
                 seg = np.array([tuple(e.dxf.start)[:2], tuple(e.dxf.end)[:2]])
                 if layer == LAYER_NOTCH:
-                    piece.notches.append(seg)
+                    piece.notches.append(_notch(e))
                 elif layer == LAYER_GRAIN:
                     piece.grain.append(seg)
                 elif layer == LAYER_INTERNAL:
                     piece.internal.append(seg)
                 elif layer == LAYER_BOUNDARY:
                     boundary_parts.append(seg)
-            elif kind == "POINT" and layer == LAYER_NOTCH:
-                piece.notches.append(np.array([tuple(e.dxf.location)[:2]]))
+            elif kind == "POINT":
+                if layer == LAYER_NOTCH:
+                    piece.notches.append(_notch(e))
+                elif layer == LAYER_TURN:
+                    turns.append(tuple(e.dxf.location)[:2])
+                elif layer == LAYER_CURVE:
+                    curves.append(tuple(e.dxf.location)[:2])
+        piece.turn_points = np.array(turns).reshape(-1, 2)
+        piece.curve_points = np.array(curves).reshape(-1, 2)
         size = max((np.ptp(p, axis=0).max() for p in boundary_parts + closed_boundary), default=1.0)
         rings = closed_boundary + chain_rings(boundary_parts, 1e-6 * size + 1e-4)
         if rings:
             piece.boundary = max(rings, key=_ring_area)
         sew_rings = closed_sew + chain_rings(sew_parts, 1e-6 * size + 1e-4)
+        if not sew_rings:
+            sew_rings = closed_internal
+        else:
+            piece.internal += closed_internal
         if sew_rings:
             piece.sew = max(sew_rings, key=_ring_area)
         if piece.boundary is not None:
             pieces.append(piece)
-    return ReadFile(header.get("units", ""), header, pieces)
+    return ReadFile(header.get("units", ""), header, pieces, tuple(layer.dxf.name for layer in doc.layers),
+                    tuple(e.dxf.layer for e in msp.query("INSERT")))

@@ -236,11 +236,14 @@ class Textile(_Strict):
     seam_allowance: float | SeamAllowance = 10.0
     notches: list[NotchSpec] = Field(default_factory=list)
     notch_length: float = Field(6.0, gt=0)
+    notch_type: Literal["slit", "v"] = "slit"
+    notch_width: float = Field(3.0, gt=0, description="opening of a V notch at the cut line")
     grain: Grain = Grain(angle=0.0)
     size: str = Field("M", pattern=r"^[A-Za-z0-9.-]+$")
     quantity: int = Field(1, ge=1)
     fabric: str = "fabric"
     internal_rulings: bool = False
+    sew_line_layer: Literal[8, 14] | None = 8
     printout: bool = True
 
     @field_validator("seam_allowance")

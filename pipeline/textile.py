@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
-from shapely.ops import substring
+from shapely.ops import polylabel, substring, unary_union
 
 from flatten.develop import develop
 
@@ -31,7 +31,9 @@ class Notch:
 class TextilePiece:
     """A piece in flat coordinates (model units): sew ring (N, 2), cut ring (M, 2), both
     counter-clockwise and not repeated; the edges of the sew ring in ring order, named
-    by ``edge_names`` ('c', 'end', 'd', 'start'), with their allowances."""
+    by ``edge_names`` ('c', 'end', 'd', 'start'), with their allowances. ``cut_corners``
+    (4,) indexes the cut ring's corners (where neighbouring offset edges meet), in edge
+    order: corner k ends edge k."""
 
     name: str
     sew: np.ndarray
@@ -43,13 +45,31 @@ class TextilePiece:
     grain: np.ndarray
     internal_lines: np.ndarray
     settings: Textile = field(repr=False, default=None)
+    cut_corners: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def translated(self, offset: np.ndarray) -> "TextilePiece":
         move = np.asarray(offset, dtype=float)
         return TextilePiece(self.name, self.sew + move, self.cut + move, tuple(e + move for e in self.edges),
                             self.edge_names, self.allowances,
                             tuple(Notch(n.edge, n.arc_length, n.sew_point + move, n.line + move) for n in self.notches),
-                            self.grain + move, self.internal_lines + move, self.settings)
+                            self.grain + move, self.internal_lines + move, self.settings, self.cut_corners)
+
+    @property
+    def sew_corners(self) -> np.ndarray:
+        """Indices of the sew ring's corners (the first point of each edge)."""
+        return np.cumsum([0] + [len(e) - 1 for e in self.edges[:-1]])
+
+    def turn_and_curve_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """AAMA turn points (T, 2) at the corners of the cut and sew rings, and curve
+        points (C, 2) at the other vertices of their curved edges (the rings' own vertices,
+        so a reader that rebuilds the curves through them gets the polylines back)."""
+        turns, curves = [], []
+        for ring, corners in ((self.cut, self.cut_corners), (self.sew, self.sew_corners)):
+            is_corner = np.zeros(len(ring), dtype=bool)
+            is_corner[np.asarray(corners, dtype=int) % len(ring)] = True
+            turns.append(ring[is_corner])
+            curves.append(ring[~is_corner])
+        return np.vstack(turns), np.vstack(curves)
 
 
 def _dedupe(points: np.ndarray) -> np.ndarray:
@@ -96,9 +116,10 @@ def offset_edge(edge: np.ndarray, width: float) -> np.ndarray:
     return pts
 
 
-def cut_ring(edges: tuple[np.ndarray, ...], widths: tuple[float, ...]) -> np.ndarray:
+def cut_ring(edges: tuple[np.ndarray, ...], widths: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """Cut line: each edge offset by its width, neighbouring offsets cut where they meet
-    (mitred corners, also between different widths)."""
+    (mitred corners, also between different widths). Returns the ring (M, 2) and the
+    indices (len(edges),) of its corners, corner k ending edge k."""
     size = max(np.ptp(np.vstack(edges), axis=0).max(), 1e-9)
     reach = 10.0 * max(widths) + 0.1 * size
     offsets = [LineString(_extend(offset_edge(e, w), reach)) for e, w in zip(edges, widths)]
@@ -118,9 +139,11 @@ def cut_ring(edges: tuple[np.ndarray, ...], widths: tuple[float, ...]) -> np.nda
         line = offsets[k]
         s0 = line.project(Point(corners[k - 1]))
         s1 = line.project(Point(corners[k]))
-        part = np.asarray(substring(line, s0, s1).coords)
+        part = _dedupe(np.asarray(substring(line, s0, s1).coords))
         pieces.append(part[:-1] if len(part) > 1 else part)
-    return _dedupe(np.vstack(pieces))
+    # corner k ends piece k, i.e. is the first point of piece k + 1
+    starts = np.cumsum([0] + [len(p) for p in pieces])
+    return np.vstack(pieces), np.roll(starts[:-1], -1)
 
 
 def _snap_to_edge(edge: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,7 +208,7 @@ def build_piece(result: PartResult, settings: Textile, transform) -> TextilePiec
         if w >= width_of_piece:
             raise ConfigError(f"textile.seam_allowance.{edge_name} = {w:g} is larger than the piece {name} "
                               f"(narrowest width {width_of_piece:.6g})")
-    cut = cut_ring(edges, widths)
+    cut, cut_corners = cut_ring(edges, widths)
     sew_poly, cut_poly = Polygon(sew), Polygon(cut)
     if not cut_poly.is_valid or not cut_poly.buffer(1e-9 * width_of_piece).contains(sew_poly):
         raise ConfigError(f"textile.seam_allowance {widths} does not fit piece {name}: "
@@ -213,7 +236,7 @@ def build_piece(result: PartResult, settings: Textile, transform) -> TextilePiec
                 notches.append(_notch(which, s, point, edges, names, widths, settings.notch_length))
     grain = _grain(result, settings, sew_poly)
     internal = bend.copy() if settings.internal_rulings else np.zeros((0, 2, 2))
-    return TextilePiece(name, sew, cut, edges, names, widths, tuple(notches), grain, internal, settings)
+    return TextilePiece(name, sew, cut, edges, names, widths, tuple(notches), grain, internal, settings, cut_corners)
 
 
 def _notch(edge_name, arc_length, point, edges, names, widths, length) -> Notch:
@@ -265,3 +288,32 @@ def _grain(result: PartResult, settings: Textile, sew_poly: Polygon) -> np.ndarr
     pts = np.asarray(line.coords)
     a, b = pts[0], pts[-1]
     return np.vstack([a + 0.15 * (b - a), a + 0.85 * (b - a)])
+
+
+def _swept_box(segments: np.ndarray, half: np.ndarray):
+    """Union of the segments (S, 2, 2) each swept by the axis-aligned box of half sizes (2,)."""
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
+    hulls = []
+    for a, b in segments:
+        pts = np.vstack([a + corners, b + corners])
+        hulls.append(shapely.MultiPoint(pts).convex_hull)
+    return unary_union(hulls)
+
+
+def label_anchor(piece: TextilePiece, height: float, width: float, clearance: float = 0.0) -> np.ndarray | None:
+    """Centre (2,) of a text box width x height (model units, axis-aligned) that lies
+    inside the sew line and clear of the grain line and the notches by ``clearance``: the
+    pole of inaccessibility of the allowed region (the point farthest from everything the
+    text must not touch). None when no such box fits."""
+    half = np.array([width, height]) / 2 + clearance
+    ring = np.vstack([piece.sew, piece.sew[:1]])
+    blocked = [np.stack([ring[:-1], ring[1:]], axis=1), piece.grain[None]]
+    blocked += [n.line[None] for n in piece.notches]
+    allowed = Polygon(piece.sew).difference(_swept_box(np.vstack(blocked), half))
+    if allowed.is_empty:
+        return None
+    largest = max(getattr(allowed, "geoms", [allowed]), key=lambda g: g.area)
+    if largest.area <= 0:
+        return None
+    tolerance = 1e-3 * float(np.sqrt(largest.area)) + 1e-12
+    return np.asarray(polylabel(largest, tolerance).coords[0])

@@ -1,6 +1,7 @@
 """Textile pieces: AAMA round trip, sew line, allowance, notches, grain, printout, real files."""
 
 import json
+import os
 import re
 from pathlib import Path
 
@@ -12,6 +13,8 @@ from shapely.geometry import LinearRing, LineString, Point, Polygon
 from pipeline.aama import read_aama
 from pipeline.cli import main
 from pipeline.meshio import read_obj
+
+from .astm_parser import parser_or_reason
 
 ROOT = Path(__file__).resolve().parents[1]
 LAMPSHADE = ROOT / "configs" / "lampshade.yaml"
@@ -42,6 +45,65 @@ def test_multi_piece_file_has_one_block_per_piece_with_the_layers(lampshade):
     assert doc.dxfversion == "AC1009"
     inserts = doc.modelspace().query("INSERT")
     assert len(inserts) == 3 and all(tuple(i.dxf.insert) == (0, 0, 0) for i in inserts)
+    assert read.insert_layers == ("1", "1", "1") and {p.flags for p in read.pieces} == {64}
+    assert read.header["style name"] == "lampshade" and re.fullmatch(r"[ \d]\d:\d\d", read.header["creation time"])
+    # the layers are declared in a LAYER table (FreeCAD's importer needs one)
+    text = (out / "lampshade.dxf").read_text()
+    table = re.search(r"\n  2\nLAYER\n(.*?)\n  0\nENDTAB", text, re.S).group(1)
+    declared = set(re.findall(r"\n  0\nLAYER\n  2\n(\w+)\n", "\n" + table))
+    used = set(re.findall(r"\n  8\n(\w+)\n", text))
+    assert used <= declared and {"1", "2", "3", "4", "7", "8"} <= declared
+
+
+def test_aama_uses_the_entities_and_layers_of_the_real_files(lampshade):
+    """Every (entity, layer) pair we write in a piece block occurs in the AccuMark or CLO
+    files, and so do our texts' keys: the same structure, not a dialect of our own."""
+    import ezdxf
+
+    def structure(path):
+        doc = ezdxf.readfile(path)
+        pairs, keys = set(), set()
+        for block in doc.blocks:
+            if block.name.startswith("*"):
+                continue
+            for e in block:
+                pairs.add((e.dxftype(), e.dxf.layer))
+                if e.dxftype() == "TEXT" and e.dxf.layer == "1":
+                    keys.add(e.dxf.text.partition(":")[0].strip().lower())
+        return pairs, keys
+    real_pairs, real_keys = set(), set()
+    for path in REALDATA.iterdir():
+        pairs, keys = structure(path)
+        real_pairs |= pairs
+        real_keys |= keys
+    ours, our_keys = structure(lampshade[0] / "lampshade.dxf")
+    assert ours <= real_pairs, ours - real_pairs
+    assert our_keys == {"piece name", "size", "quantity", "fabric"} and our_keys <= real_keys
+
+
+def test_turn_points_at_the_corners_and_curve_points_along_the_curves(lampshade):
+    _, read, reports = lampshade
+    for piece in read.pieces:
+        edges = reports[piece.name]["textile"]["edges"]
+        # the sew line's corners are the ends of the developed c and d edges (the report);
+        # the cut line's are where it turns by more than 20 degrees (mitred corners)
+        sew_corners = np.array([edges[k][i] for k in ("c", "d") for i in (0, -1)])
+        ring = piece.boundary
+        u = np.roll(ring, -1, axis=0) - ring
+        v = ring - np.roll(ring, 1, axis=0)
+        cross = v[:, 0] * u[:, 1] - v[:, 1] * u[:, 0]
+        turn = np.degrees(np.abs(np.arctan2(cross, np.einsum("ij,ij->i", v, u))))
+        cut_corners = ring[turn > 20.0]
+        assert len(cut_corners) == 4
+        expected = np.vstack([cut_corners, sew_corners])
+        got = piece.turn_points
+        assert len(got) == 8
+        assert np.abs(np.sort(got, axis=0) - np.sort(expected, axis=0)).max() <= 1e-9
+        # every other vertex of both rings is a curve point, and only those
+        assert len(piece.curve_points) == len(piece.boundary) + len(piece.sew) - 8
+        rings = np.vstack([piece.boundary, piece.sew])
+        gap = np.min(np.linalg.norm(piece.curve_points[:, None] - rings[None], axis=-1), axis=1)
+        assert gap.max() <= 1e-9
 
 
 def test_sew_line_is_the_developed_outline(lampshade):
@@ -105,10 +167,15 @@ def test_matching_notches_are_at_equal_arc_length(lampshade):
             edge = LineString(rep["textile"]["edges"][notch["edge"]])
             # the lampshade strips cover their arcs fully: the flat edge starts at the curve start
             placed.setdefault(notch["arc_length"], []).append((piece.name, notch["edge"], edge.project(point)))
-        # the notch lines in the DXF start on the cut line and point inwards
-        for line in piece.notches:
-            assert LinearRing(piece.boundary).distance(Point(line[0])) <= 1e-9
-            assert Polygon(piece.boundary).contains(Point(line[1]))
+        # the notch points in the DXF lie on the cut line; each is a 5 mm slit pointing inwards
+        for notch in piece.notches:
+            assert LinearRing(piece.boundary).distance(Point(notch.point)) <= 1e-9
+            assert notch.depth == pytest.approx(5.0) and notch.width == 0.0
+            inwards = np.array([np.cos(np.radians(notch.angle)), np.sin(np.radians(notch.angle))])
+            tip = notch.point + notch.depth * inwards
+            assert Polygon(piece.boundary).contains(Point(tip))
+            # at right angles to the cut line: the tip is one notch depth inside it
+            assert LinearRing(piece.boundary).distance(Point(tip)) == pytest.approx(5.0, abs=0.05)
     for s in (100.0, 267.0353755551324, 150.0, 300.0):
         hits = placed[s]
         assert len(hits) == 2 and {h[1] for h in hits} == {"c", "d"}
@@ -146,6 +213,63 @@ def test_real_aama_files_parse_with_the_same_reader(name):
     assert any(piece.grain for piece in read.pieces)
 
 
+@pytest.fixture(scope="module")
+def astm(request):
+    """The open ASTM parser (node), installed once per worker into the pytest cache."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
+    if run is None:
+        pytest.skip(reason)
+    return run
+
+
+REAL_FILES = sorted(REALDATA.iterdir())
+OUR_LAYERS = {"1", "2", "3", "4", "7", "8"}
+
+
+def test_the_open_astm_parser_reads_every_notch_grain_and_boundary_of_ours(lampshade, astm):
+    out, read, reports = lampshade
+    [res] = astm([out / "lampshade.dxf"])
+    assert res["ok"], res
+    assert res["diagnostics"] == []  # nothing it could not read
+    assert res["asset"]["unit"] == 1 and res["asset"]["creationTime"] and res["sizes"] == ["M"]
+    assert res["style"]["name"] == "lampshade"
+    by_name = {p["name"]: p for p in res["pieces"]}
+    assert sorted(by_name) == sorted(p.name for p in read.pieces)
+    for piece in read.pieces:
+        got = {k: np.array(v["M"]["points"]).reshape(-1, 2) for k, v in by_name[piece.name].items() if k != "name"}
+        assert by_name[piece.name]["boundary"]["M"]["lengths"] == [len(piece.boundary)]
+        assert np.abs(got["boundary"] - piece.boundary).max() <= 1e-9
+        configured = [n for n in reports[piece.name]["textile"]["notches"]]
+        assert len(got["notches"]) == len(configured) == len(piece.notches) > 0
+        # each notch it reads is on the cut line, at the configured notch's place
+        for point, notch in zip(got["notches"], configured):
+            assert LinearRing(piece.boundary).distance(Point(point)) <= 1e-6
+            assert np.hypot(*(point - notch["sew_point"])) == pytest.approx(10.0, abs=0.05)  # the allowance
+        assert np.abs(got["grain"] - piece.grain[0]).max() <= 1e-9
+        assert len(got["turn"]) == 8 and len(got["curve"]) == len(piece.curve_points)
+
+
+def test_the_open_astm_parser_reads_the_real_files_with_the_same_structure(astm):
+    results = astm(REAL_FILES)
+    for path, res in zip(REAL_FILES, results):
+        assert res["ok"], res
+        # the real files' diagnostics concern layers we do not write (84/85 ASTM
+        # validation curves, CLO's unknown group code 250): none about ours
+        about_ours = [d for d in res["diagnostics"] if d["layer"] in OUR_LAYERS]
+        assert about_ours == [], (path.name, about_ours[:3])
+        pieces = res["pieces"]
+        assert pieces
+        for pc in pieces:
+            for size, shape in pc["boundary"].items():
+                assert shape["lengths"], (path.name, pc["name"], size)
+        counts = {k: sum(len(s["lengths"]) for pc in pieces for s in pc[k].values())
+                  for k in ("turn", "notches", "grain")}
+        assert counts["turn"] > 0 and counts["grain"] > 0, (path.name, counts)
+        if path.name != "clo-box.dxf":  # the one real file without notches
+            assert counts["notches"] > 0, (path.name, counts)
+
+
 def textile_config(tmp_path, **textile):
     data = yaml.safe_load(LAMPSHADE.read_text())
     data["textile"].update(textile)
@@ -180,6 +304,19 @@ def test_bad_textile_input_exits_2_naming_the_field(tmp_path, capsys, textile, e
     for piece in expected:
         assert piece in err, (piece, err)
     assert not out.exists()
+
+
+def test_sew_line_on_layer_14_and_v_notches(tmp_path):
+    config = textile_config(tmp_path, sew_line_layer=14, notch_type="v", notch_width=4.0, printout=False)
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    import ezdxf
+    doc = ezdxf.readfile(out / "lampshade.dxf")
+    for piece in read_aama(out / "lampshade.dxf").pieces:
+        sew = [e for e in doc.blocks[piece.block] if e.dxf.layer == "14"]
+        assert len(sew) == 1 and sew[0].is_closed and piece.sew is not None
+        assert not any(e.dxftype() == "POLYLINE" for e in doc.blocks[piece.block] if e.dxf.layer == "8")
+        assert all(n.depth == pytest.approx(5.0) and n.width == 4.0 for n in piece.notches)
 
 
 @pytest.mark.parametrize("grain", [{"ruling": 5}, {"angle": 30.0}, {"direction": [0, 0, 1]}],
