@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from math import comb
+from math import comb, factorial
 
 import numpy as np
 from scipy.interpolate import BSpline, PPoly, insert
@@ -20,6 +20,33 @@ from .errors import InvalidCurveError
 # Gauss-Legendre rule used for arc length on every sub-interval of a span.
 _GAUSS_ORDER = 12
 _ARC_SUBDIVISIONS = 8
+
+# Input limits (not tolerances): the solver's polynomial in T has degree 2p - 2, and it is
+# certified up to p = 9 in tests/test_hostile_inputs.py; coordinates beyond 1e9 model units
+# (1000 km in mm) overflow the products of four coordinates in the developability
+# determinant long before they mean a real part.
+MAX_DEGREE = 9
+MAX_COORDINATE = 1e9
+MAX_CONTROL_POINTS = 100_000
+MAX_WEIGHT_RATIO = 1e10  # beyond it the homogeneous coordinates lose every digit of the light points
+# knot values: derivatives scale with 1 / domain width, and products of four of them must
+# stay far from overflow
+MAX_KNOT = 1e12
+MIN_DOMAIN = 1e-12
+
+
+def ppoly_from_spline(spline: BSpline) -> PPoly:
+    """The piecewise polynomial of a scalar B-spline, one piece per non-empty knot span.
+
+    Same result as ``PPoly.from_spline``, which crashes the interpreter for degree >= 8
+    (fitpack's fixed work arrays, scipy issue 4343): the Taylor coefficients are taken
+    from ``BSpline`` derivatives at each span's left end (right limits) instead.
+    """
+    k = spline.k
+    t = np.asarray(spline.t)
+    x = np.unique(t[k: len(t) - k])
+    coef = np.array([spline(x[:-1], nu=k - m) / factorial(k - m) for m in range(k + 1)])
+    return PPoly(coef.reshape(k + 1, len(x) - 1), x, extrapolate=spline.extrapolate)
 
 
 def _readonly(array: np.ndarray) -> np.ndarray:
@@ -150,7 +177,7 @@ class NurbsCurve:
         pw = self.homogeneous.c
         coefs = []
         for axis in range(4):
-            pp = PPoly.from_spline(BSpline(self.knots, pw[:, axis], self.degree))
+            pp = ppoly_from_spline(BSpline(self.knots, pw[:, axis], self.degree))
             coefs.append(pp)
         starts = self.breakpoints[:-1]
         widths = np.diff(self.breakpoints)
@@ -256,6 +283,8 @@ def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
         raise InvalidCurveError(f"{name}.degree must be an integer, got {degree!r}")
     if degree < 1:
         raise InvalidCurveError(f"{name}.degree must be >= 1, got {degree}")
+    if degree > MAX_DEGREE:
+        raise InvalidCurveError(f"{name}.degree {degree} is above the supported maximum {MAX_DEGREE}")
     try:
         points = np.asarray(control_points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -266,7 +295,15 @@ def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
     if len(bad):
         i, j = bad[0]
         raise InvalidCurveError(f"{name}.control_points[{i}][{j}] is not finite: {points[i, j]}")
+    big = np.argwhere(np.abs(points) > MAX_COORDINATE)
+    if len(big):
+        i, j = big[0]
+        raise InvalidCurveError(f"{name}.control_points[{i}][{j}] = {points[i, j]:g} is beyond the supported "
+                                f"range +-{MAX_COORDINATE:g} model units")
     n_points = len(points)
+    if n_points > MAX_CONTROL_POINTS:
+        raise InvalidCurveError(f"{name}.control_points has {n_points} points, more than the {MAX_CONTROL_POINTS} "
+                                "supported")
     if n_points < degree + 1:
         raise InvalidCurveError(
             f"{name}.control_points has {n_points} points; degree {degree} needs at least {degree + 1}")
@@ -284,6 +321,10 @@ def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
         for i, value in enumerate(w):
             if not np.isfinite(value) or value <= 0:
                 raise InvalidCurveError(f"{name}.weights[{i}] must be finite and > 0, got {value}")
+        if w.max() > MAX_WEIGHT_RATIO * w.min():
+            i = int(np.argmin(w))
+            raise InvalidCurveError(f"{name}.weights[{i}] = {w[i]:g} is more than {MAX_WEIGHT_RATIO:g} times "
+                                    f"smaller than the largest weight {w.max():g}")
 
     if knots is None:
         u = clamped_uniform_knots(n_points, degree)
@@ -315,8 +356,22 @@ def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
             raise InvalidCurveError(
                 f"{name}.knots: interior knot {k} has multiplicity {counts.max()} > degree {degree}, "
                 "the curve would be discontinuous")
+        values, counts = np.unique(u, return_counts=True)
+        if np.any(counts > degree + 1):
+            k = values[np.argmax(counts)]
+            raise InvalidCurveError(
+                f"{name}.knots: knot {k} has multiplicity {counts.max()} > degree + 1 = {degree + 1}, "
+                "a control point would have no influence on the curve")
+        if np.abs(u).max() > MAX_KNOT or hi - lo < MIN_DOMAIN:
+            raise InvalidCurveError(f"{name}.knots: the domain [{lo:g}, {hi:g}] is outside the supported "
+                                    f"range (|knot| <= {MAX_KNOT:g}, width >= {MIN_DOMAIN:g})")
 
-    size = float(np.max(np.ptp(points, axis=0)))
+    # the control points whose basis functions reach into the domain make the curve; when
+    # they coincide the curve is a point, whatever the other control points
+    i = np.arange(n_points)
+    active = (u[i] < u[-degree - 1]) & (u[i + degree + 1] > u[degree])
+    size = float(np.max(np.ptp(points[active], axis=0)))
     if size == 0.0:
-        raise InvalidCurveError(f"{name} has zero length: all control points equal {points[0].tolist()}")
+        raise InvalidCurveError(f"{name} has zero length: the control points acting on its knot domain all "
+                                f"equal {points[active][0].tolist()}")
     return NurbsCurve(int(degree), _readonly(points), _readonly(w), _readonly(u), name)

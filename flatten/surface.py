@@ -6,10 +6,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.interpolate import BSpline, PPoly
+from scipy.interpolate import BSpline
 
 from .errors import InvalidCurveError
-from .nurbs import NurbsCurve, nurbs_curve
+from .nurbs import MAX_COORDINATE, MAX_DEGREE, NurbsCurve, nurbs_curve, ppoly_from_spline
 
 
 def expand_knots(knots, multiplicities) -> np.ndarray:
@@ -75,7 +75,7 @@ class NurbsSurface:
                 curve = self.iso_u(value) if along_u else self.iso_v(value)
                 spline = curve.homogeneous
                 coef = spline.c[:, :3] @ n - h * spline.c[:, 3]
-                roots = PPoly.from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
+                roots = ppoly_from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
                 a, b = curve.domain
                 roots = np.unique(np.round(roots[(roots >= a) & (roots <= b)], 14))
                 if len(roots) > 1:
@@ -110,9 +110,17 @@ def nurbs_surface(degree_u, degree_v, poles, knots_u, knots_v, weights=None, nam
     if w.shape != (nu, nv) or not np.all(w > 0):
         raise InvalidCurveError(f"{name}.weights must be positive with shape {(nu, nv)}")
     ku, kv = np.asarray(knots_u, dtype=np.float64), np.asarray(knots_v, dtype=np.float64)
+    if np.abs(poles).max(initial=0.0) > MAX_COORDINATE:
+        raise InvalidCurveError(f"{name}.poles reach {np.abs(poles).max():g}, beyond +-{MAX_COORDINATE:g}")
     for label, knots, n, p in (("knots_u", ku, nu, degree_u), ("knots_v", kv, nv, degree_v)):
+        if not 1 <= p <= MAX_DEGREE:
+            raise InvalidCurveError(f"{name}.degree of {label[-1]} is {p}, supported: 1 to {MAX_DEGREE}")
+        if n < p + 1:
+            raise InvalidCurveError(f"{name} has {n} poles along {label[-1]}; degree {p} needs at least {p + 1}")
         if knots.size != n + p + 1:
             raise InvalidCurveError(f"{name}.{label} has {knots.size} values; {n} poles of degree {p} need {n + p + 1}")
-        if np.any(np.diff(knots) < 0):
-            raise InvalidCurveError(f"{name}.{label} must be non-decreasing")
+        if not np.all(np.isfinite(knots)) or np.any(np.diff(knots) < 0):
+            raise InvalidCurveError(f"{name}.{label} must be finite and non-decreasing")
+        if not knots[-p - 1] > knots[p]:
+            raise InvalidCurveError(f"{name}.{label} give an empty domain [{knots[p]}, {knots[-p - 1]}]")
     return NurbsSurface(int(degree_u), int(degree_v), poles, w, ku, kv, name)

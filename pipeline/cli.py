@@ -19,6 +19,7 @@ from flatten.tolerances import DEFAULT_TOLERANCES
 from .config import ConfigError, RunConfig, load_config
 
 EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,11 +50,20 @@ def validate(path: Path) -> RunConfig:
     return config
 
 
+MAX_JOBS = 64
+
+
+def check_jobs(jobs: int) -> None:
+    if not 1 <= jobs <= MAX_JOBS:
+        raise ConfigError(f"--jobs {jobs}: give a number of processes from 1 to {MAX_JOBS}")
+
+
 def command_run(args) -> int:
     from .export import export_part, export_summary, export_textile, textile_pieces
     from .report import summary_table
     from .stages import run_part
 
+    check_jobs(args.jobs)
     config = validate(args.config)
     parts = config.parts
     progress = None
@@ -113,6 +123,16 @@ def main(argv: list[str] | None = None) -> int:
         if args.debug:
             traceback.print_exc()
         print(f"devflat: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("devflat: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (MemoryError, RecursionError) as exc:
+        # reading or checking the input exhausted a resource: the input is out of range
+        if args.debug:
+            traceback.print_exc()
+        print(f"devflat: error: {args.config}: the input is too large to process ({type(exc).__name__})",
+              file=sys.stderr)
         return EXIT_INPUT
 
 

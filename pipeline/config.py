@@ -1,7 +1,7 @@
 """Run configuration: YAML validated into typed models (pydantic v2).
 
 Every error names the file, the line where YAML has one, the field path and the value.
-The one module that reads YAML.
+The one module that reads YAML (within the limits of :mod:`pipeline.inputs`).
 """
 
 from __future__ import annotations
@@ -12,21 +12,38 @@ from typing import Annotated, Any, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import (BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator,
-                      model_validator)
+from pydantic import (BaseModel, ConfigDict, Discriminator, Field, StrictInt, Tag, ValidationError,
+                      ValidationInfo, field_validator, model_validator)
 
 from flatten import InvalidCurveError, NurbsCurve, nurbs_curve
 from flatten.errors import DevflatError
 
 UNIT_TO_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+# part names become file names: no path separator, no leading dot (hidden files, "..")
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
+MAX_RULINGS_AUTO = 20_000  # choose_rulings' default max_rulings
+MAX_MESH_VERTICES = 2_100_000  # ~0.5 GB of strip, check mesh and development at the peak
 
 
 class ConfigError(DevflatError, ValueError):
     """A configuration file is unreadable or invalid; the message names file, line, field, value."""
 
 
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+
+
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # no inf/NaN anywhere (thickness .inf, a NaN normal); ints are StrictInt where a bool
+    # would otherwise pass as 0/1
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @field_validator("*", mode="after")
+    @classmethod
+    def _printable(cls, value, info: ValidationInfo):
+        """Texts end up in DXF groups and file names: no newline or other control character."""
+        if isinstance(value, str) and _CONTROL.search(value):
+            raise ValueError(f"control character {_CONTROL.search(value).group()!r} in {info.field_name}")
+        return value
 
     def _given(self, *names: str) -> list[str]:
         """Which of the named alternative fields this model was given."""
@@ -34,7 +51,7 @@ class _Strict(BaseModel):
 
 
 class CurveSpec(_Strict):
-    degree: int = Field(3, ge=1, le=9)
+    degree: StrictInt = Field(3, ge=1, le=9)  # flatten.nurbs.MAX_DEGREE
     control_points: list[tuple[float, float, float]] = Field(min_length=2)
     weights: list[float] | None = None
     knots: list[float] | None = None
@@ -71,8 +88,8 @@ class SurfaceSource(_Strict):
     an entity-128 surface."""
 
     iges: str
-    entity: int | None = Field(None, ge=0)
-    directory: int | None = Field(None, ge=1)
+    entity: StrictInt | None = Field(None, ge=0)
+    directory: StrictInt | None = Field(None, ge=1)
     label: str | None = None
 
     @model_validator(mode="after")
@@ -147,8 +164,8 @@ class CurvesSpec(_Strict):
 
 class Resolution(_Strict):
     chord_tolerance: float | None = Field(None, gt=0)
-    rulings: int | None = Field(None, ge=2, le=200_000)
-    samples_per_ruling: int = Field(5, ge=3, le=101)
+    rulings: StrictInt | None = Field(None, ge=2, le=200_000)
+    samples_per_ruling: StrictInt = Field(5, ge=3, le=101)
 
     @model_validator(mode="after")
     def _one_of(self):
@@ -156,14 +173,19 @@ class Resolution(_Strict):
             object.__setattr__(self, "chord_tolerance", 0.5)
         if self.chord_tolerance is not None and self.rulings is not None:
             raise ValueError("give either chord_tolerance or rulings, not both")
+        # the chord_tolerance route stops at MAX_RULINGS_AUTO rulings (flatten.strip)
+        vertices = (self.rulings or MAX_RULINGS_AUTO) * self.samples_per_ruling
+        if vertices > MAX_MESH_VERTICES:
+            raise ValueError(f"rulings x samples_per_ruling = {vertices} mesh vertices, more than the "
+                             f"{MAX_MESH_VERTICES} a part may have")
         return self
 
 
 class Steel(_Strict):
     thickness: float = Field(10.0, gt=0, description="mm")
-    material: str = "S355"
+    material: str = Field("S355", max_length=80)
     density: float = Field(7850.0, gt=0, description="kg/m^3")
-    marked_side: str = "moulded"
+    marked_side: str = Field("moulded", max_length=80)
 
 
 class Check(_Strict):
@@ -182,7 +204,7 @@ class Layers(_Strict):
     @classmethod
     def _layer_name(cls, value: str) -> str:
         bad = set('<>/\\":;?*|=`') & set(value)
-        if not value or bad:
+        if not value or bad or len(value) > 255:
             raise ValueError(f"invalid DXF layer name {value!r}")
         return value
 
@@ -201,9 +223,9 @@ class NotchSpec(_Strict):
     (so that neighbouring pieces sharing the curve get matching notches), or at both
     ends of a ruling of this piece."""
 
-    curve: int | Literal["c", "d"] | None = None
+    curve: StrictInt | Literal["c", "d"] | None = None
     at: list[float] = Field(default_factory=list)
-    ruling: int | None = Field(None, ge=0)
+    ruling: StrictInt | None = Field(None, ge=0)
 
     @model_validator(mode="after")
     def _one(self):
@@ -218,7 +240,7 @@ class Grain(_Strict):
     """Grain line: along a ruling, a 3D direction projected onto the piece, or an angle
     (degrees) against the piece's x axis."""
 
-    ruling: int | None = Field(None, ge=0)
+    ruling: StrictInt | None = Field(None, ge=0)
     direction: tuple[float, float, float] | None = None
     angle: float | None = None
 
@@ -240,8 +262,8 @@ class Textile(_Strict):
     notch_width: float = Field(3.0, gt=0, description="opening of a V notch at the cut line")
     grain: Grain = Grain(angle=0.0)
     size: str = Field("M", pattern=r"^[A-Za-z0-9.-]+$")
-    quantity: int = Field(1, ge=1)
-    fabric: str = "fabric"
+    quantity: StrictInt = Field(1, ge=1, le=1_000_000)
+    fabric: str = Field("fabric", max_length=80)
     internal_rulings: bool = False
     sew_line_layer: Literal[8, 14] | None = 8
     printout: bool = True
@@ -266,7 +288,7 @@ class Output(_Strict):
 
 
 class PartSpec(_Strict):
-    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=80)
+    name: str = Field(pattern=NAME_PATTERN, max_length=80)
     curves: CurvesSpec
     steel: Steel | None = None
 
@@ -322,7 +344,7 @@ class RunSpec(_Strict):
     check: Check = Check()
     output: Output = Output()
     # single-part form
-    name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=80)
+    name: str | None = Field(None, pattern=NAME_PATTERN, max_length=80)
     curves: CurvesSpec | None = None
     # consecutive curves c0, c1, ..., ck: one part per neighbouring pair, named NAME_1..NAME_k
     sequence: list[CurveSource] | None = Field(None, min_length=2)
@@ -425,18 +447,24 @@ def _line_of(lines: dict, loc) -> int | None:
 
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a run configuration; raise ConfigError on the first problem."""
+    from .inputs import InputFileError, YamlLimitError, load_yaml, read_input_file
+
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the configuration: {exc}") from None
+        text = read_input_file(path, "configuration").decode("utf-8")
+    except InputFileError as exc:
+        raise ConfigError(str(exc)) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: cannot read the configuration: not UTF-8 text ({exc.reason} at byte "
+                          f"{exc.start})") from None
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        data, root = load_yaml(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f":{mark.line + 1}" if mark is not None else ""
         raise ConfigError(f"{path}{where}: malformed YAML: {getattr(exc, 'problem', exc)}") from None
+    except YamlLimitError as exc:
+        raise ConfigError(f"{path}{':' + str(exc.line) if exc.line else ''}: {exc}") from None
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: the configuration must be a mapping of fields, got {type(data).__name__}")
     lines = _line_index(root) if root is not None else {}

@@ -85,11 +85,13 @@ def _number(token: str) -> float:
 
 def read_iges(path: str | Path) -> IgesFile:
     """Parse the directory and parameter sections of an IGES file."""
+    from .inputs import InputFileError, read_input_file
+
     path = Path(path)
     try:
-        raw = path.read_bytes().decode("latin-1")
-    except OSError as exc:
-        raise IgesError(f"{path}: cannot read the IGES file: {exc}") from None
+        raw = read_input_file(path, "IGES").decode("latin-1")
+    except InputFileError as exc:
+        raise IgesError(str(exc)) from None
     sections: dict[str, list[str]] = {"S": [], "G": [], "D": [], "P": [], "T": []}
     for number, line in enumerate(raw.splitlines(), 1):
         if not line.strip():
@@ -107,7 +109,7 @@ def read_iges(path: str | Path) -> IgesFile:
     fields = _split_global(global_text, delim, record)
     try:
         flag = int(float(fields[13])) if len(fields) > 13 and fields[13] else 2
-    except ValueError:
+    except (ValueError, OverflowError):
         raise IgesError(f"{path}: global parameter 14 (unit flag) is {fields[13]!r}, not a number") from None
     unit_name = fields[14] if len(fields) > 14 else ""
     unit_mm = UNIT_FLAG_MM.get(flag)
@@ -137,6 +139,9 @@ def read_iges(path: str | Path) -> IgesFile:
             sequence = int(first[73:80])
         except ValueError:
             raise IgesError(f"{path}: directory entry D{k + 1} is malformed: {first[:72].rstrip()!r}") from None
+        if not 0 < count <= len(p_lines):
+            raise IgesError(f"{path}: directory entry D{sequence} claims {count} parameter lines "
+                            f"({len(p_lines)} in the file)")
         text = "".join(params.get(pointer + j, "") for j in range(count))
         tokens = text.split(record)[0].split(delim)
         entities.append(IgesEntity(len(entities), sequence, entity_type, form, level, second[56:64].strip(),
@@ -162,8 +167,8 @@ def iges_curve(iges: IgesFile, entity: IgesEntity, scale: float, name: str) -> N
         weights = p[6 + n + m + 1: 6 + n + m + 1 + n]
         points = p[6 + 2 * n + m + 1: 6 + 2 * n + m + 1 + 3 * n].reshape(n, 3)
         t0, t1 = p[6 + 5 * n + m + 1: 6 + 5 * n + m + 3]
-    except (IndexError, ValueError):
-        raise IgesError(f"{where}: too few parameters for a rational B-spline curve") from None
+    except (IndexError, ValueError, OverflowError):
+        raise IgesError(f"{where}: too few or malformed parameters for a rational B-spline curve") from None
     try:
         curve = nurbs_curve(points * scale, m, weights, knots, name=name)
         lo, hi = curve.domain
@@ -189,8 +194,8 @@ def iges_surface(iges: IgesFile, entity: IgesEntity, scale: float, name: str) ->
         weights = p[at: at + n1 * n2].reshape(n2, n1).T
         at += n1 * n2
         poles = p[at: at + 3 * n1 * n2].reshape(n2, n1, 3).transpose(1, 0, 2)
-    except (IndexError, ValueError):
-        raise IgesError(f"{where}: too few parameters for a rational B-spline surface") from None
+    except (IndexError, ValueError, OverflowError):
+        raise IgesError(f"{where}: too few or malformed parameters for a rational B-spline surface") from None
     try:
         return nurbs_surface(m1, m2, poles * scale, knots_u, knots_v, weights, name=name)
     except InvalidCurveError as exc:

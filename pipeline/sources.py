@@ -6,6 +6,7 @@ Every reader rejects a bad file with a message naming the file and the entity.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +21,15 @@ from .iges import IgesError, iges_curve, iges_surface, read_iges
 
 class SourceError(DevflatError, ValueError):
     """A curve source cannot be read or does not hold the entity asked for."""
+
+
+MAX_FIT_POINTS = 100_000
+
+
+def source_path(base: Path, name: str) -> Path:
+    """A source file's absolute path, relative to the config's folder; symlinks are not
+    resolved here (a loop is reported when the file is read, not raised as RuntimeError)."""
+    return Path(os.path.abspath(base / name))
 
 
 @dataclass(frozen=True)
@@ -37,24 +47,37 @@ def fit_points(points: np.ndarray, tolerance: float, name: str) -> tuple[NurbsCu
     """Cubic B-spline through (N, 3) points, smoothed as much as the tolerance allows:
     the smoothing factor is lowered until the largest distance of a point from the
     curve (at its own parameter) is within ``tolerance``."""
+    from flatten.nurbs import MAX_COORDINATE
+
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < 4:
         raise SourceError(f"{name}: need at least 4 points of 3 coordinates, got shape {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise SourceError(f"{name}: a point is not finite")
+    if len(pts) > MAX_FIT_POINTS:
+        raise SourceError(f"{name}: {len(pts)} points, more than the {MAX_FIT_POINTS} a fit takes")
+    bad = np.argwhere(~(np.abs(pts) <= MAX_COORDINATE))
+    if len(bad):
+        i, j = bad[0]
+        raise SourceError(f"{name}: point {i} coordinate {j} = {pts[i, j]:g} is not finite or beyond "
+                          f"+-{MAX_COORDINATE:g}")
     keep = np.ones(len(pts), dtype=bool)
     keep[1:] = np.linalg.norm(np.diff(pts, axis=0), axis=1) > 0
     pts = pts[keep]
-    smoothing = len(pts) * tolerance**2
-    for _ in range(60):
-        spline, u = make_splprep(pts.T, k=3, s=smoothing)
-        error = np.linalg.norm(spline(u).T - pts, axis=1)
-        if error.max() <= tolerance:
-            break
-        smoothing *= 0.25
-    else:
-        spline, u = make_splprep(pts.T, k=3, s=0)
-        error = np.linalg.norm(spline(u).T - pts, axis=1)
+    distinct = len(np.unique(pts, axis=0))
+    if distinct < 4:
+        raise SourceError(f"{name}: a cubic fit needs at least 4 distinct points, got {distinct}")
+    try:
+        smoothing = len(pts) * tolerance**2
+        for _ in range(60):
+            spline, u = make_splprep(pts.T, k=3, s=smoothing)
+            error = np.linalg.norm(spline(u).T - pts, axis=1)
+            if error.max() <= tolerance:
+                break
+            smoothing *= 0.25
+        else:
+            spline, u = make_splprep(pts.T, k=3, s=0)
+            error = np.linalg.norm(spline(u).T - pts, axis=1)
+    except ValueError as exc:  # scipy's own checks of the data (e.g. a point list that doubles back)
+        raise SourceError(f"{name}: the points cannot be fitted by a cubic B-spline: {exc}") from None
     n = len(spline.t) - 4
     curve = nurbs_curve(np.asarray(spline.c).reshape(3, -1).T[:n] if np.asarray(spline.c).shape[0] == 3
                         else np.asarray(spline.c)[:n], 3, None, spline.t, name=name)
@@ -80,7 +103,7 @@ def pick_entity(entities, spec, where: str, kind: str):
 def iges_source(spec, base: Path, mm_per_unit: float, name: str) -> tuple[NurbsCurve, FitReport | None]:
     """A curve from an IGES file: entity 126, or an iso-curve or a plane section (fitted)
     of entity 128; scaled from the file's unit to the config's."""
-    path = (base / spec.iges).resolve()
+    path = source_path(base, spec.iges)
     report = None
     try:
         iges = read_iges(path)
@@ -123,11 +146,16 @@ def dxf_source(spec, base: Path, name: str) -> tuple[NurbsCurve, FitReport | Non
     """A SPLINE (exact NURBS) or a polyline (fitted) from a DXF file, by layer or handle."""
     import ezdxf
 
-    path = (base / spec.dxf).resolve()
+    from .inputs import InputFileError, check_input_file
+
+    path = source_path(base, spec.dxf)
     try:
+        check_input_file(path, "DXF")
         doc = ezdxf.readfile(path)
-    except (OSError, ezdxf.DXFError) as exc:
-        raise SourceError(f"{path}: cannot read the DXF file: {exc}") from None
+    except InputFileError as exc:
+        raise SourceError(str(exc)) from None
+    except Exception as exc:  # noqa: BLE001 - ezdxf's parser raises many types on hostile files
+        raise SourceError(f"{path}: cannot read the DXF file: {type(exc).__name__}: {exc}") from None
     msp = doc.modelspace()
     if spec.handle is not None:
         entity = doc.entitydb.get(spec.handle)

@@ -12,14 +12,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import BSpline, PPoly
+from scipy.interpolate import BSpline
 from scipy.spatial import cKDTree
 
 from flatten import NurbsCurve
+from flatten.nurbs import ppoly_from_spline
 from flatten.surface import NurbsSurface
 
 from .iges import IgesError, iges_surface, read_iges
-from .sources import SourceError, pick_entity
+from .sources import SourceError, pick_entity, source_path
+
+
+MAX_FRAMES_PER_PLATE = 1000
 
 
 @dataclass(frozen=True)
@@ -70,13 +74,13 @@ def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
     n . A - offset w), sorted."""
     spline = curve.homogeneous
     coef = spline.c[:, :3] @ np.asarray(plane.normal) - plane.offset * spline.c[:, 3]
-    roots = PPoly.from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
+    roots = ppoly_from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
     lo, hi = curve.domain
     return np.unique(roots[(roots >= lo) & (roots <= hi)])
 
 
 def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
-    path = (base / spec.iges).resolve()
+    path = source_path(base, spec.iges)
     try:
         iges = read_iges(path)
         entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
@@ -137,6 +141,9 @@ def strake_parts(spec, config_path: Path, mm_per_unit: float) -> list:
             frames = []
             if strake.frames is not None:
                 lo, hi = corners[:, 0].min(), corners[:, 0].max()
+                if not hi - lo <= MAX_FRAMES_PER_PLATE * strake.frames.spacing:
+                    raise SourceError(f"frames.spacing = {strake.frames.spacing:g} puts more than "
+                                      f"{MAX_FRAMES_PER_PLATE} frames on plate {name}")
                 first = int(np.ceil((lo - strake.frames.start) / strake.frames.spacing))
                 last = int(np.floor((hi - strake.frames.start) / strake.frames.spacing))
                 frames = [strake.frames.start + k * strake.frames.spacing for k in range(first, last + 1)

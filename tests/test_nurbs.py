@@ -6,6 +6,7 @@ from hypothesis import given, settings, strategies as st
 
 from flatten import InvalidCurveError, nurbs_curve
 from flatten.errors import DevflatError
+from flatten.nurbs import MAX_WEIGHT_RATIO
 from tests.oracles import circular_arc, multispan_cubic
 
 
@@ -97,7 +98,7 @@ def test_invalid_curves_name_field_and_value(kwargs, message):
 def test_weights_are_accepted_only_when_positive_and_finite(weights):
     points = np.arange(15, dtype=float).reshape(5, 3) ** 1.5
     w = np.array(weights)
-    if np.all(np.isfinite(w)) and np.all(w > 0):
+    if np.all(np.isfinite(w)) and np.all(w > 0) and w.max() <= MAX_WEIGHT_RATIO * w.min():
         curve = nurbs_curve(points, 3, weights=weights)
         assert np.all(np.isfinite(curve(np.linspace(0, 1, 5))))
     else:
@@ -119,3 +120,25 @@ def test_random_knot_vectors_are_validated(knots):
     lo, hi = curve.domain
     assert hi > lo
     assert np.all(np.isfinite(curve(np.linspace(lo, hi, 5))))
+
+
+@pytest.mark.parametrize("degree", [3, 8, 9, 12])
+def test_piecewise_polynomial_of_high_degree_splines_without_fitpack(degree):
+    """x^p is the last Bernstein polynomial: one piece with the single coefficient 1 (scipy's
+    PPoly.from_spline crashes the interpreter from degree 8 on)."""
+    from scipy.interpolate import BSpline
+
+    from flatten.nurbs import ppoly_from_spline
+
+    coef = np.zeros(degree + 1)
+    coef[-1] = 1.0
+    pp = ppoly_from_spline(BSpline(np.r_[np.zeros(degree + 1), np.ones(degree + 1)], coef, degree))
+    expected = np.zeros((degree + 1, 1))
+    expected[0, 0] = 1.0
+    assert np.allclose(pp.c, expected, atol=1e-12)
+    assert np.allclose(pp.x, [0.0, 1.0])
+    # two spans with a double knot: the pieces agree with the spline's own values
+    t = np.r_[np.zeros(degree + 1), 0.4, 0.4, np.ones(degree + 1)]
+    spline = BSpline(t, np.random.default_rng(degree).normal(size=len(t) - degree - 1), degree)
+    x = np.linspace(0, 1, 41)
+    assert np.allclose(ppoly_from_spline(spline)(x), spline(x), atol=1e-12)
