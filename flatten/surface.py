@@ -87,6 +87,16 @@ class NurbsSurface:
                     return np.array(found)
         raise ValueError("the plane misses the surface or cuts its iso-curves more than once in both directions")
 
+    def grid(self, u, v) -> np.ndarray:
+        """Points S(u_i, v_j) on the tensor grid of u (Nu,) and v (Nv,), shape (Nu, Nv, 3):
+        two small basis matrices instead of one per point."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        v = np.atleast_1d(np.asarray(v, dtype=np.float64))
+        bu = BSpline.design_matrix(np.clip(u, *self.domain_u), self.knots_u, self.degree_u).toarray()
+        bv = BSpline.design_matrix(np.clip(v, *self.domain_v), self.knots_v, self.degree_v).toarray()
+        hom = np.einsum("ai,ijk,bj->abk", bu, self._homogeneous, bv)
+        return hom[..., :3] / hom[..., 3:]
+
     def __call__(self, u, v) -> np.ndarray:
         """Points S(u_k, v_k) for matching arrays, shape (N, 3)."""
         u = np.atleast_1d(np.asarray(u, dtype=np.float64))

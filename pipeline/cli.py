@@ -16,7 +16,7 @@ from flatten.errors import DevflatError
 from flatten.solver import check_pair
 from flatten.tolerances import DEFAULT_TOLERANCES
 
-from .config import ConfigError, RunConfig, load_config
+from .config import ConfigError, RunConfig
 
 EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
@@ -39,10 +39,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def validate(path: Path) -> RunConfig:
-    """Load the config and check each part's curve pair (coincident curves are bad input)."""
-    config = load_config(path)
+def validate(path: Path, evaluate=None) -> RunConfig:
+    """Load the config, plan its plates and check each part's curve pair (coincident curves
+    are bad input)."""
+    from .plan import load_run
+
+    config = load_run(path, evaluate)
     for part in config.parts:
+        if part.hull is not None and not part.hull.developable:
+            continue  # no strip is tried between these seams (e.g. an end plate)
         try:
             check_pair(part.c, part.d, DEFAULT_TOLERANCES)
         except DevflatError as exc:
@@ -60,11 +65,11 @@ def check_jobs(jobs: int) -> None:
 
 def command_run(args) -> int:
     from .export import export_part, export_summary, export_textile, textile_pieces
+    from .plates import evaluate_plate, run_part
     from .report import summary_table
-    from .stages import run_part
 
     check_jobs(args.jobs)
-    config = validate(args.config)
+    config = validate(args.config, evaluate_plate)
     parts = config.parts
     progress = None
     if len(parts) > 1 and not args.quiet:

@@ -313,22 +313,66 @@ class FrameSpec(_Strict):
     start: float = 0.0
 
 
+class StockSpec(_Strict):
+    """Plate sizes a plan must respect (config units): the developed plate's length along
+    the hull and its width across it."""
+
+    max_length: float = Field(14000.0, gt=0)
+    max_width: float = Field(3500.0, gt=0)
+    min_length: float = Field(2000.0, gt=0)
+    min_width: float = Field(800.0, gt=0)
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.min_length > self.max_length or self.min_width > self.max_width:
+            raise ValueError(f"stock minimum sizes exceed the maximum ones: {self.min_length} x {self.min_width} "
+                             f"against {self.max_length} x {self.max_width}")
+        return self
+
+
+class PlanSpec(_Strict):
+    """Seams and butts chosen by devflat. ``uniform``: strakes of equal girth at the widest
+    section and equally spaced butt planes within the stock sizes; ``adaptive``: the same,
+    then every plate that is neither flat nor developable within the fit tolerance is split
+    (at mid length or mid girth) while the halves stay above the minimum sizes. The surfaces
+    listed after ``strake.surface`` belong to the same hull (plates stay on one surface)."""
+
+    method: Literal["uniform", "adaptive"] = "adaptive"
+    stock: StockSpec = StockSpec()
+    surfaces: list[SurfaceSource] = Field(default_factory=list, max_length=64)
+    max_splits: int = Field(3, ge=0, le=6, description="depth of the adaptive splitting")
+
+
 class StrakeSpec(_Strict):
     """Plates of a strake: between consecutive seams (iso-curves of the hull surface) and
     consecutive butts (planes x = const given as numbers, or planes {point, normal}, config
     units; listed from aft to fore), each computed on its seams extended
-    past the butts by ``margin`` times the plate length and trimmed by the butt planes."""
+    past the butts by ``margin`` times the plate length and trimmed by the butt planes.
+    With ``plan``, devflat lays the seams and butts over the whole surface instead."""
 
     surface: SurfaceSource
-    seams: list[SeamSpec] = Field(min_length=2)
-    butts: list[float | PlaneSpec] = Field(min_length=2)
+    seams: list[SeamSpec] | None = Field(None, min_length=2)
+    butts: list[float | PlaneSpec] | None = Field(None, min_length=2)
+    plan: PlanSpec | None = None
     frames: FrameSpec | None = None
     margin: float = Field(0.1, ge=0, le=1)
     fit_tolerance: float = Field(5.0, gt=0, description="largest distance from the hull surface")
+    patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
+                                        "plates (config units; default 200 mm)")
+
+    @model_validator(mode="after")
+    def _layout(self):
+        if self.plan is None and (self.seams is None or self.butts is None):
+            raise ValueError("a strake gives seams and butts, or a plan")
+        if self.plan is not None and (self.seams is not None or self.butts is not None):
+            raise ValueError("a strake gives either seams and butts or a plan, not both")
+        return self
 
     @field_validator("butts")
     @classmethod
     def _increasing(cls, value):
+        if value is None:
+            return value
         xs = [b if isinstance(b, (int, float)) else None for b in value]
         if all(x is not None for x in xs) and any(b <= a for a, b in zip(xs, xs[1:])):
             raise ValueError(f"butts must increase, got {value}")
@@ -384,14 +428,15 @@ class Part:
         self.name, self.c, self.d, self.steel = name, c, d, steel
         self.curve_ids = curve_ids
         self.fits = fits or {}
-        self.hull = hull  # a pipeline.strake.HullPlate for plates of a strake
+        self.hull = hull  # a pipeline.plan.HullPlate for plates of a strake
 
 
 class RunConfig:
     """A validated run: the spec, its parts with built curves, and the source file."""
 
-    def __init__(self, spec: RunSpec, parts: list[Part], source: Path):
+    def __init__(self, spec: RunSpec, parts: list[Part], source: Path, lines: dict | None = None):
         self.spec, self.parts, self.source = spec, parts, source
+        self.lines = lines or {}  # key path -> line of the YAML source, for later messages
 
     @property
     def mm_per_unit(self) -> float:
@@ -486,7 +531,7 @@ def load_config(path: str | Path) -> RunConfig:
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: {field}: {message}{value_text}{more}") from None
     parts = _build_parts(spec, path, lines)
     _check_notch_curves(spec, parts, path, lines)
-    return RunConfig(spec, parts, path)
+    return RunConfig(spec, parts, path, lines)
 
 
 def _check_notch_curves(spec: RunSpec, parts: list[Part], path: Path, lines: dict) -> None:
@@ -541,15 +586,8 @@ def _curve(cs, loc: tuple, path: Path, lines: dict, mm_per_unit: float, fits: di
 def _build_parts(spec: RunSpec, path: Path, lines: dict) -> list[Part]:
     mm = UNIT_TO_MM[spec.units]
     fits: dict = {}
-    if spec.strake is not None:
-        from .sources import SourceError
-        from .strake import strake_parts
-
-        try:
-            return strake_parts(spec, path, mm)
-        except SourceError as exc:
-            line = _line_of(lines, ("strake",))
-            raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
+    if spec.strake is not None:  # plates come from the planning layer (pipeline.plan.load_run)
+        return []
     if spec.sequence is not None:
         curves = [_curve(cs, ("sequence", k), path, lines, mm, fits) for k, cs in enumerate(spec.sequence)]
         return [Part(f"{spec.name}_{k + 1}", curves[k], curves[k + 1], spec.steel, (k, k + 1), fits)

@@ -46,7 +46,8 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             written.append(path)
         if out.obj:
             path = out_dir / f"{name}.obj"
-            write_obj(path, result.strip.vertices, pattern.vertices, result.strip.faces, name)
+            v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh
+            write_obj(path, v3, pattern.vertices, faces, name)
             written.append(path)
         if out.png:
             from .plots import flat_pattern_png  # matplotlib: imported only for previews
@@ -136,6 +137,13 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
         if ok:
             path = out_dir / f"{style}_sheet.png"
             sheet_png(path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok], config.spec.units)
+            written.append(path)
+        classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
+        if classed:
+            from .hullplots import class_hull_png
+
+            path = out_dir / f"{style}_classes.png"
+            class_hull_png(path, classed, config.spec.units, config.mm_per_unit)
             written.append(path)
         hull = [r for r in results if r.part.hull is not None and r.strip is not None and r.strip.trim is not None]
         if hull:

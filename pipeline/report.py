@@ -58,6 +58,11 @@ def part_report(result: PartResult, units: str) -> dict:
         "hull_fit": result.figures.get("hull_fit"),
         "plate_coverage": result.figures.get("plate_coverage"),
         "trim": result.figures.get("trim"),
+        "plate_class": result.figures.get("plate_class"),
+        "region": result.figures.get("region"),
+        "completeness": result.figures.get("completeness"),
+        "strain": result.figures.get("strain"),
+        "forming": result.figures.get("forming"),
         "textile": result.figures.get("textile"),
         "files": result.figures.get("files"),
     }
@@ -96,8 +101,11 @@ def summary_rows(results: list[PartResult]) -> list[dict]:
         unroll = r.figures.get("unroll") or {}
         steel = r.figures.get("steel") or {}
         fit = r.figures.get("hull_fit") or {}
+        klass = r.figures.get("plate_class") or {}
         rows.append({
-            "id": r.name, "status": r.status,
+            "id": r.name, "status": r.status, "class": klass.get("class"),
+            "region_area_m2": (r.figures.get("region") or {}).get("area_m2"),
+            "max_strain": klass.get("max_strain"),
             "area_m2": r.figures.get("area_m2"), "weight_kg": steel.get("weight_kg"),
             "max_hull_deviation": fit.get("max_distance"), "rms_hull_deviation": fit.get("rms_distance"),
             "distortion_mm_per_m": (max(abs(unroll["boundary_error_c_mm_per_m"]), abs(unroll["boundary_error_d_mm_per_m"]))

@@ -53,6 +53,7 @@ class PartResult:
     development: Development | None = None
     pattern: Pattern | None = None
     figures: dict = field(default_factory=dict)
+    mesh: tuple | None = None  # (vertices (V, 3), faces (F, 3)) of a plate that is no strip (flat, formed)
 
     @property
     def ok(self) -> bool:
@@ -69,16 +70,16 @@ def place_flat(points: np.ndarray, along_c: np.ndarray) -> tuple[np.ndarray, np.
     return rot, -moved.min(axis=0)
 
 
-def stage_strip(result: PartResult, config: RunConfig) -> None:
+def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None) -> None:
+    """Rulings (by chord tolerance or count) and the strip mesh; ``extra_rulings(solution)
+    -> (K, 2)`` adds rulings a later stage needs (e.g. through the corners of a hull plate)."""
     res = config.spec.resolution
     part, solution = result.part, result.solution
     # chord_tolerance is in the config's units, like the curves
     rulings = choose_rulings(solution, part.c, part.d, chord_tolerance=res.chord_tolerance,
                              n_rulings=res.rulings)
-    if part.hull is not None:  # rulings through the plate corners make the trim exact there
-        from .strake import corner_rulings
-
-        corners = corner_rulings(solution, part.c, part.d, part.hull.butts)
+    if extra_rulings is not None:
+        corners = extra_rulings(solution)
         rulings = np.vstack([rulings, corners])
         rulings = rulings[np.lexsort((rulings[:, 1] * solution.path.orientation, rulings[:, 0]))]
         distinct = np.ones(len(rulings), dtype=bool)
@@ -162,32 +163,44 @@ def stage_unroll(result: PartResult) -> None:
     result.pattern = Pattern(outline, np.stack([c_side, d_side], axis=1), placed, (rot, shift))
 
 
-def run_part(part: Part, config: RunConfig) -> PartResult:
-    """All geometric stages of one part; never raises for a geometric failure."""
-    result = PartResult(part.name, part)
+def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None) -> bool:
+    """Solve, strip, check and unroll; False (with the reason in the result) on a geometric
+    failure."""
+    part = result.part
     solution = solve(part.c, part.d, DEFAULT_TOLERANCES)
     result.solution = solution
     if not solution:
         result.reason = solution.message
-        return result
+        return False
     cov = solution.path.coverage
     result.figures["coverage"] = cov.as_dict()
-    if min(cov.c_fraction, cov.d_fraction) < config.spec.check.min_coverage:
+    min_coverage = config.spec.check.min_coverage if min_coverage is None else min_coverage
+    if min(cov.c_fraction, cov.d_fraction) < min_coverage:
         result.reason = (f"coverage too low: the acceptable strip covers {100 * cov.c_fraction:.1f}% of c and "
-                         f"{100 * cov.d_fraction:.1f}% of d (min_coverage {config.spec.check.min_coverage:g})")
-        return result
+                         f"{100 * cov.d_fraction:.1f}% of d (min_coverage {min_coverage:g})")
+        return False
     if min(cov.c_fraction, cov.d_fraction) < 1.0 - 1e-9:
         result.warnings.append(f"partial coverage: {100 * cov.c_fraction:.2f}% of c, {100 * cov.d_fraction:.2f}% of d")
-    stage_strip(result, config)
+    stage_strip(result, config, extra_rulings)
     if not stage_check(result, config):
-        return result
+        return False
     stage_unroll(result)
-    if part.hull is not None:
-        from .strake import stage_trim
+    return True
 
-        if not stage_trim(result, config.spec.check.min_coverage):
-            return result
-    area_model = float(triangle_areas(result.pattern.vertices, result.strip.faces).sum())
+
+def run_part(part: Part, config: RunConfig) -> PartResult:
+    """All geometric stages of one part; never raises for a geometric failure."""
+    result = PartResult(part.name, part)
+    if develop_part(result, config):
+        finish_part(result, config)
+    return result
+
+
+def finish_part(result: PartResult, config: RunConfig) -> None:
+    """Area and steel figures of a developed part; marks it ok."""
+    part = result.part
+    faces = result.strip.faces if result.strip is not None else result.mesh[1]
+    area_model = float(triangle_areas(result.pattern.vertices, faces).sum())
     area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
     result.figures["area_m2"] = area_m2
     if config.spec.profile == "steel":
@@ -199,4 +212,3 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
                                    "weight_kg": area_m2 * steel.thickness / 1000.0 * steel.density,
                                    "outline_length": polyline_length(outline)}
     result.status = "ok"
-    return result

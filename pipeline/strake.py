@@ -1,4 +1,4 @@
-"""Hull plates of a strake: seams on the hull surface, butts as planes x = const.
+"""Trimming stage of a developable hull plate: the strip between its seams, cut by its butts.
 
 Each plate's strip is computed on its two seams extended past the butts and trimmed by
 the butt planes: a ruling meets a plane in one point, so the trim line is exact at every
@@ -8,150 +8,13 @@ seams. Also the fit of each plate to the design surface and its frame lines.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from pathlib import Path
-
 import numpy as np
-from scipy.interpolate import BSpline
-from scipy.spatial import cKDTree
 
 from flatten import NurbsCurve
-from flatten.nurbs import ppoly_from_spline
+from flatten.closest import SurfaceDistance
 from flatten.surface import NurbsSurface
 
-from .iges import IgesError, iges_surface, read_iges
-from .sources import SourceError, pick_entity, source_path
-
-
-MAX_FRAMES_PER_PLATE = 1000
-
-
-@dataclass(frozen=True)
-class Plane:
-    """The plane n . p = offset, n a unit normal pointing towards the plate's far butt."""
-
-    normal: tuple[float, float, float]
-    offset: float
-
-    def signed(self, points: np.ndarray) -> np.ndarray:
-        return np.asarray(points) @ np.asarray(self.normal) - self.offset
-
-    def shifted(self, distance: float) -> "Plane":
-        return Plane(self.normal, self.offset + distance)
-
-    def describe(self) -> str:
-        n = self.normal
-        if abs(n[0] - 1.0) < 1e-12:
-            return f"x = {self.offset:g}"
-        return f"{n[0]:.4g} x + {n[1]:.4g} y + {n[2]:.4g} z = {self.offset:g}"
-
-
-def butt_plane(spec) -> Plane:
-    """A butt given as x (a float) or as {point, normal}; the normal is turned towards +x."""
-    if isinstance(spec, (int, float)):
-        return Plane((1.0, 0.0, 0.0), float(spec))
-    n = np.asarray(spec.normal, dtype=np.float64)
-    n = n / np.linalg.norm(n)
-    if n[0] < 0:
-        n = -n
-    return Plane(tuple(float(v) for v in n), float(n @ np.asarray(spec.point, dtype=np.float64)))
-
-
-@dataclass
-class HullPlate:
-    """What a strake plate knows beyond its two seams: the hull, its two butt planes."""
-
-    surface: NurbsSurface
-    butts: tuple[Plane, Plane]
-    frames: list[float] = field(default_factory=list)
-    seam_names: tuple[str, str] = ("", "")
-    butt_names: tuple[str, str] = ("", "")
-    fit_tolerance: float = 5.0
-
-
-def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
-    """Parameters where the curve meets the plane (exact roots of the homogeneous B-spline
-    n . A - offset w), sorted."""
-    spline = curve.homogeneous
-    coef = spline.c[:, :3] @ np.asarray(plane.normal) - plane.offset * spline.c[:, 3]
-    roots = ppoly_from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
-    lo, hi = curve.domain
-    return np.unique(roots[(roots >= lo) & (roots <= hi)])
-
-
-def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
-    path = source_path(base, spec.iges)
-    try:
-        iges = read_iges(path)
-        entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
-        return iges_surface(iges, entity, iges.unit_mm / mm_per_unit, "hull")
-    except IgesError as exc:
-        raise SourceError(str(exc)) from None
-
-
-def _extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: float, name: str) -> NurbsCurve:
-    """The seam between the butts, extended past each by ``margin`` times the plate length
-    (or to the seam's end where it ends first)."""
-    lo, hi = seam.domain
-    cross_lo, cross_hi = plane_crossings(seam, planes[0]), plane_crossings(seam, planes[1])
-    if len(cross_lo) != 1 or len(cross_hi) != 1:
-        raise SourceError(f"seam {name} crosses the butt planes {planes[0].describe()} and {planes[1].describe()} "
-                          f"{len(cross_lo)} and {len(cross_hi)} times (once each expected)")
-    t1, t2 = cross_lo[0], cross_hi[0]
-    extra = margin * float(np.linalg.norm(seam([t2])[0] - seam([t1])[0]))
-    ext1 = plane_crossings(seam, planes[0].shifted(-extra))
-    ext2 = plane_crossings(seam, planes[1].shifted(extra))
-    e1 = ext1[0] if len(ext1) == 1 else (lo if t1 < t2 else hi)
-    e2 = ext2[0] if len(ext2) == 1 else (hi if t2 > t1 else lo)
-    a, b = sorted((e1, e2))
-    seg = seam.segment(a, b)
-    return NurbsCurve(seg.degree, seg.control_points, seg.weights, seg.knots, name)
-
-
-def strake_parts(spec, config_path: Path, mm_per_unit: float) -> list:
-    from .config import Part
-
-    strake = spec.strake
-    surface = load_surface(strake.surface, config_path.parent, mm_per_unit)
-    seams = []
-    for k, seam in enumerate(strake.seams):
-        if seam.curve is not None:
-            from .config import _curve
-
-            seams.append(_curve(seam.curve, ("strake", "seams", k, "curve"), config_path, {}, mm_per_unit, {}))
-            continue
-        iso = seam.iso
-        if iso.u is not None:
-            if not surface.domain_u[0] <= iso.u <= surface.domain_u[1]:
-                raise SourceError(f"seams[{k}].iso.u = {iso.u} lies outside the surface's u domain {surface.domain_u}")
-            seams.append(surface.iso_u(iso.u, f"seam{k + 1}"))
-        else:
-            if not surface.domain_v[0] <= iso.v <= surface.domain_v[1]:
-                raise SourceError(f"seams[{k}].iso.v = {iso.v} lies outside the surface's v domain {surface.domain_v}")
-            seams.append(surface.iso_v(iso.v, f"seam{k + 1}"))
-    planes = [butt_plane(b) for b in strake.butts]
-    parts = []
-    for i in range(len(seams) - 1):
-        for j in range(len(planes) - 1):
-            pair = (planes[j], planes[j + 1])
-            name = f"{spec.name}_S{i + 1}_B{j + 1}"
-            c = _extended_segment(seams[i], pair, strake.margin, f"{name}.seam{i + 1}")
-            d = _extended_segment(seams[i + 1], pair, strake.margin, f"{name}.seam{i + 2}")
-            corners = np.array([curve([plane_crossings(curve, p)[0]])[0] for curve in (c, d) for p in pair])
-            frames = []
-            if strake.frames is not None:
-                lo, hi = corners[:, 0].min(), corners[:, 0].max()
-                if not hi - lo <= MAX_FRAMES_PER_PLATE * strake.frames.spacing:
-                    raise SourceError(f"frames.spacing = {strake.frames.spacing:g} puts more than "
-                                      f"{MAX_FRAMES_PER_PLATE} frames on plate {name}")
-                first = int(np.ceil((lo - strake.frames.start) / strake.frames.spacing))
-                last = int(np.floor((hi - strake.frames.start) / strake.frames.spacing))
-                frames = [strake.frames.start + k * strake.frames.spacing for k in range(first, last + 1)
-                          if lo < strake.frames.start + k * strake.frames.spacing < hi]
-            hull = HullPlate(surface, pair, frames, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
-                             (f"BUTT {j + 1}", f"BUTT {j + 2}"), strake.fit_tolerance)
-            parts.append(Part(name, c, d, spec.steel, ("c", "d"), {}, hull))
-    return parts
+from .plan import HullPlate, Plane, plane_crossings
 
 
 # ------------------------------------------------------------ trimming
@@ -204,37 +67,19 @@ def trim_intervals(ends_c: np.ndarray, ends_d: np.ndarray, planes: tuple[Plane, 
         hi = np.where(ds < 0, np.minimum(hi, cut), hi)
         outside = (ds == 0) & (sa < 0)
         hi = np.where(outside, -1.0, hi)
+    # a ruling through a corner touches the region in one point (lo == hi to round-off):
+    # keep it, or the outline misses the corner by the distance to the next ruling
+    touching = hi >= lo - 1e-12
     lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
-    out = np.column_stack([lo, hi])
-    out[~(hi > lo + 1e-12)] = np.nan
+    out = np.column_stack([lo, np.maximum(lo, hi)])
+    out[~touching] = np.nan
     return out
 
 
 def surface_distance(surface: NurbsSurface, points: np.ndarray, grid: int = 120) -> np.ndarray:
-    """Distance of each point (N, 3) to the surface: closest grid sample, then Gauss-Newton
-    on the parameters with central-difference derivatives."""
-    u = np.linspace(*surface.domain_u, grid)
-    v = np.linspace(*surface.domain_v, grid)
-    uu, vv = np.meshgrid(u, v, indexing="ij")
-    samples = surface(uu.ravel(), vv.ravel())
-    _, idx = cKDTree(samples).query(points)
-    pu, pv = uu.ravel()[idx], vv.ravel()[idx]
-    hu = 1e-7 * np.ptp(surface.domain_u)
-    hv = 1e-7 * np.ptp(surface.domain_v)
-    for _ in range(12):
-        s = surface(pu, pv)
-        su = (surface(pu + hu, pv) - surface(pu - hu, pv)) / (2 * hu)
-        sv = (surface(pu, pv + hv) - surface(pu, pv - hv)) / (2 * hv)
-        r = s - points
-        a11, a12, a22 = (np.einsum("ij,ij->i", x, y) for x, y in ((su, su), (su, sv), (sv, sv)))
-        b1, b2 = np.einsum("ij,ij->i", su, r), np.einsum("ij,ij->i", sv, r)
-        det = a11 * a22 - a12**2
-        ok = np.abs(det) > 0
-        du = np.where(ok, (a22 * b1 - a12 * b2) / np.where(ok, det, 1), 0)
-        dv = np.where(ok, (a11 * b2 - a12 * b1) / np.where(ok, det, 1), 0)
-        pu = np.clip(pu - du, *surface.domain_u)
-        pv = np.clip(pv - dv, *surface.domain_v)
-    return np.linalg.norm(surface(pu, pv) - points, axis=1)
+    """Distance of each point (N, 3) to the surface (builds the search structure each call:
+    plates of one hull share a :class:`flatten.closest.SurfaceDistance` instead)."""
+    return SurfaceDistance(surface, grid)(points)
 
 
 def stage_trim(result, min_coverage: float = 0.0) -> bool:
@@ -295,7 +140,7 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     result.strip = trimmed
     result.pattern = Pattern(outline, np.stack([lower, upper], axis=1), placed, (rot, shift),
                              tuple(frame_lines), tuple(labels))
-    distance = surface_distance(hull.surface, vertices)
+    distance = (hull.distance or SurfaceDistance(hull.surface))(vertices)
     worst = int(np.argmax(distance))
     result.figures["hull_fit"] = {"max_distance": float(distance.max()),
                                   "rms_distance": float(np.sqrt(np.mean(distance**2))),

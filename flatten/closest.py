@@ -1,0 +1,72 @@
+"""Closest points on a NURBS surface, with the search structure built once per surface.
+
+A grid of surface samples in a KD-tree gives the starting parameters; Gauss-Newton on
+(u, v) with central-difference derivatives polishes them. Building the grid and the tree
+is the expensive part, so one :class:`SurfaceDistance` serves every plate of a surface.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .surface import NurbsSurface
+
+
+class SurfaceDistance:
+    """Distances and closest parameters of points to one surface (or the nearest of several).
+
+    surfaces : one NurbsSurface or a sequence of them (a hull split into patches)
+    grid : samples per parameter direction of the seed grid
+    """
+
+    def __init__(self, surfaces, grid: int = 120):
+        self.surfaces = (surfaces,) if isinstance(surfaces, NurbsSurface) else tuple(surfaces)
+        self.grid = int(grid)
+
+    @cached_property
+    def _seeds(self) -> list[tuple[np.ndarray, np.ndarray, cKDTree]]:
+        out = []
+        for surface in self.surfaces:
+            u = np.linspace(*surface.domain_u, self.grid)
+            v = np.linspace(*surface.domain_v, self.grid)
+            uu, vv = np.meshgrid(u, v, indexing="ij")
+            samples = surface.grid(u, v).reshape(-1, 3)
+            out.append((uu.ravel(), vv.ravel(), cKDTree(samples)))
+        return out
+
+    def closest(self, points: np.ndarray, index: int = 0, iterations: int = 12) -> tuple[np.ndarray, np.ndarray]:
+        """Closest parameters (N, 2) on surface ``index`` of each point (N, 3) and the
+        distances (N,)."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        surface = self.surfaces[index]
+        uu, vv, tree = self._seeds[index]
+        _, idx = tree.query(points)
+        pu, pv = uu[idx], vv[idx]
+        hu = 1e-7 * np.ptp(surface.domain_u)
+        hv = 1e-7 * np.ptp(surface.domain_v)
+        for _ in range(iterations):
+            s = surface(pu, pv)
+            su = (surface(pu + hu, pv) - surface(pu - hu, pv)) / (2 * hu)
+            sv = (surface(pu, pv + hv) - surface(pu, pv - hv)) / (2 * hv)
+            r = s - points
+            a11, a12, a22 = (np.einsum("ij,ij->i", x, y) for x, y in ((su, su), (su, sv), (sv, sv)))
+            b1, b2 = np.einsum("ij,ij->i", su, r), np.einsum("ij,ij->i", sv, r)
+            det = a11 * a22 - a12**2
+            # a degenerate point of the surface (a collapsed edge) has det = 0: keep the seed there
+            ok = np.abs(det) > 1e-300
+            du = np.where(ok, (a22 * b1 - a12 * b2) / np.where(ok, det, 1), 0)
+            dv = np.where(ok, (a11 * b2 - a12 * b1) / np.where(ok, det, 1), 0)
+            pu = np.clip(pu - du, *surface.domain_u)
+            pv = np.clip(pv - dv, *surface.domain_v)
+        return np.column_stack([pu, pv]), np.linalg.norm(surface(pu, pv) - points, axis=1)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Distance (N,) of each point (N, 3) to the nearest of the surfaces."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        best = np.full(len(points), np.inf)
+        for k in range(len(self.surfaces)):
+            best = np.minimum(best, self.closest(points, k)[1])
+        return best

@@ -1,0 +1,163 @@
+"""The region of a hull surface between two seams and two butt planes, as a fine grid mesh.
+
+A plate's region in the surface's parameters: along the longitudinal parameter s, between
+two girth curves g_lo(s) and g_hi(s) (seams), and between two planes (butts) or the
+surface's own end (the hull's stem or stern). Each grid row follows the girth fraction
+w in [0, 1] between the seams; its ends are where the row meets the butt planes, found by
+bisection on the exact surface, so the grid's boundary lies on the seams and the butts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .surface import NurbsSurface
+
+
+@dataclass(frozen=True)
+class PatchGrid:
+    """params (R, C, 2) surface parameters (u, v); points (R, C, 3); rows: girth fractions
+    (R,) kept (rows that miss the region are dropped); ends: per kept row whether its two
+    ends lie on a butt plane (True) or on the surface's end (False), (R, 2)."""
+
+    params: np.ndarray
+    points: np.ndarray
+    rows: np.ndarray
+    ends: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.points.shape[:2]
+
+    def faces(self) -> np.ndarray:
+        """Triangles (2 (R-1) (C-1), 3) of the grid, vertices numbered row-major."""
+        r, c = self.shape
+        idx = np.arange(r * c).reshape(r, c)
+        a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+        d, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+        return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])]).astype(np.int64)
+
+    def corners(self) -> np.ndarray:
+        """The four corners (4, 3): seam lo at butt lo, seam lo at butt hi, seam hi at butt hi,
+        seam hi at butt lo."""
+        p = self.points
+        return np.array([p[0, 0], p[0, -1], p[-1, -1], p[-1, 0]])
+
+    def boundary(self) -> np.ndarray:
+        """Closed boundary polyline (N, 3) around the grid (not repeated)."""
+        p = self.points
+        return np.vstack([p[0, :], p[1:, -1], p[-1, -2::-1], p[-2:0:-1, 0]])
+
+
+def _uv(long_axis: int, s: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return (s, g) if long_axis == 0 else (g, s)
+
+
+def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows: int, cols: int,
+                probe: int = 400, s_range=None) -> PatchGrid | None:
+    """Grid of the region between girth curves and planes; None when it is empty.
+
+    long_axis : 0 when u runs along the hull (s = u, g = v), 1 when v does
+    g_lo, g_hi : callables s (N,) -> girth parameter (N,), the two seams
+    planes : (lower, upper), each (normal (3,), offset) or None for the surface's end; the
+             region is where normal . p - offset >= 0 for lower and <= 0 for upper
+    rows, cols : grid size (rows across the girth, columns along the length)
+    s_range : optional (lo, hi) sub-range of the longitudinal parameter to search
+    """
+    dom = surface.domain_u if long_axis == 0 else surface.domain_v
+    s_lo, s_hi = s_range if s_range is not None else dom
+    s = np.linspace(s_lo, s_hi, probe)
+    w = np.linspace(0.0, 1.0, rows)
+    glo, ghi = np.asarray(g_lo(s), dtype=float), np.asarray(g_hi(s), dtype=float)
+
+    def girth(ss, ww):
+        a, b = np.asarray(g_lo(ss), dtype=float), np.asarray(g_hi(ss), dtype=float)
+        return a + ww * (b - a)
+
+    def inside(pts):
+        ok = np.ones(pts.shape[:-1], dtype=bool)
+        for plane, sign in zip(planes, (1.0, -1.0)):
+            if plane is not None:
+                ok &= sign * (pts @ np.asarray(plane[0], dtype=float) - plane[1]) >= 0
+        return ok
+
+    gg = glo[None, :] + w[:, None] * (ghi - glo)[None, :]
+    ss = np.broadcast_to(s, gg.shape)
+    u, v = _uv(long_axis, ss.ravel(), gg.ravel())
+    mask = inside(surface(u, v).reshape(rows, probe, 3))
+    kept, ends_s, on_plane = [], [], []
+    for k in range(rows):
+        m = mask[k]
+        if not m.any():
+            continue
+        # the longest run of inside samples
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(int), [0]])))
+        runs = edges.reshape(-1, 2)
+        a, b = runs[np.argmax(runs[:, 1] - runs[:, 0])]
+        b -= 1
+        bounds, flags = [], []
+        for i_in, i_out in ((a, a - 1), (b, b + 1)):
+            if i_out < 0 or i_out >= probe:
+                bounds.append(s[i_in])
+                flags.append(False)
+                continue
+            lo_, hi_ = s[i_out], s[i_in]  # outside, inside
+            for _ in range(48):
+                mid = 0.5 * (lo_ + hi_)
+                uu, vv = _uv(long_axis, np.array([mid]), girth(np.array([mid]), w[k]))
+                if inside(surface(uu, vv))[0]:
+                    hi_ = mid
+                else:
+                    lo_ = mid
+            bounds.append(hi_)
+            flags.append(True)
+        if bounds[1] <= bounds[0]:
+            continue
+        kept.append(k)
+        ends_s.append(bounds)
+        on_plane.append(flags)
+    if len(kept) < 2:
+        return None
+    t = np.linspace(0.0, 1.0, cols)
+    ends_s = np.array(ends_s)
+    S = ends_s[:, :1] + t[None, :] * (ends_s[:, 1:] - ends_s[:, :1])
+    W = np.broadcast_to(w[kept][:, None], S.shape)
+    G = girth(S.ravel(), W.ravel()).reshape(S.shape)
+    u, v = _uv(long_axis, S, G)
+    params = np.stack([u, v], axis=-1)
+    points = surface(u.ravel(), v.ravel()).reshape(len(kept), cols, 3)
+    return PatchGrid(params, points, w[kept], np.array(on_plane))
+
+
+def weld(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Merge vertices closer than ``tolerance`` (a collapsed seam end gives a whole row of
+    one point) and drop the triangles that become degenerate. Returns (vertices, faces,
+    index) with index[old vertex] = new vertex."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(vertices).query_pairs(tolerance, output_type="ndarray")
+    parent = np.arange(len(vertices))
+    for i, j in pairs[np.argsort(pairs[:, 1])] if len(pairs) else []:
+        ri, rj = i, j
+        while parent[ri] != ri:
+            ri = parent[ri]
+        while parent[rj] != rj:
+            rj = parent[rj]
+        if ri != rj:
+            parent[max(ri, rj)] = min(ri, rj)
+    for k in range(len(parent)):
+        r = k
+        while parent[r] != r:
+            r = parent[r]
+        parent[k] = r
+    used, new_index = np.unique(parent, return_inverse=True)
+    f = new_index[faces]
+    good = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    v = vertices[used]
+    f = f[good]
+    e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
+    area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    f = f[area > 1e-12 * max(float(np.ptp(v, axis=0).max()), 1.0) ** 2]
+    return v, f.astype(np.int64), new_index

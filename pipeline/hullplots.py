@@ -1,0 +1,68 @@
+"""The hull picture of a shell expansion: every plate's region coloured by its class."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .atomic import atomic_path  # noqa: E402
+
+CLASS_COLOURS = {"flat": "#8fa8c8", "developable": "#4caf50", "formed": "#ff9800", "failed": "#d32f2f"}
+
+
+def plate_ring(result) -> np.ndarray | None:
+    """The 3D boundary (N, 3) of a delivered plate, from its strip or its patch grid."""
+    if result.strip is not None:
+        m = len(result.strip.samples)
+        grid = result.strip.vertices.reshape(-1, m, 3)
+        return np.vstack([grid[:, 0], grid[::-1, -1]])
+    if result.mesh is not None:
+        shape = (result.figures.get("region") or {}).get("grid")
+        if shape:
+            g = result.mesh[0].reshape(shape[0], shape[1], 3)
+            return np.vstack([g[0, :], g[1:, -1], g[-1, -2::-1], g[-2:0:-1, 0]])
+    corners = (result.figures.get("region") or {}).get("corners")
+    return None if corners is None else np.asarray(corners)
+
+
+def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, title: str | None = None) -> dict:
+    """Side and bottom views of the plates coloured flat / developable / formed / failed;
+    returns the area of each class (m^2, regions on the hull)."""
+    from matplotlib.collections import PolyCollection
+
+    areas = {k: 0.0 for k in CLASS_COLOURS}
+    fig, axes = plt.subplots(2, 1, figsize=(12, 7), dpi=110, sharex=True)
+    for ax, (a, b), label in zip(axes, ((0, 2), (0, 1)), ("side view (x, z)", "bottom view (x, y)")):
+        polygons, colours = [], []
+        for r in results:
+            ring = plate_ring(r)
+            klass = (r.figures.get("plate_class") or {}).get("class", "failed") if r.ok else "failed"
+            if ring is None:
+                continue
+            polygons.append(ring[:, [a, b]])
+            colours.append(CLASS_COLOURS.get(klass, CLASS_COLOURS["failed"]))
+        ax.add_collection(PolyCollection(polygons, facecolors=colours, edgecolor="black", linewidth=0.3, alpha=0.85))
+        ax.autoscale_view()
+        ax.set_aspect("equal")
+        ax.set_ylabel(f"{'zy'[b == 1]} ({units})")
+        ax.set_title(label, fontsize=9)
+    axes[-1].set_xlabel(f"x ({units})")
+    for r in results:
+        klass = (r.figures.get("plate_class") or {}).get("class", "failed") if r.ok else "failed"
+        areas[klass if klass in areas else "failed"] += float((r.figures.get("region") or {}).get("area_m2") or 0.0)
+    total = sum(areas.values()) or 1.0
+    for k, colour in CLASS_COLOURS.items():
+        axes[0].plot([], [], "s", color=colour, label=f"{k}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)")
+    axes[0].legend(loc="upper left", fontsize=7, ncol=4)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    with atomic_path(target) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+    return areas

@@ -1,0 +1,271 @@
+"""Planning layer: a strake or hull configuration becomes plates (seams, butts, region).
+
+Data flows one way: config (validated YAML) -> plan (this module: plates with their seams,
+butts and region on the hull) -> stages (develop each plate) -> export. This module knows
+nothing of the stages: an adaptive plan receives its plate evaluator from the caller.
+
+A plate's region is bounded along the girth by two seams (iso-parameter curves of the hull
+surface, or given curves projected onto it) and along the length by two butt planes or the
+hull's end (stem, stern). Its two seams, extended past the butts, are the curve pair the
+developable strip is computed on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from flatten import NurbsCurve
+from flatten.closest import SurfaceDistance
+from flatten.nurbs import ppoly_from_spline
+from flatten.surface import NurbsSurface
+
+from .config import ConfigError, Part, RunConfig, _curve, _line_of, load_config
+from .iges import IgesError, iges_surface, read_iges
+from .sources import SourceError, pick_entity, source_path
+
+MAX_FRAMES_PER_PLATE = 1000
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The plane n . p = offset, n a unit normal pointing towards the plate's far butt."""
+
+    normal: tuple[float, float, float]
+    offset: float
+
+    def signed(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points) @ np.asarray(self.normal) - self.offset
+
+    def shifted(self, distance: float) -> "Plane":
+        return Plane(self.normal, self.offset + distance)
+
+    def describe(self) -> str:
+        n = self.normal
+        if abs(n[0] - 1.0) < 1e-12:
+            return f"x = {self.offset:g}"
+        return f"{n[0]:.4g} x + {n[1]:.4g} y + {n[2]:.4g} z = {self.offset:g}"
+
+    def as_tuple(self):
+        return (np.asarray(self.normal), self.offset)
+
+
+def butt_plane(spec) -> Plane:
+    """A butt given as x (a float) or as {point, normal}; the normal is turned towards +x."""
+    if isinstance(spec, (int, float)):
+        return Plane((1.0, 0.0, 0.0), float(spec))
+    n = np.asarray(spec.normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    if n[0] < 0:
+        n = -n
+    return Plane(tuple(float(v) for v in n), float(n @ np.asarray(spec.point, dtype=np.float64)))
+
+
+@dataclass(frozen=True)
+class Girth:
+    """A seam in the surface's parameters: girth parameter g as a function of the
+    longitudinal parameter s (piecewise linear through samples; constant for iso seams)."""
+
+    s: tuple
+    g: tuple
+
+    @staticmethod
+    def iso(value: float) -> "Girth":
+        return Girth((0.0, 1.0), (float(value), float(value)))
+
+    def __call__(self, s):
+        s = np.asarray(s, dtype=float)
+        if len(self.s) == 2 and self.g[0] == self.g[1]:
+            return np.full(s.shape, self.g[0])
+        return np.interp(s, self.s, self.g)
+
+    def between(self, other: "Girth", fraction: float) -> "Girth":
+        s = np.union1d(self.s, other.s) if len(self.s) > 2 or len(other.s) > 2 else np.array([0.0, 1.0])
+        return Girth(tuple(s), tuple(self(s) + fraction * (other(s) - self(s))))
+
+    def is_iso(self) -> bool:
+        return len(self.s) == 2 and self.g[0] == self.g[1]
+
+
+@dataclass
+class HullPlate:
+    """What a hull plate knows beyond its two seams: the hull, its region, its butts."""
+
+    surface: NurbsSurface
+    butts: tuple  # (Plane | None, Plane | None); None is the hull's end (stem or stern)
+    frames: list[float] = field(default_factory=list)
+    seam_names: tuple[str, str] = ("", "")
+    butt_names: tuple[str, str] = ("", "")
+    fit_tolerance: float = 5.0
+    long_axis: int = 0  # 0: u runs along the hull, 1: v does
+    girths: tuple | None = None  # (Girth, Girth) the seams in the surface's parameters
+    distance: SurfaceDistance | None = None  # shared by every plate of the hull
+    developable: bool = True  # a strip between the seams can be tried (both butts are planes)
+    note: str = ""  # why no strip is tried, when it is not
+    resolution: float = 200.0  # patch mesh spacing (model units)
+    result: object = None  # filled by an adaptive plan that evaluated the plate already
+
+
+def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
+    """Parameters where the curve meets the plane (exact roots of the homogeneous B-spline
+    n . A - offset w), sorted."""
+    spline = curve.homogeneous
+    coef = spline.c[:, :3] @ np.asarray(plane.normal) - plane.offset * spline.c[:, 3]
+    roots = ppoly_from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
+    lo, hi = curve.domain
+    return np.unique(roots[(roots >= lo) & (roots <= hi)])
+
+
+def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
+    path = source_path(base, spec.iges)
+    try:
+        iges = read_iges(path)
+        entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
+        return iges_surface(iges, entity, iges.unit_mm / mm_per_unit, f"hull D{entity.directory}")
+    except IgesError as exc:
+        raise SourceError(str(exc)) from None
+
+
+def long_axis_of(surface: NurbsSurface) -> int:
+    """0 when the u-curves (v fixed) span more of the hull's length (x) than the v-curves."""
+    u = np.linspace(*surface.domain_u, 33)
+    v = np.linspace(*surface.domain_v, 33)
+    pts = surface.grid(u, v)
+    along_u = np.ptp(pts[:, :, 0], axis=0).mean()
+    along_v = np.ptp(pts[:, :, 0], axis=1).mean()
+    return 0 if along_u >= along_v else 1
+
+
+def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: float, name: str) -> NurbsCurve:
+    """The seam between the butts, extended past each by ``margin`` times the plate length
+    (or to the seam's end where it ends first)."""
+    lo, hi = seam.domain
+    cross_lo, cross_hi = plane_crossings(seam, planes[0]), plane_crossings(seam, planes[1])
+    if len(cross_lo) != 1 or len(cross_hi) != 1:
+        raise SourceError(f"seam {name} crosses the butt planes {planes[0].describe()} and {planes[1].describe()} "
+                          f"{len(cross_lo)} and {len(cross_hi)} times (once each expected)")
+    t1, t2 = cross_lo[0], cross_hi[0]
+    extra = margin * float(np.linalg.norm(seam([t2])[0] - seam([t1])[0]))
+    ext1 = plane_crossings(seam, planes[0].shifted(-extra))
+    ext2 = plane_crossings(seam, planes[1].shifted(extra))
+    e1 = ext1[0] if len(ext1) == 1 else (lo if t1 < t2 else hi)
+    e2 = ext2[0] if len(ext2) == 1 else (hi if t2 > t1 else lo)
+    a, b = sorted((e1, e2))
+    seg = seam.segment(a, b)
+    return NurbsCurve(seg.degree, seg.control_points, seg.weights, seg.knots, name)
+
+
+def frames_between(frames, lo: float, hi: float, name: str = "") -> list[float]:
+    if frames is None:
+        return []
+    if not hi - lo <= MAX_FRAMES_PER_PLATE * frames.spacing:
+        raise SourceError(f"frames.spacing = {frames.spacing:g} puts more than {MAX_FRAMES_PER_PLATE} frames on "
+                          f"plate {name}")
+    first = int(np.ceil((lo - frames.start) / frames.spacing))
+    last = int(np.floor((hi - frames.start) / frames.spacing))
+    return [frames.start + k * frames.spacing for k in range(first, last + 1)
+            if lo < frames.start + k * frames.spacing < hi]
+
+
+def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -> NurbsCurve:
+    """The seam as a NURBS curve on the surface: exact for an iso seam, else a cubic fit."""
+    if girth.is_iso():
+        return surface.iso_v(girth.g[0], name) if long_axis == 0 else surface.iso_u(girth.g[0], name)
+    from .sources import fit_points
+
+    dom = surface.domain_u if long_axis == 0 else surface.domain_v
+    s = np.linspace(*dom, 200)
+    g = girth(s)
+    u, v = (s, g) if long_axis == 0 else (g, s)
+    curve, _ = fit_points(surface(u, v), 0.05, name)
+    return curve
+
+
+def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
+           resolution) -> Part:
+    """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate."""
+    developable, note = all(p is not None for p in planes), ""
+    c = d = None
+    if developable:
+        try:
+            c = extended_segment(curves[0], planes, strake.margin, f"{name}.{seam_names[0]}")
+            d = extended_segment(curves[1], planes, strake.margin, f"{name}.{seam_names[1]}")
+        except SourceError as exc:
+            developable, note = False, str(exc)
+    else:
+        note = "end plate: bounded by the hull's end, not by two butt planes"
+    if c is None:
+        c, d = curves
+    xs = [p.offset for p in planes if p is not None]
+    frames = frames_between(strake.frames, min(xs), max(xs), name) if len(xs) == 2 else []
+    hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
+                     tuple(girths), distance, developable, note, resolution)
+    return Part(name, c, d, spec_steel, ("c", "d"), {}, hull)
+
+
+def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> list[Part]:
+    """The plates of a hand-laid strake: between consecutive seams and consecutive butts."""
+    strake = spec.strake
+    surface = load_surface(strake.surface, config_path.parent, mm_per_unit)
+    axis = long_axis_of(surface)
+    distance = SurfaceDistance(surface)
+    curves, girths = [], []
+    for k, seam in enumerate(strake.seams):
+        if seam.curve is not None:
+            curve = _curve(seam.curve, ("strake", "seams", k, "curve"), config_path, lines, mm_per_unit, {})
+            params, _ = distance.closest(curve(np.linspace(*curve.domain, 200)))
+            s, g = params[:, axis], params[:, 1 - axis]
+            order = np.argsort(s)
+            curves.append(curve)
+            girths.append(Girth(tuple(s[order]), tuple(g[order])))
+            continue
+        iso = seam.iso
+        if (iso.u is not None) == (axis == 0):
+            raise SourceError(f"seams[{k}].iso: the seam runs across the hull ({'u' if iso.u is not None else 'v'} "
+                              f"is the girth parameter here): give iso {'v' if axis == 0 else 'u'}")
+        value = iso.u if iso.u is not None else iso.v
+        dom = surface.domain_u if iso.u is not None else surface.domain_v
+        if not dom[0] <= value <= dom[1]:
+            raise SourceError(f"seams[{k}].iso.{'u' if iso.u is not None else 'v'} = {value} lies outside the "
+                              f"surface's domain {dom}")
+        girths.append(Girth.iso(value))
+        curves.append(seam_curve(surface, axis, girths[-1], f"seam{k + 1}"))
+    planes = [butt_plane(b) for b in strake.butts]
+    resolution = float(getattr(strake, "patch_spacing", None) or 200.0 / mm_per_unit)
+    parts = []
+    for i in range(len(curves) - 1):
+        for j in range(len(planes) - 1):
+            name = f"{spec.name}_S{i + 1}_B{j + 1}"
+            parts.append(_plate(name, surface, axis, girths[i:i + 2], curves[i:i + 2], planes[j:j + 2], spec.steel,
+                                strake, distance, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
+                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution))
+            if not parts[-1].hull.developable and all(p is not None for p in planes[j:j + 2]):
+                # a hand-laid seam that misses a butt plane is a layout error, as before
+                raise SourceError(parts[-1].hull.note)
+    return parts
+
+
+def load_run(path: str | Path, evaluate=None) -> RunConfig:
+    """Load a configuration and plan its plates. ``evaluate(part) -> result`` lets an
+    adaptive plan judge candidate plates (given by the caller: the plan does not import
+    the stages)."""
+    config = load_config(path)
+    spec = config.spec
+    if spec.strake is None:
+        return config
+    path = Path(path)
+    try:
+        if spec.strake.plan is not None:
+            from .planner import plan_hull
+
+            judge = None if evaluate is None else (lambda part: evaluate(part, config))
+            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge)
+        else:
+            parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
+    except SourceError as exc:
+        line = _line_of(config.lines, ("strake",))
+        raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
+    return RunConfig(spec, parts, path, config.lines)

@@ -1,0 +1,346 @@
+"""Run one part; a hull plate always gets a development and a class.
+
+flat        the plate's region on the hull fits a plane within the fit tolerance: the
+            development is its orthogonal projection on that plane (exact for a plane);
+developable devflat's strip between the plate's seams, trimmed by its butts, fits the hull
+            within the tolerance and covers the whole region (four corners included);
+formed      neither: the region's own fine mesh flattened with minimal strain (libigl LSCM
+            seed, then ARAP), with a strain map, shrink/stretch areas and roll lines.
+
+A plate is complete only when its delivered 3D shape holds its four corners and its whole
+region on the hull; any exception inside one plate makes that plate fail with the reason,
+never the run.
+"""
+
+from __future__ import annotations
+
+import traceback
+
+import numpy as np
+
+from flatten.closest import SurfaceDistance
+from flatten.patch import region_grid, weld
+from flatten.patchflat import arap_development, fit_plane, planar_development, triangle_stretches
+
+from .config import Part, RunConfig
+from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
+from .stages import run_part as run_curve_part
+
+# a principal strain beyond 1 mm/m marks an area to shrink or stretch when forming (the
+# order of the 0.3-1 mm/m a shell expansion program prompts for)
+FORMING_STRAIN = 1e-3
+REGION_SIZE_MM = 1000.0  # strain map cells about 1 m square
+
+
+def run_part(part: Part, config: RunConfig) -> PartResult:
+    """Any part: curve pairs through the stages, hull plates through :func:`run_plate`."""
+    if part.hull is None:
+        return run_curve_part(part, config)
+    if part.hull.result is not None:  # an adaptive plan evaluated it already
+        return part.hull.result
+    return run_plate(part, config)
+
+
+def evaluate_plate(part: Part, config: RunConfig) -> PartResult:
+    """The evaluator an adaptive plan uses: the full plate run."""
+    return run_plate(part, config)
+
+
+def _grid(part: Part, config: RunConfig):
+    hull = part.hull
+    planes = [None if p is None else p.as_tuple() for p in hull.butts]
+    coarse = region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, 5, 9, probe=200)
+    if coarse is None:
+        return None
+    p = coarse.points
+    length = float(np.linalg.norm(np.diff(p, axis=1), axis=2).sum(axis=1).max())
+    width = float(np.linalg.norm(np.diff(p, axis=0), axis=2).sum(axis=0).max())
+    h = hull.resolution
+    rows = int(np.clip(np.ceil(width / h) + 1, 5, 60))
+    cols = int(np.clip(np.ceil(length / h) + 1, 9, 160))
+    return region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, rows, cols, probe=400)
+
+
+def _grid_faces_region(shape, region_cells) -> np.ndarray:
+    """Region index of every grid triangle (faces as PatchGrid.faces orders them)."""
+    r, c = shape
+    cell = np.arange((r - 1) * (c - 1))
+    i, j = np.divmod(cell, c - 1)
+    nr, nc = region_cells
+    region = (i * nr // (r - 1)) * nc + (j * nc // (c - 1))
+    return np.concatenate([region, region])
+
+
+def strain_map(v3, uv, faces, shape, size_mm: tuple[float, float], mm_per_unit: float) -> dict:
+    """Per-triangle principal strains summarised per region of about 1 m x 1 m."""
+    stretch = triangle_stretches(v3, uv, faces)
+    strain = stretch - 1.0
+    good = np.all(np.isfinite(strain), axis=1)
+    area = 0.5 * np.linalg.norm(np.cross(v3[faces[:, 1]] - v3[faces[:, 0]], v3[faces[:, 2]] - v3[faces[:, 0]]), axis=1)
+    magnitude = np.where(good, np.abs(strain).max(axis=1, initial=0.0, where=good[:, None]), 0.0)
+    worst = int(np.argmax(magnitude))
+    centroid3 = v3[faces].mean(axis=1)
+    centroid2 = uv[faces].mean(axis=1)
+    nr = max(1, int(np.ceil(size_mm[1] / REGION_SIZE_MM)))
+    nc = max(1, int(np.ceil(size_mm[0] / REGION_SIZE_MM)))
+    region = _grid_faces_region(shape, (nr, nc))
+    regions, shrink_area, stretch_area = [], 0.0, 0.0
+    for k in range(nr * nc):
+        sel = (region == k) & good
+        if not sel.any():
+            continue
+        hi, lo = float(strain[sel, 0].max()), float(strain[sel, 1].min())
+        kind = "shrink" if hi > FORMING_STRAIN and hi >= -lo else ("stretch" if lo < -FORMING_STRAIN else "none")
+        a = float(area[sel].sum())
+        shrink_area += a if kind == "shrink" else 0.0
+        stretch_area += a if kind == "stretch" else 0.0
+        regions.append({"region": [k // nc, k % nc], "max_strain": hi, "min_strain": lo, "kind": kind,
+                        "centre_flat": centroid2[sel].mean(axis=0).tolist(),
+                        "centre_3d": centroid3[sel].mean(axis=0).tolist(), "area_m2": a * (mm_per_unit / 1e3) ** 2})
+    rms = float(np.sqrt(np.sum(area[good] * np.sum(strain[good] ** 2, axis=1)) / max(area[good].sum(), 1e-300)))
+    return {"max_abs_strain": float(magnitude[worst]), "where_3d": centroid3[worst].tolist(),
+            "where_flat": centroid2[worst].tolist(), "rms_strain": rms,
+            "max_stretch_strain": float(strain[good, 0].max()), "max_compress_strain": float(strain[good, 1].min()),
+            "forming_threshold": FORMING_STRAIN, "regions": regions,
+            "shrink_area_m2": shrink_area * (mm_per_unit / 1e3) ** 2,
+            "stretch_area_m2": stretch_area * (mm_per_unit / 1e3) ** 2}
+
+
+def _frame_lines(points, uv_grid, frames):
+    """Frame planes x = X across the patch: per grid row the crossing between columns,
+    interpolated linearly in the grid (2D image of the exact-on-hull grid)."""
+    lines = []
+    for x in frames:
+        pts = []
+        for row3, row2 in zip(points, uv_grid):
+            xs = row3[:, 0] - x
+            idx = np.flatnonzero(np.sign(xs[:-1]) * np.sign(xs[1:]) <= 0)
+            if len(idx):
+                i = idx[0]
+                f = xs[i] / (xs[i] - xs[i + 1]) if xs[i] != xs[i + 1] else 0.0
+                pts.append(row2[i] + f * (row2[i + 1] - row2[i]))
+        if len(pts) >= 2:
+            lines.append((float(x), np.array(pts)))
+    return lines
+
+
+def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: float):
+    """Roll lines: rulings of devflat's strip between the same seams (the best-fit
+    developable the solver found), projected onto the patch and mapped into the flat
+    plate; without a strip, the grid rows (lines of constant girth fraction, along the hull)."""
+    import igl
+
+    lines = []
+    if strip is not None and strip.n_rulings >= 2:
+        m = len(strip.samples)
+        k = np.arange(strip.n_rulings) * m
+        a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
+        mid = 0.5 * (a3 + b3)
+        d2, _, _ = igl.point_mesh_squared_distance(mid, v3, faces)
+        inside = np.sqrt(d2) <= 0.05 * float(np.linalg.norm(b3 - a3, axis=1).mean())
+        order = np.flatnonzero(inside)
+        if len(order) >= 2:
+            along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(mid[order], axis=0), axis=1)])
+            picks = order[np.unique(np.searchsorted(along, np.arange(0.0, along[-1] + 1e-9, spacing)))
+                          .clip(0, len(order) - 1)]
+            s = np.linspace(0.0, 1.0, 21)
+            for i in picks:
+                seg = a3[i] + s[:, None] * (b3[i] - a3[i])
+                d2, fi, closest = igl.point_mesh_squared_distance(seg, v3, faces)
+                tri = v3[faces[fi]]
+                bary = _barycentric(closest, tri)
+                flat = np.einsum("nk,nkd->nd", bary, uv[faces[fi]])
+                keep = np.sqrt(d2) <= 0.02 * float(np.linalg.norm(b3[i] - a3[i]))
+                if keep.sum() >= 2:
+                    lines.append(np.array([flat[keep][0], flat[keep][-1]]))
+        if lines:
+            return np.array(lines), "rulings of devflat's strip between the same seams (best-fit developable), " \
+                                    "projected onto the hull patch"
+    r = uv_grid.shape[0]
+    for i in range(1, r - 1, max(1, r // 6)):
+        lines.append(np.array([uv_grid[i, 0], uv_grid[i, -1]]))
+    return np.array(lines).reshape(-1, 2, 2), "grid rows of constant girth fraction (no strip between the seams)"
+
+
+def _barycentric(p, tri):
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01**2
+    den = np.where(den == 0, 1.0, den)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.column_stack([1 - v - w, v, w])
+
+
+def completeness(v3: np.ndarray, faces: np.ndarray, grid, tolerance: float, corner_tolerance: float) -> dict:
+    """Is the whole region (grid points, corners) within reach of the delivered 3D plate?"""
+    import igl
+
+    corners = grid.corners()
+    d2c, _, _ = igl.point_mesh_squared_distance(corners, np.ascontiguousarray(v3), np.ascontiguousarray(faces))
+    pts = grid.points.reshape(-1, 3)
+    d2, _, _ = igl.point_mesh_squared_distance(pts, np.ascontiguousarray(v3), np.ascontiguousarray(faces))
+    gaps = np.sqrt(d2c)
+    worst = int(np.argmax(d2))
+    return {"corner_gaps": gaps.tolist(), "corner_tolerance": corner_tolerance,
+            "max_region_gap": float(np.sqrt(d2[worst])), "worst_region_point": pts[worst].tolist(),
+            "tolerance": tolerance,
+            "passed": bool(gaps.max() <= corner_tolerance and np.sqrt(d2[worst]) <= tolerance)}
+
+
+def _labels(outline_sides, hull, points):
+    """Seam names along the first and last grid rows, butt names along the end columns,
+    each butt named by where its column lies in 3D (columns run along s, which may run
+    towards -x)."""
+    first, last = (0, 1) if points[:, 0, 0].mean() <= points[:, -1, 0].mean() else (1, 0)
+    labels = []
+    for text, line in zip((hull.seam_names[0], hull.seam_names[1], hull.butt_names[first], hull.butt_names[last]),
+                          outline_sides):
+        mid = line[len(line) // 2] if len(line) > 2 else line.mean(axis=0)
+        direction = line[-1] - line[0]
+        labels.append((text, mid, float(np.degrees(np.arctan2(direction[1], direction[0])))))
+    return tuple(labels)
+
+
+def run_plate(part: Part, config: RunConfig) -> PartResult:
+    """Flat, developable or formed: every hull plate gets a development and a class."""
+    result = PartResult(part.name, part)
+    try:
+        _run_plate(result, config)
+    except Exception as exc:  # one plate never stops the run: report it with the evidence
+        result.status = "failed"
+        result.reason = f"internal error in plate {part.name}: {type(exc).__name__}: {exc}"
+        result.figures["traceback"] = traceback.format_exc(limit=6)
+    return result
+
+
+def _run_plate(result: PartResult, config: RunConfig) -> None:
+    part, hull = result.part, result.part.hull
+    mm = config.mm_per_unit
+    tol = hull.fit_tolerance
+    corner_tol = min(tol, config.spec.resolution.chord_tolerance or tol)
+    grid = _grid(part, config)
+    if grid is None:
+        result.reason = "the plate's region misses the hull surface (seams and butts enclose nothing)"
+        result.figures["plate_class"] = {"class": "failed"}
+        return
+    shape = grid.shape
+    v_grid = grid.points.reshape(-1, 3)
+    f_grid = grid.faces()
+    size = float(np.ptp(v_grid, axis=0).max())
+    v3, f3, index = weld(v_grid, f_grid, 1e-9 * size)
+    area3 = float(0.5 * np.linalg.norm(np.cross(v3[f3[:, 1]] - v3[f3[:, 0]], v3[f3[:, 2]] - v3[f3[:, 0]]),
+                                       axis=1).sum())
+    p = grid.points
+    length = float(np.linalg.norm(np.diff(p, axis=1), axis=2).sum(axis=1).max())
+    width = float(np.linalg.norm(np.diff(p, axis=0), axis=2).sum(axis=0).max())
+    result.figures["region"] = {"corners": grid.corners().tolist(), "area_m2": area3 * (mm / 1e3) ** 2,
+                                "length": length, "width": width, "grid": list(shape),
+                                "seams": list(hull.seam_names), "butts": list(hull.butt_names),
+                                "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
+                                                for b in hull.butts]}
+    fit = fit_plane(v_grid)
+    if fit.max_distance <= tol:
+        uv = planar_development(v_grid, fit)
+        _deliver_patch(result, config, grid, uv, v3, f3, index, "flat",
+                       {"method": "orthogonal projection on the least-squares plane of the region",
+                        "plane_max_distance": fit.max_distance, "normal": fit.normal.tolist()}, None, (length, width))
+        result.figures["hull_fit"] = {"max_distance": fit.max_distance,
+                                      "rms_distance": float(np.sqrt(np.mean(fit.distances ** 2))),
+                                      "tolerance": tol, "passed": True}
+        return
+    attempt = PartResult(part.name, part)
+    why = hull.note
+    if hull.developable:
+        from .strake import corner_rulings, stage_trim
+
+        try:
+            ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0)
+            ok = ok and stage_trim(attempt, 0.0)
+            if attempt.strip is not None and attempt.strip.trim is not None:
+                # the strip mesh's edges are chords of the seams: allow its chord error on the region
+                chord = float(np.max(attempt.strip.max_chord_error))
+                check = completeness(attempt.strip.vertices, attempt.strip.faces, grid, tol + chord, corner_tol)
+                attempt.figures["completeness"] = check
+                if ok and not check["passed"]:
+                    ok = False
+                    attempt.reason = (f"strip incomplete: corner gaps {np.round(check['corner_gaps'], 2).tolist()} "
+                                      f"(limit {corner_tol:g}), largest gap to the region "
+                                      f"{check['max_region_gap']:.4g} (limit {tol + chord:g})")
+            if ok:
+                region = result.figures["region"]
+                result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
+                result.figures["region"] = region
+                result.figures["plate_class"] = {
+                    "class": "developable", "method": "devflat strip between the seams, trimmed by the butt planes",
+                    "max_deviation": attempt.figures["hull_fit"]["max_distance"], "max_strain": 0.0,
+                    "area_3d_m2": area3 * (mm / 1e3) ** 2, "complete": True}
+                finish_part(result, config)
+                return
+            why = attempt.reason
+        except Exception as exc:  # the strip attempt failed hard: the plate is still formed
+            why = f"strip attempt raised {type(exc).__name__}: {exc}"
+            attempt.figures["traceback"] = traceback.format_exc(limit=6)
+    uv, iterations = arap_development(v3, f3)
+    _deliver_patch(result, config, grid, uv[index], v3, f3, index, "formed",
+                   {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
+                    "not_developable_because": why,
+                    "strip_max_deviation": (attempt.figures.get("hull_fit") or {}).get("max_distance")},
+                   attempt.strip, (length, width))
+    result.figures["hull_fit"] = {"max_distance": 0.0, "tolerance": tol, "passed": True,
+                                  "note": "a formed plate is developed from the hull patch itself: its 3D shape is "
+                                          "the hull's; its error is the in-plane strain"}
+
+
+def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
+    """Pattern, strain map, completeness and class of a flat or formed plate."""
+    part, hull = result.part, result.part.hull
+    mm = config.mm_per_unit
+    shape = grid.shape
+    uv_grid = uv_grid_flat.reshape(shape[0], shape[1], 2)
+    v_grid = grid.points.reshape(-1, 3)
+    f_grid = grid.faces()
+    along_c = uv_grid[0]
+    rot, shift = place_flat(uv_grid_flat, along_c)
+    placed = uv_grid_flat @ rot.T + shift
+    pg = placed.reshape(shape[0], shape[1], 2)
+    sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
+    outline = np.vstack([pg[0, :], pg[1:, -1], pg[-1, -2::-1], pg[-2:0:-1, 0]])
+    keep = np.ones(len(outline), dtype=bool)
+    keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
+    outline = outline[keep]
+    spacing = 500.0 / mm
+    rolls, roll_method = _roll_lines(strip, v3, _uv_on_welded(uv_grid_flat, index, len(v3)), f3, shape,
+                                     grid.points, uv_grid, spacing)
+    rolls = rolls @ rot.T + shift if len(rolls) else np.zeros((0, 2, 2))
+    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
+    strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm)
+    check = completeness(v3, f3, grid, hull.fit_tolerance, min(hull.fit_tolerance, 1e-6 * max(size) + 1e-9))
+    if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
+        fit = info["plane_max_distance"]
+        check["max_region_gap"] = fit
+        check["passed"] = bool(fit <= hull.fit_tolerance)
+    result.strip = None
+    result.mesh = (v_grid, f_grid)
+    result.pattern = Pattern(outline, rolls, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
+    result.figures["strain"] = strains
+    result.figures["completeness"] = check
+    result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
+                                 "shrink_area_m2": strains["shrink_area_m2"],
+                                 "stretch_area_m2": strains["stretch_area_m2"]} if kind == "formed" else None
+    area3 = float(result.figures["region"]["area_m2"])
+    result.figures["plate_class"] = dict(
+        {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
+         "area_3d_m2": area3, "complete": check["passed"]}, **info)
+    if not check["passed"]:
+        result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
+        return
+    finish_part(result, config)
+
+
+def _uv_on_welded(uv_grid_flat, index, n):
+    uv = np.zeros((n, 2))
+    uv[index] = uv_grid_flat
+    return uv
