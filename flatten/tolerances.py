@@ -35,6 +35,9 @@ class Tolerances:
     min_piece_coverage : float
         Pieces covering less than this fraction of both curves are ignored when
         choosing a path (isolated touching points).
+    nesting : float
+        Slack of the nesting checks (inside the sheet, gaps between parts), relative
+        to the sheet size: the nesting engine computes in float32.
     """
 
     residual: float = 1e-12
@@ -47,6 +50,7 @@ class Tolerances:
     trace_min_step: float = 1e-6
     junction: float = 1e-6
     min_piece_coverage: float = 1e-6
+    nesting: float = 1e-6
 
 
 DEFAULT_TOLERANCES = Tolerances()

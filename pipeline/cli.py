@@ -34,7 +34,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
     check = sub.add_parser("check", help="validate a configuration without running it")
     check.add_argument("config", type=Path)
-    for sub_parser in (run, check):
+    nest = sub.add_parser("nest", help="run the parts and nest them (the config's nesting section): a fabric "
+                          "marker or steel stock plates")
+    nest.add_argument("config", type=Path)
+    nest.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    nest.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    nest.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
+    nest.add_argument("--time", type=int, help="nesting time budget in seconds (overrides nesting.time)")
+    nest.add_argument("--seed", type=int, help="nesting seed (overrides nesting.seed)")
+    nest.add_argument("--workers", type=int, help="engine threads (overrides nesting.workers)")
+    for sub_parser in (run, check, nest):
         sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
     return parser
 
@@ -123,6 +132,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             return command_run(args)
+        if args.command == "nest":
+            from .nesting_io import command_nest
+
+            return command_nest(args, validate)
         return command_check(args)
     except (ConfigError, DevflatError) as exc:
         if args.debug:

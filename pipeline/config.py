@@ -287,6 +287,59 @@ class Output(_Strict):
     layers: Layers = Layers()
 
 
+class StockSize(_Strict):
+    """A stock plate size (config units); ``name`` labels it in the cutting list."""
+
+    width: float = Field(gt=0)
+    length: float = Field(gt=0)
+    name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=40)
+
+
+class NestingSpec(_Strict):
+    """Nesting of the run's parts (``devflat nest``): a fabric marker (textile profile, on a
+    roll ``fabric_width`` wide) or stock plates (steel profile, sizes ``stock``). Lengths in
+    config units; ``time`` is the engine's budget in seconds; ``orientations`` are degrees
+    (textile: against the grain line laid along the roll) or ``free``."""
+
+    time: int = Field(10, ge=1, le=86_400, description="seconds")
+    seed: int = Field(0, ge=0, lt=2**63)
+    workers: int = Field(1, ge=1, le=256)
+    spacing: float = Field(0.0, ge=0, description="smallest gap between parts (kerf, knife)")
+    edge_margin: float = Field(0.0, ge=0, description="smallest gap between a part and the roll/plate edge")
+    orientations: list[float] | Literal["free"] | None = None
+    quantities: dict[str, int] = Field(default_factory=dict)
+    fabric_width: float | None = Field(None, gt=0)
+    stock: StockSize | list[StockSize] | None = None
+    pairs: bool = False
+    developed_side: Literal["port", "starboard"] = "starboard"
+
+    @field_validator("orientations")
+    @classmethod
+    def _orientations(cls, value):
+        if isinstance(value, list) and not value:
+            raise ValueError("give at least one orientation, or 'free'")
+        return value
+
+    @field_validator("quantities")
+    @classmethod
+    def _quantities(cls, value):
+        bad = {k: v for k, v in value.items() if v < 0}
+        if bad:
+            raise ValueError(f"quantities must be >= 0, got {bad}")
+        return value
+
+    @field_validator("stock")
+    @classmethod
+    def _stock(cls, value):
+        if isinstance(value, list) and not value:
+            raise ValueError("give at least one stock size")
+        return value
+
+    def stock_sizes(self) -> list[StockSize]:
+        s = self.stock
+        return [] if s is None else (list(s) if isinstance(s, list) else [s])
+
+
 class PartSpec(_Strict):
     name: str = Field(pattern=NAME_PATTERN, max_length=80)
     curves: CurvesSpec
@@ -387,6 +440,7 @@ class RunSpec(_Strict):
     textile: Textile = Textile()
     check: Check = Check()
     output: Output = Output()
+    nesting: NestingSpec | None = None
     # single-part form
     name: str | None = Field(None, pattern=NAME_PATTERN, max_length=80)
     curves: CurvesSpec | None = None
@@ -396,6 +450,23 @@ class RunSpec(_Strict):
     parts: list[PartSpec] | None = None
     # the plates of a hull strake
     strake: StrakeSpec | None = None
+
+    @field_validator("nesting")
+    @classmethod
+    def _nesting_profile(cls, value, info):
+        """The roll width belongs to a marker, the stock sizes to steel plates."""
+        profile = info.data.get("profile", "steel")
+        if value is None:
+            return value
+        if profile == "textile" and value.fabric_width is None:
+            raise ValueError("a textile marker needs fabric_width (the usable roll width)")
+        if profile == "steel" and value.stock is None:
+            raise ValueError("steel nesting needs stock: {width, length} or a list of sizes")
+        if profile == "textile" and value.stock is not None:
+            raise ValueError("stock is for the steel profile; a textile marker takes fabric_width")
+        if profile == "steel" and value.fabric_width is not None:
+            raise ValueError("fabric_width is for the textile profile; steel nesting takes stock")
+        return value
 
     @model_validator(mode="after")
     def _parts(self):

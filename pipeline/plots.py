@@ -140,3 +140,28 @@ def hull_png(target: str | Path, plates, tolerance: float, units: str) -> None:
     fig.colorbar(collection, cax=fig.add_axes((box.x1 + 0.02, box.y0, 0.015, box.height)),
                  label=f"max deviation ({units}),\ntolerance {tolerance:g}")
     _save(fig, target)
+
+
+def layout_png(target: str | Path, width: float, length: float, parts, title: str, units: str,
+               margin: float = 0.0) -> None:
+    """A nesting layout: the roll or stock plate [0, length] x [0, width] (its edge margin
+    dashed) and each placed part, filled, with its label. parts: [(label, (N, 2) ring), ...]."""
+    from matplotlib.collections import PolyCollection
+
+    corners = np.array([[0.0, 0.0], [length, width]])
+    fig, ax = _fitted_axes(corners, 12.0, (0.8, 0.3, 0.6, 0.4), 9.0)
+    ax.add_patch(Rectangle((0, 0), length, width, fill=False, color="black", lw=1.0))
+    if margin > 0:
+        ax.add_patch(Rectangle((margin, margin), length - 2 * margin, width - 2 * margin, fill=False,
+                               color="grey", lw=0.5, ls="--"))
+    ax.add_collection(PolyCollection([ring for _, ring in parts], facecolor="lightsteelblue", edgecolor="crimson",
+                                     linewidth=0.6))
+    size = max(2.0, min(7.0, 600.0 / max(len(parts), 1)))
+    for label, ring in parts:
+        centre = ring.mean(axis=0)
+        ax.text(centre[0], centre[1], label, fontsize=size, ha="center", va="center")
+    ax.set_xlim(-0.01 * length, 1.01 * length)
+    ax.set_ylim(-0.02 * width, 1.02 * width)
+    ax.set_xlabel(units)
+    ax.set_title(title, fontsize=9, loc="left", y=1.01)
+    _save(fig, target)

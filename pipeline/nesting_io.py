@@ -1,0 +1,407 @@
+"""`devflat nest`: the run's parts into a fabric marker or onto steel stock plates, and the
+files: marker DXF (AAMA dialect) or one DXF per stock plate (R2000, mm), the cutting list,
+the nesting report and PNGs.
+
+The outlines nested are the pipeline's own: the textile cut line (with its allowances) of
+each piece, the steel pattern outline of each plate. Everything is checked before anything
+is written (bad input: exit 2, no files).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import atomic_path, write_text
+from .config import ConfigError, RunConfig
+from .nesting import NestingError, NestItem, NestResult, nest_marker, nest_stock
+from .report import SCHEMA_VERSION, sanitize
+
+TEXTILE_ORIENTATIONS = (0.0, 180.0)  # the grain stays along the roll
+STEEL_ORIENTATIONS = (0.0, 90.0, 180.0, 270.0)
+
+
+@dataclass
+class NestJob:
+    """What to nest: groups of items (steel: one per thickness and material) with the marks
+    of each item in its own coordinates, and the parts that failed before nesting."""
+
+    kind: str
+    groups: dict = field(default_factory=dict)  # key -> list[NestItem]
+    group_info: dict = field(default_factory=dict)  # key -> {"thickness_mm", "material", "density_kg_m3"}
+    marks: dict = field(default_factory=dict)  # item id -> {"bend": (K, 2, 2), "frames": [(x, (N, 2))]}
+    pieces: dict = field(default_factory=dict)  # item id -> TextilePiece (textile)
+    failed: list = field(default_factory=list)  # [{"part", "reason"}]
+
+
+def _orientations(spec, default) -> tuple[float, ...] | None:
+    if spec.orientations == "free":
+        return None
+    return tuple(float(a) for a in (spec.orientations or default))
+
+
+def check_quantities(config: RunConfig) -> dict[str, int]:
+    """Copies wanted per part name; names in nesting.quantities must be parts of the run."""
+    spec = config.spec.nesting
+    names = [p.name for p in config.parts]
+    for name, value in spec.quantities.items():
+        if name not in names:
+            raise ConfigError(f"{config.source}: nesting.quantities.{name} = {value}: no part {name!r} in this run "
+                              f"(parts: {', '.join(names)})")
+    default = config.spec.textile.quantity if config.spec.profile == "textile" else 1
+    wanted = {name: spec.quantities.get(name, default) for name in names}
+    if not any(wanted.values()):
+        raise ConfigError(f"{config.source}: nesting.quantities: every quantity is 0: no parts to nest")
+    return wanted
+
+
+def build_job(results, config: RunConfig) -> NestJob:
+    """Items from the pipeline's results: textile cut lines turned so that the grain runs
+    along the roll; steel pattern outlines (and their mirror images for pairs)."""
+    spec = config.spec.nesting
+    wanted = check_quantities(config)
+    job = NestJob("marker" if config.spec.profile == "textile" else "stock")
+    job.failed = [{"part": r.name, "reason": r.reason} for r in results if not r.ok]
+    if job.kind == "marker":
+        from .export import textile_pieces
+
+        items = []
+        orients = _orientations(spec, TEXTILE_ORIENTATIONS)
+        for piece in textile_pieces(results, config):
+            if wanted[piece.name] == 0:
+                continue
+            g = piece.grain[1] - piece.grain[0]
+            items.append(NestItem(piece.name, piece.cut, wanted[piece.name], orients,
+                                  -math.degrees(math.atan2(g[1], g[0]))))
+            job.pieces[piece.name] = piece
+        job.groups["fabric"] = items
+        job.group_info["fabric"] = {"fabric": config.spec.textile.fabric}
+        return job
+    orients = _orientations(spec, STEEL_ORIENTATIONS)
+    for r in results:
+        if not r.ok or wanted[r.name] == 0:
+            continue
+        steel = r.part.steel
+        key = f"{steel.material}-{steel.thickness:g}"
+        job.group_info[key] = {"thickness_mm": steel.thickness, "material": steel.material,
+                               "density_kg_m3": steel.density, "marked_side": steel.marked_side}
+        outline = r.pattern.outline
+        bend = r.pattern.bend_lines
+        frames = list(getattr(r.pattern, "frame_lines", ()) or ())
+        sides = [("", False)]
+        if spec.pairs:
+            own, other = ("SB", "PS") if spec.developed_side == "starboard" else ("PS", "SB")
+            sides = [(f"_{own}", False), (f"_{other}", True)]
+        for suffix, mirror in sides:
+            ident = r.name + suffix
+            if mirror:  # the other side of the ship: the mirror image, cut with the marked side up
+                flip = np.array([-1.0, 1.0])
+                ring = (outline * flip)[::-1]
+                marks = {"bend": bend * flip, "frames": [(x, line * flip) for x, line in frames]}
+            else:
+                ring = outline
+                marks = {"bend": bend, "frames": frames}
+            job.groups.setdefault(key, []).append(NestItem(ident, ring, wanted[r.name], orients))
+            job.marks[ident] = marks
+    return job
+
+
+def run_job(job: NestJob, config: RunConfig, progress=None) -> dict[str, NestResult]:
+    """Nest every group; NestingError (bad input) is re-raised as ConfigError naming the file."""
+    spec = config.spec.nesting
+    out = {}
+    try:
+        if job.kind == "marker":
+            items = job.groups["fabric"]
+            out["fabric"] = nest_marker(items, spec.fabric_width, spec.spacing, spec.edge_margin, spec.time, spec.seed,
+                                        spec.workers, progress)
+            return out
+        if not any(job.groups.values()):
+            raise NestingError("no parts to nest: every part failed or has quantity 0")
+        sizes = [(s.name or f"{s.width:g}x{s.length:g}", s.width, s.length) for s in spec.stock_sizes()]
+        budget = spec.time
+        total = sum(it.area * it.quantity for items in job.groups.values() for it in items)
+        for key, items in job.groups.items():
+            share = sum(it.area * it.quantity for it in items) / total
+            out[key] = nest_stock(items, sizes, spec.spacing, spec.edge_margin, max(1, round(budget * share)),
+                                  spec.seed, spec.workers, progress)
+        return out
+    except NestingError as exc:
+        raise ConfigError(f"{config.source}: {exc}") from None
+
+
+# ------------------------------------------------------------------ files
+def _sheet_name(style: str, key: str, sheet_id: str, single: bool) -> str:
+    return f"{style}_{sheet_id}" if single else f"{style}_{key}_{sheet_id}"
+
+
+def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale: float) -> None:
+    """The marker in the AAMA dialect: the piece blocks of :mod:`pipeline.aama`, one INSERT
+    per placed copy (insertion point and rotation), the roll edges and marker figures."""
+    from ezdxf.addons import gerber_D6673
+
+    from .aama import block_name, build_document
+
+    sheet = result.sheets[0]
+    pieces = [job.pieces[name] for name in result.items]
+    doc = build_document(pieces, style, scale)
+    msp = doc.modelspace()
+    for insert in list(msp.query("INSERT")):  # the pieces' INSERTs at the origin make way for the placed copies
+        msp.delete_entity(insert)
+    by_piece = {p.name: block_name(p, p.settings.size) for p in pieces}
+    for p in sheet.placements:
+        msp.add_blockref(by_piece[p.item], tuple(p.translation * scale), dxfattribs={"layer": "1",
+                                                                                   "rotation": p.rotation % 360.0})
+    length, width = sheet.length * scale, sheet.width * scale
+    msp.add_polyline2d([(0, 0), (length, 0), (length, width), (0, width)], close=True, dxfattribs={"layer": "15"})
+    figures = result.figures
+    texts = [f"Marker Length: {length:.1f}", f"Marker Width: {width:.1f}",
+             f"Marker Efficiency: {100 * figures['efficiency']:.2f}%", f"Pieces: {figures['pieces']}"]
+    for k, text in enumerate(texts):
+        msp.add_text(text, height=5.0, dxfattribs={"layer": "1"}).set_placement((0, -10.0 * (k + 9)))
+    with atomic_path(path) as tmp:
+        gerber_D6673.export_file(doc, tmp)
+
+
+def write_stock_dxf(path: Path, sheet, result: NestResult, job: NestJob, info: dict, layers, scale: float) -> int:
+    """One stock plate: its edges (STOCK), every part's cut contour, bending and frame lines
+    moved with it, part ids and the plate's data. R2000, mm. Returns the audit errors."""
+    import ezdxf
+    from ezdxf import units
+
+    doc = ezdxf.new("R2000", setup=False)
+    doc.units = units.MM
+    doc.header["$INSUNITS"] = 4
+    doc.header["$MEASUREMENT"] = 1
+    for name, colour in ((layers.cut, 1), (layers.bend, 5), (layers.text, 3), (layers.frame, 6), ("STOCK", 8)):
+        if name not in doc.layers:
+            doc.layers.add(name, color=colour)
+    msp = doc.modelspace()
+    length, width = sheet.length * scale, sheet.width * scale
+    msp.add_lwpolyline([(0, 0), (length, 0), (length, width), (0, width)], close=True,
+                       dxfattribs={"layer": "STOCK"})
+    row = next(r for r in result.figures["sheets"] if r["sheet"] == sheet.id)
+    height = max(min(0.01 * width, 60.0), 2.5)
+    for p in sheet.placements:
+        item = result.items[p.item]
+        ring = p.place(item.outline) * scale
+        msp.add_lwpolyline([tuple(q) for q in ring], close=True, dxfattribs={"layer": layers.cut})
+        marks = job.marks.get(p.item, {})
+        for a, b in marks.get("bend", ()):
+            msp.add_line(tuple(p.place(a[None])[0] * scale), tuple(p.place(b[None])[0] * scale),
+                         dxfattribs={"layer": layers.bend})
+        for _, line in marks.get("frames", ()):
+            msp.add_lwpolyline([tuple(q) for q in p.place(line) * scale], format="xy",
+                               dxfattribs={"layer": layers.frame})
+        centre = ring.mean(axis=0)
+        msp.add_text(f"{p.item}#{p.copy + 1}", height=height, dxfattribs={"layer": layers.text}).set_placement(
+            tuple(centre))
+    texts = [f"STOCK {sheet.id} {sheet.stock} {length:.0f} X {width:.0f} MM",
+             f"THK {info['thickness_mm']:g} MM {info['material']}",
+             f"UTILISATION {100 * row['utilisation']:.1f} %", f"PARTS {len(sheet.placements)}"]
+    for k, text in enumerate(texts):
+        msp.add_text(text, height=height, dxfattribs={"layer": layers.text}).set_placement(
+            (0, -1.6 * height * (k + 1)))
+    auditor = doc.audit()
+    with atomic_path(path) as tmp:
+        doc.saveas(tmp)
+    return len(auditor.errors)
+
+
+def cutting_list_csv(results: dict[str, NestResult], job: NestJob, scale: float) -> str:
+    """One row per stock plate (parts, utilisation, scrap area and weight), one per part not placed."""
+    m2 = (scale / 1000.0) ** 2
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["plate", "stock", "width_mm", "length_mm", "used_length_mm", "thickness_mm", "material",
+                     "parts_count", "parts",
+                     "parts_area_m2", "plate_area_m2", "utilisation", "scrap_area_m2", "scrap_weight_kg",
+                     "plate_weight_kg", "note"])
+    for key, result in results.items():
+        info = job.group_info[key]
+        kg_per_m2 = info["thickness_mm"] / 1000.0 * info["density_kg_m3"]
+        for row in result.figures["sheets"]:
+            writer.writerow([row["sheet"] if len(results) == 1 else f"{key}_{row['sheet']}", row["stock"],
+                             f"{row['width'] * scale:.1f}", f"{row['length'] * scale:.1f}",
+                             f"{row['used_length'] * scale:.1f}", f"{info['thickness_mm']:g}",
+                             info["material"], len(row["parts"]), " ".join(row["parts"]),
+                             f"{row['parts_area'] * m2:.4f}", f"{row['plate_area'] * m2:.4f}",
+                             f"{row['utilisation']:.4f}", f"{row['scrap_area'] * m2:.4f}",
+                             f"{row['scrap_area'] * m2 * kg_per_m2:.1f}", f"{row['plate_area'] * m2 * kg_per_m2:.1f}", ""])
+        for u in result.unplaced:
+            writer.writerow(["UNPLACED", "", "", "", "", f"{info['thickness_mm']:g}", info["material"], u["copies"],
+                             u["item"], "", "", "", "", "", "", f"not placed: {u['reason']}"])
+    return buffer.getvalue()
+
+
+def nesting_report(results: dict[str, NestResult], job: NestJob, config: RunConfig, files: list[str]) -> dict:
+    spec = config.spec.nesting
+    groups = {}
+    for key, r in results.items():
+        groups[key] = {
+            "success": r.success, "message": r.message, "info": job.group_info.get(key),
+            "figures": r.figures, "engine": r.engine, "checks": r.checks, "unplaced": r.unplaced,
+            "items": {it.id: {"quantity": it.quantity, "area": it.area, "vertices": len(it.outline),
+                              "orientations": None if it.orientations is None else list(it.orientations),
+                              "base_rotation": it.base_rotation} for it in r.items.values()},
+            "sheets": [{"id": s.id, "stock": s.stock, "width": s.width, "length": s.length,
+                        "placements": [{"item": p.item, "copy": p.copy + 1, "rotation": p.rotation,
+                                        "translation": p.translation.tolist()} for p in s.placements]}
+                       for s in r.sheets],
+        }
+    return {"schema_version": SCHEMA_VERSION, "kind": job.kind, "units": config.spec.units,
+            "success": all(r.success for r in results.values()) and not job.failed,
+            "settings": spec.model_dump(), "mirroring": "never: parts are only rotated (the marked side / "
+            "the fabric face stays up); pairs are nested as distinct mirror-image parts",
+            "failed_parts": job.failed, "groups": groups, "files": files}
+
+
+def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfig, out_dir: Path) -> list[Path]:
+    from .plots import layout_png
+
+    style = config.spec.name or config.source.stem
+    scale = config.mm_per_unit
+    units = config.spec.units
+    png = config.spec.output.png
+    written = []
+    if job.kind == "marker":
+        r = results["fabric"]
+        sheet = r.sheets[0]
+        if config.spec.output.dxf:
+            path = out_dir / f"{style}_marker.dxf"
+            write_marker(path, r, job, style, scale)
+            written.append(path)
+        if png:
+            path = out_dir / f"{style}_marker.png"
+            layout_png(path, sheet.width, sheet.length,
+                       [(f"{p.item}#{p.copy + 1}", p.place(r.items[p.item].outline)) for p in sheet.placements],
+                       f"{style}: marker {sheet.length:.1f} x {sheet.width:g} {units}, efficiency "
+                       f"{100 * r.figures['efficiency']:.1f}%", units, r.edge_margin)
+            written.append(path)
+    else:
+        single = len(results) == 1
+        for key, r in results.items():
+            for sheet in r.sheets:
+                name = _sheet_name(style, key, sheet.id, single)
+                if config.spec.output.dxf:
+                    path = out_dir / f"{name}.dxf"
+                    errors = write_stock_dxf(path, sheet, r, job, job.group_info[key], config.spec.output.layers,
+                                             scale)
+                    r.figures.setdefault("dxf_audit_errors", {})[sheet.id] = errors
+                    written.append(path)
+                if png:
+                    path = out_dir / f"{name}.png"
+                    row = next(x for x in r.figures["sheets"] if x["sheet"] == sheet.id)
+                    layout_png(path, sheet.width, sheet.length,
+                               [(f"{p.item}#{p.copy + 1}", p.place(r.items[p.item].outline))
+                                for p in sheet.placements],
+                               f"{style} {key} plate {sheet.id} ({sheet.stock}): utilisation "
+                               f"{100 * row['utilisation']:.1f}%", units, r.edge_margin)
+                    written.append(path)
+        path = out_dir / f"{style}_cutting_list.csv"
+        write_text(path, cutting_list_csv(results, job, scale))
+        written.append(path)
+    path = out_dir / f"{style}_nesting.json"
+    report = nesting_report(results, job, config, [p.name for p in written] + [path.name])
+    write_text(path, json.dumps(sanitize(report), indent=1, default=_json_default, allow_nan=False))
+    written.append(path)
+    return written
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(type(obj).__name__)
+
+
+def summary_lines(results: dict[str, NestResult], job: NestJob, units: str) -> list[str]:
+    lines = []
+    for key, r in results.items():
+        if r.kind == "marker":
+            f = r.figures
+            lines.append(f"marker: {f['pieces']} pieces, length {f['marker_length']:.1f} {units} on a roll "
+                         f"{f['fabric_width']:g} {units} wide, efficiency {100 * f['efficiency']:.1f}%")
+        else:
+            f = r.figures
+            lines.append(f"{key}: {f['plates']} stock plate(s), utilisation {100 * f['utilisation']:.1f}%")
+            for row in f["sheets"]:
+                lines.append(f"  {row['sheet']} {row['stock']}: {len(row['parts'])} part(s), "
+                             f"{100 * row['utilisation']:.1f}%  {' '.join(row['parts'])}")
+        checks = r.checks
+        lines.append(f"  check: {'passed' if checks['passed'] else 'FAILED'} (max outside {checks['max_outside']:.3g}, "
+                     f"min gap {checks['min_gap']:.4g} for spacing {checks['spacing']:g}, "
+                     f"area error {checks['max_area_error_relative']:.2g}); engine {r.engine.get('seconds', 0):.1f} s")
+        for u in r.unplaced:
+            lines.append(f"  NOT PLACED: {u['item']} x{u['copies']}: {u['reason']}")
+    for f in job.failed:
+        lines.append(f"  NOT NESTED (part failed): {f['part']}: {f['reason']}")
+    return lines
+
+
+# ------------------------------------------------------------------ command
+def command_nest(args, validate) -> int:
+    """Run the parts, nest them, write the nesting files. Exit 0 all placed and checked,
+    1 a part failed or could not be placed or a check failed, 2 bad input (nothing written)."""
+    from .stages import run_part
+
+    config = validate(args.config)
+    spec = config.spec.nesting
+    if spec is None:
+        raise ConfigError(f"{args.config}: nesting: missing: `devflat nest` needs a nesting section "
+                          "(fabric_width for textile, stock for steel)")
+    updates = {k: v for k, v in (("time", args.time), ("seed", args.seed), ("workers", args.workers)) if v is not None}
+    for key, value in updates.items():
+        if value < (1 if key != "seed" else 0):
+            raise ConfigError(f"--{key} {value}: must be >= {1 if key != 'seed' else 0}")
+    if updates:
+        spec = spec.model_copy(update=updates)
+        config.spec = config.spec.model_copy(update={"nesting": spec})
+    check_quantities(config)
+    parts = config.parts
+    if args.jobs > 1 and len(parts) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        from functools import partial
+
+        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+            results = list(pool.map(partial(run_part, config=config), parts))
+    else:
+        results = [run_part(p, config) for p in parts]
+    job = build_job(results, config)
+    bar = None
+    progress = None
+    if not args.quiet:
+        from tqdm import tqdm
+
+        bar = tqdm(total=spec.time, unit="s", file=sys.stderr, desc="nesting",
+                   bar_format="{desc}: {bar} {n:.0f}/{total} s{postfix}")
+
+        def progress(elapsed, best):
+            bar.n = min(elapsed, spec.time)
+            if isinstance(best, str):
+                bar.set_postfix_str(best, refresh=False)
+            elif math.isfinite(best):
+                bar.set_postfix_str(f"length {best:.1f}", refresh=False)
+            bar.refresh()
+    try:
+        results_by_group = run_job(job, config, progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
+    write_outputs(results_by_group, job, config, args.out)
+    if not args.quiet:
+        print("\n".join(summary_lines(results_by_group, job, config.spec.units)))
+    ok = all(r.success for r in results_by_group.values()) and not job.failed
+    return 0 if ok else 1
