@@ -43,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     nest.add_argument("--time", type=int, help="nesting time budget in seconds (overrides nesting.time)")
     nest.add_argument("--seed", type=int, help="nesting seed (overrides nesting.seed)")
     nest.add_argument("--workers", type=int, help="engine threads (overrides nesting.workers)")
+    nest.add_argument("--replay", type=Path, help="reproduce the layout stored in a NAME_nesting.json (checked again)")
     for sub_parser in (run, check, nest):
         sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
     return parser

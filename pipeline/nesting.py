@@ -270,15 +270,22 @@ def nest_marker(items: list[NestItem], fabric_width: float, spacing: float, edge
     counts = {it.id: it.quantity for it in items}
     placements, engine = strip_pack(items, counts, band, spacing, budget, seed, workers, progress)
     placements = _moved(placements, (edge_margin, edge_margin))
+    return marker_result(items, fabric_width, spacing, edge_margin, placements, engine, tolerances)
+
+
+def marker_result(items: list[NestItem], fabric_width: float, spacing: float, edge_margin: float,
+                  placements: list[Placement], engine: dict,
+                  tolerances: Tolerances = DEFAULT_TOLERANCES) -> NestResult:
+    """The marker of these placements (roll coordinates), its figures and checks."""
     lookup = {it.id: it for it in items}
     end = max(float(p.place(lookup[p.item].outline)[:, 0].max()) for p in placements)
     sheet = Sheet("marker", fabric_width, end + edge_margin, tuple(placements), "roll")
     result = NestResult("marker", [sheet], lookup, spacing, edge_margin, engine=engine)
-    area = sum(it.area * it.quantity for it in items)
+    area = sum(lookup[p.item].area for p in placements)
     result.figures = {"fabric_width": fabric_width, "marker_length": sheet.length, "pieces_area": area,
                       "used_roll_area": fabric_width * sheet.length,
                       "efficiency": area / (fabric_width * sheet.length),
-                      "pieces": int(sum(counts.values()))}
+                      "pieces": len(placements)}
     result.checks = check_layout(result, tolerances)
     return result
 
@@ -389,7 +396,14 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
             remaining[p.item] -= 1
         sheets.append(Sheet(f"P{len(sheets) + 1:02d}", w, ln, tuple(numbered), name))
         round_no += 1
-    result = NestResult("stock", sheets, lookup, spacing, edge_margin, unplaced=unplaced, engine=engine)
+    return stock_result(items, sheets, spacing, edge_margin, unplaced, engine, tolerances)
+
+
+def stock_result(items: list[NestItem], sheets: list[Sheet], spacing: float, edge_margin: float, unplaced: list,
+                 engine: dict, tolerances: Tolerances = DEFAULT_TOLERANCES) -> NestResult:
+    """The stock plates of these sheets, their figures and checks."""
+    result = NestResult("stock", sheets, {it.id: it for it in items}, spacing, edge_margin, unplaced=unplaced,
+                        engine=engine)
     result.figures = stock_figures(result)
     result.checks = check_layout(result, tolerances)
     return result

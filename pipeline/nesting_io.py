@@ -21,7 +21,8 @@ import numpy as np
 
 from .atomic import atomic_path, write_text
 from .config import ConfigError, RunConfig
-from .nesting import NestingError, NestItem, NestResult, nest_marker, nest_stock
+from .nesting import (NestingError, NestItem, NestResult, Placement, Sheet, marker_result, nest_marker,
+                      nest_stock, stock_result)
 from .report import SCHEMA_VERSION, sanitize
 
 TEXTILE_ORIENTATIONS = (0.0, 180.0)  # the grain stays along the roll
@@ -135,6 +136,45 @@ def run_job(job: NestJob, config: RunConfig, progress=None) -> dict[str, NestRes
         return out
     except NestingError as exc:
         raise ConfigError(f"{config.source}: {exc}") from None
+
+
+def replay_job(job: NestJob, config: RunConfig, source: Path) -> dict[str, NestResult]:
+    """The layout stored in a nesting report (``NAME_nesting.json``) applied to this run's
+    parts and checked again: an exact reproduction, whatever the engine would do today.
+    A changed outline shows in the checks; a missing part or group is bad input."""
+    spec = config.spec.nesting
+    try:
+        stored = json.loads(Path(source).read_text(encoding="utf-8"))
+        groups = stored["groups"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ConfigError(f"--replay {source}: not a nesting report: {exc}") from None
+    if stored.get("kind") != job.kind:
+        raise ConfigError(f"--replay {source}: kind {stored.get('kind')!r} does not match this run ({job.kind})")
+    out = {}
+    for key, items in job.groups.items():
+        if key not in groups:
+            raise ConfigError(f"--replay {source}: no group {key!r} (groups: {', '.join(groups)})")
+        ids = {it.id for it in items}
+        sheets = []
+        try:
+            for s in groups[key]["sheets"]:
+                placements = []
+                for p in s["placements"]:
+                    if p["item"] not in ids:
+                        raise ConfigError(f"--replay {source}: part {p['item']!r} is not in this run")
+                    placements.append(Placement(p["item"], int(p["copy"]) - 1, float(p["rotation"]),
+                                                np.asarray(p["translation"], dtype=float)))
+                sheets.append(Sheet(s["id"], float(s["width"]), float(s["length"]), tuple(placements), s["stock"]))
+            unplaced = list(groups[key].get("unplaced", []))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"--replay {source}: group {key!r}: malformed placement: {exc}") from None
+        engine = {"replayed": str(source), "seconds": 0.0}
+        if job.kind == "marker":
+            out[key] = marker_result(items, spec.fabric_width, spec.spacing, spec.edge_margin,
+                                     list(sheets[0].placements), engine)
+        else:
+            out[key] = stock_result(items, sheets, spec.spacing, spec.edge_margin, unplaced, engine)
+    return out
 
 
 # ------------------------------------------------------------------ files
@@ -378,7 +418,7 @@ def command_nest(args, validate) -> int:
     job = build_job(results, config)
     bar = None
     progress = None
-    if not args.quiet:
+    if not args.quiet and args.replay is None:
         from tqdm import tqdm
 
         bar = tqdm(total=spec.time, unit="s", file=sys.stderr, desc="nesting",
@@ -392,7 +432,10 @@ def command_nest(args, validate) -> int:
                 bar.set_postfix_str(f"length {best:.1f}", refresh=False)
             bar.refresh()
     try:
-        results_by_group = run_job(job, config, progress)
+        if args.replay is not None:
+            results_by_group = replay_job(job, config, args.replay)
+        else:
+            results_by_group = run_job(job, config, progress)
     finally:
         if bar is not None:
             bar.close()

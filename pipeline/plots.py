@@ -160,8 +160,7 @@ def layout_png(target: str | Path, width: float, length: float, parts, title: st
     for label, ring in parts:
         centre = ring.mean(axis=0)
         ax.text(centre[0], centre[1], label, fontsize=size, ha="center", va="center")
-    ax.set_xlim(-0.01 * length, 1.01 * length)
-    ax.set_ylim(-0.02 * width, 1.02 * width)
+    ax.autoscale_view()
     ax.set_xlabel(units)
     ax.set_title(title, fontsize=9, loc="left", y=1.01)
     _save(fig, target)
