@@ -20,11 +20,13 @@ from numpy.polynomial import chebyshev
 
 from .equation import DevelopabilityField
 from .nurbs import NurbsCurve
+from .strip import batches
 
 _NODES = 24  # Chebyshev-Lobatto nodes on a piece; fewer on the short pieces of dense strips
 _NODES_SHORT = 10
 _SHORT_PIECE = 1.0 / 1000.0
 _MAX_PIECE = 1.0 / 64.0
+_CHUNK_PIECES = 2048  # pieces per batch: N nodes each, so ~2e4 to 5e4 curve evaluations
 
 
 @lru_cache(maxsize=4)
@@ -56,7 +58,10 @@ class Development:
     def vertices(self, samples: np.ndarray) -> np.ndarray:
         """Flat positions of the strip vertices (K * m, 2) for ruling samples v (m,)."""
         v = np.asarray(samples)
-        pts = self.along_c[:, None, :] * (1 - v)[None, :, None] + self.along_d[:, None, :] * v[None, :, None]
+        pts = np.empty((len(self.along_c), len(v), 2))
+        for lo, hi in batches(len(pts)):  # no temporaries of the full size
+            pts[lo:hi] = (self.along_c[lo:hi, None, :] * (1 - v)[None, :, None]
+                          + self.along_d[lo:hi, None, :] * v[None, :, None])
         return pts.reshape(-1, 2)
 
 
@@ -79,13 +84,20 @@ def _interval_breaks(c: NurbsCurve, d: NurbsCurve, field: DevelopabilityField | 
                 inside = roots[(roots > t[k]) & (roots < t[k + 1])]
                 breaks.append(inside[:1])
     out = np.unique(np.concatenate(breaks))
-    # cap the piece length so the spectral rule never works on a long interval
-    pieces = [out[:1]]
+    # cap the piece length so the spectral rule never works on a long interval: n equal
+    # parts of each interval (the values np.linspace(a, b, n + 1)[1:] gives, vectorised)
     width = max(np.ptp(c.domain), 1e-300)
-    for a, b in zip(out[:-1], out[1:]):
-        n = int(np.ceil((b - a) / (width * _MAX_PIECE)))
-        pieces.append(np.linspace(a, b, n + 1)[1:])
-    return np.concatenate(pieces)
+    a, b = out[:-1], out[1:]
+    n = np.maximum(np.ceil((b - a) / (width * _MAX_PIECE)), 1).astype(np.int64)
+    if np.all(n == 1):
+        return out
+    owner = np.repeat(np.arange(len(a)), n)
+    j = np.arange(len(owner)) - np.repeat(np.cumsum(n) - n, n) + 1
+    step = (b - a) / n
+    split = j * step[owner] + a[owner]
+    last = j == n[owner]
+    split[last] = b[owner[last]]
+    return np.concatenate([out[:1], split])
 
 
 def _T_of_t(field: DevelopabilityField | None, rulings: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -94,53 +106,67 @@ def _T_of_t(field: DevelopabilityField | None, rulings: np.ndarray, t: np.ndarra
 
 
 def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
-            field: DevelopabilityField | None) -> Development:
+            field: DevelopabilityField | None, chunk: int = _CHUNK_PIECES) -> Development:
     """Exact development of the strip with the given rulings (K, 2) [t, T] (t
     non-decreasing; repeated t is a fan with its apex on c). ``field`` is None for a
-    flat plate, whose T(t) is then interpolated between rulings."""
+    flat plate, whose T(t) is then interpolated between rulings. The integration pieces
+    are processed ``chunk`` at a time (memory; the result does not depend on it beyond
+    round-off)."""
     rulings = np.asarray(rulings, dtype=np.float64)
     breaks = _interval_breaks(c, d, field, rulings)
     # spectral error on a piece of relative length h falls like h^N: 10 nodes give round-off
     # once every piece is shorter than 1/1000 of the domain
     longest = float(np.max(np.diff(breaks), initial=0.0)) / max(np.ptp(c.domain), 1e-300)
     x, q = _lobatto_integration(_NODES_SHORT if longest <= _SHORT_PIECE else _NODES)
-    a, b = breaks[:-1], breaks[1:]
-    half = 0.5 * (b - a)
-    nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]  # (P, N)
-    t = nodes.ravel()
-    T = _T_of_t(field, rulings, t)
-    pc, dc, ddc = c.derivatives(t, 2)
-    ruling = d(T) - pc
-    normal = np.cross(dc, ruling)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-    speed2 = np.einsum("ij,ij->i", dc, dc)
-    turn_rate = np.einsum("ij,ij->i", ddc, np.cross(normal, dc)) / speed2  # dθ/dt
-    shape = nodes.shape
-    theta_local = (turn_rate.reshape(shape) @ q.T) * half[:, None]
-    theta_start = np.concatenate([[0.0], np.cumsum(theta_local[:, -1])[:-1]])
-    theta = theta_local + theta_start[:, None]
-    speed = np.sqrt(speed2).reshape(shape)
-    xs = ((speed * np.cos(theta)) @ q.T) * half[:, None]
-    ys = ((speed * np.sin(theta)) @ q.T) * half[:, None]
-    x_start = np.concatenate([[0.0], np.cumsum(xs[:, -1])[:-1]])
-    y_start = np.concatenate([[0.0], np.cumsum(ys[:, -1])[:-1]])
+    n_pieces = len(breaks) - 1
     # state at every break: the start node of each piece, plus the end of the last one
-    break_theta = np.concatenate([theta[:, 0], theta[-1:, -1]])
-    break_xy = np.column_stack([np.concatenate([x_start + xs[:, 0], [x_start[-1] + xs[-1, -1]]]),
-                                np.concatenate([y_start + ys[:, 0], [y_start[-1] + ys[-1, -1]]])])
-    if len(a) == 0:  # a single fan: c does not move at all
-        break_theta, break_xy = np.zeros(1), np.zeros((1, 2))
+    break_theta = np.zeros(n_pieces + 1)
+    break_xy = np.zeros((n_pieces + 1, 2))
+    carry = np.zeros(3)  # theta, x, y at the end of the pieces done so far
+    # pieces in batches: the N nodes per piece are the largest temporaries (N curve
+    # evaluations per ruling); the running sums carried across batches are summed in the
+    # same order as one cumsum over all pieces
+    for lo, hi in batches(n_pieces, chunk):
+        a, b = breaks[lo:hi], breaks[lo + 1:hi + 1]
+        half = 0.5 * (b - a)
+        nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]  # (P, N)
+        t = nodes.ravel()
+        T = _T_of_t(field, rulings, t)
+        pc, dc, ddc = c.derivatives(t, 2)
+        ruling = d(T) - pc
+        normal = np.cross(dc, ruling)
+        normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+        speed2 = np.einsum("ij,ij->i", dc, dc)
+        turn_rate = np.einsum("ij,ij->i", ddc, np.cross(normal, dc)) / speed2  # dθ/dt
+        shape = nodes.shape
+        theta_local = (turn_rate.reshape(shape) @ q.T) * half[:, None]
+        theta_start = np.cumsum(np.concatenate([carry[:1], theta_local[:, -1]]))
+        theta = theta_local + theta_start[:-1, None]
+        speed = np.sqrt(speed2).reshape(shape)
+        xs = ((speed * np.cos(theta)) @ q.T) * half[:, None]
+        ys = ((speed * np.sin(theta)) @ q.T) * half[:, None]
+        x_start = np.cumsum(np.concatenate([carry[1:2], xs[:, -1]]))
+        y_start = np.cumsum(np.concatenate([carry[2:], ys[:, -1]]))
+        break_theta[lo:hi] = theta[:, 0]
+        break_xy[lo:hi, 0] = x_start[:-1] + xs[:, 0]
+        break_xy[lo:hi, 1] = y_start[:-1] + ys[:, 0]
+        carry = np.array([theta_start[-1], x_start[-1], y_start[-1]])
+        break_theta[hi] = theta[-1, -1]
+        break_xy[hi] = x_start[-2] + xs[-1, -1], y_start[-2] + ys[-1, -1]
     idx = np.clip(np.searchsorted(breaks, rulings[:, 0]), 0, len(breaks) - 1)
-    base_theta, base_xy = break_theta[idx], break_xy[idx]
-    # each ruling leaves the developed c at its 3D angle to c'
-    pc_k, dc_k = c.derivatives(rulings[:, 0], 1)
-    r_k = d(rulings[:, 1]) - pc_k
-    cos_phi = np.einsum("ij,ij->i", dc_k, r_k)
-    sin_phi = np.linalg.norm(np.cross(dc_k, r_k), axis=1)
-    phi = np.arctan2(sin_phi, cos_phi)
-    length = np.linalg.norm(r_k, axis=1)
-    along_d = base_xy + length[:, None] * np.column_stack([np.cos(base_theta + phi), np.sin(base_theta + phi)])
-    return Development(base_xy, along_d)
+    along_c = break_xy[idx]
+    along_d = np.empty_like(along_c)
+    for lo, hi in batches(len(rulings), chunk * len(x)):
+        # each ruling leaves the developed c at its 3D angle to c'
+        pc_k, dc_k = c.derivatives(rulings[lo:hi, 0], 1)
+        r_k = d(rulings[lo:hi, 1]) - pc_k
+        cos_phi = np.einsum("ij,ij->i", dc_k, r_k)
+        sin_phi = np.linalg.norm(np.cross(dc_k, r_k), axis=1)
+        angle = break_theta[idx[lo:hi]] + np.arctan2(sin_phi, cos_phi)
+        length = np.linalg.norm(r_k, axis=1)
+        along_d[lo:hi, 0] = along_c[lo:hi, 0] + length * np.cos(angle)
+        along_d[lo:hi, 1] = along_c[lo:hi, 1] + length * np.sin(angle)
+    return Development(along_c, along_d)
 
 
 def unfold_triangles(vertices_c: np.ndarray, vertices_d: np.ndarray, first: Development) -> Development:

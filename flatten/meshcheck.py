@@ -12,7 +12,7 @@ import numpy as np
 
 from .equation import normalized_residual
 from .nurbs import NurbsCurve
-from .strip import build_strip
+from .strip import CHUNK_RULINGS, Strip, build_strip, grid_faces
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,31 @@ def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
                             float(np.abs(k).max()), int(interior.sum()))
 
 
+def strip_angle_defects(strip: Strip, chunk: int = CHUNK_RULINGS) -> CurvatureFigures:
+    """:func:`angle_defects` of a strip's grid mesh (vertex k m + j on ruling k, faces as
+    :func:`grid_faces`), in windows of ``chunk`` rulings so that libigl's temporaries stay
+    bounded. A vertex's defect and Voronoi area depend only on the faces around it, which
+    lie between its neighbouring rulings: each window carries one ruling more on either
+    side, whose vertices are border vertices there and so not counted twice. The sums are
+    then taken window by window (the same figures up to the order of summation)."""
+    m = len(strip.samples)
+    grid = strip.vertices.reshape(-1, m, 3)
+    n = len(grid)
+    if n <= chunk + 2:
+        return angle_defects(strip.vertices, strip.faces)
+    max_defect = total = max_k = 0.0
+    count = 0
+    for lo in range(1, n - 1, chunk):  # the interior rulings 1 .. n - 2 in windows
+        hi = min(lo + chunk, n - 1)
+        window = grid[lo - 1:hi + 1]
+        part = angle_defects(window.reshape(-1, 3), grid_faces(len(window), m))
+        max_defect = max(max_defect, part.max_defect)
+        total += part.integrated_abs_defect
+        max_k = max(max_k, part.max_abs_K)
+        count += part.interior_vertices
+    return CurvatureFigures(max_defect, total, max_k, count)
+
+
 def naive_rulings(c: NurbsCurve, d: NurbsCurve, n_rulings: int) -> np.ndarray:
     """Rulings of the naive ruled surface T = t (both domains mapped linearly), (K, 2)."""
     s = np.linspace(0.0, 1.0, n_rulings)
@@ -61,7 +86,7 @@ def naive_rulings(c: NurbsCurve, d: NurbsCurve, n_rulings: int) -> np.ndarray:
 
 def naive_reference(c: NurbsCurve, d: NurbsCurve, n_rulings: int, samples_per_ruling: int) -> CurvatureFigures:
     strip = build_strip(c, d, naive_rulings(c, d, n_rulings), samples_per_ruling)
-    return angle_defects(strip.vertices, strip.faces)
+    return strip_angle_defects(strip)
 
 
 def ruling_residuals(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray) -> np.ndarray:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .nurbs import NurbsCurve
+from .strip import CHUNK_RULINGS, grid_faces
 
 
 def edge_lengths(vertices: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -31,44 +32,61 @@ def polyline_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
 
 
-def distortion(vertices3d: np.ndarray, flat: np.ndarray, faces: np.ndarray, ruling_edges: np.ndarray,
-               boundary_c: np.ndarray, boundary_d: np.ndarray, c: NurbsCurve, d: NurbsCurve,
-               rulings: np.ndarray) -> dict:
-    """Figures of the flat mesh against the 3D one.
+def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, d: NurbsCurve,
+               rulings: np.ndarray, chunk: int = CHUNK_RULINGS) -> dict:
+    """Figures of the flat strip against the 3D one.
 
-    boundary_c, boundary_d : vertex indices along c and d in ruling order.
-    Returns relative ruling-edge error (must be round-off), the chord discrepancy of the
-    other edges (O(h^2), not an error), the area ratio, and the flat boundary length
+    vertices3d (K m, 3) and flat (K m, 2): the strip's grid, vertex k m + j at sample j
+    of ruling k, triangulated as :func:`flatten.strip.grid_faces` (quad k, j split along
+    (k + 1, j) - (k, j + 1)). Returns the relative ruling-edge error (must be round-off),
+    the chord discrepancy of the other edges (along the strip and the quad diagonals,
+    each edge once: O(h^2), not an error), the area ratio, and the flat boundary length
     against the 3D arc length of c and d over the covered parameters, in mm per metre.
+    Computed in windows of ``chunk`` rulings (bounded temporaries); the edges are those
+    of the grid, so no edge list of the whole mesh is built.
     """
-    rule3 = edge_lengths(vertices3d, ruling_edges)
-    rule2 = edge_lengths(flat, ruling_edges)
-    all_edges = unique_edges(faces)
-    n = int(max(all_edges.max(), ruling_edges.max())) + 1
-    sorted_rulings = np.sort(ruling_edges, axis=1).astype(np.int64)
-    is_ruling = np.isin(all_edges[:, 0] * n + all_edges[:, 1], sorted_rulings[:, 0] * n + sorted_rulings[:, 1])
-    other = all_edges[~is_ruling]
-    l3, l2 = edge_lengths(vertices3d, other), edge_lengths(flat, other)
-    positive = rule3 > 0
-    area3 = triangle_areas(vertices3d, faces).sum()
-    area2 = triangle_areas(flat, faces).sum()
+    grid3 = vertices3d.reshape(-1, m, 3)
+    grid2 = flat.reshape(-1, m, 2)
+    n = len(grid3)
+    faces = grid_faces(min(n, chunk + 1), m)
+    rule_err = other_max = other_sq = area3 = area2 = 0.0
+    n_other = 0
+    for lo in range(0, n, chunk):
+        hi = min(lo + chunk, n)
+        # rulings lo .. hi - 1, and the quads between them and ruling hi (if any)
+        a3, a2 = grid3[lo:hi + 1], grid2[lo:hi + 1]
+        r3 = np.linalg.norm(np.diff(a3[:hi - lo], axis=1), axis=2).ravel()
+        r2 = np.linalg.norm(np.diff(a2[:hi - lo], axis=1), axis=2).ravel()
+        positive = r3 > 0
+        rule_err = max(rule_err, float(np.max(np.abs(r2[positive] - r3[positive]) / r3[positive], initial=0.0)))
+        if len(a3) < 2:
+            continue
+        l3 = np.concatenate([np.linalg.norm(a3[1:] - a3[:-1], axis=2).ravel(),  # along the strip
+                             np.linalg.norm(a3[1:, :-1] - a3[:-1, 1:], axis=2).ravel()])  # diagonals
+        l2 = np.concatenate([np.linalg.norm(a2[1:] - a2[:-1], axis=2).ravel(),
+                             np.linalg.norm(a2[1:, :-1] - a2[:-1, 1:], axis=2).ravel()])
+        rel = np.abs(l2 - l3) / np.maximum(l3, 1e-300)
+        other_max = max(other_max, float(np.max(rel, initial=0.0)))
+        other_sq += float(np.sum(rel**2))
+        n_other += len(rel)
+        f = faces if len(a3) == chunk + 1 else grid_faces(len(a3), m)
+        area3 += float(triangle_areas(a3.reshape(-1, 3), f).sum())
+        area2 += float(triangle_areas(a2.reshape(-1, 2), f).sum())
     arc_c = float(np.diff(c.arc_length_at(np.array([rulings[0, 0], rulings[-1, 0]])))[0])
     T_lo, T_hi = sorted((rulings[0, 1], rulings[-1, 1]))
     arc_d = float(np.diff(d.arc_length_at(np.array([T_lo, T_hi])))[0])
-    flat_c, flat_d = polyline_length(flat[boundary_c]), polyline_length(flat[boundary_d])
+    flat_c, flat_d = polyline_length(grid2[:, 0]), polyline_length(grid2[:, -1])
 
     def per_metre(flat_len, arc):
         return 1000.0 * (flat_len - arc) / arc if arc > 0 else 0.0
 
     return {
-        "ruling_edge_max_relative_error": float(np.max(np.abs(rule2[positive] - rule3[positive]) / rule3[positive],
-                                                       initial=0.0)),
-        "chord_discrepancy_max_relative": float(np.max(np.abs(l2 - l3) / np.maximum(l3, 1e-300), initial=0.0)),
-        "chord_discrepancy_rms_relative": float(np.sqrt(np.mean(((l2 - l3) / np.maximum(l3, 1e-300)) ** 2))
-                                                if len(l3) else 0.0),
-        "area_3d": float(area3),
-        "area_flat": float(area2),
-        "area_ratio": float(area2 / area3) if area3 > 0 else 1.0,
+        "ruling_edge_max_relative_error": rule_err,
+        "chord_discrepancy_max_relative": other_max,
+        "chord_discrepancy_rms_relative": float(np.sqrt(other_sq / n_other)) if n_other else 0.0,
+        "area_3d": area3,
+        "area_flat": area2,
+        "area_ratio": area2 / area3 if area3 > 0 else 1.0,
         "arc_length_c": arc_c,
         "arc_length_d": arc_d,
         "flat_length_c": flat_c,

@@ -10,6 +10,17 @@ from .judge import UnitMap
 from .nurbs import NurbsCurve
 from .solution import SolutionSet
 
+# Rulings (or points) per batch of temporaries: big strips are processed in batches of this
+# many so that peak memory stays a few hundred bytes per ruling above the results (the
+# temporaries of one batch are a few MB) while every batch is still one vectorised call.
+CHUNK_RULINGS = 8192
+
+
+def batches(n: int, size: int = CHUNK_RULINGS):
+    """Consecutive (start, stop) ranges covering range(n), each at most ``size`` long."""
+    size = max(int(size), 1)
+    return ((lo, min(lo + size, n)) for lo in range(0, n, size))
+
 
 @dataclass(frozen=True)
 class Strip:
@@ -45,17 +56,28 @@ class Strip:
     def ruling_edges(self) -> np.ndarray:
         """(K (m-1), 2) vertex pairs along rulings."""
         m = len(self.samples)
-        k, j = np.meshgrid(np.arange(self.n_rulings), np.arange(m - 1), indexing="ij")
-        start = (k * m + j).ravel()
+        start = (np.arange(self.n_rulings)[:, None] * m + np.arange(m - 1)[None, :]).ravel()
         return np.column_stack([start, start + 1])
 
 
 def grid_faces(n_rulings: int, m: int) -> np.ndarray:
-    """Two triangles per quad of a K x m vertex grid, shape (2 (K-1) (m-1), 3)."""
-    k, j = np.meshgrid(np.arange(n_rulings - 1), np.arange(m - 1), indexing="ij")
-    a = (k * m + j).ravel()
-    b, c, d = a + 1, a + m, a + m + 1
-    return np.vstack([np.column_stack([a, c, b]), np.column_stack([b, c, d])])
+    """Two triangles per quad of a K x m vertex grid, shape (2 (K-1) (m-1), 3): first
+    every (a, c, b), then every (b, c, d) for the quad a = k m + j, b = a + 1, c = a + m,
+    d = a + m + 1. Filled in place (no stacked temporaries)."""
+    quads = max(n_rulings - 1, 0)
+    n = quads * (m - 1)
+    faces = np.empty((2 * n, 3), dtype=np.int64)
+    for lo, hi in batches(quads):  # in batches: no index temporaries of the full size
+        a = (np.arange(lo, hi)[:, None] * m + np.arange(m - 1)[None, :]).ravel()
+        first = faces[lo * (m - 1):hi * (m - 1)]
+        second = faces[n + lo * (m - 1):n + hi * (m - 1)]
+        first[:, 0] = a
+        first[:, 1] = a + m
+        first[:, 2] = a + 1
+        second[:, 0] = first[:, 2]
+        second[:, 1] = first[:, 1]
+        second[:, 2] = a + (m + 1)
+    return faces
 
 
 def sample_path(solution: SolutionSet, fractions: np.ndarray) -> np.ndarray:
@@ -69,14 +91,23 @@ def sample_path(solution: SolutionSet, fractions: np.ndarray) -> np.ndarray:
     steps = np.hypot(*np.diff(x, axis=0).T)
     lam = np.concatenate([[0.0], np.cumsum(steps)])
     lam /= lam[-1]
-    pts = np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
-    return unit.to_params(unit.polish(pts, iterations=6))
+    fractions = np.asarray(fractions, dtype=np.float64)
+    out = np.empty((len(fractions), 2))
+    for lo, hi in batches(len(fractions)):  # the polish is pointwise: batches change nothing
+        f = fractions[lo:hi]
+        pts = np.column_stack([np.interp(f, lam, x[:, 0]), np.interp(f, lam, x[:, 1])])
+        out[lo:hi] = unit.to_params(unit.polish(pts, iterations=6))
+    return out
 
 
 def chord_errors(curve: NurbsCurve, params: np.ndarray) -> float:
     """Largest distance of the curve from its chords between consecutive parameters."""
     if len(params) < 2:
         return 0.0
+    return max(_chord_errors(curve, params[lo:hi + 1]) for lo, hi in batches(len(params) - 1))
+
+
+def _chord_errors(curve: NurbsCurve, params: np.ndarray) -> float:
     s = np.linspace(0.0, 1.0, 9)[1:-1]
     a, b = params[:-1], params[1:]
     mids = a[:, None] + s[None, :] * (b - a)[:, None]
@@ -131,9 +162,12 @@ def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_r
     evenly spaced v (>= 3 per ruling so that interior vertices exist)."""
     m = max(int(samples_per_ruling), 3)
     v = np.linspace(0.0, 1.0, m)
-    pc = c(rulings[:, 0])
-    pd = d(rulings[:, 1])
-    vertices = (pc[:, None, :] * (1 - v)[None, :, None] + pd[:, None, :] * v[None, :, None]).reshape(-1, 3)
+    vertices = np.empty((len(rulings), m, 3))
+    for lo, hi in batches(len(rulings)):
+        pc = c(rulings[lo:hi, 0])
+        pd = d(rulings[lo:hi, 1])
+        vertices[lo:hi] = pc[:, None, :] * (1 - v)[None, :, None] + pd[:, None, :] * v[None, :, None]
+    vertices = vertices.reshape(-1, 3)
     faces = grid_faces(len(rulings), m)
     errors = np.array([chord_errors(c, rulings[:, 0]), chord_errors(d, rulings[:, 1])])
     return Strip(rulings, v, vertices, faces, errors)

@@ -12,7 +12,7 @@ import numpy as np
 
 from flatten import DEFAULT_TOLERANCES, SolutionSet, solve
 from flatten.develop import Development, develop, unfold_triangles
-from flatten.meshcheck import angle_defects, naive_reference, ruling_residuals
+from flatten.meshcheck import naive_reference, ruling_residuals, strip_angle_defects
 from flatten.metrics import distortion, polyline_length, triangle_areas
 from flatten.strip import Strip, build_strip, choose_rulings
 
@@ -108,7 +108,7 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
     n_check = max(strip.n_rulings, CHECK_RULINGS)
     dense = strip if n_check == strip.n_rulings else build_strip(
         part.c, part.d, choose_rulings(result.solution, part.c, part.d, n_rulings=n_check), len(strip.samples))
-    mesh = angle_defects(dense.vertices, dense.faces)
+    mesh = strip_angle_defects(dense)
     naive = naive_reference(part.c, part.d, n_check, len(strip.samples))
     flat_plate = result.solution.kind == "coplanar"
     curvature = mesh.max_abs_K * size**2
@@ -142,8 +142,7 @@ def stage_unroll(result: PartResult) -> None:
     m = len(strip.samples)
     k = np.arange(strip.n_rulings) * m
     flat = development.vertices(strip.samples)
-    figures = distortion(strip.vertices, flat, strip.faces, strip.ruling_edges(), k, k + m - 1,
-                         part.c, part.d, strip.rulings)
+    figures = distortion(strip.vertices, flat, m, part.c, part.d, strip.rulings)
     unfolded = unfold_triangles(strip.vertices[k], strip.vertices[k + m - 1], development)
     size = float(np.ptp(flat, axis=0).max())
     drift = max(np.abs(unfolded.along_c - development.along_c).max(),

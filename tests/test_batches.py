@@ -1,0 +1,119 @@
+"""Big strips are computed in batches (bounded memory): the batched results equal the
+whole-array computations they replace, written out here independently on small strips
+with tiny batches, so that every batch boundary case is crossed."""
+
+import numpy as np
+import pytest
+
+from flatten import solve
+from flatten.develop import _interval_breaks, develop
+from flatten.meshcheck import angle_defects, strip_angle_defects
+from flatten.metrics import distortion, edge_lengths, triangle_areas, unique_edges
+from flatten.strip import batches, build_strip, choose_rulings, grid_faces, sample_path
+from tests import oracles
+
+
+@pytest.fixture(scope="module")
+def frustum():
+    c, d = oracles.frustum_pair(3.0, 2.0, 1.5, 2 * np.pi / 3, n_spans=3)
+    return c, d, solve(c, d)
+
+
+def test_batches_cover_the_range_once():
+    for n in (0, 1, 7, 8, 9, 100):
+        for size in (1, 3, 8, 1000):
+            spans = list(batches(n, size))
+            covered = np.concatenate([np.arange(lo, hi) for lo, hi in spans]) if spans else np.array([])
+            assert np.array_equal(covered, np.arange(n))
+            assert all(0 < hi - lo <= size for lo, hi in spans)
+
+
+def test_grid_faces_are_the_two_triangles_of_every_quad():
+    for k, m in ((1, 3), (2, 3), (5, 4), (20_000, 3)):  # 20000 rulings cross the batch size
+        a = (np.arange(k - 1)[:, None] * m + np.arange(m - 1)[None, :]).ravel()
+        expected = np.vstack([np.column_stack([a, a + m, a + 1]), np.column_stack([a + 1, a + m, a + m + 1])])
+        got = grid_faces(k, m)
+        assert got.shape == (2 * (k - 1) * (m - 1), 3)
+        assert np.array_equal(got, expected)
+
+
+def test_sample_path_is_pointwise(frustum):
+    """The polish works point by point, so batching cannot change a ruling: any subset of
+    fractions gives the same rows, bit for bit."""
+    c, d, solution = frustum
+    fractions = np.linspace(0.0, 1.0, 20_001)  # more than one batch
+    every = sample_path(solution, fractions)
+    pick = np.array([0, 1, 8191, 8192, 8193, 16_384, 20_000])
+    assert np.array_equal(sample_path(solution, fractions[pick]), every[pick])
+
+
+def test_development_in_batches_equals_one_batch(frustum):
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=300)
+    whole = develop(c, d, rulings, solution.field, chunk=10**9)
+    for chunk in (1, 2, 7, 64):
+        part = develop(c, d, rulings, solution.field, chunk=chunk)
+        # the running sums are carried in the same order; the Newton refinement of T(t)
+        # may see other batch shapes (round-off)
+        assert np.abs(part.along_c - whole.along_c).max() <= 1e-13
+        assert np.abs(part.along_d - whole.along_d).max() <= 1e-13
+
+
+def test_interval_breaks_split_long_intervals_as_linspace(frustum):
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=3)  # long intervals: many splits
+    breaks = _interval_breaks(c, d, solution.field, rulings)
+    width = np.ptp(c.domain)
+    assert np.all(np.diff(breaks) > 0)
+    assert np.diff(breaks).max() <= width / 64 * (1 + 1e-12)
+    assert set(rulings[:, 0]) <= set(breaks)
+    # the loop it replaced, on the same unsplit breaks
+    coarse = breaks[np.isin(breaks, np.unique(np.concatenate([rulings[:, 0], c.breakpoints])))]
+    expected = [coarse[:1]]
+    for a, b in zip(coarse[:-1], coarse[1:]):
+        expected.append(np.linspace(a, b, int(np.ceil((b - a) / (width / 64))) + 1)[1:])
+    assert np.array_equal(breaks, np.concatenate(expected))
+
+
+def test_angle_defects_in_windows_equal_the_whole_mesh(frustum):
+    c, d, solution = frustum
+    # a warped correspondence T = s^2 is not the cone: defects are far from zero, so the
+    # check has teeth
+    s = np.linspace(0.0, 1.0, 40)
+    rulings = np.column_stack([c.domain[0] + s * np.ptp(c.domain), d.domain[0] + s**2 * np.ptp(d.domain)])
+    strip = build_strip(c, d, rulings, 5)
+    whole = angle_defects(strip.vertices, strip.faces)
+    assert whole.max_defect > 1e-6 and whole.interior_vertices == 38 * 3
+    for chunk in (1, 2, 5, 37):
+        part = strip_angle_defects(strip, chunk=chunk)
+        assert part.interior_vertices == whole.interior_vertices
+        assert part.max_defect == whole.max_defect
+        assert part.max_abs_K == whole.max_abs_K
+        assert part.integrated_abs_defect == pytest.approx(whole.integrated_abs_defect, rel=1e-13)
+
+
+def test_distortion_in_windows_equals_the_edge_list_computation(frustum):
+    """The grid's edges (along the strip, diagonals, rulings) against the edge list of the
+    whole triangle mesh, de-duplicated, on a flat layout that is not isometric."""
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=30)
+    m = 4
+    strip = build_strip(c, d, rulings, m)
+    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    flat = flat * np.array([1.0, 1.01])  # a stretched pattern: every figure non-trivial
+    edges = unique_edges(strip.faces)
+    ruling = np.column_stack([np.arange(len(strip.vertices)), np.arange(len(strip.vertices)) + 1])
+    ruling = ruling[(ruling[:, 0] % m) != m - 1]
+    is_ruling = (edges[:, 1] == edges[:, 0] + 1) & (edges[:, 0] % m != m - 1)
+    assert is_ruling.sum() == len(ruling)
+    l3, l2 = edge_lengths(strip.vertices, edges[~is_ruling]), edge_lengths(flat, edges[~is_ruling])
+    r3, r2 = edge_lengths(strip.vertices, ruling), edge_lengths(flat, ruling)
+    rel = np.abs(l2 - l3) / l3
+    for chunk in (1, 2, 7, 1000):
+        got = distortion(strip.vertices, flat, m, c, d, rulings, chunk=chunk)
+        assert got["ruling_edge_max_relative_error"] == pytest.approx((np.abs(r2 - r3) / r3).max(), rel=1e-12)
+        assert got["chord_discrepancy_max_relative"] == pytest.approx(rel.max(), rel=1e-12)
+        assert got["chord_discrepancy_rms_relative"] == pytest.approx(np.sqrt(np.mean(rel**2)), rel=1e-12)
+        assert got["area_3d"] == pytest.approx(triangle_areas(strip.vertices, strip.faces).sum(), rel=1e-13)
+        assert got["area_flat"] == pytest.approx(triangle_areas(flat, strip.faces).sum(), rel=1e-13)
+        assert got["ruling_edge_max_relative_error"] > 1e-4  # the stretch is seen on the rulings
