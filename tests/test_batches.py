@@ -5,6 +5,7 @@ with tiny batches, so that every batch boundary case is crossed."""
 import numpy as np
 import pytest
 
+import flatten.develop as develop_module
 from flatten import solve
 from flatten.develop import _interval_breaks, develop
 from flatten.meshcheck import angle_defects, strip_angle_defects
@@ -59,7 +60,7 @@ def test_development_in_batches_equals_one_batch(frustum):
         assert np.abs(part.along_d - whole.along_d).max() <= 1e-13
 
 
-def test_interval_breaks_split_long_intervals_as_linspace(frustum):
+def test_interval_breaks_split_long_intervals_as_linspace(frustum, monkeypatch):
     c, d, solution = frustum
     rulings = choose_rulings(solution, c, d, n_rulings=3)  # long intervals: many splits
     breaks = _interval_breaks(c, d, solution.field, rulings)
@@ -67,8 +68,10 @@ def test_interval_breaks_split_long_intervals_as_linspace(frustum):
     assert np.all(np.diff(breaks) > 0)
     assert np.diff(breaks).max() <= width / 64 * (1 + 1e-12)
     assert set(rulings[:, 0]) <= set(breaks)
-    # the loop it replaced, on the same unsplit breaks
-    coarse = breaks[np.isin(breaks, np.unique(np.concatenate([rulings[:, 0], c.breakpoints])))]
+    # the loop it replaced, on the same breaks before splitting
+    monkeypatch.setattr(develop_module, "_MAX_PIECE", 2.0)
+    coarse = _interval_breaks(c, d, solution.field, rulings)
+    assert len(coarse) < len(breaks) / 4
     expected = [coarse[:1]]
     for a, b in zip(coarse[:-1], coarse[1:]):
         expected.append(np.linspace(a, b, int(np.ceil((b - a) / (width / 64))) + 1)[1:])
