@@ -266,6 +266,7 @@ class Textile(_Strict):
     fabric: str = Field("fabric", max_length=80)
     internal_rulings: bool = False
     sew_line_layer: Literal[8, 14] | None = 8
+    seams: Literal["match", "report", "require_full"] = "match"
     printout: bool = True
 
     @field_validator("seam_allowance")

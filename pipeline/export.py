@@ -74,8 +74,13 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     """Build every successful part's textile piece, side by side; raises ConfigError for
     textile options that do not fit a piece (before anything is written)."""
+    from .seams import match_seams
     from .textile import build_piece
 
+    match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
+    for result in results:
+        if not result.ok and result.figures.get("seams"):
+            result.figures["textile"] = {"seams": result.figures["seams"]}
     pieces = []
     cursor = 0.0
     gap = 50.0 / config.mm_per_unit
@@ -98,6 +103,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             "edges": {"c": (result.pattern.bend_lines[:, 0] + shift).tolist(),
                       "d": (result.pattern.bend_lines[:, 1] + shift).tolist()},
             "offset_in_sheet": shift.tolist(),
+            "seams": result.figures.get("seams", []),
         }
         pieces.append(piece)
     return pieces

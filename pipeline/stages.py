@@ -70,15 +70,16 @@ def place_flat(points: np.ndarray, along_c: np.ndarray) -> tuple[np.ndarray, np.
     return rot, -moved.min(axis=0)
 
 
-def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None) -> None:
+def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None, given: np.ndarray | None = None) -> None:
     """Rulings (by chord tolerance or count) and the strip mesh; ``extra_rulings(solution)
-    -> (K, 2)`` adds rulings a later stage needs (e.g. through the corners of a hull plate)."""
+    -> (K, 2)`` adds rulings a later stage needs (e.g. through the corners of a hull plate);
+    ``given`` (K, 2) [t, T] in path order replaces them all (textile seams trim a strip so)."""
     res = config.spec.resolution
     part, solution = result.part, result.solution
     # chord_tolerance is in the config's units, like the curves
-    rulings = choose_rulings(solution, part.c, part.d, chord_tolerance=res.chord_tolerance,
-                             n_rulings=res.rulings)
-    if extra_rulings is not None:
+    rulings = given if given is not None else choose_rulings(
+        solution, part.c, part.d, chord_tolerance=res.chord_tolerance, n_rulings=res.rulings)
+    if extra_rulings is not None and given is None:
         corners = extra_rulings(solution)
         rulings = np.vstack([rulings, corners])
         rulings = rulings[np.lexsort((rulings[:, 1] * solution.path.orientation, rulings[:, 0]))]

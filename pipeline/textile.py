@@ -17,6 +17,7 @@ from shapely.ops import polylabel, substring, unary_union
 from flatten.develop import develop
 
 from .config import ConfigError, Part, Textile
+from .seams import ruling_through
 from .stages import PartResult
 
 @dataclass(frozen=True)
@@ -161,32 +162,16 @@ def _flat_point_at(result: PartResult, which: str, param: float, transform) -> n
     """Exact developed position of c(param) or d(param): the development with one more ruling."""
     part, strip = result.part, result.strip
     rulings = strip.rulings
-    field_ = result.solution.field
     axis = 0 if which == "c" else 1
     values = rulings[:, axis]
     lo, hi = min(values[0], values[-1]), max(values[0], values[-1])
     if not lo - 1e-12 <= param <= hi + 1e-12:
         return None
-    if axis == 0:
-        other = np.interp(param, rulings[:, 0], rulings[:, 1])
-        if field_ is not None:
-            other = float(field_.refine_T(np.array([param]), np.array([other]), 8)[0])
-        extra = np.array([param, other])
-    else:
-        order = np.argsort(values)
-        other = np.interp(param, values[order], rulings[order, 0])
-        extra = np.array([other, param])
-        if field_ is not None:  # polish t on f(·, T) = 0 by a few Newton steps
-            for _ in range(8):
-                f = field_(extra[0], extra[1])[0]
-                ft = field_(extra[0], extra[1], 1, 0)[0]
-                if ft == 0:
-                    break
-                extra[0] -= f / ft
+    extra = ruling_through(result, axis, param)
     merged = np.vstack([rulings, extra])
     merged = merged[np.lexsort((merged[:, 1] * (1 if result.solution.path is None else result.solution.path.orientation),
                                 merged[:, 0]))]
-    dev = develop(part.c, part.d, merged, field_)
+    dev = develop(part.c, part.d, merged, result.solution.field)
     k = int(np.argmin(np.hypot(*(merged - extra).T)))
     point = dev.along_c[k] if axis == 0 else dev.along_d[k]
     rot, shift = transform

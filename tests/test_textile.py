@@ -340,3 +340,95 @@ def test_grain_line_options(tmp_path, grain):
         # so the projected grain runs along the middle ruling
         assert abs(abs(g @ ruling) - 1) <= 1e-9
         assert Polygon(piece.sew).buffer(1e-9).contains(Point(piece.grain[0][0]))
+
+
+# ------------------------------------------------------------------ seams that match
+SAIL = ROOT / "configs" / "sail.yaml"
+SAIL_C1 = np.array([[100, 0, 1000], [1400, 280, 1000], [2900, 0, 1000]], dtype=float)
+
+
+def bezier_length(points: np.ndarray, a: float, b: float) -> float:
+    """Arc length of a quadratic Bezier over [a, b] by adaptive quadrature of its speed
+    (independent of devflat's NURBS code)."""
+    from scipy.integrate import quad
+
+    def speed(t):
+        return np.linalg.norm(2 * (1 - t) * (points[1] - points[0]) + 2 * t * (points[2] - points[1]))
+    return quad(speed, a, b, epsabs=1e-10, epsrel=1e-12)[0]
+
+
+# sail_1 (curves 0 and 1 on the planes z = 0 and 1000) starts where the plan tangent of
+# curve 0 at its start, (1500, 300), is parallel to curve 1's, 2(1-T)(1300, 280) + 2T(1500, -280):
+# 1500 * 280 (1 - 2T) = 300 (1300 + 200T), so T = 1/30; sail_2 covers curve 1 whole
+T_SAIL_1 = 1.0 / 30.0
+UNSEWABLE = bezier_length(SAIL_C1, 0.0, T_SAIL_1)
+
+
+def sail_run(tmp_path, mode):
+    data = yaml.safe_load(SAIL.read_text())
+    data["textile"].update(seams=mode, printout=False)
+    data["output"] = {"png": False, "obj": False}
+    config = tmp_path / "sail.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    code = main(["run", str(config), "--out", str(out), "--quiet"])
+    reports = {p.stem: json.loads(p.read_text()) for p in out.glob("sail_?.json")}
+    return code, out, reports
+
+
+def polyline_length(points) -> float:
+    return float(np.linalg.norm(np.diff(np.asarray(points), axis=0), axis=1).sum())
+
+
+def test_sail_seam_report_says_how_much_is_unsewable_and_why(tmp_path):
+    code, out, reports = sail_run(tmp_path, "report")
+    assert code == 0
+    assert reports["sail_1"]["coverage"]["T_interval"][0] == pytest.approx(T_SAIL_1, abs=1e-9)
+    for name in ("sail_1", "sail_2"):
+        [seam] = reports[name]["textile"]["seams"]
+        assert seam["curve"] == "1" and seam["curve_length"] == pytest.approx(bezier_length(SAIL_C1, 0, 1), rel=1e-9)
+        [item] = seam["unsewable"]  # one stretch, on sail_2: sail_1 does not reach it
+        assert item["piece"] == "sail_2" and item["edge"] == "c" and item["from"] == pytest.approx(0.0, abs=1e-9)
+        assert item["length"] == pytest.approx(UNSEWABLE, rel=1e-7)
+        assert "sail_1 stops" in item["because"] and "start of curve 0" in item["because"]
+    assert any(f"{UNSEWABLE:.1f} mm of edge c unsewable" in w for w in reports["sail_2"]["warnings"])
+    # unmatched, the flat seam edges differ by that stretch
+    d1 = polyline_length(reports["sail_1"]["textile"]["edges"]["d"])
+    c2 = polyline_length(reports["sail_2"]["textile"]["edges"]["c"])
+    assert c2 - d1 == pytest.approx(UNSEWABLE, abs=0.5)
+
+
+def test_sail_seams_match_to_half_a_millimetre_and_notches_stay_matched(tmp_path):
+    code, out, reports = sail_run(tmp_path, "match")
+    assert code == 0
+    d1 = reports["sail_1"]["textile"]["edges"]["d"]
+    c2 = reports["sail_2"]["textile"]["edges"]["c"]
+    sewable = bezier_length(SAIL_C1, T_SAIL_1, 1.0)
+    assert polyline_length(d1) == pytest.approx(polyline_length(c2), abs=0.5)
+    assert polyline_length(c2) == pytest.approx(sewable, abs=0.5)
+    [seam] = reports["sail_2"]["textile"]["seams"]
+    assert seam["unsewable"] == [] and seam["sewable_length"] == pytest.approx(sewable, rel=1e-7)
+    assert any("trimmed by" in w for w in reports["sail_2"]["warnings"])
+    # the notches at 700, 1400, 2100 mm along curve 1 sit at equal flat distances from the
+    # seam's start on both pieces, i.e. at s - (the trimmed stretch)
+    placed = {}
+    for name, edge in (("sail_1", d1), ("sail_2", c2)):
+        line = LineString(edge)
+        for notch in reports[name]["textile"]["notches"]:
+            placed.setdefault(notch["arc_length"], []).append(line.project(Point(notch["sew_point"])))
+    assert sorted(placed) == [700.0, 1400.0, 2100.0]
+    for s, (a, b) in placed.items():
+        assert a == pytest.approx(b, abs=0.5)
+        assert a == pytest.approx(s - UNSEWABLE, abs=0.5)
+    read = read_aama(out / "sail.dxf")
+    assert [len(p.notches) for p in read.pieces] == [3, 3]
+
+
+def test_sail_require_full_fails_the_pieces_and_writes_no_pattern(tmp_path):
+    code, out, reports = sail_run(tmp_path, "require_full")
+    assert code == 1
+    for name in ("sail_1", "sail_2"):
+        assert reports[name]["status"] == "failed"
+        assert "require_full" in reports[name]["reason"] and "curve 1" in reports[name]["reason"]
+    assert f"{UNSEWABLE:.1f} mm of edge c unsewable" in reports["sail_2"]["reason"]
+    assert not (out / "sail.dxf").exists()
