@@ -35,7 +35,8 @@ _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 class _Strict(BaseModel):
     # no inf/NaN anywhere (thickness .inf, a NaN normal); ints are StrictInt where a bool
     # would otherwise pass as 0/1
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    # defer_build: a model's validator is built when it is first used, not at import
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
 
     @field_validator("*", mode="after")
     @classmethod
@@ -484,9 +485,8 @@ class RunSpec(_Strict):
         return self
 
 
-SeamSpec.model_rebuild()
-StrakeSpec.model_rebuild()
-RunSpec.model_rebuild()
+# no model_rebuild() here: with defer_build the schemas (forward references included) are
+# built at the first validation, only for the models a run uses (~0.05 s less per command)
 
 
 class Part:

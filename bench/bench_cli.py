@@ -1,0 +1,155 @@
+"""Where a user waits: the one-shot CLI beside the bare scientific-Python import, and the
+warm per-plate time with and without previews, in one run.
+
+    python bench/bench_cli.py [--config configs/plate.yaml] [--repeat 7]
+
+One-shot: fresh processes, run interleaved (a load change on the machine hits every
+command alike), median of ``--repeat``:
+
+- baseline: ``python -c "import numpy, scipy.interpolate, scipy.optimize"``;
+- ``python -m pipeline check CONFIG`` (the program ``devflat`` runs);
+- ``python -m pipeline run CONFIG --out TMP --quiet``: every file of the config (for
+  plate.yaml: DXF, OBJ, JSON, two PNG previews, summary CSV/JSON);
+- the same run with ``output.png: false`` (a copy of the config beside it, removed after).
+
+Each is printed with its ratio to the baseline beside issue 15's targets (run <= 2x,
+check <= 1.2x) and the figures the issue measured before (not re-measured here: the
+old code is not run by this bench). Then the import cost of the run per library
+(``python -X importtime``, self times summed per top-level package; importtime adds its
+own overhead, so read them as shares). Warm: ``pipeline.cli.main(["run", ...])`` called
+again and again in one process whose imports are done (config read and validated,
+solve, strip, check, unroll, every file written), median, with and without previews,
+and the solve alone (``flatten.solve`` on the same curves).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import ROOT, machine_line
+
+import yaml  # noqa: E402
+
+BARE = "import numpy, scipy.interpolate, scipy.optimize"
+# issue 15, measured on this 2-core machine before this work (its own runs, not ours)
+BEFORE = {"run": "~1.8 s, 4x", "check": "2.1x", "warm": "0.57 s (previews 60 %)"}
+
+
+def one_shot(argv: list[str]) -> float:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, *argv], cwd=ROOT, env=env, capture_output=True, text=True)
+    elapsed = time.perf_counter() - start
+    if done.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}): {done.stderr.strip()[-400:]}")
+    return elapsed
+
+
+def import_shares(argv: list[str], top: int = 9) -> list[tuple[str, float]]:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([sys.executable, "-X", "importtime", *argv], cwd=ROOT, env=env, capture_output=True,
+                          text=True)
+    per_package: dict[str, float] = {}
+    for line in done.stderr.splitlines():
+        m = re.match(r"import time:\s+(\d+) \|\s+\d+ \|\s*(\S+)", line)
+        if m:
+            package = m[2].split(".")[0]
+            per_package[package] = per_package.get(package, 0.0) + int(m[1]) / 1e6
+    ranked = sorted(per_package.items(), key=lambda kv: -kv[1])
+    rest = sum(v for _, v in ranked[top:])
+    return ranked[:top] + [("(others)", rest), ("total", sum(per_package.values()))]
+
+
+def warm(config: Path, out: Path, repeat: int) -> float:
+    from pipeline.cli import main
+
+    main(["run", str(config), "--out", str(out), "--quiet"])  # first call: lazy imports, caches
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        main(["run", str(config), "--out", str(out), "--quiet"])
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", type=Path, default=ROOT / "configs" / "plate.yaml")
+    parser.add_argument("--repeat", type=int, default=7)
+    args = parser.parse_args(argv)
+    config = args.config.resolve()
+    data = yaml.safe_load(config.read_text())
+    data.setdefault("output", {})["png"] = False
+    no_png = config.with_name(f".bench_cli_{os.getpid()}_{config.stem}_nopng.yaml")
+    print(machine_line())
+    print(f"config: {config.relative_to(ROOT) if config.is_relative_to(ROOT) else config}, "
+          f"median of {args.repeat}, fresh processes")
+    try:
+        no_png.write_text(yaml.safe_dump(data, sort_keys=False))
+        with tempfile.TemporaryDirectory() as tmp:
+            commands = {
+                "baseline": ["-c", BARE],
+                "check": ["-m", "pipeline", "check", str(config)],
+                "run": ["-m", "pipeline", "run", str(config), "--out", tmp, "--quiet"],
+                "run, png off": ["-m", "pipeline", "run", str(no_png), "--out", tmp, "--quiet"],
+            }
+            samples: dict[str, list[float]] = {k: [] for k in commands}
+            for _ in range(args.repeat):
+                for name, command in commands.items():
+                    samples[name].append(one_shot(command))
+            median = {k: statistics.median(v) for k, v in samples.items()}
+            base = median["baseline"]
+            targets = {"check": "<= 1.2x", "run": "<= 2x", "run, png off": "-"}
+            print()
+            print(f"{'one-shot':<14}{'median s':>10}{'x baseline':>12}{'target':>10}   before (issue 15)")
+            for name in commands:
+                ratio = median[name] / base
+                print(f"{name:<14}{median[name]:>10.3f}{ratio:>12.2f}{targets.get(name, ''):>10}   "
+                      f"{BEFORE.get(name, '')}")
+
+            print()
+            print("imports of the one-shot run, self time per package (python -X importtime):")
+            shares = import_shares(commands["run"])
+            total = shares[-1][1]
+            for name, seconds in shares:
+                print(f"  {name:<18}{seconds:>8.3f} s{100 * seconds / total:>7.1f} %")
+            print("  of which the baseline imports numpy and scipy; check imports neither trimesh, "
+                  "ezdxf nor matplotlib")
+
+            sys.path.insert(0, str(ROOT))
+            from flatten import solve
+            from pipeline.cli import validate
+
+            part = validate(config).parts[0]
+            solve(part.c, part.d)
+            solve_times = []
+            for _ in range(args.repeat):
+                start = time.perf_counter()
+                solve(part.c, part.d)
+                solve_times.append(time.perf_counter() - start)
+            with_png = warm(config, Path(tmp) / "warm", args.repeat)
+            without = warm(no_png, Path(tmp) / "warm_nopng", args.repeat)
+            n_parts = len(validate(config).parts)
+            print()
+            print(f"warm, one process, per plate ({n_parts} part(s) in the config): the whole `run` "
+                  "(config, solve, strip, check, unroll, files)")
+            print(f"{'':<22}{'s/plate':>9}{'target':>9}   before (issue 15)")
+            print(f"{'previews on':<22}{with_png / n_parts:>9.3f}{'<= 0.3':>9}   {BEFORE['warm']}")
+            print(f"{'previews off':<22}{without / n_parts:>9.3f}{'<= 0.15':>9}")
+            print(f"{'  previews alone':<22}{(with_png - without) / n_parts:>9.3f}")
+            print(f"{'  solve alone':<22}{statistics.median(solve_times):>9.3f}          (flatten.solve, part 1)")
+    finally:
+        no_png.unlink(missing_ok=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
