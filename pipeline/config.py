@@ -255,6 +255,16 @@ class Grain(_Strict):
         return self
 
 
+class Printout(_Strict):
+    """Tiled 1:1 printout: paper, orientation, the overlap of neighbouring pages and the
+    printer's unprintable border on every side (both mm)."""
+
+    paper: Literal["A4", "A3", "Letter"] = "A4"
+    orientation: Literal["portrait", "landscape"] = "portrait"
+    overlap: float = Field(10.0, ge=0, le=50)
+    border: float = Field(8.0, ge=3, le=30)
+
+
 class Textile(_Strict):
     seam_allowance: float | SeamAllowance = 10.0
     notches: list[NotchSpec] = Field(default_factory=list)
@@ -268,7 +278,13 @@ class Textile(_Strict):
     internal_rulings: bool = False
     sew_line_layer: Literal[8, 14] | None = 8
     seams: Literal["match", "report", "require_full"] = "match"
-    printout: bool = True
+    printout: bool | Printout = True
+
+    def printout_options(self) -> Printout | None:
+        """The printout's options, or None when no printout is wanted."""
+        if self.printout is False:
+            return None
+        return Printout() if self.printout is True else self.printout
 
     @field_validator("seam_allowance")
     @classmethod

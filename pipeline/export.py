@@ -112,7 +112,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
 def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -> list[Path]:
     """All pieces into one AAMA DXF, and the 1:1 printout."""
     from .aama import write_aama
-    from .printout import write_printout
+    from .printout import write_sheet_svg, write_tiled_pdf
 
     written = []
     if not pieces:
@@ -121,9 +121,12 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
         path = out_dir / f"{style}.dxf"
         write_aama(path, pieces, style, config.mm_per_unit)
         written.append(path)
-    if config.spec.textile.printout:
+    options = config.spec.textile.printout_options()
+    if options is not None:
+        title = f"{style}: {len(pieces)} piece(s), 1:1, units mm"
         targets = [out_dir / f"{style}_print.pdf", out_dir / f"{style}_print.svg"]
-        write_printout(targets, pieces, config.mm_per_unit, f"{style}: {len(pieces)} piece(s), 1:1")
+        write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
+        write_sheet_svg(targets[1], pieces, config.mm_per_unit, title)
         written += targets
     return written
 

@@ -285,15 +285,18 @@ def _swept_box(segments: np.ndarray, half: np.ndarray):
     return unary_union(hulls)
 
 
-def label_anchor(piece: TextilePiece, height: float, width: float, clearance: float = 0.0) -> np.ndarray | None:
+def label_anchor(piece: TextilePiece, height: float, width: float, clearance: float = 0.0,
+                 avoid: list[np.ndarray] = ()) -> np.ndarray | None:
     """Centre (2,) of a text box width x height (model units, axis-aligned) that lies
-    inside the sew line and clear of the grain line and the notches by ``clearance``: the
-    pole of inaccessibility of the allowed region (the point farthest from everything the
-    text must not touch). None when no such box fits."""
+    inside the sew line and clear of the grain line, the notches and the ``avoid``
+    polylines (each (K, 2), e.g. page edges) by ``clearance``: the pole of inaccessibility
+    of the allowed region (the point farthest from everything the text must not touch).
+    None when no such box fits."""
     half = np.array([width, height]) / 2 + clearance
     ring = np.vstack([piece.sew, piece.sew[:1]])
     blocked = [np.stack([ring[:-1], ring[1:]], axis=1), piece.grain[None]]
     blocked += [n.line[None] for n in piece.notches]
+    blocked += [np.stack([line[:-1], line[1:]], axis=1) for line in avoid]
     allowed = Polygon(piece.sew).difference(_swept_box(np.vstack(blocked), half))
     if allowed.is_empty:
         return None

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+import shapely
 from shapely.geometry import LinearRing, LineString, Point, Polygon
 
 from pipeline.aama import read_aama
@@ -185,7 +186,7 @@ def test_matching_notches_are_at_equal_arc_length(lampshade):
         assert hits[0][2] == pytest.approx(s, abs=0.02)
 
 
-def test_printout_is_one_to_one_with_a_check_square(lampshade):
+def test_svg_sheet_is_one_to_one_with_a_check_square(lampshade):
     out, read, _ = lampshade
     svg = (out / "lampshade_print.svg").read_text()
     width_pt, height_pt = (float(v) for v in re.search(r'width="([\d.]+)pt" height="([\d.]+)pt"', svg).groups())
@@ -195,9 +196,6 @@ def test_printout_is_one_to_one_with_a_check_square(lampshade):
     assert width_pt * 25.4 / 72 == pytest.approx(extent[0] + 40.0, abs=0.01)
     assert height_pt * 25.4 / 72 == pytest.approx(extent[1] + 40.0 + 120.0, abs=0.01)
     assert "10 cm check square" in svg
-    pdf = (out / "lampshade_print.pdf").read_bytes()
-    box = re.search(rb"/MediaBox \[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
-    assert float(box.group(1)) == pytest.approx(width_pt, abs=0.01)
 
 
 @pytest.mark.parametrize("name", ["GLX4802S19_AAMA.DXF", "GLX4802S19_ASTM.DXF", "MEN_CLASSIC_TEE.DXF",
@@ -432,3 +430,101 @@ def test_sail_require_full_fails_the_pieces_and_writes_no_pattern(tmp_path):
         assert "require_full" in reports[name]["reason"] and "curve 1" in reports[name]["reason"]
     assert f"{UNSEWABLE:.1f} mm of edge c unsewable" in reports["sail_2"]["reason"]
     assert not (out / "sail.dxf").exists()
+
+
+# ------------------------------------------------------------------ tiled printout
+PT = 72.0 / 25.4
+
+
+def pdf_pages(path):
+    pdfplumber = pytest.importorskip("pdfplumber", reason="pdfplumber (test extra) reads the printout PDF back")
+    return pdfplumber.open(path).pages
+
+
+def page_lines(page, width_pt):
+    """Polylines (K, 2) in page millimetres (y up) of the strokes of this width."""
+    out = []
+    for obj in page.curves + page.lines:
+        if abs(obj["linewidth"] - width_pt) <= 1e-3:
+            pts = np.array(obj["pts"], dtype=float) / PT
+            pts[:, 1] = page.height / PT - pts[:, 1]
+            out.append(pts)
+    return out
+
+
+def check_squares(page):
+    return [r for r in page.rects if abs(r["width"] - 100 * PT) <= 0.01 and abs(r["height"] - 100 * PT) <= 0.01]
+
+
+@pytest.mark.parametrize("paper, orientation, overlap", [("A4", "portrait", 10.0), ("Letter", "landscape", 15.0)])
+def test_tiled_printout_covers_every_outline_with_the_configured_overlap(tmp_path, paper, orientation, overlap):
+    config = textile_config(tmp_path, printout={"paper": paper, "orientation": orientation, "overlap": overlap})
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    read = read_aama(out / "lampshade.dxf")
+    border = 8.0
+    size = {"A4": (210.0, 297.0), "Letter": (215.9, 279.4)}[paper]
+    size = size[::-1] if orientation == "landscape" else size
+    w, h = size[0] - 2 * border, size[1] - 2 * border
+    cut = np.vstack([p.boundary for p in read.pieces])
+    lo, hi = cut.min(axis=0) - 5.0, cut.max(axis=0) + 5.0  # the documented 5 mm margin
+    pages = pdf_pages(out / "lampshade_print.pdf")
+    # the bottom join lines lie at border + band + overlap: the band below the window that
+    # holds the check square when some page has no free place for it is 0 or 108 mm
+    bands = {round(line[0, 1] - border - overlap, 6) for page in pages[1:] for line in page_lines(page, 0.45)
+             if np.ptp(line[:, 1]) < 1e-6}
+    assert len(bands) == 1 and bands <= {0.0, 108.0}
+    band = bands.pop()
+    h -= band
+    drawn, labels = [], set()
+    for k, page in enumerate(pages):
+        assert (page.width / PT, page.height / PT) == pytest.approx(size, abs=0.01)
+        assert len(check_squares(page)) == 1  # the 10 cm square, on every page
+        if k == 0:
+            continue  # the assembly map
+        label = "".join(c["text"] for c in page.chars if c["size"] > 25)
+        row, col = ord(label[0]) - ord("A"), int(label[1:]) - 1
+        labels.add(label)
+        # the page's window on the sheet: from the top-left corner of the pieces' box
+        x0, y0 = lo[0] + col * (w - overlap), hi[1] - h - row * (h - overlap)
+        for line in page_lines(page, 0.85):  # cut lines and notches
+            sheet = line - [border, border + band] + [x0, y0]
+            assert np.all(sheet.min(axis=0) >= [x0 - 1e-3, y0 - 1e-3])
+            assert np.all(sheet.max(axis=0) <= [x0 + w + 1e-3, y0 + h + 1e-3])
+            drawn.append(LineString(sheet))
+        # the join lines lie `overlap` inside the right window edge (and the bottom one, above)
+        for line in page_lines(page, 0.45):
+            if np.ptp(line[:, 0]) < 1e-6:
+                assert border + w - line[0, 0] == pytest.approx(overlap, abs=0.01)
+        # no text on the page touches a cut line, the grain line or the sew line
+        strokes = [LineString(p) for lw in (0.85, 0.6, 0.5) for p in page_lines(page, lw) if len(p) > 1]
+        for c in page.chars:
+            rect = shapely.box(c["x0"] / PT, (page.height - c["bottom"]) / PT, c["x1"] / PT, (page.height - c["top"]) / PT)
+            assert not any(rect.intersects(s) for s in strokes), c["text"]
+    assert len(labels) == len(pages) - 1
+    union = shapely.unary_union(drawn)
+    for piece in read.pieces:
+        ring = LinearRing(piece.boundary)
+        samples = [ring.interpolate(s) for s in np.arange(0, ring.length, 2.0)]
+        gaps = [union.distance(p) for p in samples]
+        assert max(gaps) <= 0.01  # every piece's whole outline is printed
+
+
+def test_tiles_cover_the_box_and_overlap_by_the_configured_amount():
+    from pipeline.printout import tile_sheet
+
+    for window, overlap in (((194.0, 281.0), 10.0), ((404.0, 281.0), 25.0), ((199.9, 263.4), 0.0)):
+        lo, hi = np.array([-3.0, 7.0]), np.array([1785.0, 346.0])
+        tiles = tile_sheet(lo, hi, window, overlap)
+        covered = shapely.unary_union([t.window for t in tiles])
+        assert covered.contains(shapely.box(*lo, *hi))
+        by = {(t.row, t.col): t for t in tiles}
+        for (r, c), t in by.items():
+            if (r, c + 1) in by:
+                assert t.x0 + t.w - by[r, c + 1].x0 == pytest.approx(overlap)
+            if (r + 1, c) in by:
+                assert by[r + 1, c].y0 + by[r + 1, c].h - t.y0 == pytest.approx(overlap)
+        # no more tiles than needed: dropping the last column or row leaves part uncovered
+        cols = 1 + max(t.col for t in tiles)
+        fewer = shapely.unary_union([t.window for t in tiles if t.col < cols - 1])
+        assert cols == 1 or not fewer.contains(shapely.box(*lo, *hi))
