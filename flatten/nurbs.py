@@ -50,7 +50,7 @@ def ppoly_from_spline(spline: BSpline) -> PPoly:
 
 
 def _readonly(array: np.ndarray) -> np.ndarray:
-    array = np.array(array, dtype=np.float64, copy=True)
+    array = np.array(array, dtype=np.float64, copy=True, order="C")  # one layout, pickled or not
     array.setflags(write=False)
     return array
 

@@ -31,7 +31,11 @@ class NurbsSurface:
 
     @cached_property
     def _homogeneous(self) -> np.ndarray:
-        return np.concatenate([self.poles * self.weights[..., None], self.weights[..., None]], axis=-1)
+        # C order whatever the poles' layout (the IGES reader gives a transposed view): einsum
+        # sums in memory order, so a pickled copy (C order) would differ at 1e-16 otherwise,
+        # and plates computed in worker processes would not be bit-identical
+        return np.ascontiguousarray(
+            np.concatenate([self.poles * self.weights[..., None], self.weights[..., None]], axis=-1))
 
     @property
     def domain_u(self) -> tuple[float, float]:
@@ -133,4 +137,5 @@ def nurbs_surface(degree_u, degree_v, poles, knots_u, knots_v, weights=None, nam
             raise InvalidCurveError(f"{name}.{label} must be finite and non-decreasing")
         if not knots[-p - 1] > knots[p]:
             raise InvalidCurveError(f"{name}.{label} give an empty domain [{knots[p]}, {knots[-p - 1]}]")
-    return NurbsSurface(int(degree_u), int(degree_v), poles, w, ku, kv, name)
+    return NurbsSurface(int(degree_u), int(degree_v), np.ascontiguousarray(poles), np.ascontiguousarray(w), ku, kv,
+                        name)

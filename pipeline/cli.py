@@ -8,6 +8,7 @@ without --debug). ``main`` is the only place that decides the exit code.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import traceback
 from pathlib import Path
@@ -18,8 +19,17 @@ from flatten.tolerances import DEFAULT_TOLERANCES
 
 from .config import ConfigError, RunConfig
 
-EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2
-EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+EXIT_OK, EXIT_GEOMETRY, EXIT_INPUT = 0, 1, 2  # interrupted: 128 + the signal, as shells report it
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C: the same clean-up on the way out."""
+
+    signum = signal.SIGTERM
+
+
+def _terminated(signum, frame):
+    raise Terminated()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,14 +64,21 @@ def validate(path: Path, evaluate=None) -> RunConfig:
     are bad input)."""
     from .plan import load_run
 
-    config = load_run(path, evaluate)
-    for part in config.parts:
-        if part.hull is not None and not part.hull.developable:
-            continue  # no strip is tried between these seams (e.g. an end plate)
-        try:
-            check_pair(part.c, part.d, DEFAULT_TOLERANCES)
-        except DevflatError as exc:
-            raise ConfigError(f"{path}: part {part.name}: {exc}") from None
+    try:
+        config = load_run(path, evaluate)
+        for part in config.parts:
+            if part.hull is not None and not part.hull.developable:
+                continue  # no strip is tried between these seams (e.g. an end plate)
+            try:
+                check_pair(part.c, part.d, DEFAULT_TOLERANCES)
+            except DevflatError as exc:
+                raise ConfigError(f"{path}: part {part.name}: {exc}") from None
+    except (DevflatError, KeyboardInterrupt):
+        raise
+    except (MemoryError, RecursionError) as exc:  # the input exhausted a resource: out of range
+        raise ConfigError(f"{path}: the input is too large to process ({type(exc).__name__})") from exc
+    except Exception as exc:  # noqa: BLE001 - an input no check foresaw is still bad input, named
+        raise ConfigError(f"{path}: cannot process the configuration: {type(exc).__name__}: {exc}") from exc
     return config
 
 
@@ -74,45 +91,44 @@ def check_jobs(jobs: int) -> None:
 
 
 def command_run(args) -> int:
-    from .export import export_part, export_summary, export_textile, textile_pieces
-    from .plates import evaluate_plate, run_part
+    from .export import export_summary, export_textile, textile_pieces
+    from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
+    from .plates import evaluate_plate
+    from .runner import guarded_export, run_parts
 
     check_jobs(args.jobs)
     config = validate(args.config, evaluate_plate)
+    check_plan(config, args.out)
     parts = config.parts
+    textile = config.spec.profile == "textile"
     progress = None
     if len(parts) > 1 and not args.quiet:
         from tqdm import tqdm
         progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
-    results = []
-    if args.jobs > 1 and len(parts) > 1:
-        from concurrent.futures import ProcessPoolExecutor
-        from functools import partial
-
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            for result in pool.map(partial(run_part, config=config), parts):
-                results.append(result)
-                if progress is not None:
-                    progress.set_postfix_str(result.name)
-                    progress.update()
-    else:
-        for part in parts:
-            results.append(run_part(part, config))
-            if progress is not None:
-                progress.set_postfix_str(part.name)
-                progress.update()
-    # textile options are checked against the pieces before anything is written
-    pieces = textile_pieces(results, config) if config.spec.profile == "textile" else []
     try:
-        args.out.mkdir(parents=True, exist_ok=True)
+        with OutputFolder(args.out, config) as folder:
+            # steel parts are written by whoever computes them; textile pieces are laid out
+            # side by side first (their options are checked against every piece)
+            keep_geometry = config.spec.output.png and len(parts) > 1
+            results = run_parts(config, None if textile else folder.staging, args.out, args.jobs, progress,
+                                keep_geometry)
+            if progress is not None:
+                progress.close()
+            if textile:
+                pieces = textile_pieces(results, config)
+                results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
+                export_textile(pieces, config, folder.run_folder, run_name(config))
+            export_summary(results, config, folder.run_folder)
+            folder.commit([r.name for r in results])
+    except OutputError:
+        raise
     except OSError as exc:
-        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
-    for result in results:
-        export_part(result, config, args.out)
-    if pieces:
-        export_textile(pieces, config, args.out, config.spec.name or config.source.stem)
-    export_summary(results, config, args.out)
+        raise OutputError(f"--out {args.out}: cannot write the results: {exc.strerror or exc}") from None
+    if args.debug:
+        for result in results:
+            if "traceback" in result.figures:
+                print(f"part {result.name}:\n{result.figures['traceback']}", file=sys.stderr)
     if not args.quiet:
         print(summary_table(results))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
@@ -130,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
+    previous_term = signal.signal(signal.SIGTERM, _terminated)
     try:
         if args.command == "run":
             return command_run(args)
@@ -143,16 +160,17 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print(f"devflat: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    except KeyboardInterrupt:
-        print("devflat: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except (MemoryError, RecursionError) as exc:
-        # reading or checking the input exhausted a resource: the input is out of range
+    except KeyboardInterrupt as exc:
+        print(f"devflat: interrupted ({signal.Signals(getattr(exc, 'signum', signal.SIGINT)).name})",
+              file=sys.stderr)
+        return 128 + getattr(exc, "signum", signal.SIGINT)
+    except Exception as exc:  # noqa: BLE001 - a bug outside any part: one line, not a traceback
         if args.debug:
             traceback.print_exc()
-        print(f"devflat: error: {args.config}: the input is too large to process ({type(exc).__name__})",
-              file=sys.stderr)
-        return EXIT_INPUT
+        print(f"devflat: internal error: {type(exc).__name__}: {exc} (--debug shows the traceback)", file=sys.stderr)
+        return EXIT_GEOMETRY
+    finally:
+        signal.signal(signal.SIGTERM, previous_term)
 
 
 def entry_point() -> None:

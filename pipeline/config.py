@@ -32,11 +32,33 @@ class ConfigError(DevflatError, ValueError):
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
+def _boolean_inside(value, where: str = "") -> str | None:
+    """Index path ('', '[1][0]') of the first boolean in a value or its lists, else None."""
+    if isinstance(value, bool):
+        return where
+    if isinstance(value, (list, tuple)):
+        for k, item in enumerate(value):
+            found = _boolean_inside(item, f"{where}[{k}]")
+            if found is not None:
+                return found
+    return None
+
+
 class _Strict(BaseModel):
     # no inf/NaN anywhere (thickness .inf, a NaN normal); ints are StrictInt where a bool
     # would otherwise pass as 0/1
     # defer_build: a model's validator is built when it is first used, not at import
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_booleans_for_numbers(cls, value, info: ValidationInfo):
+        """YAML's true/false would pass as 1/0 for a number (degree: true, thickness: true)."""
+        if "bool" not in str(cls.model_fields[info.field_name].annotation):
+            where = _boolean_inside(value)
+            if where is not None:
+                raise ValueError(f"{info.field_name}{where} is a boolean where a number is expected")
+        return value
 
     @field_validator("*", mode="after")
     @classmethod

@@ -65,6 +65,7 @@ def part_report(result: PartResult, units: str) -> dict:
         "forming": result.figures.get("forming"),
         "textile": result.figures.get("textile"),
         "files": result.figures.get("files"),
+        "traceback": result.figures.get("traceback"),  # an internal error's, for the bug report
     }
     return report
 

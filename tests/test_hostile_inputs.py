@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from pipeline.cli import main
 
@@ -127,7 +128,10 @@ CASES = [
      2, ["duplicate key 'degree'"]),
     ("top level list", "- a\n- b\n", 2, ["must be a mapping"]),
     # ----------------------------------------------------------------- curves
-    ("degree true", changed(("curves", "c", "degree"), True), 2, ["curves.c.degree", "integer", "True"]),
+    ("degree true", changed(("curves", "c", "degree"), True), 2, ["curves.c.degree", "boolean", "True"]),
+    ("thickness true", changed(("steel",), {"thickness": True}), 2, ["steel.thickness", "boolean", "True"]),
+    ("coordinate false", changed(("curves", "d", "control_points", 1), [0, False, 0]), 2,
+     ["curves.d.control_points", "[1][1] is a boolean"]),
     ("degree 3.5", changed(("curves", "c", "degree"), 3.5), 2, ["curves.c.degree", "3.5"]),
     ("degree 10", changed(("curves", "c", "degree"), 10), 2, ["curves.c.degree", "9", "10"]),
     ("degree 0", changed(("curves", "d", "degree"), 0), 2, ["curves.d.degree", "0"]),
@@ -315,3 +319,72 @@ def test_hostile_input(label, setup, code, expected, tmp_path, capsys, no_hang):
 
 def test_the_table_is_large_enough():
     assert len(CASES) >= 60
+
+
+# ------------------------------------------------------------------- fuzzing
+HOSTILE_VALUES = st.one_of(
+    st.none(), st.booleans(), st.integers(-10**20, 10**20), st.sampled_from([0, 1, 2, 3, 8, 9, 10, -1, 2**63]),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([1e308, -1e308, 1e-308, 5e-324, 1e-300, 1e300, 1e9, 1e-9, -0.0, 0.5]),
+    st.text(max_size=6), st.sampled_from(["a\nb", "\x00", "..", "a/b", "MM", "x" * 300]),
+    st.lists(st.floats(-1e3, 1e3), max_size=4), st.lists(st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+                                                       max_size=6),
+    st.dictionaries(st.sampled_from(["rulings", "thickness", "u", "degree"]), st.integers(-5, 5), max_size=2))
+
+FUZZ_PATHS = [("name",), ("units",), ("profile",), ("curves", "c", "degree"), ("curves", "d", "degree"),
+              ("curves", "c", "control_points"), ("curves", "c", "control_points", 1),
+              ("curves", "c", "control_points", 2, 1), ("curves", "d", "weights"), ("curves", "c", "knots"),
+              ("curves", "d", "knots"), ("resolution", "rulings"), ("resolution", "samples_per_ruling"),
+              ("resolution", "chord_tolerance"), ("steel",), ("steel", "thickness"), ("steel", "material"),
+              ("check", "max_residual"), ("check", "min_coverage"), ("output", "layers"), ("output", "dxf"),
+              ("curves", "c"), ("curves",), ("parts",), ("sequence",), ("strake",)]
+
+
+def set_path(data: dict, path: tuple, value) -> dict:
+    node = data
+    for key in path[:-1]:
+        if isinstance(node, dict):
+            node = node.setdefault(key, {})
+        elif isinstance(node, list) and isinstance(key, int) and key < len(node):
+            node = node[key]
+        else:
+            return data
+    if isinstance(node, dict):
+        node[path[-1]] = value
+    elif isinstance(node, list) and isinstance(path[-1], int) and path[-1] < len(node):
+        node[path[-1]] = value
+    return data
+
+
+@settings(max_examples=50, derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.lists(st.tuples(st.sampled_from(FUZZ_PATHS), HOSTILE_VALUES), min_size=1, max_size=3))
+def test_fuzzed_configs_end_in_0_1_or_2_with_a_consistent_folder(tmp_path_factory, changes):
+    folder = tmp_path_factory.mktemp("fuzz")
+    data = yaml.safe_load(yaml.safe_dump(GOOD))
+    for path, value in changes:
+        set_path(data, path, value)
+    config = folder / "fuzz.yaml"
+    try:
+        config.write_text(yaml.safe_dump(data))
+    except (ValueError, yaml.YAMLError):  # not representable in YAML at all
+        return
+    out = folder / "out"
+    previous = signal.signal(signal.SIGALRM, lambda *a: (_ for _ in ()).throw(TimeoutError("case hung")))
+    signal.alarm(60)  # a hang fails the case; no case is near it
+    try:
+        import contextlib
+        import io
+
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            code = main(["run", str(config), "--out", str(out), "--quiet"])
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert code in (0, 1, 2), err.getvalue()
+    assert "Traceback" not in err.getvalue()
+    if code == 2:
+        assert str(config) in err.getvalue() and not out.exists()
+    else:
+        for dxf in out.glob("*.dxf"):
+            assert (out / (dxf.stem + ".json")).exists()

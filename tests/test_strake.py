@@ -92,11 +92,9 @@ def test_run_summary_csv_json_and_pictures(strake):
 def test_parallel_run_gives_the_same_plates(strake, tmp_path):
     out, spec = strake
     assert main(["run", str(CONFIG), "--out", str(tmp_path), "--quiet", "--jobs", "2"]) == 0
-    for name in plate_names(spec):
-        a = json.loads((out / f"{name}.json").read_text())
-        b = json.loads((tmp_path / f"{name}.json").read_text())
-        assert a["area_m2"] == pytest.approx(b["area_m2"], rel=1e-12)
-        assert a["hull_fit"]["max_distance"] == pytest.approx(b["hull_fit"]["max_distance"], rel=1e-9)
+    for name in plate_names(spec):  # bit-identical: workers compute exactly what one process does
+        assert (out / f"{name}.json").read_bytes() == (tmp_path / f"{name}.json").read_bytes()
+    assert (out / "hullmod_summary.json").read_bytes() == (tmp_path / "hullmod_summary.json").read_bytes()
 
 
 def test_plates_off_the_hull_are_delivered_formed_with_their_strain(tmp_path):
