@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,6 +27,8 @@ from flatten.tolerances import DEFAULT_TOLERANCES, Tolerances
 # free rotation: the narrowest extent of a polygon is found among these angles and the
 # directions of its convex hull edges (rotating calipers: a minimal width rests on an edge)
 FREE_SAMPLES = np.arange(0.0, 180.0, 1.0)
+# engine runs per stock plate spent on fitting in parts the cut went through
+FILL_TRIES = 3
 
 
 class NestingError(DevflatError, ValueError):
@@ -299,7 +302,10 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
     Each round strip-packs the remaining parts on each stock width, cuts the strip at each
     stock length and keeps the parts that end before it (the cut goes through no part);
     the round takes the size that holds everything left with the least plate area, else
-    the size with the highest utilisation. Parts crossing the cut go to the next round.
+    the size with the highest utilisation. The parts the cut went through are then tried on
+    the plate one by one (a strip packing of the kept parts and the candidate, accepted if
+    it ends before the stock length, at most FILL_TRIES runs); the rest go to the next round.
+    Each engine run takes at least one second, so many plates may overrun the budget.
     A part wider than every plate raises NestingError; one that fits a width but no length
     is reported unplaced.
     """
@@ -360,16 +366,19 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
             for name, sw, ln in sizes:
                 if sw != w:
                     continue
-                keep = [p for p, e in zip(placements, ends) if e <= ln - 2.0 * edge_margin + 1e-9 * ln]
+                cut = ln - 2.0 * edge_margin + 1e-9 * ln
+                keep = [p for p, e in zip(placements, ends) if e <= cut]
                 if not keep:
                     continue
+                starts = [p.place(lookup[p.item].outline)[:, 0].min() for p in placements]
+                crossing = [p.item for p, a, e in zip(placements, starts, ends) if e > cut and a < cut]
                 area = sum(lookup[p.item].area for p in keep)
                 everything = len(keep) == total
                 # everything left on one plate: the smallest such plate; else the best-used plate
                 # (ties: the larger plate, fewer plates)
                 score = (1, -w * ln) if everything else (0, round(area / (w * ln), 9), w * ln)
                 if best is None or score > best[0]:
-                    best = (score, name, w, ln, keep)
+                    best = (score, name, w, ln, keep, crossing)
         if best is None:  # no part ended before any stock length: give the largest part a plate alone
             big = max((k for k, n in remaining.items() if n > 0), key=lambda k: lookup[k].area)
             for name, w, ln in sorted(sizes, key=lambda s: s[1] * s[2]):
@@ -381,14 +390,33 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
                 engine["seconds"] += eng["seconds"]
                 end = placements[0].place(lookup[big].outline)[:, 0].max()
                 if end <= ln - 2.0 * edge_margin + 1e-9 * ln:
-                    best = ((0, 0.0, 0.0), name, w, ln, placements)
+                    best = ((0, 0.0, 0.0), name, w, ln, placements, [])
                     break
             if best is None:
                 unplaced.append({"item": big, "copies": remaining[big],
                                  "reason": "the engine found no layout of it within a stock length"})
                 remaining[big] = 0
                 continue
-        _, name, w, ln, keep = best
+        _, name, w, ln, keep, crossing = best
+        # the parts the cut went through: try each on this plate with the parts kept (a
+        # layout of just these may well hold it), largest first, a few tries per plate
+        tried = 0
+        for cand in sorted(dict.fromkeys(crossing), key=lambda k: -lookup[k].area):
+            free = w * ln - sum(lookup[p.item].area for p in keep)
+            if tried >= FILL_TRIES or lookup[cand].area > free or \
+                    time.perf_counter() - start > budget - per_solve / 2:
+                break
+            tried += 1
+            trial = Counter(p.item for p in keep)
+            trial[cand] += 1
+            placements, eng = strip_pack(items, dict(trial), w - 2.0 * edge_margin, spacing,
+                                         max(1, per_solve // 2), seed + round_no, workers)
+            engine["solves"] += 1
+            engine["seconds"] += eng["seconds"]
+            end = max(p.place(lookup[p.item].outline)[:, 0].max() for p in placements)
+            if end <= ln - 2.0 * edge_margin + 1e-9 * ln:
+                keep = placements
+                engine["filled"] = engine.get("filled", 0) + 1
         numbered = []
         for p in keep:
             numbered.append(Placement(p.item, lookup[p.item].quantity - remaining[p.item], p.rotation,

@@ -391,9 +391,11 @@ def summary_lines(results: dict[str, NestResult], job: NestJob, units: str) -> l
 def command_nest(args, validate) -> int:
     """Run the parts, nest them, write the nesting files. Exit 0 all placed and checked,
     1 a part failed or could not be placed or a check failed, 2 bad input (nothing written)."""
-    from .stages import run_part
+    from .cli import check_jobs
+    from .plates import evaluate_plate, run_part
 
-    config = validate(args.config)
+    check_jobs(args.jobs)
+    config = validate(args.config, evaluate_plate)
     spec = config.spec.nesting
     if spec is None:
         raise ConfigError(f"{args.config}: nesting: missing: `devflat nest` needs a nesting section "

@@ -297,3 +297,34 @@ def test_replay_reproduces_a_stored_marker_exactly_and_checks_it_again(tmp_path)
     assert main(["nest", str(config), "--out", str(moved), "--quiet", "--replay", str(tampered)]) == 1
     checks = json.loads((moved / "lampshade_nesting.json").read_text())["groups"]["fabric"]["checks"]
     assert not checks["passed"] and checks["sheets"][0]["spacing_violations"]
+
+
+def test_mainsail_config_nests_its_eight_panels_on_the_roll(tmp_path):
+    out = tmp_path / "out"
+    assert main(["nest", str(ROOT / "configs" / "mainsail.yaml"), "--out", str(out), "--quiet", "--time", "1"]) == 0
+    report = json.loads((out / "mainsail_nesting.json").read_text())
+    group = report["groups"]["fabric"]
+    assert group["checks"]["passed"] and group["checks"]["placed"] == {f"mainsail_{k}": 1 for k in range(1, 9)}
+    f = group["figures"]
+    assert f["fabric_width"] == 1370 and f["marker_length"] >= f["pieces_area"] / 1370
+    assert report["settings"]["seed"] == 1 and group["engine"]["budget"] == 1  # --time overrides nesting.time
+
+
+def test_plates_of_different_thickness_never_share_a_stock_plate(tmp_path):
+    plate = yaml.safe_load(PLATE.read_text())
+    flat = yaml.safe_load((ROOT / "configs" / "flat_plate.yaml").read_text())
+    data = {"units": "mm", "name": "two", "resolution": {"rulings": 20},
+            "parts": [{"name": "bilge", "curves": plate["curves"], "steel": {"thickness": 12}},
+                      {"name": "bottom", "curves": flat["curves"], "steel": {"thickness": 15}}],
+            "nesting": {"stock": {"width": 3000, "length": 12000}, "time": 1, "seed": SEED}}
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["nest", str(path), "--out", str(out), "--quiet"]) == 0
+    rows = list(csv.DictReader((out / "two_cutting_list.csv").open()))
+    # both fit one 3 x 12 m plate by area and size, but 12 mm and 15 mm need a plate each
+    assert sorted((r["thickness_mm"], r["parts"]) for r in rows) == [("12", "bilge#1"), ("15", "bottom#1")]
+    assert {p.name for p in out.glob("*.dxf")} == {"two_S355-12_P01.dxf", "two_S355-15_P01.dxf"}
+    for r in rows:  # 15 mm plate: the scrap weighs 15/12 as much per m2
+        kg = float(r["scrap_area_m2"]) * float(r["thickness_mm"]) / 1000 * 7850
+        assert float(r["scrap_weight_kg"]) == pytest.approx(kg, abs=0.1)
