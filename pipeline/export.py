@@ -49,7 +49,13 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh
             write_obj(path, v3, pattern.vertices, faces, name)
             written.append(path)
-        if out.png:
+        if out.png and result.figures.get("textile_piece") is not None:
+            from .textile_preview import textile_preview_png
+
+            path = out_dir / f"{name}_flat.png"
+            textile_preview_png(path, result.figures["textile_piece"], config.spec.units)
+            written.append(path)
+        elif out.png:
             from .plots import flat_pattern_png  # matplotlib: imported only for previews
 
             path = out_dir / f"{name}_flat.png"
@@ -105,6 +111,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             "offset_in_sheet": shift.tolist(),
             "seams": result.figures.get("seams", []),
         }
+        result.figures["textile_piece"] = piece  # for the preview; not part of the report
         pieces.append(piece)
     return pieces
 

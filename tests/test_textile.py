@@ -528,3 +528,34 @@ def test_tiles_cover_the_box_and_overlap_by_the_configured_amount():
         cols = 1 + max(t.col for t in tiles)
         fewer = shapely.unary_union([t.window for t in tiles if t.col < cols - 1])
         assert cols == 1 or not fewer.contains(shapely.box(*lo, *hi))
+
+
+# ------------------------------------------------------------------ preview
+def test_textile_preview_speaks_the_sewing_rooms_language():
+    from pipeline.config import load_config
+    from pipeline.export import textile_pieces
+    from pipeline.stages import run_part
+    from pipeline.textile_preview import LEGEND, textile_preview_figure
+
+    config = load_config(LAMPSHADE)
+    results = [run_part(part, config) for part in config.parts[:2]]
+    piece = textile_pieces(results, config)[1]  # lampshade_2: notches on both seams
+    fig = textile_preview_figure(piece, "mm")
+    fig.canvas.draw()
+    [ax] = [a for a in fig.axes if a.get_legend() is not None]
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert set(LEGEND) <= set(legend) and "internal lines (rulings)" in legend
+    texts = [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))]
+    assert not any("bend" in t or t == "cut" for t in texts)  # no steel words, no mislabelled sew line
+    assert ax.get_aspect() == 1.0  # true aspect
+    lines = {line.get_label(): line.get_xydata() for line in ax.get_lines()}
+    assert np.array_equal(lines["cut line"][:-1], piece.cut) and np.array_equal(lines["sew line"][:-1], piece.sew)
+    # the piece's name, size and fabric inside the sew line, touching neither it, the
+    # grain line nor a notch
+    [label] = [t for t in ax.texts if t.get_text().startswith(piece.name)]
+    assert "size M, cut 2" in label.get_text() and "linen" in label.get_text()
+    corners = ax.transData.inverted().transform(label.get_window_extent().get_points())
+    rect = shapely.box(*corners[0], *corners[1])
+    assert Polygon(piece.sew).contains(rect)
+    assert not rect.intersects(LineString(piece.grain))
+    assert not any(rect.intersects(LineString(n.line)) for n in piece.notches)
