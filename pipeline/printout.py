@@ -30,8 +30,11 @@ import shapely.affinity
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon as PolygonPatch
 from matplotlib.patches import Rectangle
+from matplotlib.text import Text
+from matplotlib.transforms import Affine2D, Bbox, TransformedBbox
 from shapely.geometry import LineString, box
 
 from .atomic import atomic_path
@@ -112,6 +115,8 @@ def piece_drawing(pieces: list[TextilePiece], scale: float, edges: list[LineStri
     the notches and the given lines (tile edges), at the largest size that fits."""
     cut, sew, notches, grain, texts = [], [], [], [], []
     for piece in pieces:
+        near = shapely.box(*(piece.cut.min(axis=0) * scale), *(piece.cut.max(axis=0) * scale))
+        avoid = [np.asarray(e.coords) / scale for e in edges if e.intersects(near)]
         cut.append(np.vstack([piece.cut, piece.cut[:1]]) * scale)
         sew.append(np.vstack([piece.sew, piece.sew[:1]]) * scale)
         notches += [n.line * scale for n in piece.notches]
@@ -120,8 +125,7 @@ def piece_drawing(pieces: list[TextilePiece], scale: float, edges: list[LineStri
         lines = [piece.name, f"size {s.size}  cut {s.quantity}", s.fabric]
         for size_pt in LABEL_PT:
             w, h = _text_box(lines, size_pt)
-            at = label_anchor(piece, h / scale, w / scale, GAP_MM / 2 / scale,
-                              [np.asarray(e.coords) / scale for e in edges])
+            at = label_anchor(piece, h / scale, w / scale, GAP_MM / 2 / scale, avoid)
             if at is not None:
                 texts.append((at * scale, lines, size_pt))
                 break
@@ -203,14 +207,38 @@ def _check_square(ax, at: np.ndarray, title: str, subtitle: str) -> None:
             linespacing=1.3)
 
 
+class _Sheet:
+    """An Axes-free drawing surface on a figure: points (mm) moved by ``-origin`` onto the
+    page, 1 mm to 1 mm; artists clipped to ``clip`` (x0, y0, x1, y1 mm) when given. An Axes
+    would build its ticks on every page (tens of ms per page); the few Axes methods used
+    here are enough."""
+
+    def __init__(self, fig: Figure, origin=(0.0, 0.0), clip=None):
+        self.fig = fig
+        self.transform = Affine2D().translate(-origin[0], -origin[1]).scale(1 / 25.4) + fig.dpi_scale_trans
+        self.clip = None if clip is None else TransformedBbox(Bbox.from_extents(*clip), self.transform)
+
+    def _add(self, artist):
+        if self.clip is not None:
+            artist.set_clip_box(self.clip)
+        self.fig.add_artist(artist)
+        return artist
+
+    def plot(self, x, y, **style):
+        return self._add(Line2D(x, y, transform=self.transform, **style))
+
+    def add_patch(self, patch):
+        patch.set_transform(self.transform)
+        return self._add(patch)
+
+    def text(self, x, y, text, **style):
+        return self._add(Text(x, y, text, transform=self.transform, **style))
+
+
 def _page(paper: tuple[float, float]):
     fig = Figure(figsize=(paper[0] / 25.4, paper[1] / 25.4))
     FigureCanvasAgg(fig)
-    page = fig.add_axes((0, 0, 1, 1))  # page coordinates in mm
-    page.set_xlim(0, paper[0])
-    page.set_ylim(0, paper[1])
-    page.set_axis_off()
-    return fig, page
+    return fig, _Sheet(fig)  # page coordinates in mm
 
 
 def _join_marks(page, tile: Tile, origin: np.ndarray, labels: dict, overlap: float, blocked: list) -> None:
@@ -236,12 +264,14 @@ def _join_marks(page, tile: Tile, origin: np.ndarray, labels: dict, overlap: flo
         w, h = _text_box([text], 8.0)
         mid = 0.5 * (np.array(a) + np.array(b))
         normal = np.array([-1.0, 0.0]) if side == "right" else np.array([0.0, 1.0])
+        obstacles = shapely.unary_union(blocked)
+        shapely.prepare(obstacles)
         for shift in np.linspace(0, 0.4, 9):
             for sign in (1, -1):
                 along = (np.array(b) - np.array(a)) * shift * sign
                 centre = mid + along + normal * (w / 2 + 2.0 if side == "right" else h / 2 + 2.0)
                 rect = box(centre[0] - w / 2, centre[1] - h / 2, centre[0] + w / 2, centre[1] + h / 2)
-                if not shapely.unary_union(blocked).intersects(rect):
+                if not obstacles.intersects(rect):
                     page.text(centre[0], centre[1], text, ha="center", va="center", fontsize=8, color="0.3")
                     blocked.append(rect)
                     break
@@ -269,7 +299,7 @@ def write_tiled_pdf(target: Path, pieces: list[TextilePiece], scale: float, titl
             [(t.x0, t.y0), (t.x0 + t.w, t.y0)], [(t.x0, t.y0 + t.h), (t.x0 + t.w, t.y0 + t.h)])]
         drawing = piece_drawing(pieces, scale, edges)
         pages = _tile_pages(tiles, drawing, paper, b, band, o)
-        if all(p["square"] is not None for p in pages) or attempt == 1:
+        if pages is not None:
             break
         band = CHECK_MM + 2 * GAP_MM  # some page has no free place: every page gets a band
     labels = {(t.row, t.col): t.label for t in tiles}
@@ -299,16 +329,16 @@ def _tile_pages(tiles, drawing, paper, b, band, overlap) -> list[dict]:
             square = np.array([b + GAP_MM, b + GAP_MM])
         else:
             square = _free_square(shapely.unary_union(blocked), win, np.array([b, b]))
+            if square is None:
+                return None  # no room on this page: the caller reserves a band on every page
         out.append({"content": content, "blocked": blocked, "square": square})
     return out
 
 
 def _render_tile(tile: Tile, info: dict, paper, b, band, overlap, labels, subtitle) -> Figure:
     fig, page = _page(paper)
-    ax = fig.add_axes((b / paper[0], (b + band) / paper[1], tile.w / paper[0], tile.h / paper[1]))
-    ax.set_xlim(tile.x0, tile.x0 + tile.w)  # 1 mm of pattern is 1 mm of paper
-    ax.set_ylim(tile.y0, tile.y0 + tile.h)
-    ax.set_axis_off()
+    # 1 mm of pattern is 1 mm of paper: the window's corner goes to (b, b + band) on the page
+    ax = _Sheet(fig, (tile.x0 - b, tile.y0 - b - band), tile.window.bounds)
     _draw_pattern(ax, info["content"])
     blocked = list(info["blocked"])
     square = info["square"]
@@ -359,10 +389,7 @@ def write_sheet_svg(target: Path, pieces: list[TextilePiece], scale: float, titl
     size = hi - lo
     fig = Figure(figsize=(size[0] / 25.4, size[1] / 25.4))
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0, 0, 1, 1))
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_axis_off()
+    ax = _Sheet(fig, lo)
     _draw_pattern(ax, _page_content(piece_drawing(pieces, scale, []), box(*lo, *hi)))
     _check_square(ax, lo + 20.0, "1:1", "10 cm check square: print at 100 %")
     ax.text(lo[0] + 20.0, hi[1] - 10.0, title, fontsize=8, va="center")

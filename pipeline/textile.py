@@ -278,11 +278,8 @@ def _grain(result: PartResult, settings: Textile, sew_poly: Polygon) -> np.ndarr
 def _swept_box(segments: np.ndarray, half: np.ndarray):
     """Union of the segments (S, 2, 2) each swept by the axis-aligned box of half sizes (2,)."""
     corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
-    hulls = []
-    for a, b in segments:
-        pts = np.vstack([a + corners, b + corners])
-        hulls.append(shapely.MultiPoint(pts).convex_hull)
-    return unary_union(hulls)
+    pts = (np.asarray(segments)[:, :, None, :] + corners[None, None]).reshape(len(segments), 8, 2)
+    return shapely.union_all(shapely.convex_hull(shapely.multipoints(pts)))
 
 
 def label_anchor(piece: TextilePiece, height: float, width: float, clearance: float = 0.0,
