@@ -87,37 +87,44 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     ss = np.broadcast_to(s, gg.shape)
     u, v = _uv(long_axis, ss.ravel(), gg.ravel())
     mask = inside(surface(u, v).reshape(rows, probe, 3))
-    kept, ends_s, on_plane = [], [], []
+    # each row's longest run of inside samples; its ends that lie on a plane are refined by
+    # bisection between the last sample inside and the first outside, all rows at once
+    rows_in, runs_in = [], []
     for k in range(rows):
         m = mask[k]
         if not m.any():
             continue
-        # the longest run of inside samples
         edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(int), [0]])))
         runs = edges.reshape(-1, 2)
         a, b = runs[np.argmax(runs[:, 1] - runs[:, 0])]
-        b -= 1
-        bounds, flags = [], []
-        for i_in, i_out in ((a, a - 1), (b, b + 1)):
-            if i_out < 0 or i_out >= probe:
-                bounds.append(s[i_in])
-                flags.append(False)
-                continue
-            lo_, hi_ = s[i_out], s[i_in]  # outside, inside
-            for _ in range(48):
-                mid = 0.5 * (lo_ + hi_)
-                uu, vv = _uv(long_axis, np.array([mid]), girth(np.array([mid]), w[k]))
-                if inside(surface(uu, vv))[0]:
-                    hi_ = mid
-                else:
-                    lo_ = mid
-            bounds.append(hi_)
-            flags.append(True)
-        if bounds[1] <= bounds[0]:
-            continue
-        kept.append(k)
-        ends_s.append(bounds)
-        on_plane.append(flags)
+        rows_in.append(k)
+        runs_in.append((a, b - 1))
+    bounds = np.array([[s[a], s[b]] for a, b in runs_in]).reshape(-1, 2)
+    flags = np.zeros(bounds.shape, dtype=bool)
+    task_row, task_end, lo_, hi_ = [], [], [], []  # lo_ outside, hi_ inside
+    for r, (a, b) in enumerate(runs_in):
+        for end, (i_in, i_out) in enumerate(((a, a - 1), (b, b + 1))):
+            if 0 <= i_out < probe:
+                task_row.append(r)
+                task_end.append(end)
+                lo_.append(s[i_out])
+                hi_.append(s[i_in])
+    if task_row:
+        task_row, task_end = np.array(task_row), np.array(task_end)
+        lo_, hi_ = np.array(lo_), np.array(hi_)
+        ww = w[np.array(rows_in)[task_row]]
+        for _ in range(48):
+            mid = 0.5 * (lo_ + hi_)
+            uu, vv = _uv(long_axis, mid, girth(mid, ww))
+            ok = inside(surface(uu, vv))
+            hi_ = np.where(ok, mid, hi_)
+            lo_ = np.where(ok, lo_, mid)
+        bounds[task_row, task_end] = hi_
+        flags[task_row, task_end] = True
+    keep = bounds[:, 1] > bounds[:, 0]
+    kept = [k for k, good in zip(rows_in, keep) if good]
+    ends_s = bounds[keep].tolist()
+    on_plane = flags[keep].tolist()
     if len(kept) < 2:
         return None
     t = np.linspace(0.0, 1.0, cols)
