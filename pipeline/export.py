@@ -113,6 +113,16 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
         }
         result.figures["textile_piece"] = piece  # for the preview; not part of the report
         pieces.append(piece)
+    options = config.spec.textile.printout_options()
+    if pieces and options is not None:
+        from .config import ConfigError
+        from .printout import MAX_PAGES, count_pages
+
+        pages = count_pages(pieces, config.mm_per_unit, options)
+        if pages > MAX_PAGES:
+            raise ConfigError(f"{config.source}: textile.printout: the pieces need up to {pages} pages of "
+                              f"{options.paper} {options.orientation} (more than {MAX_PAGES}); choose a larger "
+                              f"paper or printout: false")
     return pieces
 
 

@@ -280,6 +280,25 @@ def _join_marks(page, tile: Tile, origin: np.ndarray, labels: dict, overlap: flo
             break
 
 
+MAX_PAGES = 2000
+
+
+def count_pages(pieces: list[TextilePiece], scale: float, options: Printout) -> int:
+    """Pages the tiled PDF needs at most (with the check-square band), the map included."""
+    paper = paper_size(options)
+    printable = np.array(paper) - 2 * options.border
+    pts = np.vstack([p.cut for p in pieces]) * scale
+    lo, hi = pts.min(axis=0) - MARGIN_MM, pts.max(axis=0) + MARGIN_MM
+    window = (printable[0], printable[1] - CHECK_MM - 2 * GAP_MM)
+    size = hi - lo
+    cols = max(1, int(np.ceil((size[0] - options.overlap) / (window[0] - options.overlap))))
+    rows = max(1, int(np.ceil((size[1] - options.overlap) / (window[1] - options.overlap))))
+    if rows * cols > 10 * MAX_PAGES:  # too many to look at one by one
+        return rows * cols + 1
+    shapes = shapely.unary_union([shapely.Polygon(p.cut * scale) for p in pieces])
+    return 1 + sum(t.window.intersects(shapes) for t in tile_sheet(lo, hi, window, options.overlap))
+
+
 def write_tiled_pdf(target: Path, pieces: list[TextilePiece], scale: float, title: str,
                     options: Printout) -> dict:
     """The assembly map and one page per tile; returns the layout (for the report)."""

@@ -510,6 +510,20 @@ def test_tiled_printout_covers_every_outline_with_the_configured_overlap(tmp_pat
         assert max(gaps) <= 0.01  # every piece's whole outline is printed
 
 
+def test_a_printout_of_too_many_pages_is_bad_input(tmp_path, capsys):
+    data = yaml.safe_load(LAMPSHADE.read_text())
+    data["units"] = "m"  # the lampshade 1000 times larger: a 1.8 km sheet
+    data["resolution"]["chord_tolerance"] = 0.05
+    data["textile"].update(seam_allowance=0.01, notches=[], notch_length=0.005)
+    config = tmp_path / "huge.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "textile.printout" in err and "pages of A4 portrait" in err
+    assert not out.exists()
+
+
 def test_tiles_cover_the_box_and_overlap_by_the_configured_amount():
     from pipeline.printout import tile_sheet
 
