@@ -133,7 +133,10 @@ def find_seams(results: list[PartResult], trimmed: dict | None = None) -> list[S
     for r in results:
         if r.ok:
             for axis, cid in enumerate(r.part.curve_ids):
-                users.setdefault(cid, []).append((r, axis))
+                # only a sequence's curves (indices) are shared; the 'c' and 'd' of separate
+                # parts are each part's own
+                if not isinstance(cid, str):
+                    users.setdefault(cid, []).append((r, axis))
     seams = []
     for cid, edges in users.items():
         if len(edges) < 2:

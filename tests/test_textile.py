@@ -422,6 +422,23 @@ def test_sail_seams_match_to_half_a_millimetre_and_notches_stay_matched(tmp_path
     assert [len(p.notches) for p in read.pieces] == [3, 3]
 
 
+def test_separate_parts_share_no_seam(tmp_path):
+    """The c and d of parts given one by one are each part's own curves, not a seam."""
+    data = yaml.safe_load(SAIL.read_text())
+    curves = data.pop("sequence")
+    data.pop("name")
+    data["parts"] = [{"name": f"panel_{k}", "curves": {"c": curves[k], "d": curves[k + 1]}} for k in (0, 1)]
+    data["textile"].update(seams="require_full", printout=False, notches=[])
+    data["output"] = {"png": False, "obj": False}
+    config = tmp_path / "parts.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    for k in (0, 1):
+        rep = json.loads((out / f"panel_{k}.json").read_text())
+        assert rep["status"] == "ok" and rep["textile"]["seams"] == []
+
+
 def test_sail_require_full_fails_the_pieces_and_writes_no_pattern(tmp_path):
     code, out, reports = sail_run(tmp_path, "require_full")
     assert code == 1
