@@ -115,8 +115,40 @@ def main(argv=None) -> int:
     print(f"{'devflat batched (' + str(n_all) + ')':<44}{n_all / all_time:>14.3e}{len(roots) / n_all:>16.2f}")
     print(f"{'numpy.roots per t and span (' + str(args.baseline) + ')':<44}{args.baseline / base_all_time:>14.3e}")
     print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
+    certification_share()
     stage_breakdown()
     return 0
+
+
+def random_cubic_pair(seed: int):
+    """The random pairs of tests/test_solver.py (4-7 poles, polynomial cubics)."""
+    rng = np.random.default_rng(seed)
+    n_c, n_d = rng.integers(4, 8, size=2)
+    c = nurbs_curve(rng.uniform(-1, 1, size=(n_c, 3)), 3, name="c")
+    d = nurbs_curve(rng.uniform(-1, 1, size=(n_d, 3)) + [0, 0, 2.0], 3, name="d")
+    return c, d
+
+
+def certification_share(n_pairs: int = 20) -> None:
+    """Share of a solve spent certifying (Bernstein exclusion, critical points, the
+    check that every sign-change box is met by a branch), per the CERTIFICATE finding."""
+    rows = []
+    pairs = [plate_pair()] + [random_cubic_pair(seed) for seed in range(n_pairs)]
+    for c, d in pairs:
+        start = time.perf_counter()
+        solution = solve(c, d)
+        total = time.perf_counter() - start
+        cert = next(f for f in solution.findings if f.code == "CERTIFICATE").data
+        rows.append((total, cert["certify_seconds"]))
+    rows = np.array(rows)
+    print()
+    print(f"certification share of a solve ({len(pairs)} cubic pairs: the plate + {n_pairs} random pairs)")
+    print(f"{'':<44}{'median s':>12}{'total s':>12}")
+    print(f"{'full solve (certified)':<44}{np.median(rows[:, 0]):>12.4f}{rows[:, 0].sum():>12.3f}")
+    print(f"{'  of which certification':<44}{np.median(rows[:, 1]):>12.4f}{rows[:, 1].sum():>12.3f}")
+    print(f"{'  solve without it (trace + judge)':<44}{np.median(rows[:, 0] - rows[:, 1]):>12.4f}"
+          f"{(rows[:, 0] - rows[:, 1]).sum():>12.3f}")
+    print(f"{'certification share':<44}{np.median(rows[:, 1] / rows[:, 0]):>11.1%} {rows[:, 1].sum() / rows[:, 0].sum():>11.1%}")
 
 
 def stage_breakdown() -> None:

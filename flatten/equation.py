@@ -287,11 +287,42 @@ def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
     return DevelopabilityField(c, d, kind, cells, scale)
 
 
+def corner_knots(curve: NurbsCurve, relative: float = 1e-9) -> np.ndarray:
+    """Interior knots where the tangent line of the curve jumps (a corner), shape (K,).
+
+    A knot of multiplicity >= degree makes the curve C0 in its parameter, but the
+    tangent line may still be continuous (a rational arc with double knots): then the
+    solution curve passes the knot smoothly. Only a real change of the tangent line
+    (compared through the Plücker vectors C ∧ C' of both sides) is a corner.
+    """
+    inner = curve.breakpoints[1:-1]
+    idx = np.flatnonzero(curve.knot_continuity() <= 0)
+    if idx.size == 0:
+        return np.zeros(0)
+    lines = tangent_line_polynomials(curve.power_coefficients)  # (n_spans, 2p-1, 6)
+    left = lines[idx].sum(axis=1)  # s = 1 at the end of span idx
+    right = lines[idx + 1, 0]  # s = 0 at the start of span idx + 1
+    left = left / np.maximum(np.linalg.norm(left, axis=1, keepdims=True), 1e-300)
+    right = right / np.maximum(np.linalg.norm(right, axis=1, keepdims=True), 1e-300)
+    jump = np.linalg.norm(left - right, axis=1)  # 0: same line, same sense of travel
+    return inner[idx[jump > relative]]
+
+
 def normalized_residual(c: NurbsCurve, d: NurbsCurve, t, T) -> np.ndarray:
-    """|g| / (|c'| |d'| |d - c|) with g = det(c'(t), d'(T), d(T) - c(t)), shape (N,)."""
-    pc, dc = c.derivatives(np.atleast_1d(t), 1)
-    pd, dd = d.derivatives(np.atleast_1d(T), 1)
+    """|g| / (|c'| |d'| |d - c|) with g = det(c'(t), d'(T), d(T) - c(t)), shape (N,).
+
+    At a corner of c (:func:`corner_knots`; t exactly the knot) every ruling is a fan
+    ruling from the corner point: c stands still along it (c' = 0 in the fan), so g = 0
+    and the residual is 0; likewise at a corner of d.
+    """
+    t, T = np.atleast_1d(t), np.atleast_1d(T)
+    pc, dc = c.derivatives(t, 1)
+    pd, dd = d.derivatives(T, 1)
     diff = pd - pc
     g = np.einsum("ij,ij->i", np.cross(dc, dd), diff)
     norm = (np.linalg.norm(dc, axis=1) * np.linalg.norm(dd, axis=1) * np.linalg.norm(diff, axis=1))
-    return np.abs(g) / np.maximum(norm, 1e-300)
+    out = np.abs(g) / np.maximum(norm, 1e-300)
+    for values, curve in ((t, c), (T, d)):
+        if curve.degree > 0 and np.any(curve.knot_continuity() <= 0):
+            out[np.isin(values, corner_knots(curve))] = 0.0
+    return out

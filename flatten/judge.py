@@ -6,13 +6,20 @@ All functions take traces in the unit square (u, U) and the developability field
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
-from .equation import DevelopabilityField
+from .equation import DevelopabilityField, corner_knots, normalized_residual
 from .nurbs import NurbsCurve
 from .solution import (Branch, Coverage, CurvatureMismatch, KnotCrossing, Path, Piece,
                        TurningPoint)
 from .tracer import Trace
+
+
+# A polyline crossing is a true crossing of two branches only where f vanishes to this
+# normalised residual (the saddle's f0 of a near-tangent pair does not).
+CROSSING_RESIDUAL = 1e-12
 
 
 class UnitMap:
@@ -24,7 +31,15 @@ class UnitMap:
         self.width = np.array([np.ptp(field.c.domain), np.ptp(field.d.domain)])
 
     def to_params(self, x: np.ndarray) -> np.ndarray:
-        return self.lo + np.asarray(x) * self.width
+        x = np.asarray(x)
+        # the sides map onto the domain ends exactly (branch ends, corner fans)
+        return np.where(x >= 1.0, self.lo + self.width, self.lo + x * self.width)
+
+    @cached_property
+    def corner_lines(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit positions of the C0 knots of c and of d (corners: the solution jumps)."""
+        return tuple((corner_knots(curve) - lo) / width for curve, lo, width in (
+            (self.field.c, self.lo[0], self.width[0]), (self.field.d, self.lo[1], self.width[1])))
 
     def to_unit(self, p: np.ndarray) -> np.ndarray:
         return (np.asarray(p) - self.lo) / self.width
@@ -57,6 +72,7 @@ class UnitMap:
     def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton along the gradient onto f = 0, batched, staying in the unit square."""
         x = np.array(x, dtype=np.float64, copy=True)
+        corners = self.corner_lines
         for _ in range(iterations):
             p = self.to_params(x)
             f = self.field(p[:, 0], p[:, 1])
@@ -68,8 +84,12 @@ class UnitMap:
             # near a singular point (branch crossing) the gradient vanishes with f:
             # a long step would throw the point onto another branch
             step[np.hypot(*step.T) > 1e-4] = 0.0
-            # a point on a side stays on it (ends of branches, fans on the boundary)
+            # a point on a side stays on it (ends of branches, fans on the boundary), and
+            # so does a point on a corner line: any ruling through a corner is a fan ruling
             on_side = (x <= 0.0) | (x >= 1.0)
+            for axis, lines in enumerate(corners):
+                if len(lines):
+                    on_side[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
             step[on_side] = 0.0
             x = np.clip(x - step, 0.0, 1.0)
         return x
@@ -155,12 +175,12 @@ def _singular_point(unit: UnitMap, x: np.ndarray, tol: float):
             break
     if not converged:
         return None
+    y = np.clip(y, 0.0, 1.0)
     p = unit.to_params(y[None])
-    f0 = abs(unit.field(p[:, 0], p[:, 1])[0])
-    curvature = np.abs(np.linalg.eigvalsh(hessian)).max()
-    # the two branches of a saddle f = f0 pass sqrt(2 |f0| / |λ|) apart
-    gap = np.sqrt(2.0 * f0 / curvature) if curvature > 0 else np.inf
-    return np.clip(y, 0.0, 1.0) if gap <= 10.0 * tol else None
+    # two arms of a near-tangent saddle (f0 != 0) pass each other without meeting:
+    # joining them there would put a ruling off Z on the path
+    residual = normalized_residual(unit.field.c, unit.field.d, p[:, 0], p[:, 1])[0]
+    return y if residual <= 10.0 * CROSSING_RESIDUAL else None
 
 
 def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
@@ -410,10 +430,33 @@ def coverage(c: NurbsCurve, d: NurbsCurve, t_interval, T_interval) -> Coverage:
                     float((lc[1] - lc[0]) / c.length), float((ld[1] - ld[0]) / d.length))
 
 
+def strip_area(c: NurbsCurve, d: NurbsCurve, params: np.ndarray) -> float:
+    """Area of the ruled strip along (N, 2) rulings [t, T], two triangles per ruling pair
+    (model units squared; exact for planar quads, a lower bound otherwise)."""
+    if len(params) < 2:
+        return 0.0
+    pc, pd = c(params[:, 0]), d(params[:, 1])
+    a = np.cross(pd[:-1] - pc[:-1], pc[1:] - pc[:-1])
+    b = np.cross(pd[1:] - pc[1:], pd[:-1] - pd[1:])
+    return float(0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(b, axis=1)).sum())
+
+
+def path_rank(cov: Coverage) -> tuple[float, float]:
+    """The path chooser's measure: the smaller covered fraction of the two curves first
+    (a strip must cover both; a near-cone over ~0 of one curve ranks last), then the
+    strip area. Fractions closer than 1e-6 count as equal."""
+    return (round(min(cov.c_fraction, cov.d_fraction) * 1e6), cov.area)
+
+
 def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
                 min_gain: float, orientation: int = 1) -> Path | None:
-    """Longest monotone chain of acceptable pieces, measured by covered arc length
-    fraction of c plus that of d (the pieces meet at turning points and junctions).
+    """Best monotone chain of acceptable pieces, by :func:`path_rank`: the smaller of
+    the covered arc-length fractions of c and d first, then the strip area (pieces
+    meet at turning points, junctions and corner fans).
+
+    A chain's fractions and area are the sums over its pieces (they cover consecutive
+    parameter intervals), so the chains ending at each node are kept as a Pareto set
+    of (c fraction, d fraction, area).
 
     ``orientation = -1`` looks for T decreasing while t increases (d runs the other
     way); pieces must have been classified for that orientation.
@@ -432,7 +475,7 @@ def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
     gains = []
     for _, pts in candidates:
         cov = coverage(c, d, sorted(pts[[0, -1], 0]), sorted(pts[[0, -1], 1]))
-        gains.append(cov.c_fraction + cov.d_fraction)
+        gains.append((cov.c_fraction, cov.d_fraction, strip_area(c, d, pts)))
     scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
     flat = np.vstack([pts[[0, -1]] for _, pts in candidates]) / scale
     node = -np.ones(len(flat), dtype=int)
@@ -444,40 +487,56 @@ def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
         node[close & (node < 0)] = n_nodes
         n_nodes += 1
     start_node, end_node = node[0::2], node[1::2]
-    order = np.argsort([(flat[2 * i] * mirror).sum() for i in range(len(candidates))])
-    best = np.zeros(n_nodes)
-    came_from: dict[int, int] = {}
+    order = np.argsort([(flat[2 * i] * mirror).sum() for i in range(len(candidates))], kind="stable")
+    # labels: (c fraction, d fraction, area, piece, previous label or None)
+    labels: list[list[tuple]] = [[] for _ in range(n_nodes)]
     for i in order:
-        if gains[i] < min_gain:
+        cf, df, area = gains[i]
+        if cf + df < min_gain:
             continue
-        value = best[start_node[i]] + gains[i]
-        if value > best[end_node[i]]:
-            best[end_node[i]] = value
-            came_from[int(end_node[i])] = int(i)
-    if not came_from:
+        new = [(cf, df, area, int(i), None)]
+        new += [(lab[0] + cf, lab[1] + df, lab[2] + area, int(i), lab) for lab in labels[start_node[i]]]
+        labels[end_node[i]] = _pareto(labels[end_node[i]] + new)
+    finals = [lab for node_labels in labels for lab in node_labels]
+    if not finals:
         return None
-    last = int(np.argmax(best))
+    last = max(finals, key=lambda lab: (round(min(lab[0], lab[1]) * 1e6), lab[2]))
     chain = []
-    while last in came_from and len(chain) <= len(candidates):
-        i = came_from[last]
-        chain.append(i)
-        last = int(start_node[i])
+    while last is not None:
+        chain.append(last[3])
+        last = last[4]
     chain.reverse()
     points = np.vstack([candidates[i][1] if k == 0 else candidates[i][1][1:]
                         for k, i in enumerate(chain)])
     points[:, 0] = np.maximum.accumulate(points[:, 0])
     points[:, 1] = np.maximum.accumulate(points[:, 1] * orientation) * orientation
     fans = []
+    corner = {p.index for p in pieces if p.corner}
     for i in chain:
         pts = candidates[i][1]
+        extra = {"corner": True} if candidates[i][0] in corner else {}
         if np.ptp(pts[:, 0]) <= 1e-9 * scale[0]:
             fans.append({"apex_on": "c", "t": float(pts[0, 0]),
-                         "T_interval": sorted([float(pts[0, 1]), float(pts[-1, 1])])})
+                         "T_interval": sorted([float(pts[0, 1]), float(pts[-1, 1])]), **extra})
         elif np.ptp(pts[:, 1]) <= 1e-9 * scale[1]:
             fans.append({"apex_on": "d", "T": float(pts[0, 1]),
-                         "t_interval": [float(pts[0, 0]), float(pts[-1, 0])]})
+                         "t_interval": [float(pts[0, 0]), float(pts[-1, 0])], **extra})
     cov = coverage(c, d, (points[0, 0], points[-1, 0]), sorted((points[0, 1], points[-1, 1])))
+    cov = Coverage(cov.t_interval, cov.T_interval, cov.c_length, cov.d_length, cov.c_fraction,
+                   cov.d_fraction, strip_area(c, d, points))
     return Path(points, tuple(candidates[i][0] for i in chain), cov, tuple(fans), orientation)
+
+
+def _pareto(labels: list[tuple], keep: int = 16) -> list[tuple]:
+    """Labels not dominated in (c fraction, d fraction, area), best ``keep`` of them."""
+    labels = sorted(labels, key=lambda lab: (-min(lab[0], lab[1]), -lab[2]))
+    out: list[tuple] = []
+    for lab in labels:
+        if not any(o[0] >= lab[0] - 1e-12 and o[1] >= lab[1] - 1e-12 and o[2] >= lab[2] for o in out):
+            out.append(lab)
+        if len(out) >= keep:
+            break
+    return out
 
 
 def make_branch(index: int, params: np.ndarray, trace: Trace, unit_points: np.ndarray) -> Branch:

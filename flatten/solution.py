@@ -43,12 +43,15 @@ class Piece:
     acceptable : T moves monotonically with t in the orientation of the solution
         (T' >= 0, or T' <= 0 when d runs against c; fans included); otherwise the
         rulings cross (regression).
+    corner : a corner fan: the piece lies on a C0 knot line of c (or d) and joins the
+        one-sided roots there by a cone with its apex at the corner point (branch -1)
     """
 
     index: int
     branch: int
     points: np.ndarray
     acceptable: bool
+    corner: bool = False
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -113,7 +116,12 @@ class KnotCrossing:
 
 @dataclass(frozen=True)
 class Coverage:
-    """Parameter intervals of c and d a path covers, their lengths and fractions."""
+    """Parameter intervals of c and d a path covers, their lengths and fractions.
+
+    ``area`` is the area of the strip along the path (model units squared, 0 when
+    not computed): the path chooser ranks paths by min(c_fraction, d_fraction) first,
+    then by this area.
+    """
 
     t_interval: tuple[float, float]
     T_interval: tuple[float, float]
@@ -121,11 +129,12 @@ class Coverage:
     d_length: float
     c_fraction: float
     d_fraction: float
+    area: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {"t_interval": list(self.t_interval), "T_interval": list(self.T_interval),
                 "c_length": self.c_length, "d_length": self.d_length,
-                "c_fraction": self.c_fraction, "d_fraction": self.d_fraction}
+                "c_fraction": self.c_fraction, "d_fraction": self.d_fraction, "area": self.area}
 
 
 @dataclass(frozen=True)

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
-import numpy as np
+import time
 
-from .equation import (COPLANAR, PARALLEL_PLANES, classify_pair, developability_field,
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .equation import (COPLANAR, PARALLEL_PLANES, classify_pair, corner_knots, developability_field,
                        normalized_residual)
 from .errors import InvalidInputError
+from .certify import critical_points, enclose, near_gap
 from .judge import (UnitMap, choose_path, coverage, curvature_mismatches, knot_crossings,
-                    make_branch, make_turning_point, split_pieces)
+                    make_branch, make_turning_point, path_rank, split_pieces)
 from .nurbs import NurbsCurve
-from .solution import Finding, Path, Piece, SolutionSet
+from .solution import Branch, Finding, Path, Piece, SolutionSet
 from .tolerances import DEFAULT_TOLERANCES, Tolerances
-from .tracer import END_UNRESOLVED, trace_zero_set
+from .tracer import END_STEP_LIMIT, END_UNRESOLVED, StepCaps, trace_zero_set
 
 
 def check_pair(c: NurbsCurve, d: NurbsCurve, tol: Tolerances) -> None:
@@ -44,8 +48,137 @@ def flat_plate_solution(c: NurbsCurve, d: NurbsCurve, normal: np.ndarray, n_ruli
     return SolutionSet(True, finding.message, COPLANAR, 0, (), (), (), (), (), path, (finding,), 0.0)
 
 
+def _intervals(curve: NurbsCurve) -> list[tuple[float, float]]:
+    """The domain cut at the curve's corners (the solution jumps there)."""
+    ends = [curve.domain[0], *corner_knots(curve).tolist(), curve.domain[1]]
+    return list(zip(ends[:-1], ends[1:]))
+
+
+def _piece_of(curve: NurbsCurve, a: float, b: float) -> NurbsCurve:
+    return curve if (a, b) == curve.domain else curve.segment(a, b)
+
+
+class _Block:
+    """The zero set on one block of the rectangle between corner lines, certified.
+
+    The block's field is built on the exact pieces of c and d, so that a corner line is
+    a side of the block and f is evaluated from the block's side of it.
+    """
+
+    def __init__(self, c: NurbsCurve, d: NurbsCurve, kind: str, plane: dict | None, tol: Tolerances):
+        self.field = developability_field(c, d, kind, plane)
+        self.unit = UnitMap(self.field)
+        self.tol = tol
+        start = time.perf_counter()
+        self.enclosure = enclose(self.field, target=2.0 * tol.trace_step)
+        self.critical = critical_points(self.field)
+        crit = self.critical
+        self.certify_time = time.perf_counter() - start
+        unit_crit = self.unit.to_unit(crit.points) if len(crit.points) else np.zeros((0, 2))
+        gap = near_gap(crit.value, crit.hessian) if len(crit.points) else np.zeros(0)
+        residual = (normalized_residual(c, d, crit.points[:, 0], crit.points[:, 1])
+                    if len(crit.points) else np.zeros(0))
+        extremum = np.isin(crit.kind, ("min", "max"))
+        # f = 0 at an extremum: a point of Z (or a loop too small to trace: 1e-5 of the
+        # rectangle): a ruling that exists at one t only
+        self.isolated = extremum & ((residual <= tol.residual) | (gap <= 10.0 * tol.junction))
+        loops = extremum & np.isfinite(gap) & ~self.isolated
+        # a saddle whose f vanishes is a crossing, passed straight through
+        saddles = (crit.kind == "saddle") & (residual > tol.residual) & (gap < 0.5)
+        capped = loops | saddles
+        lam = np.abs(np.linalg.eigvalsh(crit.hessian)) if len(crit.points) else np.zeros((0, 2))
+        slope = np.clip(np.sqrt(lam.min(axis=1) / np.maximum(lam.max(axis=1), 1e-300)), 0.05, 1.0) if len(lam) else lam
+        self.caps = StepCaps(unit_crit[capped], gap[capped], slope[capped] if len(lam) else np.zeros(0))
+        self.extra_u = unit_crit[loops, 0]
+        self.extra_U = unit_crit[loops, 1]
+        self.iso_unit = unit_crit[self.isolated]
+        self.traces, self.seeds, self.visited = trace_zero_set(
+            self.field, tol, self.extra_u, self.extra_U, self.caps, self.iso_unit)
+        # every box where f provably changes sign must be met by a traced branch; a box
+        # no branch meets holds a component the seeds missed: seed lines through it
+        start = time.perf_counter()
+        self.unmet = self._unmet_boxes()
+        self.certify_time += time.perf_counter() - start
+        if len(self.unmet):
+            extra = self.unit.to_unit(np.column_stack([self.unmet[:, :2].mean(axis=1), self.unmet[:, 2:].mean(axis=1)]))
+            self.traces, self.seeds, self.visited = trace_zero_set(
+                self.field, tol, np.concatenate([self.extra_u, extra[:, 0]]),
+                np.concatenate([self.extra_U, extra[:, 1]]), self.caps, self.iso_unit)
+            self.unmet = self._unmet_boxes()
+        # a trace that is one point on a side: Z only touches the block there (it belongs
+        # to a neighbouring block's branch, or touches the rectangle from outside)
+        single = [len(tr.points) < 2 or np.ptp(tr.points, axis=0).max() <= 1e-12 for tr in self.traces]
+        self.touches = self.unit.to_params(np.array([tr.points[0] for tr, one in zip(self.traces, single) if one]
+                                                    ).reshape(-1, 2))
+        self.traces = [tr for tr, one in zip(self.traces, single) if not one]
+
+    def _unmet_boxes(self) -> np.ndarray:
+        """Boxes (K, 4) [t0, t1, T0, T1] with a proven zero that no traced branch meets."""
+        enc = self.enclosure
+        boxes = enc.boxes[enc.sign_change]
+        if len(boxes) == 0:
+            return boxes
+        lo = self.unit.to_unit(boxes[:, [0, 2]])
+        hi = self.unit.to_unit(boxes[:, [1, 3]])
+        half = 0.5 * (hi - lo)
+        step = float(np.clip(half.min(), 1e-6, 1e-3))
+        centre = 0.5 * (lo + hi)
+        met = np.zeros(len(boxes), dtype=bool)
+        for p in self.iso_unit:  # an isolated point (or a loop too small to trace) explains its box
+            met |= np.all(np.abs(centre - p) <= half + step, axis=1)
+        dense = [_densify(tr.points, step) for tr in self.traces]
+        if not dense:
+            return boxes[~met]
+        pts = np.vstack(dense)
+        tree = cKDTree(pts)
+        near = tree.query_ball_point(centre, r=half.max(axis=1) + step, p=np.inf)
+        for k, idx in enumerate(near):
+            if idx:
+                gap = np.abs(pts[idx] - centre[k]) - half[k]
+                met[k] = bool(np.any(np.all(gap <= step, axis=1)))
+        return boxes[~met]
+
+
+def _densify(points: np.ndarray, step: float) -> np.ndarray:
+    """Points along a polyline (N, 2) at most ``step`` apart."""
+    if len(points) < 2:
+        return points
+    seg = np.diff(points, axis=0)
+    n = np.maximum(np.ceil(np.hypot(*seg.T) / step).astype(int), 1)
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    base = np.repeat(np.arange(len(seg)), n)
+    return np.vstack([points[base] + frac[:, None] * seg[base], points[-1:]])
+
+
+def _end_names(ends: tuple[str, str], t_walls: tuple[bool, bool], T_walls: tuple[bool, bool]) -> tuple[str, str]:
+    """Rename the ends of a block's branch that lie on a corner line (not a side)."""
+    rename = {"t_start": "c_corner" if t_walls[0] else "t_start", "t_end": "c_corner" if t_walls[1] else "t_end",
+              "T_start": "d_corner" if T_walls[0] else "T_start", "T_end": "d_corner" if T_walls[1] else "T_end"}
+    return tuple(rename.get(e, e) for e in ends)
+
+
+def _corner_fans(branches: list[Branch], c: NurbsCurve, d: NurbsCurve, first_index: int):
+    """Corner fan pieces: on each corner line, join consecutive branch points lying on it.
+
+    At a C0 knot t = k of c every ruling from the corner c(k) lies on the cone with apex
+    c(k), so the one-sided roots T- and T+ there are joined by that fan (the solution
+    of a C^0 curve jumps: seed, C^k -> C^(k-1)).
+    """
+    out = []
+    for axis, curve in ((0, c), (1, d)):
+        for knot in corner_knots(curve):
+            on = [b.points[[0, -1]][b.points[[0, -1], axis] == knot] for b in branches if not b.closed]
+            on = np.vstack(on) if on else np.zeros((0, 2))
+            other = np.unique(on[:, 1 - axis])
+            for a, b in zip(other[:-1], other[1:]):
+                along = np.linspace(a, b, 17)
+                pts = np.column_stack([np.full_like(along, knot), along] if axis == 0 else [along, np.full_like(along, knot)])
+                out.append(Piece(first_index + len(out), -1, pts, True, corner=True))
+    return out
+
+
 def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERANCES) -> SolutionSet:
-    """Find and judge every branch of f(t, T) = det[C, C', D, D'] = 0.
+    """Find, certify and judge every branch of f(t, T) = det[C, C', D, D'] = 0.
 
     Parameters
     ----------
@@ -56,8 +189,9 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
     -------
     SolutionSet
         Truthy when an acceptable path exists. Always carries the branches, their
-        acceptable and regression pieces, turning points, Theorem 2 mismatches,
-        knot crossings and findings.
+        acceptable and regression pieces (corner fans included), turning points,
+        Theorem 2 mismatches, knot crossings and findings (isolated points, proofs,
+        residual checks).
 
     Raises
     ------
@@ -72,57 +206,130 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
     field = developability_field(c, d, kind, plane)
     if field.identically_zero:
         return flat_plate_solution(c, d, np.zeros(3))
-    unit = UnitMap(field)
-    traces, seeds, visited = trace_zero_set(field, tol)
     findings: list[Finding] = []
     if kind == PARALLEL_PLANES:
         findings.append(Finding(
             "PARALLEL_PLANES", f"polynomial curves on parallel planes {plane['height']:.6g} apart: "
             f"f reduces to h (x'Y' - y'X'), degree {field.degree_in_T} in T",
             {"height": plane["height"], "normal": np.asarray(plane["normal"]).tolist()}))
-    if not visited.all():
-        missed = seeds.points[~visited]
-        findings.append(Finding("UNTRACED_SEEDS", f"{len(missed)} grid roots lie on no traced branch",
-                                {"points": unit.to_params(missed).tolist()}))
-    for trace in traces:
-        if END_UNRESOLVED in trace.ends:
-            findings.append(Finding("BRANCH_UNRESOLVED", "a branch could not be followed to its end",
-                                    {"end": unit.to_params(trace.points[-1]).tolist()}))
+    start = time.perf_counter()
+    blocks = []
+    c_parts, d_parts = _intervals(c), _intervals(d)
+    for a, b in c_parts:
+        for A, B in d_parts:
+            block = _Block(_piece_of(c, a, b), _piece_of(d, A, B), kind, plane, tol)
+            walls = ((a > c.domain[0], b < c.domain[1]), (A > d.domain[0], B < d.domain[1]))
+            blocks.append((block, walls))
 
-    polished = [trace.points if len(trace.points) < 2 else unit.polish(trace.points) for trace in traces]
-    traces = [type(tr)(p, tr.closed, tr.ends) for tr, p in zip(traces, polished)]
-    branches = tuple(make_branch(k, unit.to_params(tr.points), tr, tr.points)
-                     for k, tr in enumerate(traces))
+    branches: list[Branch] = []
+    raw_pieces, raw_turning, knot_hits = [], [], []
+    for block, (t_walls, T_walls) in blocks:
+        unit = block.unit
+        seeds, visited = block.seeds, block.visited
+        if not visited.all():
+            missed = seeds.points[~visited]
+            findings.append(Finding("UNTRACED_SEEDS", f"{len(missed)} grid roots lie on no traced branch",
+                                    {"points": unit.to_params(missed).tolist()}))
+        if len(block.unmet):
+            findings.append(Finding(
+                "UNTRACED_REGION", f"{len(block.unmet)} boxes where f provably changes sign are met by no "
+                "traced branch: a component of the solution curve may be missing",
+                {"boxes": block.unmet.tolist()}))
+        traces = block.traces
+        for trace in traces:
+            if END_UNRESOLVED in trace.ends or END_STEP_LIMIT in trace.ends:
+                why = ("the trace reached its step limit" if END_STEP_LIMIT in trace.ends
+                       else "a branch could not be followed to its end")
+                findings.append(Finding("BRANCH_UNRESOLVED", why,
+                                        {"end": unit.to_params(trace.points[-1]).tolist()}))
+        polished = [trace.points if len(trace.points) < 2 else unit.polish(trace.points) for trace in traces]
+        traces = [type(tr)(p, tr.closed, tr.ends) for tr, p in zip(traces, polished)]
+        offset = len(branches)
+        for k, tr in enumerate(traces):
+            branch = make_branch(offset + k, unit.to_params(tr.points), tr, tr.points)
+            branches.append(Branch(branch.index, branch.points, branch.closed,
+                                   _end_names(branch.ends, t_walls, T_walls), branch.kind))
+            knot_hits += knot_crossings(block.field, offset + k, branches[-1].points)
+        pieces_b, turning_b = split_pieces(unit, traces, tol.junction)
+        for x, acc, n in pieces_b:
+            raw_pieces.append((unit.to_params(unit.polish(x)), acc, offset + n))
+        for x, kind_, n, o in turning_b:
+            raw_turning.append((unit.to_params(unit.polish(x[None])[0]), kind_, offset + n, o))
+        for p in block.critical.points[block.isolated]:
+            findings.append(Finding(
+                "ISOLATED_POINT", f"f vanishes at an isolated point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) (an "
+                "extremum of f with f = 0): a developable ruling that exists for this t only",
+                {"t": float(p[0]), "T": float(p[1]), "point_c": c(p[:1])[0].tolist(), "point_d": d(p[1:])[0].tolist()}))
+    scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
+    for block, _ in blocks:
+        for p in block.touches:
+            if any(np.min(np.hypot(*((b.points - p) / scale).T)) <= tol.junction for b in branches):
+                continue
+            findings.append(Finding(
+                "ISOLATED_POINT", f"f vanishes at a single point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) on a side of "
+                "the rectangle (the solution curve touches it from outside): a ruling for this t only",
+                {"t": float(p[0]), "T": float(p[1]), "point_c": c(p[:1])[0].tolist(), "point_d": d(p[1:])[0].tolist()}))
+    fans = _corner_fans(branches, c, d, len(raw_pieces))
+    for fan in fans:
+        apex = c(fan.points[:1, 0])[0] if np.ptp(fan.points[:, 0]) == 0 else d(fan.points[:1, 1])[0]
+        findings.append(Finding(
+            "CORNER_FAN", f"a corner fan with its apex at {np.round(apex, 6).tolist()} joins the one-sided "
+            f"roots at a C0 knot: t in [{fan.points[0, 0]:.9g}, {fan.points[-1, 0]:.9g}], "
+            f"T in [{fan.points[0, 1]:.9g}, {fan.points[-1, 1]:.9g}]",
+            {"points": fan.points[[0, -1]].tolist(), "apex": apex.tolist()}))
+    certify_time = sum(block.certify_time for block, _ in blocks)
     # judge both orientations of d against c; keep the one with the better strip
-    raw_pieces, raw_turning = split_pieces(unit, traces, tol.junction)
-    piece_points = [unit.to_params(unit.polish(x)) for x, _, _ in raw_pieces]
     best = None
     for column, orientation in ((0, 1), (1, -1)):
         pieces = tuple(Piece(k, n, points, acc[column])
-                       for k, ((_, acc, n), points) in enumerate(zip(raw_pieces, piece_points)))
+                       for k, (points, acc, n) in enumerate(raw_pieces)) + tuple(fans)
         path = choose_path(c, d, list(pieces), tol.junction, tol.min_piece_coverage, orientation)
-        score = -1.0 if path is None else path.coverage.c_fraction + path.coverage.d_fraction
-        if best is None or score > best[0] + 1e-12:
+        score = (-1, -1.0) if path is None else path_rank(path.coverage)
+        if best is None or score > best[0]:
             best = (score, pieces, orientation, path)
     _, pieces, orientation, path = best
-    turning = tuple(make_turning_point(c, d, unit.to_params(unit.polish(x[None])[0]), kind_, n)
-                    for x, kind_, n, o in raw_turning if o == orientation)
+    turning = tuple(make_turning_point(c, d, x, kind_, n) for x, kind_, n, o in raw_turning if o == orientation)
     mismatches = []
-    crossings = []
     for branch in branches:
         mismatches += curvature_mismatches(c, d, branch.index, branch.points)
-        crossings += knot_crossings(field, branch.index, branch.points)
 
-    all_points = np.vstack([b.points for b in branches]) if branches else np.zeros((0, 2))
-    residual = float(normalized_residual(c, d, all_points[:, 0], all_points[:, 1]).max(initial=0.0))
+    # every reported point is checked against the residual bound after tracing
+    checked = [b.points for b in branches] + [p.points for p in pieces]
+    checked += [np.array([[tp.t, tp.T]]) for tp in turning]
+    if path is not None:
+        checked.append(path.points)
+    all_points = np.vstack(checked) if checked else np.zeros((0, 2))
+    point_residual = normalized_residual(c, d, all_points[:, 0], all_points[:, 1])
+    residual = float(point_residual.max(initial=0.0))
+    if residual > tol.residual:
+        bad = all_points[point_residual > tol.residual]
+        on_path = path is not None and bool(np.any(normalized_residual(c, d, *path.points.T) > tol.residual))
+        findings.append(Finding(
+            "RESIDUAL_EXCEEDED", f"{len(bad)} reported point(s) miss the residual bound {tol.residual:.0e} "
+            f"(worst {residual:.3g})" + (", some on the chosen path" if on_path else ""),
+            {"points": bad[:50].tolist(), "worst": residual, "on_path": on_path}))
 
+    proved = all(block.enclosure.proved_empty for block, _ in blocks)
     if not branches:
         f_values = field(*np.meshgrid(np.linspace(*c.domain, 33), np.linspace(*d.domain, 33)))
-        message = ("no developable strip: f(t, T) has no zero in the parameter rectangle "
-                   f"(it keeps one sign, |f| >= {np.abs(f_values).min():.3g}); only fans "
-                   "(cones with the apex on one curve, meeting at a crease) join these curves")
-        findings.append(Finding("NO_SOLUTION_CURVE", message,
-                                {"f_min": float(f_values.min()), "f_max": float(f_values.max())}))
+        bounds = [min(b.enclosure.f_min for b, _ in blocks), max(b.enclosure.f_max for b, _ in blocks)]
+        n_boxes = sum(b.enclosure.n_excluded for b, _ in blocks)
+        iso = [f for f in findings if f.code == "ISOLATED_POINT"]
+        if proved:
+            message = ("no developable strip: f(t, T) has no zero in the parameter rectangle, proved (the "
+                       f"Bernstein coefficients of f keep one sign on all {n_boxes} boxes); only fans "
+                       "(cones with the apex on one curve, meeting at a crease) join these curves")
+            code = "NO_SOLUTION_CURVE"
+        else:
+            left = sum(len(b.enclosure.boxes) for b, _ in blocks)
+            message = ("no developable strip: no branch of the solution curve was found, but its absence is "
+                       f"not proved: {left} boxes of the rectangle where f may vanish remain after subdivision"
+                       + (f"; f vanishes at {len(iso)} isolated point(s) (a ruling at one t only)" if iso else "")
+                       + "; only fans (cones with the apex on one curve) join these curves elsewhere")
+            code = "NO_BRANCH_FOUND"
+        findings.append(Finding(code, message, {"f_min": float(f_values.min()), "f_max": float(f_values.max()),
+                                                "bernstein_bounds": bounds, "excluded_boxes": n_boxes,
+                                                "proved": proved}))
         success = False
     elif path is None:
         worst = [m.worst for m in mismatches]
@@ -146,8 +353,32 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
             findings.append(Finding("REGRESSION", "parts of the solution curve have rulings "
                                     "crossing inside the strip; they are shown, never cut",
                                     {"pieces": [p.index for p in pieces if not p.acceptable]}))
-    return SolutionSet(success, message, kind, field.degree_in_T, branches, pieces, turning,
-                       tuple(mismatches), tuple(crossings), path, tuple(findings), residual, field)
+    total = time.perf_counter() - start
+    findings.append(Finding("CERTIFICATE", _certificate_message(blocks, branches, proved),
+                            {"proved_empty": proved,
+                             "complete": all(b.enclosure.complete and b.critical.complete for b, _ in blocks),
+                             "critical_points": int(sum(len(b.critical.points) for b, _ in blocks)),
+                             "excluded_boxes": int(sum(b.enclosure.n_excluded for b, _ in blocks)),
+                             "certify_seconds": certify_time, "solve_seconds": total}))
+    return SolutionSet(success, message, kind, field.degree_in_T, tuple(branches), pieces, turning,
+                       tuple(mismatches), tuple(knot_hits), path, tuple(findings), residual, field)
+
+
+def _certificate_message(blocks, branches, proved: bool) -> str:
+    n_crit = sum(len(b.critical.points) for b, _ in blocks)
+    complete = all(b.enclosure.complete and b.critical.complete for b, _ in blocks)
+    unmet = sum(len(b.unmet) for b, _ in blocks)
+    if proved:
+        return "f has no zero in the rectangle (proved by Bernstein bounds on every box)"
+    if complete and unmet == 0:
+        return (f"{len(branches)} branch(es); every box where f changes sign is met by a traced branch and a "
+                f"seed line passes through each of the {n_crit} critical point(s) that may hold a loop")
+    what = []
+    if not complete:
+        what.append("the subdivision ran out of its box budget (f nearly vanishes on a large set)")
+    if unmet:
+        what.append(f"{unmet} box(es) with a sign change of f are met by no branch")
+    return "completeness not proved: " + "; ".join(what)
 
 
 def rulings_on_path(solution: SolutionSet, t: np.ndarray, iterations: int = 4) -> np.ndarray:

@@ -29,6 +29,8 @@ class Tolerances:
         Largest tracer step in the unit parameter square.
     trace_min_step : float
         Smallest tracer step before the tracer tries to jump a singular point.
+    trace_max_steps : int
+        Steps one trace may take in one direction before it stops with a finding.
     junction : float
         Distance in the unit parameter square below which two branch points are
         the same point (junctions, loop closure, seed matching).
@@ -48,6 +50,7 @@ class Tolerances:
     min_grid_lines: int = 48
     trace_step: float = 4e-3
     trace_min_step: float = 1e-6
+    trace_max_steps: int = 20000
     junction: float = 1e-6
     min_piece_coverage: float = 1e-6
     nesting: float = 1e-6

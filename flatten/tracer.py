@@ -21,6 +21,7 @@ from .tolerances import Tolerances
 
 END_LOOP = "loop"
 END_UNRESOLVED = "unresolved"
+END_STEP_LIMIT = "step_limit"
 SIDE_NAMES = ("t_start", "t_end", "T_start", "T_end")
 
 
@@ -61,6 +62,44 @@ def grid_lines(breakpoints: np.ndarray, per_span: int, minimum: int) -> np.ndarr
     lines = [np.linspace(a, b, per_span + 1)[:-1] for a, b in zip(breakpoints[:-1], breakpoints[1:])]
     lines.append(breakpoints[-1:])
     return (np.concatenate(lines) - lo) / (hi - lo)
+
+
+def _merge_lines(lines: np.ndarray, extra) -> np.ndarray:
+    """Sorted union of line positions; extra lines closer than 1e-9 to one kept are dropped."""
+    extra = np.clip(np.asarray(extra, dtype=np.float64).ravel(), 0.0, 1.0)
+    if extra.size == 0:
+        return lines
+    merged = np.sort(np.concatenate([lines, extra]))
+    keep = np.ones(len(merged), dtype=bool)
+    keep[1:] = np.diff(merged) > 1e-9
+    keep[-1] = True
+    merged = merged[keep]
+    merged[0], merged[-1] = 0.0, 1.0
+    return np.unique(merged)
+
+
+@dataclass(frozen=True)
+class StepCaps:
+    """Where the zero set comes close to itself: the trace step must stay below the gap.
+
+    points : (K, 2) critical points of f (unit square); gap : (K,) distance across Z
+    there (two arms of a near-tangent saddle, or the small axis of a small loop);
+    slope : (K,) how fast the arms separate with the distance from the point. The cap
+    at x is min_k (gap_k + slope_k |x - p_k|) / 4.
+    """
+
+    points: np.ndarray
+    gap: np.ndarray
+    slope: np.ndarray
+
+    def cap(self, x: np.ndarray) -> float:
+        if len(self.gap) == 0:
+            return np.inf
+        dist = np.hypot(*(self.points - x).T)
+        return float(np.min(0.25 * (self.gap + self.slope * dist)))
+
+
+NO_CAPS = StepCaps(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
 
 
 class _UnitField:
@@ -106,9 +145,11 @@ class _UnitField:
         width = breaks[i + 1] - breaks[i]
         return i, (x - breaks[i]) / width, width
 
-    def project(self, y: np.ndarray, iterations: int = 8):
-        """Newton projection onto f = 0 along the gradient; returns point, converged flag."""
+    def project(self, y: np.ndarray, iterations: int = 8, accept: float = 1e-12):
+        """Newton projection onto f = 0 along the gradient; returns point, converged flag
+        (the last Newton step below ``accept``)."""
         y = y.copy()
+        size = np.inf
         for _ in range(iterations):
             f, g = self.value_gradient(y)
             f, g = f[0], g[0]
@@ -117,10 +158,12 @@ class _UnitField:
                 return y, False
             step = f * g / gg
             y -= step
-            if np.sqrt(step @ step) <= 1e-14:
+            size = np.sqrt(step @ step)
+            if size <= 1e-14:
                 return y, True
-        f, g = self.value_gradient(y)
-        return y, bool(abs(f[0]) <= 1e-13 * np.linalg.norm(g[0]))
+        # where |grad f| is small (near a small loop or a saddle) round-off in f keeps
+        # the last Newton steps near 1e-14 instead of 0: the point is on Z all the same
+        return y, bool(size <= accept)
 
     def tangent(self, x: np.ndarray) -> np.ndarray:
         _, g = self.value_gradient(x)
@@ -129,11 +172,15 @@ class _UnitField:
         return np.array([-g[1], g[0]]) / n if n > 0 else np.zeros(2)
 
 
-def find_seeds(field: DevelopabilityField, tol: Tolerances) -> GridSeeds:
-    """All roots of f on the grid lines, batched (one matrix product per direction)."""
+def find_seeds(field: DevelopabilityField, tol: Tolerances, extra_u=(), extra_U=()) -> GridSeeds:
+    """All roots of f on the grid lines, batched (one matrix product per direction).
+
+    ``extra_u``, ``extra_U`` : further line positions in the unit square (lines through
+    the extrema of f, so that every small loop is crossed by a seed line).
+    """
     unit = _UnitField(field)
-    u_lines = grid_lines(field.c.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines)
-    U_lines = grid_lines(field.d.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines)
+    u_lines = _merge_lines(grid_lines(field.c.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines), extra_u)
+    U_lines = _merge_lines(grid_lines(field.d.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines), extra_U)
     line_v, T, van_u = field.roots_in_T(unit.t0 + u_lines * unit.dt, tol.zero_relative)
     line_h, t, van_U = field.roots_in_t(unit.T0 + U_lines * unit.dT, tol.zero_relative)
     pts_v = np.column_stack([u_lines[line_v], (T - unit.T0) / unit.dT])
@@ -147,10 +194,12 @@ def find_seeds(field: DevelopabilityField, tol: Tolerances) -> GridSeeds:
 
 
 class _Tracer:
-    def __init__(self, field: DevelopabilityField, seeds: GridSeeds, tol: Tolerances):
+    def __init__(self, field: DevelopabilityField, seeds: GridSeeds, tol: Tolerances,
+                 caps: StepCaps = NO_CAPS):
         self.unit = _UnitField(field)
         self.seeds = seeds
         self.tol = tol
+        self.caps = caps
         self.visited = np.zeros(len(seeds.points), dtype=bool)
         # seeds per line, for matching crossings
         self.by_line = {}
@@ -222,13 +271,18 @@ class _Tracer:
 
     # -- continuation --------------------------------------------------------
     def _step(self, x, tangent, h):
-        y, ok = self.unit.project(x + h * tangent)
+        # polyline points need not be exact (they are polished afterwards and checked):
+        # a Newton step of 1e-4 h is converged even where round-off keeps it from 0
+        y, ok = self.unit.project(x + h * tangent, accept=max(1e-12, 1e-4 * h))
         if not ok:
             return None
         new_tangent = self.unit.tangent(y)
         if new_tangent @ tangent < 0:
             new_tangent = -new_tangent
-        if new_tangent @ tangent < 0.9 or np.hypot(*(y - x)) > 2.0 * h:
+        moved = np.hypot(*(y - x))
+        # a corrector that pulls the point back (moved ~ 0) would let the trace stall
+        # forever; one that moves it far has jumped to another arm
+        if new_tangent @ tangent < 0.9 or moved > 2.0 * h or moved < 0.25 * h:
             return None
         return y, new_tangent
 
@@ -239,16 +293,19 @@ class _Tracer:
         if not tangent.any():
             return [x], END_UNRESOLVED
         points = [x]
-        h = tol.trace_step
+        h = min(tol.trace_step, self.caps.cap(x))
         travelled = 0.0
-        for _ in range(200000):
+        for _ in range(tol.trace_max_steps):
             attempt = None
+            cap = self.caps.cap(x)
+            h = min(h, cap)
             trial = h
-            while trial >= tol.trace_min_step and attempt is None:
+            min_step = min(tol.trace_min_step, 0.125 * cap)
+            while trial >= min_step and attempt is None:
                 attempt = self._step(x, tangent, trial)
                 if attempt is None:
                     trial *= 0.5
-            if attempt is None:  # jump over a singular point along the tangent
+            if attempt is None and cap == np.inf:  # jump over a singular point along the tangent
                 for trial in h * np.array([2.0, 4.0, 8.0, 16.0]):
                     attempt = self._step(x, tangent, trial)
                     if attempt is not None:
@@ -264,18 +321,21 @@ class _Tracer:
                 exit_point, side = self._boundary_exit(x, y)
                 points.append(exit_point)
                 return points, side
-            for _, k in self._crossings(x, y):
-                self._mark(k)
-                points.append(self.seeds.points[k].copy())
             step_len = np.hypot(*(y - x))
             travelled += step_len
-            if travelled > 4.0 * tol.trace_step and np.hypot(*(y - start)) <= max(step_len, 1e-9) * 1.01:
+            closing = travelled > 2.5 * step_len and np.hypot(*(y - start)) <= max(step_len * 1.01, 1e-12)
+            # the closing chord ends at the start: the grid lines it crosses are those
+            # between x and the start, not between x and y
+            for _, k in self._crossings(x, start if closing else y):
+                self._mark(k)
+                points.append(self.seeds.points[k].copy())
+            if closing:
                 points.append(start.copy())
                 return points, END_LOOP
             points.append(y)
             x, tangent = y, new_tangent
             h = min(trial * 1.5, tol.trace_step)
-        return points, END_UNRESOLVED
+        return points, END_STEP_LIMIT
 
     def trace_from(self, seed_index: int) -> Trace:
         start = self.seeds.points[seed_index].copy()
@@ -340,17 +400,26 @@ def _fan_ends(points: np.ndarray) -> tuple[str, str]:
     return side(points[0]), side(points[-1])
 
 
-def trace_zero_set(field: DevelopabilityField, tol: Tolerances) -> tuple[list[Trace], GridSeeds, np.ndarray]:
+def trace_zero_set(field: DevelopabilityField, tol: Tolerances, extra_u=(), extra_U=(),
+                   caps: StepCaps = NO_CAPS, explained: np.ndarray | None = None
+                   ) -> tuple[list[Trace], GridSeeds, np.ndarray]:
     """Every branch of Z in the unit square.
+
+    ``extra_u``, ``extra_U`` add seed lines; ``caps`` bound the step near critical
+    points; seeds within ``tol.junction`` of the (K, 2) ``explained`` points (isolated
+    points of Z, reported on their own) are not traced.
 
     Returns the traces, the grid seeds and a (S,) bool array telling which seeds
     some trace passed (all of them, unless a branch could not be followed).
     """
-    seeds = find_seeds(field, tol)
-    tracer = _Tracer(field, seeds, tol)
+    seeds = find_seeds(field, tol, extra_u, extra_U)
+    tracer = _Tracer(field, seeds, tol, caps)
     traces = _grid_line_fans(seeds, field)
     for trace in traces:  # seeds on those fans are already explained
         tracer.visited |= _distance_to_polyline(seeds.points, trace.points) <= tol.junction
+    if explained is not None and len(explained) and len(seeds.points):
+        near = np.hypot(*(seeds.points[:, None, :] - explained[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+        tracer.visited |= near <= 1e-5
     # interior seeds first, so that branches are traced through rather than from an end
     order = np.argsort(-np.min(np.minimum(seeds.points, 1.0 - seeds.points), axis=1), kind="stable")
     for k in order:
