@@ -177,8 +177,10 @@ class DevelopabilityField:
         flat = coefs.reshape(n * n_spans, width)
         row, root, vanishing = real_roots_unit_interval(
             flat, zero_relative=zero_relative)
-        # identically zero on the line, relative to the cell's scale (a fan on the line)
-        vanishing = vanishing | (np.abs(flat).max(axis=1) <= zero_relative * scale.ravel())
+        # identically zero on the line (a fan on the line): small against f's size on
+        # the cell, and not above round-off of the natural scale (nearly coplanar curves
+        # have an f far below its natural scale, but a zero line is zero to round-off)
+        vanishing = vanishing | (np.abs(flat).max(axis=1) <= scale.ravel())
         keep = ~vanishing[row]
         row, root = row[keep], root[keep]
         line, span = np.divmod(row, n_spans)
@@ -199,12 +201,21 @@ class DevelopabilityField:
         spans of d on which f(t_k, ·) is identically zero (a fan with apex c(t_k)).
         """
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        return self._roots(self.polynomials_in_T(t), self.d, zero_relative, self.scale[self.c.span_index(t)])
+        return self._roots(self.polynomials_in_T(t), self.d, zero_relative,
+                           self._zero_level(zero_relative)[self.c.span_index(t)])
 
     def roots_in_t(self, T: np.ndarray, zero_relative: float = 1e-11):
         """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
         T = np.atleast_1d(np.asarray(T, dtype=np.float64))
-        return self._roots(self.polynomials_in_t(T), self.c, zero_relative, self.scale[:, self.d.span_index(T)].T)
+        return self._roots(self.polynomials_in_t(T), self.c, zero_relative,
+                           self._zero_level(zero_relative)[:, self.d.span_index(T)].T)
+
+    def _zero_level(self, zero_relative: float) -> np.ndarray:
+        """(n_c_spans, n_d_spans) size below which f on a line counts as identically zero:
+        ``zero_relative`` of f's largest coefficient on the cell, but at least a few
+        thousand ulps of the natural scale (round-off)."""
+        magnitude = np.abs(self.cells).max(axis=(2, 3))
+        return np.maximum(zero_relative * magnitude, 1e3 * np.finfo(float).eps * self.scale)
 
     def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton on f(t_k, ·) from T_guess for a batch, shape (N,).

@@ -69,11 +69,41 @@ class UnitMap:
             x -= step[:, None] * direction
         return x
 
+    @cached_property
+    def kink_lines(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit positions of the knots where f is only C0 (C1 knots of c or of d)."""
+        return tuple((curve.breakpoints[1:-1][curve.knot_continuity() <= 1] - lo) / width
+                     for curve, lo, width in ((self.field.c, self.lo[0], self.width[0]),
+                                              (self.field.d, self.lo[1], self.width[1])))
+
     def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
-        """Newton along the gradient onto f = 0, batched, staying in the unit square."""
+        """Newton along the gradient onto f = 0, batched, staying in the unit square.
+
+        A point on a side stays on it (ends of branches, fans on the boundary) and so
+        does a point on a knot line where f is only C0 (its gradient is one-sided
+        there): it moves along the line only, by Newton on f restricted to the line. A
+        point on a corner line does not move: any ruling through a corner is a fan ruling.
+        """
         x = np.array(x, dtype=np.float64, copy=True)
-        corners = self.corner_lines
+        # a point within round-off of a side is on it (where a curve has zero speed at
+        # its end the residual is 0/0 just off the side)
+        x[np.abs(x) <= 1e-14] = 0.0
+        x[np.abs(x - 1.0) <= 1e-14] = 1.0
+        fixed = np.zeros(x.shape, dtype=bool)
+        for axis, lines in enumerate(self.kink_lines):
+            if len(lines):
+                # a point within 1e-9 of the line (a turning point at a kink found by
+                # Newton on one-sided derivatives) is put on it
+                gap = np.abs(x[:, axis:axis + 1] - lines[None, :])
+                near = gap.min(axis=1) <= 1e-9
+                x[near, axis] = lines[np.argmin(gap[near], axis=1)]
+                fixed[:, axis] |= near
+        for axis, lines in enumerate(self.corner_lines):
+            if len(lines):
+                fixed[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
+        one = fixed.sum(axis=1) == 1
         for _ in range(iterations):
+            on_side = fixed | (x <= 0.0) | (x >= 1.0)
             p = self.to_params(x)
             f = self.field(p[:, 0], p[:, 1])
             g = self.gradient(x)
@@ -81,17 +111,21 @@ class UnitMap:
             ok = gg > 0
             step = np.zeros_like(x)
             step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
+            # on a line: Newton along the free axis
+            line = (on_side.sum(axis=1) == 1) | one
+            free = np.argmin(on_side, axis=1)
+            g_free = g[np.arange(len(x)), free]
+            # (not where f is constant along the line: a fan lying on it)
+            along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
+            step[along] = 0.0
+            step[along, free[along]] = f[along] / g_free[along]
             # near a singular point (branch crossing) the gradient vanishes with f:
             # a long step would throw the point onto another branch
             step[np.hypot(*step.T) > 1e-4] = 0.0
-            # a point on a side stays on it (ends of branches, fans on the boundary), and
-            # so does a point on a corner line: any ruling through a corner is a fan ruling
-            on_side = (x <= 0.0) | (x >= 1.0)
-            for axis, lines in enumerate(corners):
-                if len(lines):
-                    on_side[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
             step[on_side] = 0.0
             x = np.clip(x - step, 0.0, 1.0)
+        x[np.abs(x) <= 1e-14] = 0.0
+        x[np.abs(x - 1.0) <= 1e-14] = 1.0
         return x
 
 
@@ -365,8 +399,11 @@ def curvature_signs(c: NurbsCurve, d: NurbsCurve, params: np.ndarray):
     weak = np.linalg.norm(normal, axis=1) <= 1e-12 * np.linalg.norm(dc, axis=1) * np.linalg.norm(ruling, axis=1)
     normal[weak] = np.cross(dd[weak], ruling[weak])
     normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-    kc = np.einsum("ij,ij->i", ddc, normal) / np.einsum("ij,ij->i", dc, dc)
-    kd = np.einsum("ij,ij->i", ddd, normal) / np.einsum("ij,ij->i", dd, dd)
+    # at a zero-speed end (a doubled end pole) the curvature is undefined: report 0
+    speed_c = np.einsum("ij,ij->i", dc, dc)
+    speed_d = np.einsum("ij,ij->i", dd, dd)
+    kc = np.einsum("ij,ij->i", ddc, normal) / np.where(speed_c > 0, speed_c, np.inf)
+    kd = np.einsum("ij,ij->i", ddd, normal) / np.where(speed_d > 0, speed_d, np.inf)
     return kc, kd
 
 

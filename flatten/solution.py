@@ -81,7 +81,9 @@ class TurningPoint:
 @dataclass(frozen=True)
 class CurvatureMismatch:
     """A stretch of a branch where the normal curvatures of c and d have opposite
-    signs (Theorem 2): the part of the curves a designer has to change.
+    signs: the part of the curves a designer has to change. (Theorem 2 stated
+    correctly: neighbouring rulings do not cross iff k_c k_d > 0; T' > 0 additionally
+    needs c' and d' on the same side of the ruling, see the README.)
 
     t_range, T_range : parameter intervals; points_c, points_d : (2, 3) the stretch's
     ends on c and d in model space; worst : (t, T) where kc * kd is most negative.

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import (COPLANAR, PARALLEL_PLANES, classify_pair, corner_knots, developability_field,
+from .equation import (COPLANAR, GENERAL, PARALLEL_PLANES, classify_pair, corner_knots, developability_field,
                        normalized_residual)
 from .errors import InvalidInputError
 from .certify import critical_points, enclose, near_gap
@@ -16,7 +17,31 @@ from .judge import (UnitMap, choose_path, coverage, curvature_mismatches, knot_c
 from .nurbs import NurbsCurve
 from .solution import Branch, Finding, Path, Piece, SolutionSet
 from .tolerances import DEFAULT_TOLERANCES, Tolerances
-from .tracer import END_STEP_LIMIT, END_UNRESOLVED, StepCaps, trace_zero_set
+from .tracer import END_STEP_LIMIT, END_UNRESOLVED, StepCaps, _distance_to_polyline, trace_zero_set
+
+
+class LocalFrame:
+    """A similarity x -> (x - centre) / size putting both curves near the origin at unit size.
+
+    The solution (t, T) does not change under it (f scales by size^-3 for polynomial
+    and rational curves alike), but round-off does: a plate 1e8 mm from the origin solves
+    like one at the origin. 3D outputs are mapped back with :meth:`to_model`.
+    """
+
+    def __init__(self, c: NurbsCurve, d: NurbsCurve):
+        points = np.vstack([c.control_points, d.control_points])
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        self.centre = 0.5 * (lo + hi)
+        size = float(np.max(hi - lo))
+        self.size = size if np.isfinite(size) and size > 0 else 1.0
+
+    def curve(self, curve: NurbsCurve) -> NurbsCurve:
+        local = (curve.control_points - self.centre) / self.size
+        local.setflags(write=False)
+        return NurbsCurve(curve.degree, local, curve.weights, curve.knots, curve.name)
+
+    def to_model(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points) * self.size + self.centre
 
 
 def check_pair(c: NurbsCurve, d: NurbsCurve, tol: Tolerances) -> None:
@@ -198,20 +223,37 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
     InvalidInputError
         For a pair that bounds nothing (coincident curves).
     """
+    check_pair(c, d, tolerances)
+    solution = _solve(c, d, tolerances, parallel=True)
+    if solution.kind == PARALLEL_PLANES and solution.max_residual > tolerances.residual:
+        # planes parallel to the planarity tolerance but not to the residual bound: the
+        # reduced equation h (x'Y' - y'X') is not accurate enough, solve the full one
+        solution = _solve(c, d, tolerances, parallel=False)
+    return solution
+
+
+def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool) -> SolutionSet:
     tol = tolerances
-    check_pair(c, d, tol)
+    # solve in a local frame (numerics independent of where the part is); lengths,
+    # areas and 3D points are reported in the model's frame
+    model_c, model_d = c, d
+    frame = LocalFrame(c, d)
+    c, d = frame.curve(c), frame.curve(d)
     kind, plane = classify_pair(c, d, tol.planarity)
+    if kind == PARALLEL_PLANES and not parallel:
+        kind, plane = GENERAL, {}
     if kind == COPLANAR:
-        return flat_plate_solution(c, d, plane["normal"])
+        return flat_plate_solution(model_c, model_d, plane["normal"])
     field = developability_field(c, d, kind, plane)
     if field.identically_zero:
-        return flat_plate_solution(c, d, np.zeros(3))
+        return flat_plate_solution(model_c, model_d, np.zeros(3))
     findings: list[Finding] = []
     if kind == PARALLEL_PLANES:
+        height = plane["height"] * frame.size
         findings.append(Finding(
-            "PARALLEL_PLANES", f"polynomial curves on parallel planes {plane['height']:.6g} apart: "
+            "PARALLEL_PLANES", f"polynomial curves on parallel planes {height:.6g} apart: "
             f"f reduces to h (x'Y' - y'X'), degree {field.degree_in_T} in T",
-            {"height": plane["height"], "normal": np.asarray(plane["normal"]).tolist()}))
+            {"height": height, "normal": np.asarray(plane["normal"]).tolist()}))
     start = time.perf_counter()
     blocks = []
     c_parts, d_parts = _intervals(c), _intervals(d)
@@ -256,10 +298,17 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
         for x, kind_, n, o in turning_b:
             raw_turning.append((unit.to_params(unit.polish(x[None])[0]), kind_, offset + n, o))
         for p in block.critical.points[block.isolated]:
+            # a degenerate critical point on a traced branch (e.g. the apex of a pointed
+            # plate, where c and d meet) is a singular point of that branch, not isolated
+            if any(len(b.points) > 1 and _distance_to_polyline(((p - unit.lo) / unit.width)[None],
+                                                               unit.to_unit(b.points))[0] <= 1e-6
+                   for b in branches[offset:]):
+                continue
             findings.append(Finding(
                 "ISOLATED_POINT", f"f vanishes at an isolated point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) (an "
                 "extremum of f with f = 0): a developable ruling that exists for this t only",
-                {"t": float(p[0]), "T": float(p[1]), "point_c": c(p[:1])[0].tolist(), "point_d": d(p[1:])[0].tolist()}))
+                {"t": float(p[0]), "T": float(p[1]), "point_c": model_c(p[:1])[0].tolist(),
+                 "point_d": model_d(p[1:])[0].tolist()}))
     scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
     for block, _ in blocks:
         for p in block.touches:
@@ -268,10 +317,11 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
             findings.append(Finding(
                 "ISOLATED_POINT", f"f vanishes at a single point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) on a side of "
                 "the rectangle (the solution curve touches it from outside): a ruling for this t only",
-                {"t": float(p[0]), "T": float(p[1]), "point_c": c(p[:1])[0].tolist(), "point_d": d(p[1:])[0].tolist()}))
+                {"t": float(p[0]), "T": float(p[1]), "point_c": model_c(p[:1])[0].tolist(),
+                 "point_d": model_d(p[1:])[0].tolist()}))
     fans = _corner_fans(branches, c, d, len(raw_pieces))
     for fan in fans:
-        apex = c(fan.points[:1, 0])[0] if np.ptp(fan.points[:, 0]) == 0 else d(fan.points[:1, 1])[0]
+        apex = model_c(fan.points[:1, 0])[0] if np.ptp(fan.points[:, 0]) == 0 else model_d(fan.points[:1, 1])[0]
         findings.append(Finding(
             "CORNER_FAN", f"a corner fan with its apex at {np.round(apex, 6).tolist()} joins the one-sided "
             f"roots at a C0 knot: t in [{fan.points[0, 0]:.9g}, {fan.points[-1, 0]:.9g}], "
@@ -283,15 +333,17 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
     for column, orientation in ((0, 1), (1, -1)):
         pieces = tuple(Piece(k, n, points, acc[column])
                        for k, (points, acc, n) in enumerate(raw_pieces)) + tuple(fans)
-        path = choose_path(c, d, list(pieces), tol.junction, tol.min_piece_coverage, orientation)
+        path = choose_path(model_c, model_d, list(pieces), tol.junction, tol.min_piece_coverage, orientation)
         score = (-1, -1.0) if path is None else path_rank(path.coverage)
         if best is None or score > best[0]:
             best = (score, pieces, orientation, path)
     _, pieces, orientation, path = best
-    turning = tuple(make_turning_point(c, d, x, kind_, n) for x, kind_, n, o in raw_turning if o == orientation)
+    turning = tuple(make_turning_point(model_c, model_d, x, kind_, n) for x, kind_, n, o in raw_turning
+                    if o == orientation)
     mismatches = []
     for branch in branches:
-        mismatches += curvature_mismatches(c, d, branch.index, branch.points)
+        mismatches += [replace(m, points_c=frame.to_model(m.points_c), points_d=frame.to_model(m.points_d))
+                       for m in curvature_mismatches(c, d, branch.index, branch.points)]
 
     # every reported point is checked against the residual bound after tracing
     checked = [b.points for b in branches] + [p.points for p in pieces]

@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .equation import DevelopabilityField
 from .tolerances import Tolerances
@@ -201,17 +202,22 @@ class _Tracer:
         self.tol = tol
         self.caps = caps
         self.visited = np.zeros(len(seeds.points), dtype=bool)
+        self.tree = cKDTree(seeds.points.reshape(-1, 2))
         # seeds per line, for matching crossings
         self.by_line = {}
         for k, (axis, idx) in enumerate(zip(seeds.line_axis, seeds.line_index)):
             self.by_line.setdefault((int(axis), int(idx)), []).append(k)
         self.lines = (seeds.u_lines, seeds.U_lines)
+        kinks = []
+        for curve in (field.c, field.d):
+            inner = curve.breakpoints[1:-1]
+            kinks.append((inner[curve.knot_continuity() <= 1] - curve.domain[0]) / np.ptp(curve.domain))
+        self.kinks = tuple(kinks)
 
     def _mark(self, k: int) -> None:
         """Mark seed k and every seed at the same point (a root at a grid node is found
         on both of its lines)."""
-        near = np.hypot(*(self.seeds.points - self.seeds.points[k]).T) <= self.tol.junction
-        self.visited[near] = True
+        self.visited[self.tree.query_ball_point(self.seeds.points[k], self.tol.junction)] = True
 
     # -- grid-line crossings -------------------------------------------------
     def _crossings(self, x: np.ndarray, y: np.ndarray) -> list[tuple[float, int]]:
@@ -269,6 +275,61 @@ class _Tracer:
                 point = proj
         return point, side
 
+    # -- kinks: knot lines where f is only C0 ---------------------------------
+    def _kink_crossing(self, x: np.ndarray, tangent: np.ndarray, h: float):
+        """(seed, tangent beyond) when the next step would cross a knot line where f is
+        only continuous (a C1 knot of a curve: f holds C', so Z has a corner there).
+
+        The corrector cannot follow Z round such a corner (its tangent jumps), so the
+        trace goes to the root on the knot line (a seed, found by the line solver) and
+        leaves it with the tangent of the cell beyond.
+        """
+        for axis in (0, 1):
+            lines = self.kinks[axis]
+            if len(lines) == 0 or tangent[axis] == 0.0:
+                continue
+            reach = x[axis] + 1.5 * h * tangent[axis]
+            lo, hi = sorted((x[axis], reach))
+            ahead = lines[(lines > lo + 1e-13) & (lines < hi)] if tangent[axis] > 0 else \
+                lines[(lines > lo) & (lines < hi - 1e-13)]
+            if len(ahead) == 0:
+                continue
+            line = ahead[np.argmin(np.abs(ahead - x[axis]))]
+            idx = int(np.argmin(np.abs(self.lines[axis] - line)))
+            estimate = x + (line - x[axis]) / tangent[axis] * tangent
+            best, best_d = None, 0.5 * h + 1e-9
+            for k in self.by_line.get((axis, idx), ()):
+                dist = np.hypot(*(self.seeds.points[k] - estimate))
+                if dist < best_d:
+                    best, best_d = k, dist
+            if best is None:
+                return None
+            far = self._side_tangent(self.seeds.points[best], axis, np.sign(tangent[axis]))
+            return None if far is None else (best, far)
+        return None
+
+    def _side_tangent(self, x: np.ndarray, axis: int, side: float):
+        """Tangent of Z at x (on a kink line across ``axis``) in the cell on ``side``
+        (+1 / -1 along the axis), pointing into that cell; None if Z does not enter it."""
+        beyond = x.copy()
+        beyond[axis] += side * 1e-9
+        far = self.unit.tangent(beyond)
+        if far[axis] * side < 0:
+            far = -far
+        if not far.any() or far[axis] == 0.0:
+            return None
+        return far
+
+    def _start_tangent(self, x: np.ndarray, direction: float) -> np.ndarray:
+        """The tangent to leave a seed with; on a kink line, that of the cell it enters."""
+        tangent = self.unit.tangent(x) * direction
+        for axis in (0, 1):
+            if tangent[axis] != 0.0 and np.any(np.abs(self.kinks[axis] - x[axis]) <= 1e-12):
+                side = self._side_tangent(x, axis, np.sign(tangent[axis]))
+                if side is not None:
+                    return side
+        return tangent
+
     # -- continuation --------------------------------------------------------
     def _step(self, x, tangent, h):
         # polyline points need not be exact (they are polished afterwards and checked):
@@ -289,7 +350,7 @@ class _Tracer:
     def trace_one_way(self, start: np.ndarray, direction: float):
         tol = self.tol
         x = start.copy()
-        tangent = self.unit.tangent(x) * direction
+        tangent = self._start_tangent(x, direction)
         if not tangent.any():
             return [x], END_UNRESOLVED
         points = [x]
@@ -299,6 +360,19 @@ class _Tracer:
             attempt = None
             cap = self.caps.cap(x)
             h = min(h, cap)
+            kink = self._kink_crossing(x, tangent, h)
+            if kink is not None:  # step onto the knot line, turn to the far side's tangent
+                k, far_tangent = kink
+                y = self.seeds.points[k].copy()
+                for _, m in self._crossings(x, y):
+                    if m != k:
+                        self._mark(m)
+                        points.append(self.seeds.points[m].copy())
+                self._mark(k)
+                travelled += np.hypot(*(y - x))
+                points.append(y)
+                x, tangent = y, far_tangent
+                continue
             trial = h
             min_step = min(tol.trace_min_step, 0.125 * cap)
             while trial >= min_step and attempt is None:
@@ -360,6 +434,35 @@ def _distance_to_polyline(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("snj,snj->sn", gap, gap).min(axis=1))
 
 
+def near_polyline(points: np.ndarray, poly: np.ndarray, tol: float, tree: cKDTree | None = None) -> np.ndarray:
+    """(S,) True where a point of (S, 2) lies within ``tol`` of the polyline (N, 2).
+
+    Memory and time O(S + N) (a k-d tree of the points, queried around each segment),
+    not the O(S N) of all point-segment distances: a long trace against many seeds
+    must not ask for gigabytes.
+    """
+    out = np.zeros(len(points), dtype=bool)
+    if len(points) == 0 or len(poly) == 0:
+        return out
+    if len(poly) == 1:
+        return np.hypot(*(points - poly[0]).T) <= tol
+    tree = cKDTree(points) if tree is None else tree
+    a, r = poly[:-1], np.diff(poly, axis=0)
+    length = np.hypot(*r.T)
+    hits = tree.query_ball_point(a + 0.5 * r, 0.5 * length + tol, return_sorted=False)
+    counts = np.fromiter((len(h) for h in hits), dtype=int, count=len(hits))
+    if counts.sum() == 0:
+        return out
+    seg = np.repeat(np.arange(len(a)), counts)
+    idx = np.concatenate([np.asarray(h, dtype=int) for h in hits if len(h)])
+    rel = points[idx] - a[seg]
+    rr = np.maximum(length[seg] ** 2, 1e-300)
+    frac = np.clip(np.einsum("ij,ij->i", rel, r[seg]) / rr, 0.0, 1.0)
+    gap = np.hypot(*(rel - frac[:, None] * r[seg]).T)
+    out[idx[gap <= tol]] = True
+    return out
+
+
 def _dedupe(points: np.ndarray) -> np.ndarray:
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.hypot(*(np.diff(points, axis=0).T)) > 1e-13
@@ -415,8 +518,9 @@ def trace_zero_set(field: DevelopabilityField, tol: Tolerances, extra_u=(), extr
     seeds = find_seeds(field, tol, extra_u, extra_U)
     tracer = _Tracer(field, seeds, tol, caps)
     traces = _grid_line_fans(seeds, field)
+    tree = tracer.tree
     for trace in traces:  # seeds on those fans are already explained
-        tracer.visited |= _distance_to_polyline(seeds.points, trace.points) <= tol.junction
+        tracer.visited |= near_polyline(seeds.points, trace.points, tol.junction, tree)
     if explained is not None and len(explained) and len(seeds.points):
         near = np.hypot(*(seeds.points[:, None, :] - explained[None, :, :]).transpose(2, 0, 1)).min(axis=1)
         tracer.visited |= near <= 1e-5
@@ -428,5 +532,5 @@ def trace_zero_set(field: DevelopabilityField, tol: Tolerances, extra_u=(), extr
             traces.append(trace)
             # a grid line tangent to the branch holds a (double) root the trace touches
             # without crossing the line
-            tracer.visited |= _distance_to_polyline(seeds.points, trace.points) <= 1e-6
+            tracer.visited |= near_polyline(seeds.points, trace.points, 1e-6, tree)
     return traces, seeds, tracer.visited.copy()

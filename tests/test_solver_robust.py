@@ -1,0 +1,133 @@
+"""Issue 11 (solver parts): the tracer finishes on repeated knots, and the solution does
+not depend on where the part is."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from flatten import normalized_residual, nurbs_curve, rulings_on_path, solve
+from tests import oracles
+
+
+def curve_with_repeated_knot(rng, name, shift, multiplicity):
+    n = int(rng.integers(4 + multiplicity, 9))
+    inner = np.sort(rng.uniform(0.1, 0.9, n - 4))
+    k = int(rng.integers(0, len(inner) - multiplicity + 1))
+    inner[k:k + multiplicity] = inner[k]  # a knot of the given multiplicity
+    knots = np.concatenate([[0] * 4, np.sort(inner), [1] * 4])
+    return nurbs_curve(rng.uniform(-1, 1, size=(n, 3)) + shift, 3, knots=knots, name=name)
+
+
+@settings(max_examples=6, derandomize=True, deadline=None)
+@given(seed=st.integers(0, 100_000), multiplicity=st.sampled_from([2, 3]))
+def test_random_cubics_with_repeated_knots_finish_and_every_branch_is_followed(seed, multiplicity):
+    # a double knot makes f only C0 across the knot line (Z has corners there); the
+    # corrector used to stall on them until a 200000-step cap (minutes per pair)
+    rng = np.random.default_rng(seed)
+    c = curve_with_repeated_knot(rng, "c", 0.0, multiplicity)
+    d = curve_with_repeated_knot(rng, "d", [0.0, 0.0, 2.0], 2)
+    solution = solve(c, d)
+    codes = {f.code for f in solution.findings}
+    assert not {"BRANCH_UNRESOLVED", "UNTRACED_SEEDS", "RESIDUAL_EXCEEDED"} & codes
+    points = np.vstack([b.points for b in solution.branches])
+    assert normalized_residual(solution.field.c, solution.field.d, *points.T).max() <= 1e-12
+    cert = next(f for f in solution.findings if f.code == "CERTIFICATE")
+    assert cert.data["solve_seconds"] < 60  # a bound, not a benchmark: hangs took minutes
+
+
+def moved(curve, shift, scale=1000.0):
+    return nurbs_curve(curve.control_points * scale + [shift, 0.0, 0.0], curve.degree,
+                       weights=curve.weights, knots=curve.knots, name=curve.name)
+
+
+@pytest.mark.parametrize("pair", ["frustum", "s_and_c", "cylinder"])
+@pytest.mark.parametrize("shift", [1e7, 1e8])
+def test_a_plate_far_from_the_origin_solves_like_at_the_origin(pair, shift):
+    c, d = {"frustum": oracles.frustum_pair, "s_and_c": oracles.s_and_c_curves,
+            "cylinder": oracles.cylinder_pair}[pair]()
+    near = solve(moved(c, 0.0), moved(d, 0.0))
+    far = solve(moved(c, shift), moved(d, shift))
+    assert far.kind == near.kind and bool(far) == bool(near)
+    assert far.path.coverage.c_fraction == pytest.approx(near.path.coverage.c_fraction, abs=1e-9)
+    assert far.path.coverage.c_length == pytest.approx(near.path.coverage.c_length, rel=1e-9)
+    t = np.linspace(*near.path.points[[0, -1], 0], 101)
+    np.testing.assert_allclose(rulings_on_path(far, t), rulings_on_path(near, t), atol=1e-9)
+    # 3D outputs are in the model's frame
+    for tp_far, tp_near in zip(far.turning_points, near.turning_points):
+        np.testing.assert_allclose(tp_far.point_c - [shift, 0, 0], tp_near.point_c, atol=1e-6)
+    assert far.max_residual <= 1e-12
+
+
+def test_pointed_plate_gives_no_nan():
+    # c and d share their first point: the ruling there has zero length
+    x = np.linspace(0.0, 1.0, 5)
+    c = nurbs_curve(np.column_stack([3 * x, 0.3 * np.sin(3 * x), 0 * x]), 3, name="c")
+    d = nurbs_curve(np.column_stack([3 * x, 0.3 * np.sin(3 * x) + x, 0.5 * x]), 3, name="d")
+    solution = solve(c, d)
+    assert solution, solution.message
+    assert "nan" not in solution.message.lower()
+    assert np.isfinite(solution.max_residual)
+    for f in solution.findings:
+        assert "nan" not in f.message.lower()
+    assert solution.path.coverage.c_fraction == pytest.approx(1.0)
+    assert not [f for f in solution.findings if f.code == "ISOLATED_POINT"]
+
+
+# ------------------------------------------------------------ issue 13 (solver parts)
+def test_nearly_coplanar_curves_give_no_spurious_fans():
+    # d's plane turned 1e-9 rad against c's: f is 1e-9 of its natural scale, and a
+    # line test relative to that scale took whole grid lines for fans
+    c, d = oracles.planar_cubics_on_parallel_planes()
+    poles = d.control_points.copy()
+    poles[:, 2] = 1e-9 * poles[:, 1]
+    d = nurbs_curve(poles, 3, knots=d.knots, name="d")
+    solution = solve(c, d)
+    assert solution and solution.kind == "general"
+    assert [b.kind for b in solution.branches] == ["graph"]
+    assert not {"BRANCH_UNRESOLVED", "RESIDUAL_EXCEEDED"} & {f.code for f in solution.findings}
+    assert solution.max_residual <= 1e-12
+
+
+def test_planes_parallel_only_to_the_planarity_tolerance_are_solved_in_full():
+    c, d = oracles.planar_cubics_on_parallel_planes()
+    poles = d.control_points.copy()
+    poles[:, 2] += 1e-10 * poles[:, 0]  # parallel to 1e-10: the reduced equation misses 1e-12
+    solution = solve(c, nurbs_curve(poles, 3, knots=d.knots, name="d"))
+    assert solution.kind == "general" and solution.max_residual <= 1e-12
+    assert "RESIDUAL_EXCEEDED" not in {f.code for f in solution.findings}
+
+
+def test_zero_speed_ends_keep_the_cone():
+    # a doubled first pole on both curves (zero speed at t = 0): still a cone, T = t
+    import warnings
+    c, d = oracles.cone_pair()
+    knots = np.concatenate([[0, 0, 0, 0], np.linspace(0, 1, 7)[1:-1], [1, 1, 1, 1]])
+    c2, d2 = (nurbs_curve(np.vstack([k.control_points[:1], k.control_points]), 3, knots=knots, name=k.name)
+              for k in (c, d))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        solution = solve(c2, d2)
+    assert solution, solution.message
+    np.testing.assert_allclose(solution.path.points[:, 1], solution.path.points[:, 0], atol=1e-9)
+    assert solution.path.coverage.c_fraction == pytest.approx(1.0)
+    assert solution.max_residual <= 1e-12
+    assert "RESIDUAL_EXCEEDED" not in {f.code for f in solution.findings}
+
+
+def test_a_trace_stops_at_its_step_limit_with_a_finding():
+    from flatten import Tolerances
+    solution = solve(*oracles.cone_pair(), Tolerances(trace_max_steps=30))
+    limited = [f for f in solution.findings if f.code == "BRANCH_UNRESOLVED" and "step limit" in f.message]
+    assert limited
+    assert all(len(b.points) <= 2 * 30 + 200 for b in solution.branches)  # steps + grid crossings
+
+
+def test_seed_matching_is_linear_in_memory_and_agrees_with_all_pairs():
+    from flatten.tracer import _distance_to_polyline, near_polyline
+    rng = np.random.default_rng(0)
+    points = rng.uniform(0, 1, (3000, 2))
+    for n in (1, 2, 500):
+        poly = np.cumsum(rng.normal(0, 0.01, (n, 2)), axis=0) + 0.5
+        for tol in (1e-6, 1e-3, 0.02):
+            np.testing.assert_array_equal(near_polyline(points, poly, tol),
+                                          _distance_to_polyline(points, poly) <= tol)
