@@ -132,8 +132,36 @@ def main(argv=None) -> int:
     print(f"{'numpy.roots per t and span (' + str(args.baseline) + ')':<44}{args.baseline / base_all_time:>14.3e}")
     print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
     certification_share()
+    growth_in_spans()
     stage_breakdown()
     return 0
+
+
+def spans_pair(n_spans: int):
+    """A gently curved plate's seams as cubic B-splines with n_spans uniform spans each."""
+    n = n_spans + 3
+    x = np.linspace(0.0, 12.0, n)
+    c = nurbs_curve(np.column_stack([x, 0.4 * np.sin(x / 4), 0.05 * x]), 3, name="c")
+    d = nurbs_curve(np.column_stack([x * 1.02, 2.2 + 0.6 * np.sin(x / 4 + 0.2), 1.5 + 0.08 * x]), 3, name="d")
+    return c, d
+
+
+def growth_in_spans() -> None:
+    """Solve time (CPU) and peak Python memory against the span count of both curves."""
+    import tracemalloc
+
+    print()
+    print(f"{'solve against spans (both curves)':<44}{'cpu s':>10}{'peak MB':>10}{'branches':>10}")
+    for n_spans in (5, 25, 50, 100, 200):
+        c, d = spans_pair(n_spans)
+        tracemalloc.start()
+        start = time.process_time()
+        solution = solve(c, d)
+        cpu = time.process_time() - start
+        peak = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+        print(f"{'  ' + str(n_spans) + ' x ' + str(n_spans) + ' spans':<44}{cpu:>10.3f}{peak:>10.1f}"
+              f"{len(solution.branches):>10}")
 
 
 def random_cubic_pair(seed: int):

@@ -124,37 +124,50 @@ class DevelopabilityField:
 
     # ------------------------------------------------------------ evaluation
     def _local(self, curve: NurbsCurve, x: np.ndarray, forced=None):
-        idx = curve.span_index(x) if forced is None else np.full(x.shape, forced, dtype=int)
         b = curve.breakpoints
+        if forced is None:
+            idx = np.clip(np.searchsorted(b, x, side="right") - 1, 0, len(b) - 2)
+        else:
+            idx = np.full(x.shape, forced, dtype=int)
         width = b[idx + 1] - b[idx]
         return idx, (x - b[idx]) / width, width
 
     @staticmethod
     def _powers(x: np.ndarray, n: int, order: int) -> np.ndarray:
         """Rows of d^order/dx^order (1, x, ..., x^(n-1)), shape (N, n)."""
-        out = np.zeros((x.size, n))
-        for a in range(order, n):
-            out[:, a] = factorial(a) / factorial(a - order) * x ** (a - order)
-        return out
+        exponent = np.arange(n) - order
+        coef = np.array([factorial(a) / factorial(a - order) if a >= order else 0.0 for a in range(n)])
+        return coef * x[:, None] ** np.maximum(exponent, 0)
+
+    def _prepare(self, t, T, spans):
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        T = np.atleast_1d(np.asarray(T, dtype=np.float64))
+        t, T = np.broadcast_arrays(t, T)
+        i, s, hc = self._local(self.c, t.ravel(), None if spans is None else spans[0])
+        j, sig, hd = self._local(self.d, T.ravel(), None if spans is None else spans[1])
+        return t.shape, self.cells[i, j], s, sig, hc, hd
 
     def __call__(self, t, T, dt: int = 0, dT: int = 0, spans=None) -> np.ndarray:
         """∂^dt_t ∂^dT_T f at matching arrays t, T (global parameters), shape (N,).
 
         ``spans = (i, j)`` forces the cell (one-sided values at knots).
         """
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        T = np.atleast_1d(np.asarray(T, dtype=np.float64))
-        t, T = np.broadcast_arrays(t, T)
-        i, s, hc = self._local(self.c, t.ravel(), None if spans is None else spans[0])
-        j, sig, hd = self._local(self.d, T.ravel(), None if spans is None else spans[1])
+        shape, m, s, sig, hc, hd = self._prepare(t, T, spans)
         ps = self._powers(s, self.cells.shape[2], dt)
         pt = self._powers(sig, self.cells.shape[3], dT)
-        val = np.einsum("na,nab,nb->n", ps, self.cells[i, j], pt)
-        return (val / hc**dt / hd**dT).reshape(t.shape)
+        val = np.einsum("na,nab,nb->n", ps, m, pt)
+        return (val / hc**dt / hd**dT).reshape(shape)
 
     def gradient(self, t, T) -> np.ndarray:
-        """(f_t, f_T), shape (N, 2)."""
-        return np.stack([self(t, T, 1, 0), self(t, T, 0, 1)], axis=-1)
+        """(f_t, f_T), shape (N, 2) (one cell lookup for both)."""
+        _, m, s, sig, hc, hd = self._prepare(t, T, None)
+        a, b = self.cells.shape[2:]
+        ps0, ps1 = self._powers(s, a, 0), self._powers(s, a, 1)
+        pt0, pt1 = self._powers(sig, b, 0), self._powers(sig, b, 1)
+        mp = np.einsum("nab,nb->na", m, pt0)
+        ft = np.einsum("na,na->n", ps1, mp) / hc
+        fT = np.einsum("na,nab,nb->n", ps0, m, pt1) / hd
+        return np.stack([ft, fT], axis=-1)
 
     # ------------------------------------------------------- roots on lines
     def polynomials_in_T(self, t: np.ndarray) -> np.ndarray:

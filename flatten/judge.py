@@ -67,6 +67,8 @@ class UnitMap:
             slope = self.gradient(x) @ direction
             step = np.divide(f, slope, out=np.zeros_like(f), where=np.abs(slope) > 0)
             x -= step[:, None] * direction
+            if np.max(np.abs(step), initial=0.0) <= 1e-15:  # converged (quadratically)
+                break
         return x
 
     @cached_property
@@ -238,7 +240,10 @@ def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
         qp = q[l] - p[k]
         fa = (qp[0] * s[l, 1] - qp[1] * s[l, 0]) / denom
         fb = (qp[0] * r[k, 1] - qp[1] * r[k, 0]) / denom
-        if -1e-12 <= fa <= 1 + 1e-12 and -1e-12 <= fb <= 1 + 1e-12:
+        # within one trace, segments meeting at a shared vertex (a grid crossing inserts
+        # very short segments) are no crossing: only interior intersections count
+        lo_f, hi_f = (1e-9, 1 - 1e-9) if same else (-1e-12, 1 + 1e-12)
+        if lo_f <= fa <= hi_f and lo_f <= fb <= hi_f:
             out.append((int(k), float(fa), int(l), float(fb), p[k] + fa * r[k]))
     return out
 

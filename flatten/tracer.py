@@ -160,7 +160,9 @@ class _UnitField:
             step = f * g / gg
             y -= step
             size = np.sqrt(step @ step)
-            if size <= 1e-14:
+            # Newton converges quadratically: after a step below ``accept`` the point
+            # is within ~ curvature * accept^2 of Z
+            if size <= max(1e-14, accept):
                 return y, True
         # where |grad f| is small (near a small loop or a saddle) round-off in f keeps
         # the last Newton steps near 1e-14 instead of 0: the point is on Z all the same
@@ -334,7 +336,7 @@ class _Tracer:
     def _step(self, x, tangent, h):
         # polyline points need not be exact (they are polished afterwards and checked):
         # a Newton step of 1e-4 h is converged even where round-off keeps it from 0
-        y, ok = self.unit.project(x + h * tangent, accept=max(1e-12, 1e-4 * h))
+        y, ok = self.unit.project(x + h * tangent, accept=max(1e-12, 1e-6 * h))
         if not ok:
             return None
         new_tangent = self.unit.tangent(y)
@@ -388,11 +390,13 @@ class _Tracer:
                 return points, END_UNRESOLVED
             y, new_tangent = attempt
             if np.any(y < -1e-12) or np.any(y > 1.0 + 1e-12):
-                for _, k in self._crossings(x, np.clip(y, 0.0, 1.0)):
+                exit_point, side = self._boundary_exit(x, y)
+                # the grid lines crossed on the way out: along the chord to the exit point
+                # (the clipped step can point elsewhere and miss their seeds)
+                for _, k in self._crossings(x, exit_point):
                     if not self.visited[k] and np.all(self.seeds.points[k] > 0) and np.all(self.seeds.points[k] < 1):
                         self._mark(k)
                         points.append(self.seeds.points[k].copy())
-                exit_point, side = self._boundary_exit(x, y)
                 points.append(exit_point)
                 return points, side
             step_len = np.hypot(*(y - x))
