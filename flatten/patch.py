@@ -168,3 +168,36 @@ def weld(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> tuple[np.
     area = np.linalg.norm(np.cross(e1, e2), axis=1)
     f = f[area > 1e-12 * max(float(np.ptp(v, axis=0).max()), 1.0) ** 2]
     return v, f.astype(np.int64), new_index
+
+
+def principal_curvatures(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> tuple:
+    """Principal curvatures (N, 2) [kappa_1, kappa_2] with |kappa_1| <= |kappa_2| and the 3D
+    unit direction (N, 3) of kappa_1 (the direction of least bending: the rulings of a
+    developable surface) at parameters u, v (N,), from central differences on the surface."""
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    hu = 1e-4 * np.ptp(surface.domain_u)
+    hv = 1e-4 * np.ptp(surface.domain_v)
+    # keep the stencil inside the domain
+    u = np.clip(u, surface.domain_u[0] + hu, surface.domain_u[1] - hu)
+    v = np.clip(v, surface.domain_v[0] + hv, surface.domain_v[1] - hv)
+    s = {(i, j): surface(u + i * hu, v + j * hv) for i in (-1, 0, 1) for j in (-1, 0, 1)}
+    su = (s[1, 0] - s[-1, 0]) / (2 * hu)
+    sv = (s[0, 1] - s[0, -1]) / (2 * hv)
+    suu = (s[1, 0] - 2 * s[0, 0] + s[-1, 0]) / hu**2
+    svv = (s[0, 1] - 2 * s[0, 0] + s[0, -1]) / hv**2
+    suv = (s[1, 1] - s[1, -1] - s[-1, 1] + s[-1, -1]) / (4 * hu * hv)
+    n = np.cross(su, sv)
+    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    dot = lambda a, b: np.einsum("ij,ij->i", a, b)  # noqa: E731
+    first = np.stack([np.stack([dot(su, su), dot(su, sv)], -1), np.stack([dot(su, sv), dot(sv, sv)], -1)], -2)
+    second = np.stack([np.stack([dot(suu, n), dot(suv, n)], -1), np.stack([dot(suv, n), dot(svv, n)], -1)], -2)
+    shape = np.linalg.solve(first, second)  # Weingarten map in (u, v) coordinates
+    kappa, vecs = np.linalg.eig(shape)
+    kappa, vecs = kappa.real, vecs.real
+    order = np.argsort(np.abs(kappa), axis=1)
+    k_sorted = np.take_along_axis(kappa, order, axis=1)
+    least = np.take_along_axis(vecs, order[:, None, :1], axis=2)[..., 0]  # (N, 2) in (du, dv)
+    d3 = least[:, :1] * su + least[:, 1:] * sv
+    d3 /= np.maximum(np.linalg.norm(d3, axis=1), 1e-300)[:, None]
+    return k_sorted, d3

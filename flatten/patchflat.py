@@ -105,3 +105,50 @@ def arap_development(vertices: np.ndarray, faces: np.ndarray, iterations: int = 
     igl.arap_precomputation(v, f, 2, pinned, data)
     uv = igl.arap_solve(uv[pinned.astype(np.int64)], data, np.ascontiguousarray(uv))
     return orient_ccw(uv, f), int(iterations)
+
+
+def triangle_maps(v3: np.ndarray, v2: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Linear maps (F, 2, 3) taking 3D vectors in each triangle's plane to the flat image."""
+    p0, p1, p2 = (v3[faces[:, k]] for k in range(3))
+    q0, q1, q2 = (v2[faces[:, k]] for k in range(3))
+    A = np.stack([p1 - p0, p2 - p0], axis=2)  # (F, 3, 2)
+    Q = np.stack([q1 - q0, q2 - q0], axis=2)  # (F, 2, 2)
+    # J A = Q with J restricted to the triangle's plane: J = Q (A^T A)^-1 A^T
+    gram = np.einsum("fki,fkj->fij", A, A)
+    det = gram[:, 0, 0] * gram[:, 1, 1] - gram[:, 0, 1] ** 2
+    good = det > 1e-24 * np.maximum(gram[:, 0, 0] * gram[:, 1, 1], 1e-300)
+    inv = np.zeros_like(gram)
+    inv[good] = np.linalg.inv(gram[good])
+    return np.einsum("fij,fjk,flk->fil", Q, inv, A)
+
+
+def streamlines(field_points: np.ndarray, field_dirs: np.ndarray, outline: np.ndarray, seeds: np.ndarray,
+                step: float, max_steps: int = 2000) -> list[np.ndarray]:
+    """Integrate the (sign-free) direction field given at field_points (N, 2) (nearest sample)
+    from each seed, both ways, until leaving the closed outline (M, 2); returns polylines."""
+    from matplotlib.path import Path as MplPath
+    from scipy.spatial import cKDTree
+
+    inside = MplPath(outline).contains_points
+    tree = cKDTree(field_points)
+    lines = []
+    for seed in seeds:
+        halves = []
+        for sign in (1.0, -1.0):
+            p, prev, pts = seed.copy(), None, []
+            for _ in range(max_steps):
+                d = field_dirs[tree.query(p)[1]]
+                if prev is None:
+                    d = sign * d
+                elif d @ prev < 0:
+                    d = -d
+                q = p + step * d
+                if not inside(q[None])[0]:
+                    break
+                pts.append(q)
+                p, prev = q, d
+            halves.append(pts)
+        line = np.array(halves[1][::-1] + [seed] + halves[0])
+        if len(line) >= 2:
+            lines.append(line)
+    return lines

@@ -452,6 +452,8 @@ class StrakeSpec(_Strict):
     fit_tolerance: float = Field(5.0, gt=0, description="largest distance from the hull surface")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
+    scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "
+                         "to the ship: 24.824 for the DTMB 5415 model)")
 
     @model_validator(mode="after")
     def _layout(self):

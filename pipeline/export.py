@@ -158,6 +158,12 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
     written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
     write_text(written[0], summary_csv(results))
     write_text(written[1], summary_json(results))
+    classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
+    if classed and config.spec.output.dxf:  # the plan: every plate's outline on the hull, a layer per class
+        from .planout import write_plan_dxf
+
+        written.append(out_dir / f"{style}_plan.dxf")
+        write_plan_dxf(written[-1], classed, config.mm_per_unit)
     if config.spec.output.png and len(results) > 1:
         ok = [r for r in results if r.ok]
         if ok:

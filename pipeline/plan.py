@@ -107,6 +107,7 @@ class HullPlate:
     note: str = ""  # why no strip is tried, when it is not
     resolution: float = 200.0  # patch mesh spacing (model units)
     result: object = None  # filled by an adaptive plan that evaluated the plate already
+    surface_note: str = ""  # e.g. a trim of the surface that is not honoured
 
 
 def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
@@ -119,14 +120,28 @@ def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
     return np.unique(roots[(roots >= lo) & (roots <= hi)])
 
 
-def load_surface(spec, base: Path, mm_per_unit: float) -> NurbsSurface:
+def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
+    """The entity-128 surface, in config units times ``scale``."""
+    return load_surface_noted(spec, base, mm_per_unit, scale)[0]
+
+
+def load_surface_noted(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> tuple[NurbsSurface, str]:
+    """The surface and a note when the file trims it (entity 143 / 144 pointing at it): the
+    trim is not honoured, the plates cover the untrimmed surface, and the note says so."""
     path = source_path(base, spec.iges)
     try:
         iges = read_iges(path)
         entity = pick_entity(iges.of_type(128), spec, str(path), "entity-128 surface")
-        return iges_surface(iges, entity, iges.unit_mm / mm_per_unit, f"hull D{entity.directory}")
+        surface = iges_surface(iges, entity, scale * iges.unit_mm / mm_per_unit, f"hull D{entity.directory}")
     except IgesError as exc:
         raise SourceError(str(exc)) from None
+    trims = [e for e in iges.entities if e.type in (143, 144) and len(e.parameters) > 2
+             and e.parameters[2].strip() == str(entity.directory)]
+    note = ""
+    if trims:
+        note = (f"{path.name}: surface D{entity.directory} is trimmed by entity {trims[0].type} at "
+                f"D{trims[0].directory}; the trim is ignored: plates cover the untrimmed surface")
+    return surface, note
 
 
 def long_axis_of(surface: NurbsSurface) -> int:
@@ -151,11 +166,21 @@ def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: floa
     extra = margin * float(np.linalg.norm(seam([t2])[0] - seam([t1])[0]))
     ext1 = plane_crossings(seam, planes[0].shifted(-extra))
     ext2 = plane_crossings(seam, planes[1].shifted(extra))
-    e1 = ext1[0] if len(ext1) == 1 else (lo if t1 < t2 else hi)
-    e2 = ext2[0] if len(ext2) == 1 else (hi if t2 > t1 else lo)
+    e1 = ext1[0] if len(ext1) == 1 else _usable_end(seam, lo if t1 < t2 else hi, t1)
+    e2 = ext2[0] if len(ext2) == 1 else _usable_end(seam, hi if t2 > t1 else lo, t2)
     a, b = sorted((e1, e2))
     seg = seam.segment(a, b)
     return NurbsCurve(seg.degree, seg.control_points, seg.weights, seg.knots, name)
+
+
+def _usable_end(seam: NurbsCurve, end: float, inner: float) -> float:
+    """The seam's end, or a little short of it when the seam stands still there (a doubled
+    end pole, a collapsed keel end): a strip cannot start on a zero-speed end, and the plate
+    itself never needs it (it lies between ``inner`` and the other butt)."""
+    speed = np.linalg.norm(seam.derivatives(np.array([end, 0.5 * (end + inner)]), 1)[1], axis=1)
+    if speed[0] > 1e-6 * speed[1]:
+        return end
+    return end + 0.02 * (inner - end)
 
 
 def frames_between(frames, lo: float, hi: float, name: str = "") -> list[float]:
@@ -185,7 +210,7 @@ def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -
 
 
 def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
-           resolution) -> Part:
+           resolution, surface_note="") -> Part:
     """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate."""
     developable, note = all(p is not None for p in planes), ""
     c = d = None
@@ -202,14 +227,14 @@ def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, dist
     xs = [p.offset for p in planes if p is not None]
     frames = frames_between(strake.frames, min(xs), max(xs), name) if len(xs) == 2 else []
     hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
-                     tuple(girths), distance, developable, note, resolution)
+                     tuple(girths), distance, developable, note, resolution, None, surface_note)
     return Part(name, c, d, spec_steel, ("c", "d"), {}, hull)
 
 
 def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> list[Part]:
     """The plates of a hand-laid strake: between consecutive seams and consecutive butts."""
     strake = spec.strake
-    surface = load_surface(strake.surface, config_path.parent, mm_per_unit)
+    surface, trim_note = load_surface_noted(strake.surface, config_path.parent, mm_per_unit, strake.scale)
     axis = long_axis_of(surface)
     distance = SurfaceDistance(surface)
     curves, girths = [], []
@@ -241,7 +266,7 @@ def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> lis
             name = f"{spec.name}_S{i + 1}_B{j + 1}"
             parts.append(_plate(name, surface, axis, girths[i:i + 2], curves[i:i + 2], planes[j:j + 2], spec.steel,
                                 strake, distance, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
-                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution))
+                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution, trim_note))
             if not parts[-1].hull.developable and all(p is not None for p in planes[j:j + 2]):
                 # a hand-laid seam that misses a butt plane is a layout error, as before
                 raise SourceError(parts[-1].hull.note)

@@ -20,7 +20,7 @@ import numpy as np
 from flatten.closest import SurfaceDistance
 from flatten.patch import region_grid
 
-from .plan import Girth, Plane, _plate, load_surface, long_axis_of, seam_curve
+from .plan import Girth, Plane, _plate, load_surface_noted, long_axis_of, seam_curve
 
 
 def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
@@ -72,7 +72,8 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
-    surfaces = [load_surface(s, path.parent, mm_per_unit) for s in sources]
+    loaded = [load_surface_noted(s, path.parent, mm_per_unit, strake.scale) for s in sources]
+    surfaces = [s for s, _ in loaded]
     distance = SurfaceDistance(surfaces)
     resolution = float(strake.patch_spacing or 200.0 / mm_per_unit)
     stock = plan.stock
@@ -96,7 +97,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in pair)
             curves = [seam_curve(surface, axis, g, f"{name}.{n}") for g, n in zip(girths, seam_names)]
             part = _plate(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
-                          butt_names, resolution)
+                          butt_names, resolution, loaded[k][1])
             if plan.method == "uniform" or evaluate is None:
                 parts.append(part)
                 continue

@@ -19,8 +19,9 @@ import traceback
 import numpy as np
 
 from flatten.closest import SurfaceDistance
-from flatten.patch import region_grid, weld
-from flatten.patchflat import arap_development, fit_plane, planar_development, triangle_stretches
+from flatten.patch import principal_curvatures, region_grid, weld
+from flatten.patchflat import (arap_development, fit_plane, planar_development, streamlines, triangle_maps,
+                               triangle_stretches)
 
 from .config import Part, RunConfig
 from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
@@ -127,7 +128,7 @@ def _frame_lines(points, uv_grid, frames):
 def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: float):
     """Roll lines: rulings of devflat's strip between the same seams (the best-fit
     developable the solver found), projected onto the patch and mapped into the flat
-    plate; without a strip, the grid rows (lines of constant girth fraction, along the hull)."""
+    plate (unplaced); none when there is no usable strip."""
     import igl
 
     lines = []
@@ -156,10 +157,7 @@ def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: floa
         if lines:
             return np.array(lines), "rulings of devflat's strip between the same seams (best-fit developable), " \
                                     "projected onto the hull patch"
-    r = uv_grid.shape[0]
-    for i in range(1, r - 1, max(1, r // 6)):
-        lines.append(np.array([uv_grid[i, 0], uv_grid[i, -1]]))
-    return np.array(lines).reshape(-1, 2, 2), "grid rows of constant girth fraction (no strip between the seams)"
+    return np.zeros((0, 2, 2)), ""
 
 
 def _barycentric(p, tri):
@@ -239,6 +237,7 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
     result.figures["region"] = {"corners": grid.corners().tolist(), "area_m2": area3 * (mm / 1e3) ** 2,
                                 "length": length, "width": width, "grid": list(shape),
                                 "seams": list(hull.seam_names), "butts": list(hull.butt_names),
+                                "surface": hull.surface.name, "surface_note": hull.surface_note or None,
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
     fit = fit_plane(v_grid)
@@ -280,30 +279,33 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                 finish_part(result, config)
                 return
             why = attempt.reason
-        except Exception as exc:  # the strip attempt failed hard: the plate is still formed
+        except Exception as exc:  # the strip attempt failed hard: the plate is still delivered
             why = f"strip attempt raised {type(exc).__name__}: {exc}"
-            attempt.figures["traceback"] = traceback.format_exc(limit=6)
+            frame = traceback.extract_tb(exc.__traceback__)[-1]
+            why += f" (in {frame.name}, {frame.filename.rsplit('/', 2)[-2:]}:{frame.lineno})"
     uv, iterations = arap_development(v3, f3)
-    _deliver_patch(result, config, grid, uv[index], v3, f3, index, "formed",
+    _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
                    {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
-                    "not_developable_because": why,
+                    "strip_not_delivered_because": why,
                     "strip_max_deviation": (attempt.figures.get("hull_fit") or {}).get("max_distance")},
                    attempt.strip, (length, width))
-    result.figures["hull_fit"] = {"max_distance": 0.0, "tolerance": tol, "passed": True,
-                                  "note": "a formed plate is developed from the hull patch itself: its 3D shape is "
-                                          "the hull's; its error is the in-plane strain"}
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
-    """Pattern, strain map, completeness and class of a flat or formed plate."""
+    """Pattern, strain map, completeness and class of a plate developed from its hull patch.
+
+    kind "flat" (planar projection) or "patch" (minimal-strain development): a patch whose
+    largest principal strain times the plate's largest dimension (how far an edge point of
+    the flat plate, bent onto the hull without stretching, can land from its place) stays
+    within the fit tolerance is developable: it is rolled, not formed. Otherwise formed."""
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
+    tol = hull.fit_tolerance
     shape = grid.shape
     uv_grid = uv_grid_flat.reshape(shape[0], shape[1], 2)
     v_grid = grid.points.reshape(-1, 3)
     f_grid = grid.faces()
-    along_c = uv_grid[0]
-    rot, shift = place_flat(uv_grid_flat, along_c)
+    rot, shift = place_flat(uv_grid_flat, uv_grid[0])
     placed = uv_grid_flat @ rot.T + shift
     pg = placed.reshape(shape[0], shape[1], 2)
     sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
@@ -311,17 +313,32 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
     outline = outline[keep]
-    spacing = 500.0 / mm
-    rolls, roll_method = _roll_lines(strip, v3, _uv_on_welded(uv_grid_flat, index, len(v3)), f3, shape,
-                                     grid.points, uv_grid, spacing)
-    rolls = rolls @ rot.T + shift if len(rolls) else np.zeros((0, 2, 2))
-    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm)
-    check = completeness(v3, f3, grid, hull.fit_tolerance, min(hull.fit_tolerance, 1e-6 * max(size) + 1e-9))
+    misfit = strains["max_abs_strain"] * max(size)
+    if kind == "patch":
+        kind = "developable" if misfit <= tol else "formed"
+        info = dict(info, misfit=misfit, misfit_rule="largest principal strain x largest plate dimension <= "
+                    "fit tolerance: bent onto the hull without stretching, no edge point lands farther than the "
+                    "tolerance from its place")
+        if kind == "developable":
+            info["method"] = "isometric development of the hull patch: " + info["method"]
+    spacing = 500.0 / mm
+    if kind == "flat":
+        rolls, roll_method = np.zeros((0, 2, 2)), "none (flat plate)"
+    elif kind == "formed" and strip is not None:
+        rolls, roll_method = _roll_lines(strip, v3, _uv_on_welded(uv_grid_flat, index, len(v3)), f3, shape,
+                                         grid.points, uv_grid, spacing)
+        rolls = rolls @ rot.T + shift if len(rolls) else rolls
+    else:
+        rolls, roll_method = np.zeros((0, 2, 2)), ""
+    if not len(rolls) and kind != "flat":
+        rolls, roll_method = least_bending_lines(hull.surface, grid, placed, f_grid, outline, spacing)
+    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
+    check = completeness(v3, f3, grid, tol, min(tol, 1e-6 * max(size) + 1e-9))
     if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
         fit = info["plane_max_distance"]
         check["max_region_gap"] = fit
-        check["passed"] = bool(fit <= hull.fit_tolerance)
+        check["passed"] = bool(fit <= tol)
     result.strip = None
     result.mesh = (v_grid, f_grid)
     result.pattern = Pattern(outline, rolls, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
@@ -329,15 +346,49 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     result.figures["completeness"] = check
     result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
                                  "shrink_area_m2": strains["shrink_area_m2"],
-                                 "stretch_area_m2": strains["stretch_area_m2"]} if kind == "formed" else None
+                                 "stretch_area_m2": strains["stretch_area_m2"]} if kind != "flat" else None
     area3 = float(result.figures["region"]["area_m2"])
     result.figures["plate_class"] = dict(
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
          "area_3d_m2": area3, "complete": check["passed"]}, **info)
+    if kind != "flat":
+        result.figures["hull_fit"] = {"max_distance": 0.0, "tolerance": tol, "passed": True,
+                                      "note": "developed from the hull patch itself: its 3D shape is the hull's; its "
+                                              "error is the in-plane strain (see strain)"}
     if not check["passed"]:
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
         return
     finish_part(result, config)
+
+
+def least_bending_lines(surface, grid, placed, faces, outline, spacing):
+    """Roll lines along the direction of least normal curvature of the hull (the rulings
+    of a developable surface), traced as streamlines across the flat plate from seeds
+    ``spacing`` apart on the line through its centre, each replaced by its chord."""
+    uvp = grid.params.reshape(-1, 2)[faces].mean(axis=1)
+    _, d3 = principal_curvatures(surface, uvp[:, 0], uvp[:, 1])
+    maps = triangle_maps(grid.points.reshape(-1, 3), placed, faces)
+    d2 = np.einsum("fij,fj->fi", maps, d3)
+    norm = np.linalg.norm(d2, axis=1)
+    good = norm > 0
+    d2 = d2[good] / norm[good, None]
+    centres = placed[faces].mean(axis=1)[good]
+    if not len(d2):
+        return np.zeros((0, 2, 2)), "none"
+    # mean axis of the sign-free field: principal eigenvector of sum d d^T
+    w, vecs = np.linalg.eigh(d2.T @ d2)
+    axis = vecs[:, -1]
+    across = np.array([-axis[1], axis[0]])
+    centre = outline.mean(axis=0)
+    extent = np.abs((outline - centre) @ across).max()
+    seeds = centre + np.arange(-extent, extent + 1e-9, spacing)[:, None] * across
+    from matplotlib.path import Path as MplPath
+
+    seeds = seeds[MplPath(outline).contains_points(seeds)]
+    lines = streamlines(centres, d2, outline, seeds, step=spacing / 5)
+    segs = np.array([[line[0], line[-1]] for line in lines if np.linalg.norm(line[-1] - line[0]) > spacing])
+    return segs.reshape(-1, 2, 2), ("chords of streamlines of the hull's direction of least normal curvature "
+                                    "(principal directions of the design surface)")
 
 
 def _uv_on_welded(uv_grid_flat, index, n):

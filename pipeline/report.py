@@ -145,6 +145,25 @@ def summary_csv(results: list[PartResult]) -> str:
     return buffer.getvalue()
 
 
+def class_shares(results: list[PartResult]) -> dict | None:
+    """Area of the hull regions per plate class (delivered plates; 'failed' for the rest),
+    in m^2 and as shares of the whole; None when no part is a hull plate."""
+    areas = {"flat": 0.0, "developable": 0.0, "formed": 0.0, "failed": 0.0}
+    seen = False
+    for r in results:
+        region = r.figures.get("region") or {}
+        if not region:
+            continue
+        seen = True
+        klass = (r.figures.get("plate_class") or {}).get("class") if r.ok else "failed"
+        areas[klass if klass in areas else "failed"] += float(region.get("area_m2") or 0.0)
+    if not seen:
+        return None
+    total = sum(areas.values()) or 1.0
+    return {"area_m2": areas, "share": {k: v / total for k, v in areas.items()}}
+
+
 def summary_json(results: list[PartResult]) -> str:
     return json.dumps(sanitize({"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
-                                "failed": [r.name for r in results if not r.ok]}), indent=1)
+                                "failed": [r.name for r in results if not r.ok],
+                                "classes": class_shares(results)}), indent=1)

@@ -57,16 +57,18 @@ def trim_intervals(ends_c: np.ndarray, ends_d: np.ndarray, planes: tuple[Plane, 
     wholly outside."""
     lo = np.zeros(len(ends_c))
     hi = np.ones(len(ends_c))
+    # a ruling lying in a butt plane (a cylinder cut along its generators) has s = 0 at both
+    # ends up to round-off: it is on the plane, not outside it
+    eps = 1e-9 * max(float(np.ptp(np.vstack([ends_c, ends_d]), axis=0).max()), 1e-300)
     for plane, sign in zip(planes, (1.0, -1.0)):
         sa, sb = sign * plane.signed(ends_c), sign * plane.signed(ends_d)
         ds = sb - sa
+        parallel = np.abs(ds) <= eps
         with np.errstate(divide="ignore", invalid="ignore"):
             cut = -sa / ds  # where sign * s(v) = 0
-        rising = ds > 0
-        lo = np.where(rising, np.maximum(lo, cut), lo)
-        hi = np.where(ds < 0, np.minimum(hi, cut), hi)
-        outside = (ds == 0) & (sa < 0)
-        hi = np.where(outside, -1.0, hi)
+        lo = np.where(~parallel & (ds > 0), np.maximum(lo, cut), lo)
+        hi = np.where(~parallel & (ds < 0), np.minimum(hi, cut), hi)
+        hi = np.where(parallel & (np.maximum(sa, sb) < -eps), -1.0, hi)
     # a ruling through a corner touches the region in one point (lo == hi to round-off):
     # keep it, or the outline misses the corner by the distance to the next ruling
     touching = hi >= lo - 1e-12

@@ -1,0 +1,105 @@
+"""Whole hulls: the share of shell area delivered flat / developable / formed, per hull, with
+the plain seam layout (``plan.method: uniform``) and with the adaptive plan, beside the
+baseline of devflat before hull classes (a plate counted only when devflat's strip between
+its seams fits the hull within tolerance and covers its whole region).
+
+    python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
+                               [--out DIR]
+
+Per hull and method: plates, shares of the planned shell area per class (delivered complete),
+the strip-only baseline share, the worst deviation from the hull (flat and developable plates),
+the worst in-plane strain (formed plates), time; the hull picture coloured by class and the
+plan (plate outlines in 3D, one DXF layer per class) are written to --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import yaml  # noqa: E402
+
+HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kvlcc2": "kvlcc2_shell.yaml",
+         "kcs": "kcs_shell.yaml"}
+
+
+def run(hull: str, method: str, out: Path) -> dict:
+    from pipeline.hullplots import class_hull_png
+    from pipeline.plan import load_run
+    from pipeline.planout import write_plan_dxf
+    from pipeline.plates import evaluate_plate, run_part
+
+    data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
+    data = copy.deepcopy(data)
+    data["strake"]["plan"]["method"] = method
+    for key in ("surface",):
+        data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
+    for s in data["strake"]["plan"].get("surfaces", []):
+        s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{hull}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        start = time.perf_counter()
+        config = load_run(path, evaluate_plate)
+        results = [run_part(part, config) for part in config.parts]
+        seconds = time.perf_counter() - start
+    areas = {"flat": 0.0, "developable": 0.0, "formed": 0.0, "failed": 0.0}
+    strip_only = 0.0
+    worst_dev, worst_strain, crashes = 0.0, 0.0, 0
+    for r in results:
+        klass = (r.figures.get("plate_class") or {})
+        area = float((r.figures.get("region") or {}).get("area_m2") or 0.0)
+        name = klass.get("class") if r.ok else "failed"
+        areas[name if name in areas else "failed"] += area
+        crashes += "internal error" in r.reason
+        if r.ok and name == "developable" and klass.get("method", "").startswith("devflat strip"):
+            strip_only += area
+        if r.ok and name in ("flat", "developable"):
+            dev = klass.get("max_deviation") or 0.0
+            worst_dev = max(worst_dev, dev)
+        if r.ok and name == "formed":
+            worst_strain = max(worst_strain, klass.get("max_strain") or 0.0)
+    total = sum(areas.values())
+    out.mkdir(parents=True, exist_ok=True)
+    class_hull_png(out / f"{hull}_{method}_classes.png", results, config.spec.units, config.mm_per_unit,
+                   f"{hull}, {method} plan: {len(results)} plates")
+    write_plan_dxf(out / f"{hull}_{method}_plan.dxf", results, config.mm_per_unit)
+    return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
+            "shares": {k: v / total for k, v in areas.items()}, "strip_only": strip_only / total,
+            "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--hulls", nargs="+", default=list(HULLS), choices=list(HULLS))
+    parser.add_argument("--methods", nargs="+", default=["uniform", "adaptive"], choices=["uniform", "adaptive"])
+    parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
+    args = parser.parse_args(argv)
+    print(f"{'hull':<9}{'plan':<10}{'plates':>7}{'area m2':>9}{'flat %':>8}{'dev %':>8}{'formed %':>9}"
+          f"{'failed %':>9}{'flat+dev %':>11}{'strip-only %':>13}{'worst dev mm':>13}{'worst strain':>13}"
+          f"{'crashes':>8}{'time s':>8}")
+    for hull in args.hulls:
+        for method in args.methods:
+            r = run(hull, method, args.out)
+            s = r["shares"]
+            print(f"{hull:<9}{method:<10}{r['plates']:>7}{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
+                  f"{100 * s['developable']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
+                  f"{100 * (s['flat'] + s['developable']):>11.1f}{100 * r['strip_only']:>13.1f}"
+                  f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
+                  flush=True)
+    print(f"pictures and plan DXFs in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

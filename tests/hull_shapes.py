@@ -1,0 +1,65 @@
+"""Closed-form hull surfaces for tests, written as IGES entity 128 (our reader reads them).
+
+plane: a tilted plane; cylinder: a circular cylinder whose axis runs across the hull (y), so
+that its iso-curves along the hull are circular arcs; both exact rational NURBS.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x)).replace("e", "E")
+
+
+def write_iges_surface(path: Path, degree_u, degree_v, poles, weights, knots_u, knots_v) -> Path:
+    """Entity 128 with poles (nu, nv, 3) and weights (nu, nv), units mm."""
+    poles = np.asarray(poles, float)
+    weights = np.asarray(weights, float)
+    nu, nv, _ = poles.shape
+    params = [128, nu - 1, nv - 1, degree_u, degree_v, 0, 0, 1 if np.allclose(weights, 1) else 0, 0, 0]
+    params += list(knots_u) + list(knots_v)
+    params += [weights[i, j] for j in range(nv) for i in range(nu)]
+    for j in range(nv):
+        for i in range(nu):
+            params += list(poles[i, j])
+    params += [knots_u[degree_u], knots_u[-degree_u - 1], knots_v[degree_v], knots_v[-degree_v - 1]]
+    text = ",".join(str(p) if isinstance(p, int) else _fmt(p) for p in params) + ";"
+    p_lines = []
+    while text:
+        p_lines.append(text[:64])
+        text = text[64:]
+    g = ("1H,,1H;,4Htest,8Htest.igs,4Htest,4Htest,32,38,6,308,15,4Htest,1.0,2,2HMM,1,0.01,"
+         "15H20260101.000000,1E-6,1000.0,4Htest,4Htest,11,0,15H20260101.000000;")
+    g_lines = [g[k:k + 72] for k in range(0, len(g), 72)]
+    out = [f"{'devflat test surface':<72}S{1:7d}"]
+    out += [f"{line:<72}G{k + 1:7d}" for k, line in enumerate(g_lines)]
+    out += [f"{128:8d}{1:8d}{0:8d}{0:8d}{0:8d}{0:8d}{0:8d}{0:8d}{0:8d}D{1:7d}",
+            f"{128:8d}{0:8d}{0:8d}{len(p_lines):8d}{0:8d}{'':8}{'':8}{'':8}{0:8d}D{2:7d}"]
+    out += [f"{line:<64}{1:8d}P{k + 1:7d}" for k, line in enumerate(p_lines)]
+    out.append(f"S{1:7d}G{len(g_lines):7d}D{2:7d}P{len(p_lines):7d}{'':40}T{1:7d}")
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+def plane_iges(path: Path, length=20000.0, width=4000.0, slope=0.3) -> Path:
+    """z = slope * y over x in [0, length], y in [0, width]; u along x, v along y."""
+    poles = np.array([[[0, 0, 0], [0, width, slope * width]],
+                      [[length, 0, 0], [length, width, slope * width]]], float)
+    return write_iges_surface(path, 1, 1, poles, np.ones((2, 2)), [0, 0, 1, 1], [0, 0, 1, 1])
+
+
+def cylinder_iges(path: Path, radius=20000.0, angle_deg=60.0, width=4000.0) -> Path:
+    """Circular cylinder of axis y through (0, 0, radius): u runs along the arc
+    x = R sin(theta), z = R (1 - cos(theta)), theta in [-angle/2, angle/2] (exact rational
+    quadratic), v along y in [0, width]."""
+    h = np.radians(angle_deg) / 2
+    arc = np.array([[-radius * np.sin(h), radius * (1 - np.cos(h))], [0.0, radius * (1 - 1 / np.cos(h))],
+                    [radius * np.sin(h), radius * (1 - np.cos(h))]])
+    arc[1] = [0.0, radius - radius / np.cos(h)]
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[x, 0.0, z], [x, width, z]] for x, z in arc])
+    return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
