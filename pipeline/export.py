@@ -159,7 +159,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
     write_text(written[0], summary_csv(results))
     write_text(written[1], summary_json(results))
     classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
-    if classed and config.spec.output.dxf:  # the plan: every plate's outline on the hull, a layer per class
+    planned = config.spec.strake is not None and config.spec.strake.plan is not None
+    if classed and planned and config.spec.output.dxf:  # the plan: every plate's outline on the hull, by class
         from .planout import write_plan_dxf
 
         written.append(out_dir / f"{style}_plan.dxf")

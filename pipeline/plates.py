@@ -72,11 +72,12 @@ def _grid_faces_region(shape, region_cells) -> np.ndarray:
     return np.concatenate([region, region])
 
 
-def strain_map(v3, uv, faces, shape, size_mm: tuple[float, float], mm_per_unit: float) -> dict:
-    """Per-triangle principal strains summarised per region of about 1 m x 1 m."""
+def strain_map(v3, uv, faces, shape, size_mm: tuple[float, float], mm_per_unit: float, valid=None) -> dict:
+    """Per-triangle principal strains summarised per region of about 1 m x 1 m; ``valid``
+    (F,) masks out triangles that collapse (a seam end standing still)."""
     stretch = triangle_stretches(v3, uv, faces)
     strain = stretch - 1.0
-    good = np.all(np.isfinite(strain), axis=1)
+    good = np.all(np.isfinite(strain), axis=1) & (True if valid is None else valid)
     area = 0.5 * np.linalg.norm(np.cross(v3[faces[:, 1]] - v3[faces[:, 0]], v3[faces[:, 2]] - v3[faces[:, 0]]), axis=1)
     magnitude = np.where(good, np.abs(strain).max(axis=1, initial=0.0, where=good[:, None]), 0.0)
     worst = int(np.argmax(magnitude))
@@ -313,7 +314,9 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
     outline = outline[keep]
-    strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm)
+    welded = index[f_grid]
+    valid = (welded[:, 0] != welded[:, 1]) & (welded[:, 1] != welded[:, 2]) & (welded[:, 0] != welded[:, 2])
+    strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm, valid)
     misfit = strains["max_abs_strain"] * max(size)
     if kind == "patch":
         kind = "developable" if misfit <= tol else "formed"

@@ -173,4 +173,10 @@ def test_a_uniform_plan_covers_the_shell_with_classed_plates(tmp_path):
     b = np.cross(p[1:, 1:] - p[1:, :-1], p[1:, 1:] - p[:-1, 1:])
     area = 0.5 * (np.linalg.norm(a, axis=2).sum() + np.linalg.norm(b, axis=2).sum()) / 1e6
     assert sum(summary["classes"]["area_m2"].values()) == pytest.approx(area, rel=0.01)
-    assert (out / "d5415_plan.dxf").exists()
+    import ezdxf
+
+    doc = ezdxf.readfile(out / "d5415_plan.dxf")
+    outlines = doc.modelspace().query("POLYLINE")
+    assert len(outlines) == len(summary["parts"])
+    layers = sorted(e.dxf.layer for e in outlines)
+    assert layers == sorted(f"PLAN_{row['class'].upper()}" for row in summary["parts"])
