@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import datetime
 import io
+import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,9 +58,22 @@ def notch_angle(line: np.ndarray) -> float:
     return float(np.degrees(np.arctan2(d[1], d[0])))
 
 
+def _new_r12() -> ezdxf.document.Drawing:
+    """An empty R12 document. ezdxf.new warns on every R12 document that $INSUNITS is not
+    written (AAMA states its units in the `Units:` text instead): not a finding, so that
+    one warning is kept off the console."""
+    log = logging.getLogger("ezdxf")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        return ezdxf.new("R12")
+    finally:
+        log.setLevel(level)
+
+
 def build_document(pieces: list[TextilePiece], style: str, scale: float) -> ezdxf.document.Drawing:
     """Pieces in model units, written in millimetres (``scale`` = mm per model unit)."""
-    doc = ezdxf.new("R12")
+    doc = _new_r12()
     for layer, colour in LAYER_COLOURS.items():
         doc.layers.add(layer, color=colour)
     msp = doc.modelspace()
