@@ -245,10 +245,6 @@ def _moved(placements, offset) -> list[Placement]:
     return [Placement(p.item, p.copy, p.rotation, p.translation + offset) for p in placements]
 
 
-def _placed_polygons(sheet: Sheet, items: dict[str, NestItem]) -> list[Polygon]:
-    return [Polygon(p.place(items[p.item].outline)) for p in sheet.placements]
-
-
 # ------------------------------------------------------------------ layouts
 def _check_input(items: list[NestItem], width: float, field: str) -> None:
     if not items:
