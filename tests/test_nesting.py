@@ -328,3 +328,16 @@ def test_plates_of_different_thickness_never_share_a_stock_plate(tmp_path):
     for r in rows:  # 15 mm plate: the scrap weighs 15/12 as much per m2
         kg = float(r["scrap_area_m2"]) * float(r["thickness_mm"]) / 1000 * 7850
         assert float(r["scrap_weight_kg"]) == pytest.approx(kg, abs=0.1)
+
+
+def test_free_rotation_turns_a_part_that_only_fits_turned():
+    # a 120 x 10 bar standing across a 100-wide roll: 0/180 cannot place it, free rotation can
+    standing = NestItem("bar", rect(120.0, 10.0), 2, (0.0, 180.0), base_rotation=90.0)
+    with pytest.raises(NestingError, match="bar is 120 wide"):
+        nest_marker([standing], 100.0, 1.0, 0.0, 1, SEED, 1)
+    free = NestItem("bar", rect(120.0, 10.0), 2, None, base_rotation=90.0)
+    result = nest_marker([free], 100.0, 1.0, 0.0, 1, SEED, 1)
+    assert result.success, result.message
+    polys = independent_check(result, 1.0, 1e-6 * 500)
+    # turned away from the standing position: its extent across the roll is at most the width
+    assert all(p.bounds[3] - p.bounds[1] <= 100.0 + 1e-3 for p in polys)
