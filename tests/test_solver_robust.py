@@ -31,8 +31,9 @@ def test_random_cubics_with_repeated_knots_finish_and_every_branch_is_followed(s
     assert not {"BRANCH_UNRESOLVED", "UNTRACED_SEEDS", "RESIDUAL_EXCEEDED"} & codes
     points = np.vstack([b.points for b in solution.branches])
     assert normalized_residual(solution.field.c, solution.field.d, *points.T).max() <= 1e-12
-    cert = next(f for f in solution.findings if f.code == "CERTIFICATE")
-    assert cert.data["solve_seconds"] < 60  # a bound, not a benchmark: hangs took minutes
+    # the bound that makes it finish: no trace stalls (a stalled corrector used to take
+    # 200000 steps of zero length); every branch is a few hundred steps per unit length
+    assert sum(len(b.points) for b in solution.branches) < 20 * 1000
 
 
 def moved(curve, shift, scale=1000.0):
