@@ -151,7 +151,6 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
 def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:
     """The run summary: summary.csv and summary.json of every part; for hull strakes also a
     PNG of the hull with the plates coloured by their deviation and a sheet of all patterns."""
-    from .plots import hull_png, sheet_png
     from .report import summary_csv, summary_json
 
     style = config.spec.name or config.source.stem
@@ -166,6 +165,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
         written.append(out_dir / f"{style}_plan.dxf")
         write_plan_dxf(written[-1], classed, config.mm_per_unit)
     if config.spec.output.png and len(results) > 1:
+        from .plots import hull_png, sheet_png  # matplotlib only when there are images
+
         ok = [r for r in results if r.ok]
         if ok:
             path = out_dir / f"{style}_sheet.png"

@@ -157,9 +157,9 @@ def run_parts(config: RunConfig, staging: Path | None, out: Path | None, jobs: i
 
 
 def _pool_pass(indices: list[int], config, staging, out, workers: int, keep_geometry: bool, done) -> list[int]:
-    """Run ``indices`` in a fresh pool, at most ``workers`` parts in flight. Returns the parts
-    to run again: those in flight when a worker died, one at a time (the part a worker dies
-    on alone fails)."""
+    """Run ``indices`` in a fresh pool, at most two parts per worker in flight. The parts in
+    flight when a worker dies are run again one at a time, so that the part a worker dies
+    on fails alone. Returns the parts not yet started."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
@@ -169,7 +169,7 @@ def _pool_pass(indices: list[int], config, staging, out, workers: int, keep_geom
     flight: dict = {}
     try:
         while queue or flight:
-            while queue and len(flight) < workers:
+            while queue and len(flight) < 2 * workers:  # a second part queued: no idle worker between
                 index = queue.pop(0)
                 flight[pool.submit(_work, index)] = index
             finished, _ = wait(flight, return_when=FIRST_COMPLETED)
