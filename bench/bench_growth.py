@@ -3,8 +3,10 @@ run against the plate count, with the fitted exponents, in one run.
 
     python bench/bench_growth.py [--max-rulings 1000000] [--max-plates 16]
 
-Each ruling count runs in a fresh process (peak RSS from getrusage, minus the peak of the
-same process after its imports and the solve; divided by the ruling count it is the
+Each ruling count runs in a fresh process (peak RSS during the strip work above the RSS
+after the imports and the solve: on Linux the solve's freed heap is handed back with
+malloc_trim and the peak reset through /proc/self/clear_refs, elsewhere the solve's own
+peak is the base; divided by the ruling count it is the
 bytes per ruling, which include the results kept alive: rulings 16 B, strip vertices
 120 B and faces 192 B, flat vertices 80 B and the development 32 B at 5 samples per
 ruling, 440 B in all). Measured: rulings along the chosen path, strip mesh,
@@ -39,7 +41,27 @@ from flatten.strip import build_strip, choose_rulings
 n, baseline = int(sys.argv[1]), sys.argv[2] == "1"
 c, d = common.s60_curves()
 solution = solve(c, d)
-base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+
+def status(key):
+    for line in open("/proc/self/status"):
+        if line.startswith(key + ":"):
+            return int(line.split()[1])  # kB
+
+
+try:  # Linux: hand the solve's freed heap back (malloc_trim) and reset the peak (VmHWM) to
+    # the present RSS, so that neither the solve's peak nor its freed pages hide the strip's
+    import ctypes
+    import gc
+    gc.collect()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+    base_rss = status("VmRSS")
+    peak_now = lambda: status("VmHWM")
+except (OSError, AttributeError):  # elsewhere: the peak so far (the solve's included) is the base
+    base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak_now = lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 times = {{}}
 start = time.perf_counter()
 rulings = choose_rulings(solution, c, d, n_rulings=n)
@@ -56,7 +78,7 @@ times["total"] = time.perf_counter() - start
 if baseline:
     t0 = time.perf_counter(); unfold_triangles(strip.vertices[k], strip.vertices[k + 4], dev)
     times["triangle_unfold"] = time.perf_counter() - t0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+peak = peak_now()
 print(json.dumps({{"times": times, "peak_mb": peak / 1024, "base_mb": base_rss / 1024}}))
 """
 
