@@ -175,10 +175,16 @@ def test_a_second_run_on_a_locked_folder_is_refused(tmp_path, capsys):
     assert consistent(out) == {"a.dxf", "a.obj", "a.json", "run_summary.csv", "run_summary.json"}
 
 
+def _as_a_foreground_job() -> None:
+    # A shell starts background jobs (`cmd &`, CI runners) with SIGINT ignored, and Python keeps
+    # an ignored SIGINT ignored; a user's Ctrl-C reaches a foreground job, which has it by default.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def devflat(*args, **kwargs) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen([sys.executable, "-m", "pipeline", *args], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kwargs)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_as_a_foreground_job, **kwargs)
 
 
 def strake_config(tmp_path: Path, thickness: float = 12.0, butts=(56000, 64000, 72000, 80000, 88000)) -> Path:
