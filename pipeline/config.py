@@ -185,15 +185,25 @@ class CurvesSpec(_Strict):
     d: CurveSource
 
 
+DEFAULT_CHORD_TOLERANCE_MM = 0.5
+
+
 class Resolution(_Strict):
+    """Rulings of the computation: a chord tolerance (config units; when neither is given,
+    0.5 mm whatever the units) or a count."""
+
     chord_tolerance: float | None = Field(None, gt=0)
     rulings: StrictInt | None = Field(None, ge=2, le=200_000)
     samples_per_ruling: StrictInt = Field(5, ge=3, le=101)
 
+    def tolerance(self, mm_per_unit: float) -> float | None:
+        """The chord tolerance in config units, None when a ruling count is given."""
+        if self.rulings is not None:
+            return None
+        return self.chord_tolerance if self.chord_tolerance is not None else DEFAULT_CHORD_TOLERANCE_MM / mm_per_unit
+
     @model_validator(mode="after")
     def _one_of(self):
-        if self.chord_tolerance is None and self.rulings is None:
-            object.__setattr__(self, "chord_tolerance", 0.5)
         if self.chord_tolerance is not None and self.rulings is not None:
             raise ValueError("give either chord_tolerance or rulings, not both")
         # the chord_tolerance route stops at MAX_RULINGS_AUTO rulings (flatten.strip)
@@ -222,8 +232,10 @@ class Layers(_Strict):
     bend: str = "MARK_BEND"
     text: str = "MARK_TEXT"
     frame: str = "MARK_FRAME"
+    edge: str = "MARK_EDGE"  # edge names (seams, butts) and bevel texts
+    net: str = "MARK_NET"  # the net line when the cut carries an allowance
 
-    @field_validator("cut", "bend", "text", "frame")
+    @field_validator("cut", "bend", "text", "frame", "edge", "net")
     @classmethod
     def _layer_name(cls, value: str) -> str:
         bad = set('<>/\\":;?*|=`') & set(value)
@@ -318,6 +330,67 @@ class Textile(_Strict):
     def allowances(self) -> SeamAllowance:
         a = self.seam_allowance
         return a if isinstance(a, SeamAllowance) else SeamAllowance(c=a, d=a, start=a, end=a)
+
+
+class EdgeLengths(_Strict):
+    """Per-edge lengths in mm: the c and d edges, the start and end edges (the first and
+    last rulings; for a hull plate its aft and fore butts)."""
+
+    c: float = Field(0.0, ge=0)
+    d: float = Field(0.0, ge=0)
+    start: float = Field(0.0, ge=0)
+    end: float = Field(0.0, ge=0)
+
+
+class EdgeTexts(_Strict):
+    """Per-edge texts (bevel / edge preparation), keyed like :class:`EdgeLengths`."""
+
+    c: str = Field("", max_length=40)
+    d: str = Field("", max_length=40)
+    start: str = Field("", max_length=40)
+    end: str = Field("", max_length=40)
+
+
+class Shop(_Strict):
+    """Shop-floor output of steel plates. Every length here is in mm, whatever ``units:``."""
+
+    outline_tolerance: float = Field(0.05, gt=0, le=10, description="mm, cut outline vs exact development")
+    bend_spacing: float = Field(400.0, gt=0, description="mm between bending lines")
+    frame_clearance: float = Field(50.0, ge=0, description="mm: a frame nearer a butt is not marked")
+    text_height: tuple[float, float] = Field((5.0, 40.0), description="mm, smallest and largest text")
+    mirror: bool = Field(False, description="also write the mirrored plate of the other side (P/S in the id)")
+    allowance: float | EdgeLengths = Field(0.0, description="mm of excess per edge, cut outside the net line")
+    bevel: EdgeTexts = EdgeTexts()
+    stock: list[tuple[float, float]] = Field(
+        default_factory=lambda: [(2500.0, 12000.0), (3000.0, 16000.0), (3500.0, 18000.0)],
+        description="stock plates, width x length in mm")
+    stock_margin: float = Field(10.0, ge=0, description="mm kept free around the part on a stock plate")
+    drawing: bool = Field(True, description="one-page PDF shop drawing per plate")
+
+    @field_validator("text_height")
+    @classmethod
+    def _heights(cls, value):
+        if not 0 < value[0] <= value[1]:
+            raise ValueError(f"text_height needs 0 < min <= max, got {list(value)}")
+        return value
+
+    @field_validator("allowance")
+    @classmethod
+    def _allowance(cls, value):
+        if isinstance(value, float) and value < 0:
+            raise ValueError(f"allowance must be >= 0, got {value}")
+        return value
+
+    @field_validator("stock")
+    @classmethod
+    def _stock(cls, value):
+        if any(w <= 0 or h <= 0 for w, h in value):
+            raise ValueError(f"stock sizes must be positive, got {value}")
+        return value
+
+    def allowances(self) -> EdgeLengths:
+        a = self.allowance
+        return a if isinstance(a, EdgeLengths) else EdgeLengths(c=a, d=a, start=a, end=a)
 
 
 class Output(_Strict):
@@ -481,6 +554,7 @@ class RunSpec(_Strict):
     steel: Steel = Steel()
     textile: Textile = Textile()
     check: Check = Check()
+    shop: Shop = Shop()
     output: Output = Output()
     nesting: NestingSpec | None = None
     # single-part form

@@ -55,6 +55,7 @@ def part_report(result: PartResult, units: str) -> dict:
         "unroll": result.figures.get("unroll"),
         "area_m2": result.figures.get("area_m2"),
         "steel": result.figures.get("steel"),
+        "outline": result.figures.get("outline"),
         "hull_fit": result.figures.get("hull_fit"),
         "plate_coverage": result.figures.get("plate_coverage"),
         "trim": result.figures.get("trim"),

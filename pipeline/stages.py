@@ -54,6 +54,7 @@ class PartResult:
     pattern: Pattern | None = None
     figures: dict = field(default_factory=dict)
     mesh: tuple | None = None  # (vertices (V, 3), faces (F, 3)) of a plate that is no strip (flat, formed)
+    shop: object = None  # a pipeline.shop.ShopPlate for steel plates
 
     @property
     def ok(self) -> bool:
@@ -76,9 +77,9 @@ def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None, given
     ``given`` (K, 2) [t, T] in path order replaces them all (textile seams trim a strip so)."""
     res = config.spec.resolution
     part, solution = result.part, result.solution
-    # chord_tolerance is in the config's units, like the curves
+    # chord_tolerance is in the config's units, like the curves; its default is 0.5 mm
     rulings = given if given is not None else choose_rulings(
-        solution, part.c, part.d, chord_tolerance=res.chord_tolerance, n_rulings=res.rulings)
+        solution, part.c, part.d, chord_tolerance=res.tolerance(config.mm_per_unit), n_rulings=res.rulings)
     if extra_rulings is not None and given is None:
         corners = extra_rulings(solution)
         rulings = np.vstack([rulings, corners])
@@ -94,6 +95,7 @@ def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None, given
     result.figures["mesh"] = {"vertices": len(mesh.vertices), "faces": len(mesh.faces), "area_3d": float(mesh.area),
                               "euler_number": int(mesh.euler_number), "boundary_edges": boundary_edges}
     result.figures["rulings"] = {"count": len(rulings), "samples_per_ruling": res.samples_per_ruling,
+                                 "chord_tolerance": res.tolerance(config.mm_per_unit),
                                  "max_chord_error_c": float(result.strip.max_chord_error[0]),
                                  "max_chord_error_d": float(result.strip.max_chord_error[1])}
 
@@ -199,9 +201,15 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
 def finish_part(result: PartResult, config: RunConfig) -> None:
     """Area and steel figures of a developed part; marks it ok."""
     part = result.part
-    faces = result.strip.faces if result.strip is not None else result.mesh[1]
-    area_model = float(triangle_areas(result.pattern.vertices, faces).sum())
-    area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
+    if config.spec.profile == "steel" and result.strip is not None and result.solution is not None:
+        from .shop import stage_shop
+
+        stage_shop(result, config)
+        area_m2 = result.figures["outline"]["area_m2"]  # the exact outline, not the ruling polygon
+    else:
+        faces = result.strip.faces if result.strip is not None else result.mesh[1]
+        area_model = float(triangle_areas(result.pattern.vertices, faces).sum())
+        area_m2 = area_model * (config.mm_per_unit / 1000.0) ** 2
     result.figures["area_m2"] = area_m2
     if config.spec.profile == "steel":
         steel = part.steel

@@ -1,10 +1,12 @@
 """Shop marks on steel plates: labels checked against the 3D geometry."""
 
+import json
 from pathlib import Path
 
 import ezdxf
 import numpy as np
 import pytest
+import shapely
 import yaml
 from scipy.spatial import cKDTree
 
@@ -66,5 +68,83 @@ def test_butt_labels_sit_on_the_butt_they_name_in_3d(strakes, key):
             assert abs(x - butts[k - 1]) < abs(x - other), (name, k, x)
             seen.append(k)
         assert sorted(seen) == [j + 1, j + 2]
+        rep = json.loads((out / f"{name}.json").read_text())
+        assert rep["outline"]["max_deviation"] <= 0.05
+        assert set(rep["outline"]["edges"]) == {"c", "d", "start", "end"}
+        # the trimmed mesh's boundary vertices (exact developed points) lie on the cut outline
+        m = rep["resolution"]["samples_per_ruling"]
+        ring = shapely.LinearRing(_lwpolyline(out / f"{name}.dxf", "CUT_OUTER"))
+        boundary = np.vstack([vt[0::m], vt[m - 1::m]])
+        assert shapely.distance(shapely.points(boundary), ring).max() <= 0.05
     # the two strakes do run in opposite directions along their seams
     assert directions == ({-1.0} if key == "aft" else {1.0})
+
+
+def _lwpolyline(path, layer):
+    msp = ezdxf.readfile(path).modelspace()
+    polylines = msp.query(f"LWPOLYLINE[layer=='{layer}']")
+    assert len(polylines) == 1 and polylines[0].closed
+    return np.array([p[:2] for p in polylines[0].get_points("xy")])
+
+
+def test_frustum_outline_is_the_true_annular_sector_whatever_the_ruling_count(tmp_path):
+    """configs/frustum.yaml solves with 10 rulings; the cut outline must still follow the
+    true sector (DESIGN §1.6) within 0.05 mm, its area to 1e-5."""
+    out = tmp_path / "o"
+    assert main(["run", str(ROOT / "configs" / "frustum.yaml"), "--out", str(out), "--quiet"]) == 0
+    rep = json.loads((out / "frustum.json").read_text())
+    assert rep["resolution"]["count"] == 10
+    pts = _lwpolyline(out / "frustum.dxf", "CUT_OUTER")
+    r1, r2, h, theta = 3000.0, 2000.0, 1500.0, 2 * np.pi / 3
+    s = np.hypot(r1 - r2, h)
+    rho1, rho2, angle = r1 * s / (r1 - r2), r2 * s / (r1 - r2), theta * (r1 - r2) / s
+    # the two end rulings are the longest segments; their lines meet at the apex
+    seg = np.roll(pts, -1, axis=0) - pts
+    ends = np.argsort(np.linalg.norm(seg, axis=1))[-2:]
+    (p, u), (q, w) = [(pts[i], seg[i]) for i in ends]
+    apex = p + u * np.linalg.solve(np.column_stack([u, -w]), q - p)[0]
+    assert np.linalg.norm(seg[ends], axis=1) == pytest.approx(rho1 - rho2, rel=1e-9)
+    r = np.linalg.norm(pts - apex, axis=1)
+    # every vertex on one of the two arcs, to round-off
+    assert np.minimum(np.abs(r - rho1), np.abs(r - rho2)).max() <= 1e-6
+    # every point of every segment within 0.05 mm of the true sector's boundary
+    f = np.linspace(0.0, 1.0, 21)
+    dense = (pts[:, None] + f[None, :, None] * seg[:, None]).reshape(-1, 2)
+    rd = np.linalg.norm(dense - apex, axis=1)
+    on_ruling = np.zeros(len(pts), dtype=bool)
+    on_ruling[ends] = True
+    arc_pts = ~np.repeat(on_ruling, len(f))
+    gap = np.minimum(np.abs(rd - rho1), np.abs(rd - rho2))[arc_pts]
+    assert gap.max() <= 0.05
+    assert rep["outline"]["max_deviation"] <= 0.05 and rep["outline"]["units"] == "mm"
+    area = 0.5 * abs(np.dot(pts[:, 0], np.roll(pts[:, 1], -1)) - np.dot(pts[:, 1], np.roll(pts[:, 0], -1)))
+    exact = 0.5 * angle * (rho1**2 - rho2**2)
+    assert area == pytest.approx(exact, rel=1e-5)
+    assert rep["area_m2"] == pytest.approx(exact / 1e6, rel=1e-5)
+    # the opening angle of the sector
+    a1, a2 = (np.arctan2(*(pts[i] - apex)[::-1]) for i in ends)
+    assert abs(np.angle(np.exp(1j * (a1 - a2)))) == pytest.approx(angle, rel=1e-9)
+
+
+def test_default_tolerances_are_physical_whatever_the_units(tmp_path):
+    """No resolution given: the chord tolerance is 0.5 mm in a metre config too (it was
+    taken as 0.5 m), and the cut outline keeps its 0.05 mm."""
+    base = yaml.safe_load((ROOT / "configs" / "plate.yaml").read_text())
+    del base["resolution"]
+    metres = yaml.safe_load(yaml.safe_dump(base))
+    metres["units"] = "m"
+    for key in ("c", "d"):
+        metres["curves"][key]["control_points"] = [[v / 1000 for v in p] for p in base["curves"][key]["control_points"]]
+    reports = {}
+    for label, data in (("mm", base), ("m", metres)):
+        config = tmp_path / f"{label}.yaml"
+        config.write_text(yaml.safe_dump(data))
+        assert main(["run", str(config), "--out", str(tmp_path / label), "--quiet"]) == 0
+        reports[label] = json.loads((tmp_path / label / "bilge_plate.json").read_text())
+    mm, m = reports["mm"], reports["m"]
+    assert m["resolution"]["count"] == mm["resolution"]["count"] > 10
+    assert m["resolution"]["chord_tolerance"] == pytest.approx(0.5e-3)
+    assert max(m["resolution"]["max_chord_error_c"], m["resolution"]["max_chord_error_d"]) <= 0.5e-3
+    assert m["outline"]["tolerance"] == mm["outline"]["tolerance"] == 0.05
+    assert m["outline"]["vertices"] == mm["outline"]["vertices"]
+    assert m["area_m2"] == pytest.approx(mm["area_m2"], rel=1e-9)

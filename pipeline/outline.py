@@ -1,0 +1,250 @@
+"""The exact cut outline of a plate: its developed boundary curves, sampled to a tolerance.
+
+The plate's boundary is traced along the solved strip by one parameter, the fraction
+lam in [0, 1] of the chosen path (``flatten.strip.sample_path``): the ruling at lam is
+polished onto the solution curve, developed exactly (``flatten.develop``) and, for hull
+plates, cut by the butt planes. Its lower end runs along c (or a butt), its upper end
+along d (or a butt). Each smooth piece (between plate corners) is sampled adaptively
+until every segment stays within the tolerance of the exact development at its check
+points, so the outline no longer depends on how many rulings the solver used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flatten.develop import develop
+from flatten.strip import sample_path
+
+CHECKS = np.array([0.25, 0.5, 0.75])  # where each segment is checked against the exact curve
+
+
+@dataclass(frozen=True)
+class Outline:
+    """A closed cut contour in the plate's placed coordinates (model units).
+
+    points : (N, 2) vertices, not repeated at the end
+    edges : (N,) name of the edge each segment points[i] -> points[i + 1] lies on
+        ('c', 'd', 'start', 'end'; for a hull plate start and end are its first and
+        second butt planes, aft and fore)
+    max_deviation : largest distance, at the check points, between the exact developed
+        boundary and the outline's segments (model units)
+    tolerance : the tolerance it was sampled to (model units)
+    alignment_error : largest misfit between this development and the pattern's ruling
+        ends after the rigid fit (model units; round-off expected)
+    """
+
+    points: np.ndarray
+    edges: tuple
+    max_deviation: float
+    tolerance: float
+    alignment_error: float
+
+    def area(self) -> float:
+        x, y = self.points[:, 0], self.points[:, 1]
+        return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
+
+    def edge_points(self, name: str) -> np.ndarray:
+        """The vertices of one edge in outline order (its segments' starts and the last end)."""
+        idx = np.flatnonzero(np.array(self.edges) == name)
+        if idx.size == 0:
+            return np.zeros((0, 2))
+        # the edge's segments are consecutive modulo N: start after a gap
+        n = len(self.points)
+        gaps = np.flatnonzero(np.diff(idx) > 1)
+        if gaps.size:
+            idx = np.roll(idx, -(gaps[0] + 1))
+        return self.points[np.append(idx, (idx[-1] + 1) % n)]
+
+
+def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                              np.ndarray]:
+    """Per ruling the interval [lo, hi] of v kept between the butt planes and which plane
+    sets each end (-1: the curve itself). Degenerate (corner) rulings get lo = hi."""
+    n = len(ends_c)
+    lo, hi = np.zeros(n), np.ones(n)
+    lo_by, hi_by = np.full(n, -1), np.full(n, -1)
+    for index, (plane, sign) in enumerate(zip(planes, (1.0, -1.0))):
+        sa, sb = sign * plane.signed(ends_c), sign * plane.signed(ends_d)
+        ds = sb - sa
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cut = np.where(ds != 0, -sa / np.where(ds != 0, ds, 1.0), np.nan)
+        raise_lo = (ds > 0) & (cut > lo)
+        lo, lo_by = np.where(raise_lo, cut, lo), np.where(raise_lo, index, lo_by)
+        lower_hi = (ds < 0) & (cut < hi)
+        hi, hi_by = np.where(lower_hi, cut, hi), np.where(lower_hi, index, hi_by)
+    lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
+    crossed = lo > hi
+    mid = 0.5 * (lo + hi)
+    return np.where(crossed, mid, lo), np.where(crossed, mid, hi), lo_by, hi_by
+
+
+class _Tracer:
+    """Evaluates the plate boundary at path fractions, in placed coordinates."""
+
+    def __init__(self, part, solution, strip, pattern, planes):
+        self.part, self.solution, self.strip, self.planes = part, solution, strip, planes
+        m = len(strip.samples)
+        k = np.arange(strip.n_rulings) * m
+        trim = strip.trim if strip.trim is not None else np.column_stack([np.zeros(strip.n_rulings),
+                                                                           np.ones(strip.n_rulings)])
+        # rigid fit of this development to the pattern's ruling ends (the pattern may be
+        # a trimmed strip placed from a development anchored at a ruling it no longer has)
+        # anchored at the path's start, which precedes every ruling asked for later (the
+        # development's frame is fixed by its first ruling)
+        self.base = np.vstack([sample_path(solution, np.zeros(1)), strip.rulings])
+        dev = develop(part.c, part.d, self.base, solution.field)
+        dev = type(dev)(dev.along_c[1:], dev.along_d[1:])
+        src = np.vstack([dev.along_c + trim[:, :1] * (dev.along_d - dev.along_c),
+                         dev.along_c + trim[:, 1:] * (dev.along_d - dev.along_c)])
+        dst = np.vstack([pattern.vertices[k], pattern.vertices[k + m - 1]])
+        self.rot, self.shift = _rigid_fit(src, dst)
+        self.alignment_error = float(np.abs(src @ self.rot.T + self.shift - dst).max())
+
+    def rulings(self, lam: np.ndarray) -> np.ndarray:
+        return sample_path(self.solution, np.clip(lam, 0.0, 1.0))
+
+    def interval(self, lam: np.ndarray):
+        r = self.rulings(lam)
+        pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        if not self.planes:
+            n = len(lam)
+            return np.zeros(n), np.ones(n), np.full(n, -1), np.full(n, -1), pc, pd
+        return (*ruling_interval(pc, pd, self.planes), pc, pd)
+
+    def developed(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Placed developed ends (along c, along d) of the given rulings, (N, 2) each."""
+        base = self.base
+        merged = np.vstack([base, rulings])
+        order = np.lexsort((merged[:, 1] * self.solution.path.orientation, merged[:, 0]))
+        dev = develop(self.part.c, self.part.d, merged[order], self.solution.field)
+        position = np.empty(len(merged), dtype=int)
+        position[order] = np.arange(len(merged))
+        new = position[len(base):]
+        return dev.along_c[new] @ self.rot.T + self.shift, dev.along_d[new] @ self.rot.T + self.shift
+
+    def boundary(self, lam: np.ndarray, side: int) -> np.ndarray:
+        """Placed points of the lower (side 0) or upper (side 1) boundary at lam, (N, 2)."""
+        lo, hi, _, _, _, _ = self.interval(lam)
+        ac, ad = self.developed(self.rulings(lam))
+        v = lo if side == 0 else hi
+        return ac + v[:, None] * (ad - ac)
+
+
+def _rigid_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation (2, 2) and translation (2,) minimising |src R^T + t - dst| (no reflection)."""
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    h = (src - cs).T @ (dst - cd)
+    u, _, vt = np.linalg.svd(h)
+    r = vt.T @ u.T
+    if np.linalg.det(r) < 0:
+        vt[-1] *= -1
+        r = vt.T @ u.T
+    return r, cd - cs @ r.T
+
+
+def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of points (N, C, 2) from segments a -> b (N, 2)."""
+    seg = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-300)
+    rel = points - a[:, None, :]
+    s = np.clip(np.einsum("ncj,nj->nc", rel, seg) / length2[:, None], 0.0, 1.0)
+    return np.linalg.norm(rel - s[..., None] * seg[:, None, :], axis=2)
+
+
+def _sample(tracer: _Tracer, side: int, a: float, b: float, tolerance: float, max_points: int = 20000):
+    """Adaptive samples of one smooth boundary piece on [a, b]: (lam (N,), points (N, 2),
+    max deviation at the check points). A segment off by more than the tolerance is split
+    into ceil(sqrt(deviation / tolerance)) + 1 parts (a chord's deviation falls as h^2)."""
+    lam = np.linspace(a, b, 9)
+    pts = tracer.boundary(lam, side)
+    deviation = np.zeros(0)
+    for _ in range(40):
+        la, lb = lam[:-1], lam[1:]
+        checks = la[:, None] + CHECKS[None, :] * (lb - la)[:, None]
+        exact = tracer.boundary(checks.ravel(), side).reshape(len(la), len(CHECKS), 2)
+        deviation = _segment_distance(exact, pts[:-1], pts[1:]).max(axis=1)
+        bad = np.flatnonzero(deviation > tolerance)
+        if bad.size == 0:
+            break
+        parts = np.ceil(np.sqrt(deviation[bad] / tolerance)).astype(int) + 1
+        if len(lam) + parts.sum() > max_points:
+            break
+        new = np.concatenate([la[i] + (lb[i] - la[i]) * np.arange(1, p) / p for i, p in zip(bad, parts)])
+        lam = np.concatenate([lam, new])
+        pts = np.vstack([pts, tracer.boundary(new, side)])
+        order = np.argsort(lam, kind="stable")
+        lam, pts = lam[order], pts[order]
+    return lam, pts, float(deviation.max(initial=0.0))
+
+
+def _corners(tracer: _Tracer) -> list[float]:
+    """Path fractions where a butt plane crosses c or d (the plate corners): bracketed on
+    a scan, then bisected."""
+    grid = np.linspace(0.0, 1.0, 513)
+    r = tracer.rulings(grid)
+    ends = (tracer.part.c(r[:, 0]), tracer.part.d(r[:, 1]))
+    found = []
+    for plane in tracer.planes:
+        for axis, curve in enumerate((tracer.part.c, tracer.part.d)):
+            s = plane.signed(ends[axis])
+            idx = np.flatnonzero(np.sign(s[:-1]) * np.sign(s[1:]) <= 0)
+            for i in idx[:1]:
+                a, b = grid[i], grid[i + 1]
+                sa = s[i]
+                for _ in range(60):
+                    m = 0.5 * (a + b)
+                    rm = tracer.rulings(np.array([m]))[0]
+                    sm = plane.signed(curve(np.array([rm[axis]])))[0]
+                    if np.sign(sm) == np.sign(sa) and sm != 0:
+                        a, sa = m, sm
+                    else:
+                        b = m
+                found.append(0.5 * (a + b))
+    return sorted(found)
+
+
+def exact_outline(part, solution, strip, pattern, planes=(), tolerance: float = 0.05) -> Outline:
+    """The plate's cut outline traced on the solved strip to ``tolerance`` (model units).
+
+    planes : the two butt planes of a hull plate (pipeline.strake.Plane), or () for a
+        part bounded by its first and last rulings.
+    """
+    tracer = _Tracer(part, solution, strip, pattern, tuple(planes))
+    breaks = [0.0, 1.0]
+    if tracer.planes:
+        corners = _corners(tracer)
+        lo, hi, *_ = tracer.interval(np.array([0.0, 1.0]))
+        first = 0.0 if hi[0] - lo[0] > 1e-12 or not corners else corners[0]
+        last = 1.0 if hi[1] - lo[1] > 1e-12 or not corners else corners[-1]
+        breaks = sorted({first, last, *[c for c in corners if first <= c <= last]})
+    sides = []
+    worst = 0.0
+    for side in (0, 1):
+        lam_all, pts_all = [], []
+        for a, b in zip(breaks[:-1], breaks[1:]):
+            if b - a <= 1e-15:
+                continue
+            lam, pts, deviation = _sample(tracer, side, a, b, tolerance)
+            worst = max(worst, deviation)
+            lam_all.append(lam if not lam_all else lam[1:])
+            pts_all.append(pts if not pts_all else pts[1:])
+        sides.append((np.concatenate(lam_all), np.vstack(pts_all)))
+    (lam_lo, lower), (lam_hi, upper) = sides
+    # which edge each segment lies on: the curve or the plane that sets its end
+    names = []
+    for lam, side in ((lam_lo, 0), (lam_hi, 1)):
+        mid = 0.5 * (lam[:-1] + lam[1:])
+        lo, hi, lo_by, hi_by, _, _ = tracer.interval(mid)
+        by = lo_by if side == 0 else hi_by
+        names.append(np.where(by < 0, "c" if side == 0 else "d", np.where(by == 0, "start", "end")))
+    points = np.vstack([lower, upper[::-1]])
+    edges = list(names[0]) + ["end"] + list(names[1][::-1]) + ["start"]
+    # drop repeated points (degenerate corner rulings) with their zero-length segments
+    step = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    size = float(np.ptp(points, axis=0).max())
+    keep = step > 1e-12 * max(size, 1.0)
+    points, edges = points[keep], tuple(str(e) for e, k in zip(edges, keep) if k)
+    return Outline(points, edges, worst, tolerance, tracer.alignment_error)
