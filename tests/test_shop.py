@@ -17,9 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SHIP = ROOT / "tests" / "data" / "ship"
 
 
-def _strake_config(tmp_path, name, surface, seams, butts, **extra):
+def _strake_config(tmp_path, name, surface, seams, butts, fit=5.0, **extra):
     data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0},
-            "strake": {"surface": surface, "seams": seams, "butts": butts, "margin": 0.2, "fit_tolerance": 5.0,
+            "strake": {"surface": surface, "seams": seams, "butts": butts, "margin": 0.2, "fit_tolerance": fit,
                        **extra}}
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -36,7 +36,7 @@ def strakes(tmp_path_factory):
                          [{"iso": {"v": 4.0}}, {"iso": {"v": 4.3}}], [72000, 88000, 104000],
                          frames={"spacing": 2500})
     fore = _strake_config(tmp, "fore", {"iges": str(SHIP / "ship_5415.igs"), "directory": 5},
-                          [{"iso": {"v": 3.0}}, {"iso": {"v": 3.2}}], [1000, 2000, 3000],
+                          [{"iso": {"v": 3.0}}, {"iso": {"v": 3.2}}], [1000, 2000, 3000], fit=1.0,
                           frames={"spacing": 250})
     for key, config in (("aft", aft), ("fore", fore)):
         out = tmp / key
@@ -69,6 +69,7 @@ def test_butt_labels_sit_on_the_butt_they_name_in_3d(strakes, key):
             seen.append(k)
         assert sorted(seen) == [j + 1, j + 2]
         rep = json.loads((out / f"{name}.json").read_text())
+        assert rep["plate_class"]["class"] == "developable"
         assert rep["outline"]["max_deviation"] <= 0.05
         assert set(rep["outline"]["edges"]) == {"c", "d", "start", "end"}
         # the trimmed mesh's boundary vertices (exact developed points) lie on the cut outline
