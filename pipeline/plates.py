@@ -219,7 +219,7 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
-    corner_tol = min(tol, config.spec.resolution.chord_tolerance or tol)
+    corner_tol = min(tol, config.spec.resolution.tolerance(config.mm_per_unit) or tol)
     grid = _grid(part, config)
     if grid is None:
         result.reason = "the plate's region misses the hull surface (seams and butts enclose nothing)"
