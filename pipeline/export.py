@@ -37,11 +37,11 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
         if out.dxf and config.spec.profile == "steel":
             from .dxf_steel import write_steel_dxf  # ezdxf: imported only when a steel DXF is written
 
+            from .shop import shop_layout
+
             path = out_dir / f"{name}.dxf"
-            errors = write_steel_dxf(path, pattern.outline * scale, pattern.bend_lines * scale,
-                                     steel_texts(result), out.layers,
-                                     [(x * scale, line * scale) for x, line in pattern.frame_lines],
-                                     [(t, p * scale, a) for t, p, a in pattern.labels])
+            layout = shop_layout(result, config, steel_texts(result))
+            errors = write_steel_dxf(path, layout, out.layers)
             result.figures["dxf_audit_errors"] = errors
             written.append(path)
         if out.obj:

@@ -81,11 +81,16 @@ def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.
     return np.where(crossed, mid, lo), np.where(crossed, mid, hi), lo_by, hi_by
 
 
-class _Tracer:
-    """Evaluates the plate boundary at path fractions, in placed coordinates."""
+class PlateTracer:
+    """Evaluates the plate at path fractions lam: its rulings, their kept intervals between
+    the butt planes, their developed ends in the pattern's placed coordinates.
 
-    def __init__(self, part, solution, strip, pattern, planes):
-        self.part, self.solution, self.strip, self.planes = part, solution, strip, planes
+    planes : the two butt planes of a hull plate (pipeline.strake.Plane), or () for a
+        part bounded by its first and last rulings.
+    """
+
+    def __init__(self, part, solution, strip, pattern, planes=()):
+        self.part, self.solution, self.strip, self.planes = part, solution, strip, tuple(planes)
         m = len(strip.samples)
         k = np.arange(strip.n_rulings) * m
         trim = strip.trim if strip.trim is not None else np.column_stack([np.zeros(strip.n_rulings),
@@ -125,6 +130,24 @@ class _Tracer:
         new = position[len(base):]
         return dev.along_c[new] @ self.rot.T + self.shift, dev.along_d[new] @ self.rot.T + self.shift
 
+    def normals(self, lam: np.ndarray) -> np.ndarray:
+        """Unit strip normals c' x (d - c) of the rulings at lam, (N, 3): the pattern is
+        drawn as seen from this side."""
+        r = self.rulings(lam)
+        pc, dc = self.part.c.derivatives(r[:, 0], 1)
+        n = np.cross(dc, self.part.d(r[:, 1]) - pc)
+        return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+    def plate_range(self) -> tuple[float, float, list[float]]:
+        """(first lam, last lam, corner lams inside) of the plate on the path."""
+        if not self.planes:
+            return 0.0, 1.0, []
+        corners = _corners(self)
+        lo, hi, *_ = self.interval(np.array([0.0, 1.0]))
+        first = 0.0 if hi[0] - lo[0] > 1e-12 or not corners else corners[0]
+        last = 1.0 if hi[1] - lo[1] > 1e-12 or not corners else corners[-1]
+        return first, last, [c for c in corners if first <= c <= last]
+
     def boundary(self, lam: np.ndarray, side: int) -> np.ndarray:
         """Placed points of the lower (side 0) or upper (side 1) boundary at lam, (N, 2)."""
         lo, hi, _, _, _, _ = self.interval(lam)
@@ -154,7 +177,7 @@ def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.linalg.norm(rel - s[..., None] * seg[:, None, :], axis=2)
 
 
-def _sample(tracer: _Tracer, side: int, a: float, b: float, tolerance: float, max_points: int = 20000):
+def _sample(tracer: PlateTracer, side: int, a: float, b: float, tolerance: float, max_points: int = 20000):
     """Adaptive samples of one smooth boundary piece on [a, b]: (lam (N,), points (N, 2),
     max deviation at the check points). A segment off by more than the tolerance is split
     into ceil(sqrt(deviation / tolerance)) + 1 parts (a chord's deviation falls as h^2)."""
@@ -180,7 +203,7 @@ def _sample(tracer: _Tracer, side: int, a: float, b: float, tolerance: float, ma
     return lam, pts, float(deviation.max(initial=0.0))
 
 
-def _corners(tracer: _Tracer) -> list[float]:
+def _corners(tracer: PlateTracer) -> list[float]:
     """Path fractions where a butt plane crosses c or d (the plate corners): bracketed on
     a scan, then bisected."""
     grid = np.linspace(0.0, 1.0, 513)
@@ -206,20 +229,10 @@ def _corners(tracer: _Tracer) -> list[float]:
     return sorted(found)
 
 
-def exact_outline(part, solution, strip, pattern, planes=(), tolerance: float = 0.05) -> Outline:
-    """The plate's cut outline traced on the solved strip to ``tolerance`` (model units).
-
-    planes : the two butt planes of a hull plate (pipeline.strake.Plane), or () for a
-        part bounded by its first and last rulings.
-    """
-    tracer = _Tracer(part, solution, strip, pattern, tuple(planes))
-    breaks = [0.0, 1.0]
-    if tracer.planes:
-        corners = _corners(tracer)
-        lo, hi, *_ = tracer.interval(np.array([0.0, 1.0]))
-        first = 0.0 if hi[0] - lo[0] > 1e-12 or not corners else corners[0]
-        last = 1.0 if hi[1] - lo[1] > 1e-12 or not corners else corners[-1]
-        breaks = sorted({first, last, *[c for c in corners if first <= c <= last]})
+def exact_outline(tracer: "PlateTracer", tolerance: float = 0.05) -> Outline:
+    """The plate's cut outline traced on the solved strip to ``tolerance`` (model units)."""
+    first, last, corners = tracer.plate_range()
+    breaks = sorted({first, last, *corners})
     sides = []
     worst = 0.0
     for side in (0, 1):

@@ -56,6 +56,8 @@ def part_report(result: PartResult, units: str) -> dict:
         "area_m2": result.figures.get("area_m2"),
         "steel": result.figures.get("steel"),
         "outline": result.figures.get("outline"),
+        "bending": result.figures.get("bending"),
+        "layout": result.figures.get("layout"),
         "hull_fit": result.figures.get("hull_fit"),
         "plate_coverage": result.figures.get("plate_coverage"),
         "trim": result.figures.get("trim"),

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .outline import Outline, exact_outline
+from .bending import BendLine, bending_lines
+from .outline import Outline, PlateTracer, exact_outline
 
 
 @dataclass(frozen=True)
@@ -19,9 +20,21 @@ class ShopPlate:
     """A plate as the shop gets it (mm, the pattern's placed coordinates scaled).
 
     outline : the net outline (exact development within outline.tolerance)
+    bending : numbered bending lines (none on a flat plate)
+    bend_spacing : their spacing along the plate's centre line
+    centre_length : length of that centre line
     """
 
     outline: Outline
+    bending: tuple[BendLine, ...] = ()
+    bend_spacing: float = 0.0
+    centre_length: float = 0.0
+
+
+def bend_text(line: BendLine) -> str:
+    """The mark written beside a bending line: number, radius, roll side."""
+    radius = "FLAT" if not np.isfinite(line.radius) or line.radius > 1e6 else f"R{line.radius:.0f}"
+    return f"B{line.number} {radius} {'CVX' if line.convex_on_drawn_side else 'CCV'}"
 
 
 def _scaled(outline: Outline, factor: float) -> Outline:
@@ -36,11 +49,25 @@ def stage_shop(result, config) -> None:
     shop = config.spec.shop
     hull = result.part.hull
     planes = hull.butts if hull is not None else ()
-    outline = exact_outline(result.part, result.solution, result.strip, result.pattern, planes,
-                            shop.outline_tolerance / scale)
+    tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes)
+    outline = exact_outline(tracer, shop.outline_tolerance / scale)
     result.pattern = dataclasses.replace(result.pattern, outline=outline.points)
     outline_mm = _scaled(outline, scale)
-    result.shop = ShopPlate(outline_mm)
+    lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
+    lines = [dataclasses.replace(b, a=b.a * scale, b=b.b * scale, station=b.station * scale, radius=b.radius * scale)
+             for b in lines]
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale)
+    result.figures["bending"] = {
+        "units": "mm",
+        "count": len(lines),
+        "spacing": shop.bend_spacing,
+        "centre_line_length": centre * scale,
+        "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
+        "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
+                   "length": float(np.linalg.norm(b.b - b.a)),
+                   "radius": b.radius if np.isfinite(b.radius) else None,
+                   "convex_on_drawn_side": b.convex_on_drawn_side, "mark": bend_text(b)} for b in lines],
+    }
     result.figures["outline"] = {
         "units": "mm",
         "vertices": len(outline_mm.points),
@@ -54,3 +81,67 @@ def stage_shop(result, config) -> None:
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates {outline_mm.max_deviation:.3g} mm from the exact development "
                                f"(tolerance {outline_mm.tolerance:g} mm): the sampling limit was reached")
+
+
+def _fallback(result, scale: float) -> ShopPlate:
+    """A plate that is no solved strip (a flat or formed hull plate): its pattern's outline
+    and roll lines as they are."""
+    pattern = result.pattern
+    n = len(pattern.outline)
+    outline = Outline(pattern.outline * scale, ("edge",) * n, float("nan"), float("nan"), 0.0)
+    lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("nan"), True)
+             for k, (a, b) in enumerate(pattern.bend_lines)]
+    return ShopPlate(outline, tuple(lines))
+
+
+def edge_names(result, shop_settings) -> dict:
+    """{edge key: text} for the plate's edges: seam and butt names of a hull plate (the
+    outline names its butt edges by the butt plane they lie on), with the bevel texts."""
+    hull = result.part.hull
+    names = {}
+    if hull is not None:
+        names = {"c": hull.seam_names[0], "d": hull.seam_names[1], "start": hull.butt_names[0],
+                 "end": hull.butt_names[1]}
+    for key in ("c", "d", "start", "end"):
+        bevel = getattr(shop_settings.bevel, key)
+        if bevel:
+            names[key] = f"{names.get(key, 'EDGE ' + key.upper())} {bevel}"
+    return names
+
+
+def shop_layout(result, config, part_data: list[str]):
+    """The plate's marks and texts laid out (mm) for the DXF and the shop drawing; the
+    layout's findings go to the warnings and the report."""
+    from .layout import plate_layout
+
+    scale = config.mm_per_unit
+    settings = config.spec.shop
+    plate = result.shop if result.shop is not None else _fallback(result, scale)
+    outline = plate.outline
+    net = outline.points
+    edges = {}
+    names = edge_names(result, settings)
+    if result.shop is not None:
+        for key, text in names.items():
+            edges[text] = outline.edge_points(key)
+    else:  # labels of a flat or formed plate: a short line where its own code put them
+        for text, position, angle in result.pattern.labels:
+            d = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+            p = np.asarray(position) * scale
+            edges[text] = np.array([p - 50.0 * d, p + 50.0 * d])
+    butts = [outline.edge_points(k) for k in ("start", "end")] if result.part.hull is not None else []
+    frames = [(f"FR {x * scale:g}", line * scale) for x, line in result.pattern.frame_lines]
+    bends = [(bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:
+        part_data = part_data + [f"BEND LINES B1-B{len(plate.bending)} EVERY {plate.bend_spacing:g} MM",
+                                 "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
+    layout = plate_layout(net, net, edges, bends, frames, part_data, settings.text_height, butts,
+                          settings.frame_clearance)
+    result.figures["layout"] = {
+        "units": "mm", "text_height": layout.text_height,
+        "texts": len(layout.texts), "bending_lines": sum(1 for k, _ in layout.lines if k == "bend"),
+        "frame_lines": sum(1 for k, _ in layout.lines if k == "frame"),
+        "frames_marked": sorted({t.text for t in layout.texts if t.kind == "frame"}),
+        "findings": list(layout.findings)}
+    result.warnings += [f for f in layout.findings if "not marked" not in f]
+    return layout

@@ -125,7 +125,9 @@ def test_dxf_reads_back_with_layers_units_and_the_flat_outline(tmp_path):
     assert len(outlines) == 1 and outlines[0].closed
     assert len(msp.query("SPLINE HATCH MTEXT")) == 0
     rep = report(tmp_path, "bilge_plate")
-    assert len(msp.query("LINE[layer=='MARK_BEND']")) == rep["resolution"]["count"]
+    # bending lines for the shop (not the solver's rulings), numbered
+    assert len(msp.query("LINE[layer=='MARK_BEND']")) == rep["bending"]["count"] >= 2
+    assert rep["bending"]["count"] != rep["resolution"]["count"]
     texts = " ".join(t.dxf.text for t in msp.query("TEXT[layer=='MARK_TEXT']"))
     assert "bilge_plate" in texts and "THK 12 MM" in texts and "S355" in texts
     pts = np.array([p[:2] for p in outlines[0].get_points("xy")])

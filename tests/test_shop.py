@@ -149,3 +149,112 @@ def test_default_tolerances_are_physical_whatever_the_units(tmp_path):
     assert m["outline"]["tolerance"] == mm["outline"]["tolerance"] == 0.05
     assert m["outline"]["vertices"] == mm["outline"]["vertices"]
     assert m["area_m2"] == pytest.approx(mm["area_m2"], rel=1e-9)
+
+
+def _cylinder_config(tmp_path, spacing=None, rulings=7):
+    from tests.oracles import circular_arc
+
+    def curve(c):
+        return {"degree": c.degree, "control_points": c.control_points.tolist(), "weights": c.weights.tolist(),
+                "knots": c.knots.tolist()}
+
+    c = circular_arc(2000.0, 0.0, 2 * np.pi / 3)
+    d = circular_arc(2000.0, 1500.0, 2 * np.pi / 3, name="d")
+    data = {"name": "cyl", "units": "mm", "curves": {"c": curve(c), "d": curve(d)}, "resolution": {"rulings": rulings}}
+    if spacing is not None:
+        data["shop"] = {"bend_spacing": spacing}
+    path = tmp_path / "cyl.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("spacing", [None, 300.0])
+def test_cylinder_bending_lines_at_the_configured_spacing(tmp_path, spacing):
+    """A circular cylinder R = 2000 mm, 120 degrees (arc 4188.79 mm), solved with 7 rulings:
+    the shop's bending lines are the generators every `spacing` mm (400 by default),
+    centred, numbered, each with R 2000."""
+    out = tmp_path / "o"
+    assert main(["run", str(_cylinder_config(tmp_path, spacing)), "--out", str(out), "--quiet"]) == 0
+    rep = json.loads((out / "cyl.json").read_text())
+    step = spacing or 400.0
+    arc = 2000.0 * 2 * np.pi / 3
+    n = int(arc // step)
+    bending = rep["bending"]
+    assert bending["count"] == n and bending["spacing"] == step and rep["resolution"]["count"] == 7
+    assert bending["centre_line_length"] == pytest.approx(arc, rel=1e-9)
+    lines = bending["lines"]
+    assert [b["number"] for b in lines] == list(range(1, n + 1))
+    assert all(b["radius"] == pytest.approx(2000.0, rel=1e-6) and b["length"] == pytest.approx(1500.0, rel=1e-9)
+               for b in lines)
+    msp = ezdxf.readfile(out / "cyl.dxf").modelspace()
+    dxf_lines = sorted(((np.array(e.dxf.start)[:2], np.array(e.dxf.end)[:2]) for e in msp.query("LINE[layer=='MARK_BEND']")),
+                       key=lambda ab: ab[0][0] + ab[1][0])
+    assert len(dxf_lines) == n
+    # parallel generators at the configured spacing (perpendicular distance), margins equal
+    a0, b0 = dxf_lines[0]
+    u = (b0 - a0) / np.linalg.norm(b0 - a0)
+    normal = np.array([-u[1], u[0]])
+    offsets = np.array([(a - a0) @ normal for a, _ in dxf_lines])
+    assert np.abs(np.abs(np.diff(offsets)) - step).max() <= 1e-6
+    cut = _lwpolyline(out / "cyl.dxf", "CUT_OUTER")
+    span = cut @ normal
+    lo, hi = span.min() - a0 @ normal, span.max() - a0 @ normal
+    assert (offsets.min() - lo) == pytest.approx(hi - offsets.max(), abs=1e-6)
+    texts = [t.dxf.text for t in msp.query("TEXT[layer=='MARK_BEND']")]
+    assert sorted(texts, key=lambda t: int(t.split()[0][1:])) == [f"B{k} R2000 {lines[k - 1]['mark'].split()[-1]}"
+                                                                  for k in range(1, n + 1)]
+
+
+STEEL_CONFIGS = [p for p in sorted((ROOT / "configs").glob("*.yaml"))
+                 if yaml.safe_load(p.read_text()).get("profile", "steel") == "steel"]
+
+
+@pytest.mark.parametrize("config", STEEL_CONFIGS, ids=lambda p: p.stem)
+def test_every_text_inside_the_plate_clear_of_texts_and_lines(config, tmp_path):
+    """Every DXF of every steel config: texts (sized by ezdxf's own font metrics) inside the
+    cut outline, not overlapping each other or any mark line; marks clipped to the plate;
+    extents set; the report's counts match the file."""
+    from ezdxf.tools.text_size import text_size
+
+    out = tmp_path / "o"
+    code = main(["run", str(config), "--out", str(out), "--quiet"])
+    assert code in (0, 1)
+    dxfs = sorted(out.glob("*.dxf"))
+    assert dxfs or code == 1
+    for path in dxfs:
+        doc = ezdxf.readfile(path)
+        msp = doc.modelspace()
+        assert len(doc.audit().errors) == 0
+        plate = shapely.Polygon(_lwpolyline(path, "CUT_OUTER"))
+        assert plate.is_valid
+        boxes = []
+        for t in msp.query("TEXT"):
+            size = text_size(t)
+            w, h = size.width, size.total_height
+            a = np.radians(t.dxf.rotation)
+            u, v = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+            c = np.array(t.dxf.align_point)[:2]
+            corners = [c + sx * w / 2 * u + sy * h / 2 * v for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+            boxes.append((t.dxf.text, shapely.Polygon(corners)))
+        assert boxes
+        for name, box in boxes:
+            assert plate.contains(box), (path.name, name)
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                assert not boxes[i][1].intersects(boxes[j][1]), (path.name, boxes[i][0], boxes[j][0])
+        marks = [shapely.LineString([(e.dxf.start.x, e.dxf.start.y), (e.dxf.end.x, e.dxf.end.y)]) for e in msp.query("LINE")]
+        marks += [shapely.LineString([p[:2] for p in e.get_points("xy")])
+                  for e in msp.query("LWPOLYLINE") if not e.closed]
+        for line in marks:
+            assert plate.buffer(1e-6).contains(line), path.name
+            for name, box in boxes:
+                assert not box.intersects(line), (path.name, name)
+        lo, hi = np.array(doc.header["$EXTMIN"])[:2], np.array(doc.header["$EXTMAX"])[:2]
+        x0, y0, x1, y1 = plate.bounds
+        assert lo[0] <= x0 and lo[1] <= y0 and hi[0] >= x1 and hi[1] >= y1
+        assert np.all(np.abs(np.concatenate([lo, hi])) < 1e9)
+        rep = json.loads(path.with_suffix(".json").read_text())
+        assert rep["layout"]["findings"] == [] or all("not marked" in f for f in rep["layout"]["findings"]), \
+            rep["layout"]["findings"]
+        if rep.get("bending"):
+            assert len(msp.query("LINE[layer=='MARK_BEND']")) == rep["bending"]["count"]

@@ -1,0 +1,97 @@
+"""Bending (roll) lines for the plater, chosen on the solved strip.
+
+The solver's rulings are for computing (trim zones, checks); the shop gets rulings of the
+same developable strip at a regular spacing along the plate's centre line, numbered, each
+with the local radius across it and the side the plate is rolled to. A ruling is a
+straight line of the strip, so rolling along it keeps the plate developable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .outline import PlateTracer
+
+DENSE = 2001  # samples of the centre line for its arc length
+
+
+@dataclass(frozen=True)
+class BendLine:
+    """One bending line on the placed flat plate (model units unless told).
+
+    number : 1, 2, ... along the plate
+    a, b : (2,) ends, on the c side and the d side of the plate
+    station : position along the plate's centre line from its first end
+    radius : radius of curvature across the line at its middle (inf where flat)
+    convex_on_drawn_side : the plate bulges towards the viewer of the drawing (the side
+        the strip normal c' x (d - c) points to)
+    """
+
+    number: int
+    a: np.ndarray
+    b: np.ndarray
+    station: float
+    radius: float
+    convex_on_drawn_side: bool
+
+
+def _centre_line(tracer: PlateTracer, lam: np.ndarray):
+    lo, hi, _, _, pc, pd = tracer.interval(lam)
+    ac, ad = tracer.developed(tracer.rulings(lam))
+    mid = 0.5 * (lo + hi)
+    return ac + lo[:, None] * (ad - ac), ac + hi[:, None] * (ad - ac), ac + mid[:, None] * (ad - ac), \
+        pc + mid[:, None] * (pd - pc), pc, pd
+
+
+def _curvature(tracer: PlateTracer, lam: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Signed curvature across the rulings at lam (the normal's turn over the distance
+    between neighbouring rulings at their middles), > 0 where the plate is convex on the
+    side its normal points to."""
+    lo_lam, hi_lam = np.clip(lam - step, 0, 1), np.clip(lam + step, 0, 1)
+    n0, n1 = tracer.normals(lo_lam), tracer.normals(hi_lam)
+    *_, m0, pc0, pd0 = _centre_line(tracer, lo_lam)
+    *_, m1, pc1, pd1 = _centre_line(tracer, hi_lam)
+    move = m1 - m0
+    ruling = pd0 + pd1 - pc0 - pc1
+    ruling /= np.maximum(np.linalg.norm(ruling, axis=1), 1e-300)[:, None]
+    across = move - np.einsum("ij,ij->i", move, ruling)[:, None] * ruling
+    width = np.linalg.norm(across, axis=1)
+    turn = n1 - n0
+    kappa = np.linalg.norm(turn, axis=1) / np.maximum(width, 1e-300)
+    sign = np.sign(np.einsum("ij,ij->i", turn, across))
+    return kappa, sign
+
+
+def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) -> tuple[list[BendLine], float]:
+    """Lines every ``spacing`` (model units) along the plate's centre line (the middles of
+    its rulings between the butts), centred so the margins at both ends are equal; lines
+    shorter than ``min_length`` times the longest (corner slivers) are left out. Returns
+    (lines, length of the centre line)."""
+    first, last, _ = tracer.plate_range()
+    lam = np.linspace(first, last, DENSE)
+    *_, mid2, _, _, _ = _centre_line(tracer, lam)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
+    length = float(s[-1])
+    count = int(np.floor(length / spacing))
+    if count < 1:
+        return [], length
+    stations = 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count)
+    at = np.interp(stations, s, lam)
+    # one secant step on the exact centre line removes the interpolation error
+    *_, m_at, _, _, _ = _centre_line(tracer, at)
+    index = np.clip(np.searchsorted(s, stations) - 1, 0, len(s) - 2)
+    exact_s = s[index] + np.linalg.norm(m_at - mid2[index], axis=1)
+    slope = (s[index + 1] - s[index]) / np.maximum(lam[index + 1] - lam[index], 1e-300)
+    at = np.clip(at - (exact_s - stations) / slope, first, last)
+    a, b, *_ = _centre_line(tracer, at)
+    kappa, sign = _curvature(tracer, at, 1e-5 * (last - first))
+    lengths = np.linalg.norm(b - a, axis=1)
+    lines = []
+    for k in range(count):
+        if lengths[k] < min_length * lengths.max():
+            continue
+        radius = float(1.0 / kappa[k]) if kappa[k] > 0 else float("inf")
+        lines.append(BendLine(len(lines) + 1, a[k], b[k], float(stations[k]), radius, bool(sign[k] > 0)))
+    return lines, length

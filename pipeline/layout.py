@@ -1,0 +1,313 @@
+"""Layout of a steel plate's marks and texts (mm): what the DXF and the shop drawing draw.
+
+Marks are clipped to the plate (shapely); every text is a rotated box that must lie
+inside the net outline, clear of the other texts and of every line. Heights scale with
+the plate (between the configured min and max); a text that cannot be placed is left out
+and named in the findings, never drawn across an edge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.affinity import rotate as shp_rotate
+from shapely.geometry import LineString, MultiLineString, Polygon, box
+
+CHAR_WIDTH = 1.0  # box width per character, in text heights (conservative for TXT / monospace fonts)
+LINE_GAP = 1.5  # baseline to baseline, in text heights
+
+
+@dataclass(frozen=True)
+class Text:
+    """A single-line text centred at ``at`` (mm), rotated ``angle`` degrees, on a mark kind
+    ('text', 'edge', 'bend', 'frame')."""
+
+    kind: str
+    text: str
+    at: tuple[float, float]
+    height: float
+    angle: float
+
+    def box(self) -> Polygon:
+        return text_box(self.text, self.at, self.height, self.angle)
+
+
+@dataclass
+class Layout:
+    """Everything drawn on one plate, in mm.
+
+    cut : (N, 2) closed cut contour; net : (M, 2) net line when an allowance is cut, else None
+    lines : [(kind, (K, 2) polyline)], kind in 'bend', 'frame'
+    texts : placed texts; findings : what could not be placed, and skipped frames
+    """
+
+    cut: np.ndarray
+    net: np.ndarray | None
+    lines: list = field(default_factory=list)
+    texts: list = field(default_factory=list)
+    findings: list = field(default_factory=list)
+    text_height: float = 0.0
+
+    def extents(self) -> tuple[np.ndarray, np.ndarray]:
+        pts = [self.cut] + [line for _, line in self.lines]
+        pts += [np.asarray(t.box().exterior.coords) for t in self.texts]
+        allp = np.vstack(pts)
+        return allp.min(axis=0), allp.max(axis=0)
+
+
+def text_box(text: str, at, height: float, angle: float) -> Polygon:
+    """The rectangle a one-line text occupies (centre-aligned)."""
+    w = CHAR_WIDTH * height * max(len(text), 1)
+    h = 1.3 * height
+    rect = box(at[0] - w / 2, at[1] - h / 2, at[0] + w / 2, at[1] + h / 2)
+    return shp_rotate(rect, angle, origin=(at[0], at[1]))
+
+
+def block_box(lines: list[str], at, height: float, angle: float) -> Polygon:
+    w = CHAR_WIDTH * height * max(len(t) for t in lines)
+    h = LINE_GAP * height * (len(lines) - 1) + 1.3 * height
+    rect = box(at[0] - w / 2, at[1] - h / 2, at[0] + w / 2, at[1] + h / 2)
+    return shp_rotate(rect, angle, origin=(at[0], at[1]))
+
+
+def block_texts(lines: list[str], at, height: float, angle: float, kind: str = "text") -> list[Text]:
+    """A block of lines centred at ``at``, first line on top (as read at ``angle``)."""
+    a = np.radians(angle)
+    down = np.array([np.sin(a), -np.cos(a)])
+    offsets = (np.arange(len(lines)) - (len(lines) - 1) / 2) * LINE_GAP * height
+    return [Text(kind, t, tuple(np.asarray(at) + o * down), height, angle) for t, o in zip(lines, offsets)]
+
+
+def readable(angle: float) -> float:
+    """The same direction, turned so that text reads left to right or bottom to top."""
+    angle = (angle + 180.0) % 360.0 - 180.0
+    if angle > 90.0 + 1e-9:
+        angle -= 180.0
+    elif angle <= -90.0 + 1e-9:
+        angle += 180.0
+    return angle
+
+
+def rectangles(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
+    """Shapely polygons (N,) of width x height rectangles centred at centres (N, 2), turned
+    by angle degrees."""
+    centres = np.asarray(centres, dtype=float)
+    a = np.radians(np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),)))
+    u = np.column_stack([np.cos(a), np.sin(a)])[:, None, :]
+    v = np.column_stack([-np.sin(a), np.cos(a)])[:, None, :]
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], dtype=float) * [width / 2, height / 2]
+    offsets = corners[None, :, :1] * u + corners[None, :, 1:] * v  # (N, 4, 2)
+    return shapely.polygons(centres[:, None, :] + offsets)
+
+
+class Placer:
+    """Places text boxes one after the other inside ``room`` (a polygon), clear (by
+    ``clearance``) of ``lines`` and of what it placed before."""
+
+    def __init__(self, room: Polygon, lines: list[np.ndarray], clearance: float):
+        self.room = room
+        shapely.prepare(room)
+        self.clearance = clearance
+        geoms = [LineString(line) for line in lines if len(line) >= 2]
+        self.obstacles = MultiLineString(geoms) if geoms else None
+        if self.obstacles is not None:
+            shapely.prepare(self.obstacles)
+        self.boxes: list[Polygon] = []
+
+    def place(self, centres: np.ndarray, width: float, height: float, angle: float) -> int | None:
+        """Index of the first centre whose box (grown by the clearance) is free; the box is
+        taken. None when no centre fits."""
+        if len(centres) == 0:
+            return None
+        grown = rectangles(centres, width + 2 * self.clearance, height + 2 * self.clearance, angle)
+        ok = shapely.contains(self.room, grown)
+        if self.obstacles is not None:
+            ok &= ~shapely.intersects(grown, self.obstacles)
+        for b in self.boxes:
+            ok &= ~shapely.intersects(grown, b)
+        hits = np.flatnonzero(ok)
+        if hits.size == 0:
+            return None
+        i = int(hits[0])
+        angle = np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),))
+        self.boxes.append(rectangles(centres[i:i + 1], width, height, angle[i:i + 1])[0])
+        return i
+
+
+def heights(preferred: float, smallest: float) -> list[float]:
+    """Preferred height, then smaller ones down to the smallest."""
+    out = [preferred]
+    while out[-1] * 0.8 > smallest:
+        out.append(out[-1] * 0.8)
+    if out[-1] > smallest:
+        out.append(smallest)
+    return out
+
+
+def grid_points(room: Polygon, obstacles=None, n: int = 60) -> np.ndarray:
+    """Points of a grid over the room, inside it, the most clear (far from its edge and
+    from the obstacles: the middle of the largest free area) first."""
+    x0, y0, x1, y1 = room.bounds
+    xs, ys = np.linspace(x0, x1, n + 2)[1:-1], np.linspace(y0, y1, n + 2)[1:-1]
+    pts = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+    geoms = shapely.points(pts)
+    inside = shapely.contains(room, geoms)
+    pts, geoms = pts[inside], geoms[inside]
+    depth = shapely.distance(geoms, room.exterior)
+    if obstacles is not None:
+        depth = np.minimum(depth, shapely.distance(geoms, obstacles))
+    return pts[np.argsort(-depth, kind="stable")]
+
+
+def _largest(geometry) -> Polygon | None:
+    """The largest polygon of a geometry, None when it is empty."""
+    polygons = [g for g in getattr(geometry, "geoms", [geometry]) if g.geom_type == "Polygon" and not g.is_empty]
+    return max(polygons, key=lambda g: g.area) if polygons else None
+
+
+def _inward(poly: Polygon, point: np.ndarray, direction: np.ndarray, probe: float) -> np.ndarray:
+    """The unit normal of an edge direction that points into the polygon at ``point``."""
+    d = direction / max(np.linalg.norm(direction), 1e-300)
+    n = np.array([-d[1], d[0]])
+    return n if poly.contains(shapely.Point(point + probe * n)) else -n
+
+
+def _along(line: np.ndarray, fractions) -> tuple[np.ndarray, np.ndarray]:
+    """Points and unit directions at arc-length fractions of a polyline (K, 2)."""
+    seg = np.diff(line, axis=0)
+    lengths = np.linalg.norm(seg, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(lengths)])
+    at = np.asarray(fractions) * s[-1]
+    i = np.clip(np.searchsorted(s, at) - 1, 0, len(seg) - 1)
+    f = (at - s[i]) / np.maximum(lengths[i], 1e-300)
+    return line[i] + f[:, None] * seg[i], seg[i] / np.maximum(lengths[i], 1e-300)[:, None]
+
+
+FRACTIONS = np.array([0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.12, 0.88])
+
+
+def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, frames: list, part_data: list[str],
+                 text_height: tuple[float, float], butt_edges: list[np.ndarray] = (),
+                 frame_clearance: float = 0.0) -> Layout:
+    """Lay out one plate (all mm).
+
+    net, cut : (N, 2) closed contours (the same when no allowance is cut)
+    edges : {label text: (K, 2) polyline of the edge it names}
+    bends : [(mark text, (2,) a, (2,) b)]
+    frames : [(name, (K, 2) polyline)] unclipped
+    part_data : lines of the part data block
+    butt_edges : polylines of the butts: a frame nearer than frame_clearance is skipped
+    """
+    plate = _largest(shapely.make_valid(Polygon(net)))
+    findings = []
+    smallest, largest = text_height
+    inscribed = shapely.maximum_inscribed_circle(plate, 1e-3 * np.sqrt(plate.area)).length
+    preferred = float(np.clip(2.0 * inscribed / 12.0, smallest, largest))
+    clearance = min(0.2 * smallest, 0.05 * inscribed)
+    room = _largest(plate.buffer(-clearance)) or plate
+    layout = Layout(cut=cut, net=None if cut is net else net, text_height=preferred)
+    # marks clipped to the plate
+    bend_lines = []
+    for text, a, b in bends:
+        clipped = LineString([a, b]).intersection(plate)
+        parts = [g for g in getattr(clipped, "geoms", [clipped]) if g.geom_type == "LineString" and g.length > 0]
+        for g in parts:
+            bend_lines.append((text, np.asarray(g.coords)))
+    butts = [LineString(e) for e in butt_edges if len(e) >= 2]
+    frame_lines = []
+    for name, line in frames:
+        clipped = LineString(line).intersection(plate)
+        parts = [np.asarray(g.coords) for g in getattr(clipped, "geoms", [clipped])
+                 if g.geom_type == "LineString" and g.length > 0]
+        if not parts:
+            findings.append(f"{name}: outside the plate, not marked")
+            continue
+        near = min((LineString(p).distance(bt) for p in parts for bt in butts), default=np.inf)
+        if near < frame_clearance:
+            findings.append(f"{name}: {near:.1f} mm from a butt (frame_clearance {frame_clearance:g} mm), not marked")
+            continue
+        frame_lines += [(name, p) for p in parts]
+    layout.lines = [("bend", p) for _, p in bend_lines] + [("frame", p) for _, p in frame_lines]
+    placer = Placer(room, [p for _, p in layout.lines], clearance)
+    obstacles = placer.obstacles
+    # the part data block first, in the middle of the largest free area
+    centres = grid_points(room, obstacles)
+    angles = []
+    if bend_lines:
+        d = np.mean([p[-1] - p[0] for _, p in bend_lines], axis=0)
+        angles.append(readable(np.degrees(np.arctan2(d[1], d[0]))))
+    rect = shapely.minimum_rotated_rectangle(plate)
+    corners = np.asarray(rect.exterior.coords)[:3]
+    sides = np.diff(corners, axis=0)
+    long_side = sides[np.argmax(np.linalg.norm(sides, axis=1))]
+    angles += [readable(np.degrees(np.arctan2(long_side[1], long_side[0]))), 0.0, 90.0]
+    placed = False
+    if part_data:
+        splits = [part_data]
+        for k in (3, 2, 1):
+            per = int(np.ceil(len(part_data) / k))
+            if per > 1:
+                splits.append(["  ".join(part_data[j:j + per]) for j in range(0, len(part_data), per)])
+        for h in heights(preferred, smallest):
+            for lines in splits:
+                w = CHAR_WIDTH * h * max(len(t) for t in lines)
+                hh = LINE_GAP * h * (len(lines) - 1) + 1.3 * h
+                for angle in angles:
+                    i = placer.place(centres, w, hh, angle)
+                    if i is not None:
+                        layout.texts += block_texts(lines, centres[i], h, angle)
+                        placed = True
+                        break
+                if placed:
+                    break
+            if placed:
+                break
+        if not placed:
+            findings.append("part data block: no room inside the plate at the smallest text height")
+    # edge names (and bevels) inside the plate along their edge
+    for text, line in edges.items():
+        if len(line) < 2 or not _place_along(placer, layout, "edge", text, line, plate, preferred, smallest,
+                                             clearance, side=None):
+            findings.append(f"edge label {text!r}: no room along its edge")
+    for text, line in bend_lines:
+        if not _place_along(placer, layout, "bend", text, line, plate, preferred, smallest, clearance, side=1):
+            findings.append(f"bending line label {text!r}: no room beside the line")
+    for text, line in frame_lines:
+        if not _place_along(placer, layout, "frame", text, line, plate, preferred, smallest, clearance, side=1):
+            findings.append(f"frame label {text!r}: no room beside the line")
+    layout.findings = findings
+    return layout
+
+
+def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.ndarray, plate: Polygon,
+                 preferred: float, smallest: float, clearance: float, side) -> bool:
+    """Put a text beside a polyline: parallel to it, on the plate side of an edge (side
+    None) or on either side of a mark line, at several places along it."""
+    points, directions = _along(line, FRACTIONS)
+    for h in heights(0.8 * preferred, smallest):
+        w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
+        gap = 0.5 * hh + 2.0 * clearance
+        centres, angles = [], []
+        for p, d in zip(points, directions):
+            normals = [_inward(plate, p, d, gap)] if side is None else [np.array([-d[1], d[0]]),
+                                                                         np.array([d[1], -d[0]])]
+            for n in normals:
+                for k in (1.0, 2.0, 3.5):
+                    centres.append(p + k * gap * n)
+                    angles.append(readable(np.degrees(np.arctan2(d[1], d[0]))))
+        # a short edge or a line across a narrow plate: the text runs away from it
+        for p, d in zip(points, directions):
+            normals = [_inward(plate, p, d, gap)] if side is None else [np.array([-d[1], d[0]]),
+                                                                         np.array([d[1], -d[0]])]
+            for n in normals:
+                centres.append(p + (0.5 * w + 0.5 * hh + 3.0 * clearance) * n)
+                angles.append(readable(np.degrees(np.arctan2(n[1], n[0]))))
+        centres = np.array(centres)
+        angles = np.array(angles)
+        i = placer.place(centres, w, hh, angles)
+        if i is not None:
+            layout.texts.append(Text(kind, text, tuple(centres[i]), h, float(angles[i])))
+            return True
+    return False
