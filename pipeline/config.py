@@ -233,7 +233,7 @@ class Layers(_Strict):
     text: str = "MARK_TEXT"
     frame: str = "MARK_FRAME"
     edge: str = "MARK_EDGE"  # edge names (seams, butts) and bevel texts
-    net: str = "MARK_NET"  # the net line when the cut carries an allowance
+    net: str = "MARK_NET"  # reserved for the net line of an excess allowance (not cut yet)
 
     @field_validator("cut", "bend", "text", "frame", "edge", "net")
     @classmethod
@@ -332,18 +332,9 @@ class Textile(_Strict):
         return a if isinstance(a, SeamAllowance) else SeamAllowance(c=a, d=a, start=a, end=a)
 
 
-class EdgeLengths(_Strict):
-    """Per-edge lengths in mm: the c and d edges, the start and end edges (the first and
-    last rulings; for a hull plate its aft and fore butts)."""
-
-    c: float = Field(0.0, ge=0)
-    d: float = Field(0.0, ge=0)
-    start: float = Field(0.0, ge=0)
-    end: float = Field(0.0, ge=0)
-
-
 class EdgeTexts(_Strict):
-    """Per-edge texts (bevel / edge preparation), keyed like :class:`EdgeLengths`."""
+    """Per-edge texts (bevel / edge preparation): the c and d edges, the start and end edges
+    (the first and last rulings; for a hull plate its aft and fore butts)."""
 
     c: str = Field("", max_length=40)
     d: str = Field("", max_length=40)
@@ -359,13 +350,11 @@ class Shop(_Strict):
     frame_clearance: float = Field(50.0, ge=0, description="mm: a frame nearer a butt is not marked")
     text_height: tuple[float, float] = Field((5.0, 40.0), description="mm, smallest and largest text")
     mirror: bool = Field(False, description="also write the mirrored plate of the other side (P/S in the id)")
-    allowance: float | EdgeLengths = Field(0.0, description="mm of excess per edge, cut outside the net line")
     bevel: EdgeTexts = EdgeTexts()
     stock: list[tuple[float, float]] = Field(
         default_factory=lambda: [(2500.0, 12000.0), (3000.0, 16000.0), (3500.0, 18000.0)],
         description="stock plates, width x length in mm")
     stock_margin: float = Field(10.0, ge=0, description="mm kept free around the part on a stock plate")
-    drawing: bool = Field(True, description="one-page PDF shop drawing per plate")
 
     @field_validator("text_height")
     @classmethod
@@ -374,23 +363,12 @@ class Shop(_Strict):
             raise ValueError(f"text_height needs 0 < min <= max, got {list(value)}")
         return value
 
-    @field_validator("allowance")
-    @classmethod
-    def _allowance(cls, value):
-        if isinstance(value, float) and value < 0:
-            raise ValueError(f"allowance must be >= 0, got {value}")
-        return value
-
     @field_validator("stock")
     @classmethod
     def _stock(cls, value):
         if any(w <= 0 or h <= 0 for w, h in value):
             raise ValueError(f"stock sizes must be positive, got {value}")
         return value
-
-    def allowances(self) -> EdgeLengths:
-        a = self.allowance
-        return a if isinstance(a, EdgeLengths) else EdgeLengths(c=a, d=a, start=a, end=a)
 
 
 class Output(_Strict):

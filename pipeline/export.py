@@ -39,11 +39,32 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 
             from .shop import shop_layout
 
-            path = out_dir / f"{name}.dxf"
-            layout = shop_layout(result, config, steel_texts(result))
-            errors = write_steel_dxf(path, layout, out.layers)
+            texts = steel_texts(result)
+            if config.spec.shop.mirror:  # both sides: the modelled plate and its reflection, P/S in the id
+                import dataclasses
+
+                from .shop import mirrored
+
+                v3 = result.strip.vertices if result.strip is not None else result.mesh[0]
+                model = "P" if float(np.mean(v3[:, 1])) >= 0.0 else "S"
+                other = "S" if model == "P" else "P"
+                # the ids have the same length on both sides: one layout fits both
+                layout = shop_layout(result, config, [f"PART {name}_{model}"] + texts[1:])
+                errors = 0
+                flipped = mirrored(layout, model)
+                flipped.texts = [dataclasses.replace(t, text=t.text.replace(f"PART {name}_{model}", f"PART {name}_{other}"))
+                                 for t in flipped.texts]
+                for side, plate in ((model, layout), (other, flipped)):
+                    path = out_dir / f"{name}_{side}.dxf"
+                    errors += write_steel_dxf(path, plate, out.layers)
+                    written.append(path)
+                result.figures["sides"] = {"modelled": model, "mirrored": other,
+                                           "rule": "P where the plate's mean y >= 0 (y to port)"}
+            else:
+                path = out_dir / f"{name}.dxf"
+                errors = write_steel_dxf(path, shop_layout(result, config, texts), out.layers)
+                written.append(path)
             result.figures["dxf_audit_errors"] = errors
-            written.append(path)
         if out.obj:
             path = out_dir / f"{name}.obj"
             v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh

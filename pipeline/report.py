@@ -58,6 +58,8 @@ def part_report(result: PartResult, units: str) -> dict:
         "outline": result.figures.get("outline"),
         "bending": result.figures.get("bending"),
         "layout": result.figures.get("layout"),
+        "stock": result.figures.get("stock"),
+        "sides": result.figures.get("sides"),
         "hull_fit": result.figures.get("hull_fit"),
         "plate_coverage": result.figures.get("plate_coverage"),
         "trim": result.figures.get("trim"),

@@ -137,6 +137,11 @@ def shop_layout(result, config, part_data: list[str]):
                                  "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
     layout = plate_layout(net, net, edges, bends, frames, part_data, settings.text_height, butts,
                           settings.frame_clearance)
+    stock = stock_check(net, settings.stock, settings.stock_margin)
+    result.figures["stock"] = stock
+    if stock["fits_on"] is None:
+        result.warnings.append(f"no stock plate fits: the part needs {stock['needed'][0]:.0f} x {stock['needed'][1]:.0f} mm "
+                               f"with {settings.stock_margin:g} mm margins; stock {stock['stock']}")
     result.figures["layout"] = {
         "units": "mm", "text_height": layout.text_height,
         "texts": len(layout.texts), "bending_lines": sum(1 for k, _ in layout.lines if k == "bend"),
@@ -145,3 +150,39 @@ def shop_layout(result, config, part_data: list[str]):
         "findings": list(layout.findings)}
     result.warnings += [f for f in layout.findings if "not marked" not in f]
     return layout
+
+
+def stock_check(outline_mm: np.ndarray, stock: list, margin: float) -> dict:
+    """The smallest rectangle holding the part (any rotation) plus the margin on every side,
+    and the smallest configured stock plate (by area) it fits on; None when none fits."""
+    import shapely
+
+    rect = shapely.minimum_rotated_rectangle(shapely.Polygon(outline_mm))
+    corners = np.asarray(rect.exterior.coords)[:3]
+    sides = np.sort(np.linalg.norm(np.diff(corners, axis=0), axis=1))
+    need = sides + 2.0 * margin
+    fits = [(w * h, (w, h)) for w, h in (sorted(s) for s in stock) if need[0] <= w and need[1] <= h]
+    best = min(fits)[1] if fits else None
+    return {"units": "mm", "part_rectangle": sides.tolist(), "margin": margin, "needed": need.tolist(),
+            "stock": [list(s) for s in stock], "fits_on": list(best) if best else None}
+
+
+def mirrored(layout, side_of_model: str):
+    """The layout reflected (x -> -x, moved back to x >= 0): the plate of the other side."""
+    import copy
+
+    from .layout import Text, readable
+
+    width = float(layout.cut[:, 0].max() + layout.cut[:, 0].min())
+
+    def flip(p):
+        p = np.array(p, dtype=float, copy=True)
+        p[..., 0] = width - p[..., 0]
+        return p
+
+    out = copy.copy(layout)
+    out.cut = flip(layout.cut)[::-1]
+    out.net = None if layout.net is None else flip(layout.net)[::-1]
+    out.lines = [(k, flip(line)) for k, line in layout.lines]
+    out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle)) for t in layout.texts]
+    return out

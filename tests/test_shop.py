@@ -258,3 +258,32 @@ def test_every_text_inside_the_plate_clear_of_texts_and_lines(config, tmp_path):
             rep["layout"]["findings"]
         if rep.get("bending"):
             assert len(msp.query("LINE[layer=='MARK_BEND']")) == rep["bending"]["count"]
+
+
+def test_mirrored_plate_is_the_reflection_and_napa_plate_warns_no_stock(tmp_path):
+    config = ROOT / "configs" / "napa_bilge.yaml"
+    data = yaml.safe_load(config.read_text())
+    for key in ("c", "d"):
+        data["curves"][key]["iges"] = str((config.parent / data["curves"][key]["iges"]).resolve())
+    data["shop"] = {"mirror": True, "bevel": {"c": "V30 T2"}}
+    path = tmp_path / "napa.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "o"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    rep = json.loads((out / "napa_bilge.json").read_text())
+    # the 25.8 m plate fits no stock plate: a warning, the needed size in the report
+    assert rep["stock"]["fits_on"] is None and rep["stock"]["needed"][1] > 25800
+    assert any("no stock plate fits" in w for w in rep["warnings"])
+    model, other = rep["sides"]["modelled"], rep["sides"]["mirrored"]
+    assert {model, other} == {"P", "S"} and not (out / "napa_bilge.dxf").exists()
+    a = _lwpolyline(out / f"napa_bilge_{model}.dxf", "CUT_OUTER")
+    b = _lwpolyline(out / f"napa_bilge_{other}.dxf", "CUT_OUTER")
+    # b is a reflected about a vertical line: same vertices with x -> w - x
+    w = a[:, 0].min() + a[:, 0].max()
+    reflected = np.column_stack([w - a[:, 0], a[:, 1]])
+    assert shapely.Polygon(b).symmetric_difference(shapely.Polygon(reflected)).area <= 1e-9 * shapely.Polygon(a).area
+    assert shapely.Polygon(a).area == pytest.approx(shapely.Polygon(b).area, rel=1e-12)
+    texts = " ".join(t.dxf.text for t in ezdxf.readfile(out / f"napa_bilge_{other}.dxf").modelspace().query("TEXT"))
+    assert f"PART napa_bilge_{other} " in texts + " " and f"napa_bilge_{model}" not in texts
+    msp = ezdxf.readfile(out / f"napa_bilge_{model}.dxf").modelspace()
+    assert [t.dxf.text for t in msp.query("TEXT[layer=='MARK_EDGE']")] == ["EDGE C V30 T2"]
