@@ -200,7 +200,9 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     part_data : lines of the part data block
     butt_edges : polylines of the butts: a frame nearer than frame_clearance is skipped
     """
-    plate = _largest(shapely.make_valid(Polygon(net)))
+    plate = _largest(shapely.make_valid(Polygon(net))) or _largest(Polygon(net).buffer(0))
+    if plate is None:
+        raise ValueError(f"the cut outline ({len(net)} points) encloses no area")
     findings = []
     smallest, largest = text_height
     inscribed = shapely.maximum_inscribed_circle(plate, 1e-3 * np.sqrt(plate.area)).length

@@ -75,6 +75,11 @@ def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.
         lo, lo_by = np.where(raise_lo, cut, lo), np.where(raise_lo, index, lo_by)
         lower_hi = (ds < 0) & (cut < hi)
         hi, hi_by = np.where(lower_hi, cut, hi), np.where(lower_hi, index, hi_by)
+        # a ruling parallel to the plane lies wholly on one side: outside, it collapses
+        # (a corner ruling on the plane itself, to round-off, stays whole)
+        size = np.linalg.norm(ends_d - ends_c, axis=1) + np.abs(sa)
+        outside = (ds == 0) & (sa < -1e-9 * size)
+        lo, hi = np.where(outside, 0.0, lo), np.where(outside, 0.0, hi)
     lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
     crossed = lo > hi
     mid = 0.5 * (lo + hi)
