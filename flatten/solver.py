@@ -265,6 +265,11 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
 
     branches: list[Branch] = []
     raw_pieces, raw_turning, knot_hits = [], [], []
+
+    def point_evidence(p):  # where a single-point finding is, in parameters and in 3D
+        return {"t": float(p[0]), "T": float(p[1]), "point_c": model_c(p[:1])[0].tolist(),
+                "point_d": model_d(p[1:])[0].tolist()}
+
     for block, (t_walls, T_walls) in blocks:
         unit = block.unit
         seeds, visited = block.seeds, block.visited
@@ -307,8 +312,7 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
             findings.append(Finding(
                 "ISOLATED_POINT", f"f vanishes at an isolated point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) (an "
                 "extremum of f with f = 0): a developable ruling that exists for this t only",
-                {"t": float(p[0]), "T": float(p[1]), "point_c": model_c(p[:1])[0].tolist(),
-                 "point_d": model_d(p[1:])[0].tolist()}))
+                point_evidence(p)))
     scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
     for block, _ in blocks:
         for p in block.touches:
@@ -317,8 +321,7 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
             findings.append(Finding(
                 "ISOLATED_POINT", f"f vanishes at a single point (t, T) = ({p[0]:.9g}, {p[1]:.9g}) on a side of "
                 "the rectangle (the solution curve touches it from outside): a ruling for this t only",
-                {"t": float(p[0]), "T": float(p[1]), "point_c": model_c(p[:1])[0].tolist(),
-                 "point_d": model_d(p[1:])[0].tolist()}))
+                point_evidence(p)))
     fans = _corner_fans(branches, c, d, len(raw_pieces))
     for fan in fans:
         apex = model_c(fan.points[:1, 0])[0] if np.ptp(fan.points[:, 0]) == 0 else model_d(fan.points[:1, 1])[0]
