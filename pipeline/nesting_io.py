@@ -388,10 +388,22 @@ def summary_lines(results: dict[str, NestResult], job: NestJob, units: str) -> l
 
 
 # ------------------------------------------------------------------ command
+def _previous_files(out: Path, config: RunConfig) -> list[str]:
+    """The files an earlier nesting of this config wrote into ``out`` (its report lists them):
+    sheets it had and this run has not are stale."""
+    style = config.spec.name or config.source.stem
+    try:
+        files = json.loads((out / f"{style}_nesting.json").read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [f for f in files if isinstance(f, str) and f.startswith(style)] if isinstance(files, list) else []
+
+
 def command_nest(args, validate) -> int:
     """Run the parts, nest them, write the nesting files. Exit 0 all placed and checked,
     1 a part failed or could not be placed or a check failed, 2 bad input (nothing written)."""
     from .cli import check_jobs
+    from .outdir import OutputFolder
     from .plates import evaluate_plate, run_part
 
     check_jobs(args.jobs)
@@ -441,11 +453,9 @@ def command_nest(args, validate) -> int:
     finally:
         if bar is not None:
             bar.close()
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {args.out}: cannot create the output folder: {exc}") from None
-    write_outputs(results_by_group, job, config, args.out)
+    with OutputFolder(args.out, config) as folder:
+        written = write_outputs(results_by_group, job, config, folder.run_folder)
+        folder.commit_files(folder.run_folder, [p.name for p in written], _previous_files(args.out, config))
     if not args.quiet:
         print("\n".join(summary_lines(results_by_group, job, config.spec.units)))
     ok = all(r.success for r in results_by_group.values()) and not job.failed

@@ -237,6 +237,21 @@ class OutputFolder:
         except OSError as exc:
             raise OutputError(f"--out {self.out}: cannot move the results in: {exc}") from None
 
+    def commit_files(self, folder: Path, names: list[str], stale: list[str]) -> None:
+        """Move the files ``names`` staged in ``folder`` into ``out``; first remove the files
+        ``stale`` (what an earlier run of the same command listed) that this run does not
+        rewrite. For commands whose file names are known only after they ran (nesting).
+        Raises OutputError."""
+        inputs = {_identity(p) for p in input_files(self.config)} - {None}
+        self._committed = True
+        try:
+            for name in stale:
+                if name not in names and re.fullmatch(r"[A-Za-z0-9_.+-]+", name):
+                    _remove(self.out / name, inputs)
+            self._commit_set(folder, list(names), inputs)
+        except OSError as exc:
+            raise OutputError(f"--out {self.out}: cannot move the results in: {exc}") from None
+
     def _commit_set(self, folder: Path, candidates: list[str], inputs: set) -> None:
         """Stale files out (the old DXF first, whether or not a new one comes), then the new
         files in, the DXF after the JSON report."""

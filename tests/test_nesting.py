@@ -4,6 +4,7 @@ read back), quantities honoured, bad input exit 2, unplaceable parts reported.""
 
 import csv
 import json
+import os
 import math
 from collections import Counter
 from pathlib import Path
@@ -341,3 +342,27 @@ def test_free_rotation_turns_a_part_that_only_fits_turned():
     polys = independent_check(result, 1.0, 1e-6 * 500)
     # turned away from the standing position: its extent across the roll is at most the width
     assert all(p.bounds[3] - p.bounds[1] <= 100.0 + 1e-3 for p in polys)
+
+
+def test_nest_writes_through_the_output_transaction(tmp_path, capsys):
+    """`devflat nest` holds the folder's lock, stages its files and removes the sheets an
+    earlier nesting of the same config wrote that this one does not."""
+    from pipeline.outdir import STAGING_PREFIX, OutputFolder
+
+    out = tmp_path / "out"
+    config = plate_config(tmp_path, quantities={"bilge_plate": 3})
+    assert main(["nest", str(config), "--out", str(out), "--quiet"]) == 0
+    first = json.loads((out / "bilge_plate_nesting.json").read_text())["files"]
+    sheets = sorted(f for f in first if f.endswith(".dxf"))
+    assert len(sheets) >= 2  # three 2.9 m x 2.7 m plates do not fit one 3 m x 6 m plate
+    config.write_text(config.read_text().replace("bilge_plate: 3", "bilge_plate: 1"))
+    assert main(["nest", str(config), "--out", str(out), "--quiet"]) == 0
+    second = json.loads((out / "bilge_plate_nesting.json").read_text())["files"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(second)  # the stale sheets are gone, no staging left
+    assert len([f for f in second if f.endswith(".dxf")]) == 1
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    with OutputFolder(out, None):  # another run holds the folder
+        assert main(["nest", str(config), "--out", str(out), "--quiet"]) == 2
+        assert f"another devflat run (pid {os.getpid()}) is writing" in capsys.readouterr().err
+        assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()
+                if not p.name.startswith((".devflat", STAGING_PREFIX))} == before
