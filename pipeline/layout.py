@@ -93,13 +93,18 @@ def readable(angle: float) -> float:
 def rectangles(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
     """Shapely polygons (N,) of width x height rectangles centred at centres (N, 2), turned
     by angle degrees."""
+    return shapely.polygons(_box_corners(centres, width, height, angle))
+
+
+def _box_corners(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
+    """Corners (N, 4, 2) of the rectangles of :func:`rectangles`."""
     centres = np.asarray(centres, dtype=float)
     a = np.radians(np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),)))
     u = np.column_stack([np.cos(a), np.sin(a)])[:, None, :]
     v = np.column_stack([-np.sin(a), np.cos(a)])[:, None, :]
     corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], dtype=float) * [width / 2, height / 2]
     offsets = corners[None, :, :1] * u + corners[None, :, 1:] * v  # (N, 4, 2)
-    return shapely.polygons(centres[:, None, :] + offsets)
+    return centres[:, None, :] + offsets
 
 
 class Placer:
@@ -119,21 +124,27 @@ class Placer:
     def place(self, centres: np.ndarray, width: float, height: float, angle: float) -> int | None:
         """Index of the first centre whose box (grown by the clearance) is free; the box is
         taken. None when no centre fits."""
-        if len(centres) == 0:
-            return None
-        grown = rectangles(centres, width + 2 * self.clearance, height + 2 * self.clearance, angle)
-        ok = shapely.contains(self.room, grown)
-        if self.obstacles is not None:
-            ok &= ~shapely.intersects(grown, self.obstacles)
-        for b in self.boxes:
-            ok &= ~shapely.intersects(grown, b)
-        hits = np.flatnonzero(ok)
-        if hits.size == 0:
-            return None
-        i = int(hits[0])
         angle = np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),))
-        self.boxes.append(rectangles(centres[i:i + 1], width, height, angle[i:i + 1])[0])
-        return i
+        # only the first free centre is wanted: test them in growing chunks (the first few
+        # usually fit), each test only where the cheaper ones passed; a box whose corners
+        # are not all in the room cannot lie in it (points are cheaper than polygons)
+        start, size = 0, 16
+        while start < len(centres):
+            stop = min(start + size, len(centres))
+            corners = _box_corners(centres[start:stop], width + 2 * self.clearance, height + 2 * self.clearance,
+                                   angle[start:stop])
+            ok = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
+            idx = np.flatnonzero(ok)
+            grown = shapely.polygons(corners[idx])
+            fits = shapely.contains(self.room, grown)
+            for other in ([self.obstacles] if self.obstacles is not None else []) + self.boxes:
+                fits[fits] = ~shapely.intersects(grown[fits], other)
+            if fits.any():
+                i = start + int(idx[np.argmax(fits)])
+                self.boxes.append(rectangles(centres[i:i + 1], width, height, angle[i:i + 1])[0])
+                return i
+            start, size = stop, 4 * size
+        return None
 
 
 def heights(preferred: float, smallest: float) -> list[float]:
