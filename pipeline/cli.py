@@ -120,6 +120,8 @@ def command_run(args) -> int:
                 results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
                 export_textile(pieces, config, folder.run_folder, run_name(config))
             export_summary(results, config, folder.run_folder)
+            # what the commit moves in: every staged file (it refuses a name the plan lacks)
+            n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
             folder.commit([r.name for r in results])
     except OutputError:
         raise
@@ -131,7 +133,14 @@ def command_run(args) -> int:
                 print(f"part {result.name}:\n{result.figures['traceback']}", file=sys.stderr)
     if not args.quiet:
         print(summary_table(results))
+        print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
+
+
+def wrote_line(n_files: int, out: Path, run: str) -> str:
+    """The run's last line: where the files went and where the summary is."""
+    folder = str(out).rstrip("/\\") + "/"
+    return f"wrote {n_files} file{'s' if n_files != 1 else ''} to {folder} (summary: {folder}{run}_summary.json)"
 
 
 def command_check(args) -> int:

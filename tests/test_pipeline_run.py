@@ -205,6 +205,20 @@ def test_multi_part_run_with_progress_and_summary(tmp_path, capsys):
     assert rep["units"] == "m"
 
 
+def test_the_last_line_says_where_the_files_went(tmp_path, capsys):
+    c, d = oracles.frustum_pair()
+    config = write_config(tmp_path / "cone.yaml", "cone", c, d, resolution={"rulings": 12})
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out)]) == 0
+    written = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert "cone_summary.json" in written and "cone.dxf" in written
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == f"wrote {len(written)} files to {out}/ (summary: {out}/cone_summary.json)"
+    # quiet: nothing on stdout
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+
+
 def test_reversing_d_or_changing_units_gives_the_same_plate(tmp_path):
     base = yaml.safe_load((CONFIGS / "plate.yaml").read_text())
     variants = {"same": base}
