@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .equation import DevelopabilityField
-from .polyroots import bernstein_matrix
 
 # Rounding of a Bernstein coefficient computed from the cell polynomial: a few ulps
 # per term, relative to the cell's natural scale of f (DevelopabilityField.scale).
@@ -76,9 +75,7 @@ class CriticalPoints:
 
 def bernstein_cells(field: DevelopabilityField) -> np.ndarray:
     """Bernstein coefficients of f on every cell in local (s, σ), shape (nc, nd, A, B)."""
-    a, b = field.cells.shape[2:]
-    ma, mb = bernstein_matrix(a - 1), bernstein_matrix(b - 1)
-    return np.einsum("ia,xyab,jb->xyij", ma, field.cells, mb)
+    return field.bernstein
 
 
 def _halves(coefs: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:

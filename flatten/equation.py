@@ -20,7 +20,7 @@ import numpy as np
 
 from .nurbs import NurbsCurve
 from .plucker import reciprocal_matrix, tangent_line_polynomials
-from .polyroots import real_roots_unit_interval
+from .polyroots import bernstein_matrix, real_roots_unit_interval
 
 GENERAL = "general"
 PARALLEL_PLANES = "parallel_planes"
@@ -45,7 +45,8 @@ class PlaneFit:
 def fit_plane(points: np.ndarray, relative: float) -> PlaneFit:
     """Plane through (N, 3) points by SVD; distances relative to the point spread."""
     centre = points.mean(axis=0)
-    _, sing, vt = np.linalg.svd(points - centre, full_matrices=True)
+    # only V is needed: U of a full SVD would be (N, N)
+    _, sing, vt = np.linalg.svd(points - centre, full_matrices=len(points) < 3)
     size = max(float(sing[0]), 1e-300)
     collinear = len(sing) < 2 or float(sing[1]) <= relative * size
     normal = vt[2]
@@ -185,28 +186,6 @@ class DevelopabilityField:
         pt = self._powers(sig, self.cells.shape[3], 0)
         return np.einsum("nb,niab->nia", pt, self.cells[:, j].transpose(1, 0, 2, 3))
 
-    def _roots(self, coefs: np.ndarray, curve: NurbsCurve, zero_relative: float, scale: np.ndarray):
-        n, n_spans, width = coefs.shape
-        flat = coefs.reshape(n * n_spans, width)
-        row, root, vanishing = real_roots_unit_interval(
-            flat, zero_relative=zero_relative)
-        # identically zero on the line (a fan on the line): small against f's size on
-        # the cell, and not above round-off of the natural scale (nearly coplanar curves
-        # have an f far below its natural scale, but a zero line is zero to round-off)
-        vanishing = vanishing | (np.abs(flat).max(axis=1) <= scale.ravel())
-        keep = ~vanishing[row]
-        row, root = row[keep], root[keep]
-        line, span = np.divmod(row, n_spans)
-        b = curve.breakpoints
-        value = b[span] + root * (b[span + 1] - b[span])
-        # a root at a breakpoint is found from both neighbouring spans
-        order = np.lexsort((value, line))
-        line, value = line[order], value[order]
-        tol = 1e-12 * (1.0 + np.ptp(curve.domain))
-        dup = np.zeros(line.size, dtype=bool)
-        dup[1:] = (line[1:] == line[:-1]) & (np.abs(value[1:] - value[:-1]) <= tol)
-        return line[~dup], value[~dup], vanishing.reshape(n, n_spans)
-
     def roots_in_T(self, t: np.ndarray, zero_relative: float = 1e-11):
         """Every real root T of f(t_k, T) = 0 for a batch of t.
 
@@ -214,21 +193,94 @@ class DevelopabilityField:
         spans of d on which f(t_k, ·) is identically zero (a fan with apex c(t_k)).
         """
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        return self._roots(self.polynomials_in_T(t), self.d, zero_relative,
-                           self._zero_level(zero_relative)[self.c.span_index(t)])
+        i, s, _ = self._local(self.c, t)
+        return self._line_roots(i, self._powers(s, self.cells.shape[2], 0), self.cells,
+                                self.live_cells(zero_relative), self.d, zero_relative,
+                                self._zero_level(zero_relative))
 
     def roots_in_t(self, T: np.ndarray, zero_relative: float = 1e-11):
         """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
         T = np.atleast_1d(np.asarray(T, dtype=np.float64))
-        return self._roots(self.polynomials_in_t(T), self.c, zero_relative,
-                           self._zero_level(zero_relative)[:, self.d.span_index(T)].T)
+        j, sig, _ = self._local(self.d, T)
+        return self._line_roots(j, self._powers(sig, self.cells.shape[3], 0), self.cells.transpose(1, 0, 3, 2),
+                                self.live_cells(zero_relative).T, self.c, zero_relative,
+                                self._zero_level(zero_relative).T)
+
+    @staticmethod
+    def _line_roots(cell_row: np.ndarray, powers: np.ndarray, cells: np.ndarray, live: np.ndarray,
+                    curve: NurbsCurve, zero_relative: float, level: np.ndarray):
+        """Roots along the other curve for lines through cell rows ``cell_row`` (N,).
+
+        ``powers`` (N, A): powers of the lines' local variable; ``cells`` (n_rows, n_spans,
+        A, B) oriented so that the line variable comes first; ``live`` and ``level``
+        (n_rows, n_spans) in the same orientation.
+        Only (line, span) pairs whose cell may hold a zero (:attr:`live_cells`) are
+        solved: a cell whose Bernstein coefficients keep one sign beyond the zero level
+        holds neither a root nor a vanishing line, and a branch meets O(spans) cells of
+        the rectangle, so the work and memory are linear in the spans, not quadratic.
+        """
+        n, n_spans = len(cell_row), cells.shape[1]
+        line, span = np.nonzero(live[cell_row])
+        coefs = np.einsum("ka,kab->kb", powers[line], cells[cell_row[line], span])
+        row, root, vanishing = real_roots_unit_interval(coefs, zero_relative=zero_relative)
+        # identically zero on the line (a fan on the line): small against f's size on
+        # the cell, and not above round-off of the natural scale (nearly coplanar curves
+        # have an f far below its natural scale, but a zero line is zero to round-off)
+        vanishing = vanishing | (np.abs(coefs).max(axis=1, initial=0.0) <= level[cell_row[line], span])
+        keep = ~vanishing[row]
+        row, root = row[keep], root[keep]
+        line_of, span_of = line[row], span[row]
+        b = curve.breakpoints
+        value = b[span_of] + root * (b[span_of + 1] - b[span_of])
+        # a root at a breakpoint is found from both neighbouring spans
+        order = np.lexsort((value, line_of))
+        line_of, value = line_of[order], value[order]
+        tol = 1e-12 * (1.0 + np.ptp(curve.domain))
+        dup = np.zeros(line_of.size, dtype=bool)
+        dup[1:] = (line_of[1:] == line_of[:-1]) & (np.abs(value[1:] - value[:-1]) <= tol)
+        out_vanishing = np.zeros((n, n_spans), dtype=bool)
+        out_vanishing[line[vanishing], span[vanishing]] = True
+        return line_of[~dup], value[~dup], out_vanishing
+
+    @cached_property
+    def bernstein(self) -> np.ndarray:
+        """Bernstein coefficients of f on every cell in local (s, σ), shape (nc, nd, A, B),
+        read-only (shared by the line solver's cell filter and the certification)."""
+        a, b = self.cells.shape[2:]
+        nc, nd = self.cells.shape[:2]
+        ma, mb = bernstein_matrix(a - 1), bernstein_matrix(b - 1)
+        # two GEMMs instead of a 4-index einsum: (nc nd A, B) @ (B, B)^T, then along A
+        out = (self.cells.reshape(-1, b) @ mb.T).reshape(nc, nd, a, b)
+        out = np.matmul(ma, out)
+        out.setflags(write=False)
+        return out
+
+    def live_cells(self, zero_relative: float = 1e-11) -> np.ndarray:
+        """(n_c_spans, n_d_spans) bool: cells where f may vanish (or nearly vanish on a line).
+
+        A cell is dead when its Bernstein coefficients keep one sign beyond the larger
+        of the zero level (:meth:`_zero_level`, then no line in it is a fan), the
+        rounding of the coefficients and 1e-9 of their largest (the margin of the line
+        solver's own sign filter, so that no near-double root is dropped).
+        """
+        bern = self.bernstein
+        flat = bern.reshape(bern.shape[0], bern.shape[1], -1)
+        lo, hi = flat.min(axis=2), flat.max(axis=2)
+        big = np.maximum(np.abs(lo), np.abs(hi))
+        margin = np.maximum.reduce([self._zero_level(zero_relative),
+                                    64.0 * np.finfo(float).eps * flat.shape[2] * self.scale, 1e-9 * big])
+        return ~((lo > margin) | (hi < -margin))
 
     def _zero_level(self, zero_relative: float) -> np.ndarray:
         """(n_c_spans, n_d_spans) size below which f on a line counts as identically zero:
         ``zero_relative`` of f's largest coefficient on the cell, but at least a few
         thousand ulps of the natural scale (round-off)."""
-        magnitude = np.abs(self.cells).max(axis=(2, 3))
-        return np.maximum(zero_relative * magnitude, 1e3 * np.finfo(float).eps * self.scale)
+        return np.maximum(zero_relative * self._magnitude, 1e3 * np.finfo(float).eps * self.scale)
+
+    @cached_property
+    def _magnitude(self) -> np.ndarray:
+        """(n_c_spans, n_d_spans) largest |coefficient| of f on each cell."""
+        return np.abs(self.cells).max(axis=(2, 3))
 
     def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton on f(t_k, ·) from T_guess for a batch, shape (N,).
@@ -269,7 +321,16 @@ class DevelopabilityField:
 
     @cached_property
     def identically_zero(self) -> bool:
-        return bool(np.all(np.abs(self.cells).max(axis=(2, 3)) <= 1e-11 * self.scale))
+        return bool(np.all(self._magnitude <= 1e-11 * self.scale))
+
+
+def _cell_products(left: np.ndarray, middle: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """M[i, j, a, b] = left[i, a] . middle . right[j, b] for (nc, A, K), (K, K), (nd, B, K),
+    shape (nc, nd, A, B): one matrix product (nc A, K) x (K, nd B), not a 4-index einsum."""
+    nc, a, k = left.shape
+    nd, b, _ = right.shape
+    flat = (left.reshape(-1, k) @ middle) @ right.reshape(-1, k).T
+    return flat.reshape(nc, a, nd, b).transpose(0, 2, 1, 3)
 
 
 def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
@@ -293,18 +354,18 @@ def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
         xc = _inplane_derivative_polynomials(c, basis)  # (nc, p, 2)
         xd = _inplane_derivative_polynomials(d, basis)  # (nd, q, 2)
         rot = np.array([[0.0, 1.0], [-1.0, 0.0]])
-        cells = plane["height"] * np.einsum("iak,kl,jbl->ijab", xc, rot, xd)
+        cells = plane["height"] * _cell_products(xc, rot, xd)
         scale_c = np.abs(xc).max(axis=(1, 2)) / wc
         scale_d = np.abs(xd).max(axis=(1, 2)) / wd
         scale = abs(plane["height"]) * np.outer(scale_c, scale_d)
     else:
         lc = tangent_line_polynomials(c.power_coefficients)  # (nc, 2p-1, 6)
         ld = tangent_line_polynomials(d.power_coefficients)  # (nd, 2q-1, 6)
-        cells = np.einsum("iak,kl,jbl->ijab", lc, reciprocal_matrix(), ld)
+        cells = _cell_products(lc, reciprocal_matrix(), ld)
         scale_c = np.abs(lc).max(axis=(1, 2)) / wc
         scale_d = np.abs(ld).max(axis=(1, 2)) / wd
         scale = np.outer(scale_c, scale_d)
-    cells = cells / (wc[:, None, None, None] * wd[None, :, None, None])
+    cells = np.divide(cells, wc[:, None, None, None] * wd[None, :, None, None], out=np.empty(cells.shape))
     cells.setflags(write=False)
     scale = np.maximum(scale, 1e-300)
     scale.setflags(write=False)

@@ -12,6 +12,8 @@ x = (u, U), u = (t - t0) / (t1 - t0), U = (T - T0) / (T1 - T0).
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_left, bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,7 +106,13 @@ NO_CAPS = StepCaps(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
 
 
 class _UnitField:
-    """f and its gradient in unit-square coordinates for one point at a time."""
+    """f and its gradient in unit-square coordinates, one point at a time, in floats.
+
+    The tracer steps one point at a time, so numpy's overhead per call (about a
+    microsecond per operation on a 2-vector) would dominate: the coefficients of a
+    cell are taken once as nested lists (highest powers first) and evaluated by
+    Horner's rule in plain Python floats (about 25x fewer interpreter-level calls).
+    """
 
     def __init__(self, field: DevelopabilityField):
         self.field = field
@@ -112,68 +120,69 @@ class _UnitField:
         self.T0, self.T1 = field.d.domain
         self.dt = self.t1 - self.t0
         self.dT = self.T1 - self.T0
-        self.bc, self.bd = field.c.breakpoints, field.d.breakpoints
-        self.pow_c = np.arange(field.cells.shape[2], dtype=np.float64)
-        self.pow_d = np.arange(field.cells.shape[3], dtype=np.float64)
-        self.dcoef_c, self.dcoef_d = self.pow_c, self.pow_d
+        self.bc, self.bd = field.c.breakpoints.tolist(), field.d.breakpoints.tolist()
+        self.last_c, self.last_d = len(self.bc) - 2, len(self.bd) - 2
+        self._rows: dict[int, list[list[float]]] = {}  # cell -> Horner rows, filled as cells are visited
 
     def params(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(x, dtype=np.float64).reshape(-1, 2)
         return self.t0 + x[:, 0] * self.dt, self.T0 + x[:, 1] * self.dT
 
-    def value_gradient(self, x: np.ndarray):
-        """f and (f_u, f_U) at one unit point, as ((1,), (1, 2)) arrays.
+    def _cell_rows(self, i: int, j: int) -> list[list[float]]:
+        key = i * (self.last_d + 1) + j
+        rows = self._rows.get(key)
+        if rows is None:
+            rows = [row[::-1] for row in self.field.cells[i, j].tolist()[::-1]]
+            self._rows[key] = rows
+        return rows
 
-        Written for a single point: the tracer calls it thousands of times.
-        """
-        u, U = float(x.reshape(-1)[0]), float(x.reshape(-1)[1])
-        i, s, hc = self._locate(self.bc, self.t0 + u * self.dt)
-        j, sig, hd = self._locate(self.bd, self.T0 + U * self.dT)
-        m = self.field.cells[i, j]
-        ps = s ** self.pow_c
-        pt = sig ** self.pow_d
-        dps = self.dcoef_c * np.concatenate(([0.0], ps[:-1]))
-        dpt = self.dcoef_d * np.concatenate(([0.0], pt[:-1]))
-        mp = m @ pt
-        f = ps @ mp
-        fu = dps @ mp / hc * self.dt
-        fU = ps @ (m @ dpt) / hd * self.dT
-        return np.array([f]), np.array([[fu, fU]])
+    def value_gradient(self, u: float, U: float) -> tuple[float, float, float]:
+        """(f, f_u, f_U) at the unit point (u, U)."""
+        bc, bd = self.bc, self.bd
+        t = self.t0 + u * self.dt
+        i = min(max(bisect_right(bc, t) - 1, 0), self.last_c)
+        hc = bc[i + 1] - bc[i]
+        s = (t - bc[i]) / hc
+        T = self.T0 + U * self.dT
+        j = min(max(bisect_right(bd, T) - 1, 0), self.last_d)
+        hd = bd[j + 1] - bd[j]
+        sig = (T - bd[j]) / hd
+        f = fs = fg = 0.0
+        for row in self._cell_rows(i, j):  # powers of s, highest first
+            q = dq = 0.0
+            for coef in row:  # powers of σ, highest first
+                dq = dq * sig + q
+                q = q * sig + coef
+            fs = fs * s + f
+            f = f * s + q
+            fg = fg * s + dq
+        return f, fs / hc * self.dt, fg / hd * self.dT
 
-    @staticmethod
-    def _locate(breaks: np.ndarray, x: float):
-        i = min(max(int(np.searchsorted(breaks, x, side="right")) - 1, 0), len(breaks) - 2)
-        width = breaks[i + 1] - breaks[i]
-        return i, (x - breaks[i]) / width, width
-
-    def project(self, y: np.ndarray, iterations: int = 8, accept: float = 1e-12):
-        """Newton projection onto f = 0 along the gradient; returns point, converged flag
-        (the last Newton step below ``accept``)."""
-        y = y.copy()
-        size = np.inf
+    def project(self, u: float, U: float, iterations: int = 8, accept: float = 1e-12):
+        """Newton projection onto f = 0 along the gradient; returns (u, U, converged)
+        (converged: the last Newton step below ``accept``)."""
+        size = math.inf
         for _ in range(iterations):
-            f, g = self.value_gradient(y)
-            f, g = f[0], g[0]
-            gg = g @ g
+            f, gu, gU = self.value_gradient(u, U)
+            gg = gu * gu + gU * gU
             if gg == 0.0:
-                return y, False
-            step = f * g / gg
-            y -= step
-            size = np.sqrt(step @ step)
+                return u, U, False
+            k = f / gg
+            su, sU = k * gu, k * gU
+            u, U = u - su, U - sU
+            size = math.sqrt(su * su + sU * sU)
             # Newton converges quadratically: after a step below ``accept`` the point
             # is within ~ curvature * accept^2 of Z
             if size <= max(1e-14, accept):
-                return y, True
+                return u, U, True
         # where |grad f| is small (near a small loop or a saddle) round-off in f keeps
         # the last Newton steps near 1e-14 instead of 0: the point is on Z all the same
-        return y, bool(size <= accept)
+        return u, U, size <= accept
 
-    def tangent(self, x: np.ndarray) -> np.ndarray:
-        _, g = self.value_gradient(x)
-        g = g[0]
-        n = np.hypot(g[0], g[1])
-        return np.array([-g[1], g[0]]) / n if n > 0 else np.zeros(2)
-
+    def tangent(self, u: float, U: float) -> tuple[float, float]:
+        _, gu, gU = self.value_gradient(u, U)
+        n = math.hypot(gu, gU)
+        return (-gU / n, gu / n) if n > 0 else (0.0, 0.0)
 
 def find_seeds(field: DevelopabilityField, tol: Tolerances, extra_u=(), extra_U=()) -> GridSeeds:
     """All roots of f on the grid lines, batched (one matrix product per direction).
@@ -197,61 +206,82 @@ def find_seeds(field: DevelopabilityField, tol: Tolerances, extra_u=(), extra_U=
 
 
 class _Tracer:
+    """Predictor-corrector continuation of Z from the grid seeds.
+
+    Points are (u, U) tuples of floats and every per-step test is plain Python (bisect
+    on the sorted line positions, the seeds of a line by index): a step costs a few
+    field evaluations and O(log lines) besides, so a trace is linear in its length
+    whatever the number of grid lines and seeds.
+    """
+
     def __init__(self, field: DevelopabilityField, seeds: GridSeeds, tol: Tolerances,
                  caps: StepCaps = NO_CAPS):
         self.unit = _UnitField(field)
         self.seeds = seeds
+        self.pts = [tuple(p) for p in seeds.points.reshape(-1, 2).tolist()]
         self.tol = tol
-        self.caps = caps
+        self.caps = [tuple(row) for row in np.column_stack(
+            [caps.points.reshape(-1, 2), caps.gap, caps.slope]).tolist()]
         self.visited = np.zeros(len(seeds.points), dtype=bool)
         self.tree = cKDTree(seeds.points.reshape(-1, 2))
+        # a root at a grid node is found on both of its lines: marking one marks both
+        self.same = (self.tree.query_ball_point(seeds.points, tol.junction) if len(seeds.points)
+                     else [])
         # seeds per line, for matching crossings
-        self.by_line = {}
-        for k, (axis, idx) in enumerate(zip(seeds.line_axis, seeds.line_index)):
-            self.by_line.setdefault((int(axis), int(idx)), []).append(k)
-        self.lines = (seeds.u_lines, seeds.U_lines)
+        self.by_line: dict[tuple[int, int], list[int]] = {}
+        for k, (axis, idx) in enumerate(zip(seeds.line_axis.tolist(), seeds.line_index.tolist())):
+            self.by_line.setdefault((axis, idx), []).append(k)
+        self.lines = (seeds.u_lines.tolist(), seeds.U_lines.tolist())
         kinks = []
         for curve in (field.c, field.d):
             inner = curve.breakpoints[1:-1]
-            kinks.append((inner[curve.knot_continuity() <= 1] - curve.domain[0]) / np.ptp(curve.domain))
+            kinks.append(((inner[curve.knot_continuity() <= 1] - curve.domain[0]) / np.ptp(curve.domain)).tolist())
         self.kinks = tuple(kinks)
 
     def _mark(self, k: int) -> None:
-        """Mark seed k and every seed at the same point (a root at a grid node is found
-        on both of its lines)."""
-        self.visited[self.tree.query_ball_point(self.seeds.points[k], self.tol.junction)] = True
+        """Mark seed k and every seed at the same point."""
+        self.visited[self.same[k]] = True
+
+    def _cap(self, x) -> float:
+        """Largest step at x near critical points (see :class:`StepCaps`)."""
+        if not self.caps:
+            return math.inf
+        u, U = x
+        return min(0.25 * (gap + slope * math.hypot(pu - u, pU - U)) for pu, pU, gap, slope in self.caps)
+
+    def _nearest_on_line(self, axis: int, idx: int, eu: float, eU: float, within: float):
+        """The seed of grid line (axis, idx) nearest (eu, eU), if closer than ``within``."""
+        best, best_d = None, within
+        for k in self.by_line.get((axis, idx), ()):
+            p = self.pts[k]
+            dist = math.hypot(p[0] - eu, p[1] - eU)
+            if dist < best_d:
+                best, best_d = k, dist
+        return best
 
     # -- grid-line crossings -------------------------------------------------
-    def _crossings(self, x: np.ndarray, y: np.ndarray) -> list[tuple[float, int]]:
+    def _crossings(self, x, y) -> list[tuple[float, int]]:
         """Seeds on grid lines crossed by the chord x -> y, as (chord fraction, seed)."""
         found = []
-        chord = y - x
-        length = np.hypot(*chord)
+        chord = (y[0] - x[0], y[1] - x[1])
+        length = math.hypot(*chord)
         for axis in (0, 1):
             lines = self.lines[axis]
-            lo, hi = sorted((x[axis], y[axis]))
-            span = np.flatnonzero((lines >= lo - 1e-15) & (lines <= hi + 1e-15))
-            for idx in span:
-                if chord[axis] != 0.0:
-                    frac = (lines[idx] - x[axis]) / chord[axis]
-                else:
-                    frac = 0.0
+            lo, hi = (x[axis], y[axis]) if x[axis] <= y[axis] else (y[axis], x[axis])
+            for idx in range(bisect_left(lines, lo - 1e-15), bisect_right(lines, hi + 1e-15)):
+                frac = (lines[idx] - x[axis]) / chord[axis] if chord[axis] != 0.0 else 0.0
                 if frac <= 1e-12:
                     continue  # the start point itself
-                estimate = x + frac * chord
-                best, best_d = None, 0.25 * length + 1e-9
-                for k in self.by_line.get((axis, int(idx)), ()):
-                    dist = np.hypot(*(self.seeds.points[k] - estimate))
-                    if dist < best_d:
-                        best, best_d = k, dist
+                best = self._nearest_on_line(axis, idx, x[0] + frac * chord[0], x[1] + frac * chord[1],
+                                             0.25 * length + 1e-9)
                 if best is not None:
-                    found.append((float(frac), best))
+                    found.append((frac, best))
         found.sort()
         return found
 
-    def _boundary_exit(self, x: np.ndarray, y: np.ndarray):
+    def _boundary_exit(self, x, y):
         """Where the chord x -> y leaves the unit square, snapped to a boundary seed."""
-        chord = y - x
+        chord = (y[0] - x[0], y[1] - x[1])
         best_frac, side = 2.0, None
         for axis in (0, 1):
             for bound, name in ((0.0, SIDE_NAMES[2 * axis]), (1.0, SIDE_NAMES[2 * axis + 1])):
@@ -259,26 +289,22 @@ class _Tracer:
                     frac = (bound - x[axis]) / chord[axis]
                     if 0.0 <= frac < best_frac:
                         best_frac, side = frac, name
-        point = np.clip(x + min(best_frac, 1.0) * chord, 0.0, 1.0)
+        frac = min(best_frac, 1.0)
+        point = (min(max(x[0] + frac * chord[0], 0.0), 1.0), min(max(x[1] + frac * chord[1], 0.0), 1.0))
         axis = 0 if side.startswith("t_") else 1
         idx = 0 if side.endswith("start") else len(self.lines[axis]) - 1
-        best, best_d = None, max(0.5 * np.hypot(*chord), 1e-7)
-        for k in self.by_line.get((axis, idx), ()):
-            dist = np.hypot(*(self.seeds.points[k] - point))
-            if dist < best_d:
-                best, best_d = k, dist
+        best = self._nearest_on_line(axis, idx, point[0], point[1], max(0.5 * math.hypot(*chord), 1e-7))
         if best is not None:
             self._mark(best)
-            point = self.seeds.points[best].copy()
+            point = self.pts[best]
         else:
-            proj, ok = self.unit.project(point)
+            pu, pU, ok = self.unit.project(*point)
             if ok:
-                proj[axis] = float(idx > 0)
-                point = proj
+                point = (float(idx > 0), pU) if axis == 0 else (pu, float(idx > 0))
         return point, side
 
     # -- kinks: knot lines where f is only C0 ---------------------------------
-    def _kink_crossing(self, x: np.ndarray, tangent: np.ndarray, h: float):
+    def _kink_crossing(self, x, tangent, h: float):
         """(seed, tangent beyond) when the next step would cross a knot line where f is
         only continuous (a C1 knot of a curve: f holds C', so Z has a corner there).
 
@@ -288,90 +314,94 @@ class _Tracer:
         """
         for axis in (0, 1):
             lines = self.kinks[axis]
-            if len(lines) == 0 or tangent[axis] == 0.0:
+            if not lines or tangent[axis] == 0.0:
                 continue
             reach = x[axis] + 1.5 * h * tangent[axis]
-            lo, hi = sorted((x[axis], reach))
-            ahead = lines[(lines > lo + 1e-13) & (lines < hi)] if tangent[axis] > 0 else \
-                lines[(lines > lo) & (lines < hi - 1e-13)]
-            if len(ahead) == 0:
-                continue
-            line = ahead[np.argmin(np.abs(ahead - x[axis]))]
-            idx = int(np.argmin(np.abs(self.lines[axis] - line)))
-            estimate = x + (line - x[axis]) / tangent[axis] * tangent
-            best, best_d = None, 0.5 * h + 1e-9
-            for k in self.by_line.get((axis, idx), ()):
-                dist = np.hypot(*(self.seeds.points[k] - estimate))
-                if dist < best_d:
-                    best, best_d = k, dist
+            if tangent[axis] > 0:  # the nearest kink line strictly ahead, within reach
+                k = bisect_right(lines, x[axis] + 1e-13)
+                if k == len(lines) or not lines[k] < reach:
+                    continue
+                line = lines[k]
+            else:
+                k = bisect_left(lines, x[axis] - 1e-13) - 1
+                if k < 0 or not lines[k] > reach:
+                    continue
+                line = lines[k]
+            grid = self.lines[axis]
+            at = bisect_left(grid, line)
+            idx = min((m for m in (at - 1, at) if 0 <= m < len(grid)), key=lambda m: abs(grid[m] - line))
+            along = (line - x[axis]) / tangent[axis]
+            best = self._nearest_on_line(axis, idx, x[0] + along * tangent[0], x[1] + along * tangent[1],
+                                         0.5 * h + 1e-9)
             if best is None:
                 return None
-            far = self._side_tangent(self.seeds.points[best], axis, np.sign(tangent[axis]))
+            far = self._side_tangent(self.pts[best], axis, 1.0 if tangent[axis] > 0 else -1.0)
             return None if far is None else (best, far)
         return None
 
-    def _side_tangent(self, x: np.ndarray, axis: int, side: float):
+    def _side_tangent(self, x, axis: int, side: float):
         """Tangent of Z at x (on a kink line across ``axis``) in the cell on ``side``
         (+1 / -1 along the axis), pointing into that cell; None if Z does not enter it."""
-        beyond = x.copy()
-        beyond[axis] += side * 1e-9
-        far = self.unit.tangent(beyond)
+        beyond = (x[0] + side * 1e-9, x[1]) if axis == 0 else (x[0], x[1] + side * 1e-9)
+        far = self.unit.tangent(*beyond)
         if far[axis] * side < 0:
-            far = -far
-        if not far.any() or far[axis] == 0.0:
+            far = (-far[0], -far[1])
+        if far[axis] == 0.0:
             return None
         return far
 
-    def _start_tangent(self, x: np.ndarray, direction: float) -> np.ndarray:
+    def _start_tangent(self, x, direction: float):
         """The tangent to leave a seed with; on a kink line, that of the cell it enters."""
-        tangent = self.unit.tangent(x) * direction
+        tu, tU = self.unit.tangent(*x)
+        tangent = (tu * direction, tU * direction)
         for axis in (0, 1):
-            if tangent[axis] != 0.0 and np.any(np.abs(self.kinks[axis] - x[axis]) <= 1e-12):
-                side = self._side_tangent(x, axis, np.sign(tangent[axis]))
+            if tangent[axis] != 0.0 and any(abs(k - x[axis]) <= 1e-12 for k in self.kinks[axis]):
+                side = self._side_tangent(x, axis, 1.0 if tangent[axis] > 0 else -1.0)
                 if side is not None:
                     return side
         return tangent
 
     # -- continuation --------------------------------------------------------
-    def _step(self, x, tangent, h):
+    def _step(self, x, tangent, h: float):
         # polyline points need not be exact (they are polished afterwards and checked):
         # a Newton step of 1e-4 h is converged even where round-off keeps it from 0
-        y, ok = self.unit.project(x + h * tangent, accept=max(1e-12, 1e-6 * h))
+        yu, yU, ok = self.unit.project(x[0] + h * tangent[0], x[1] + h * tangent[1], accept=max(1e-12, 1e-6 * h))
         if not ok:
             return None
-        new_tangent = self.unit.tangent(y)
-        if new_tangent @ tangent < 0:
-            new_tangent = -new_tangent
-        moved = np.hypot(*(y - x))
+        nu, nU = self.unit.tangent(yu, yU)
+        dot = nu * tangent[0] + nU * tangent[1]
+        if dot < 0:
+            nu, nU, dot = -nu, -nU, -dot
+        moved = math.hypot(yu - x[0], yU - x[1])
         # a corrector that pulls the point back (moved ~ 0) would let the trace stall
         # forever; one that moves it far has jumped to another arm
-        if new_tangent @ tangent < 0.9 or moved > 2.0 * h or moved < 0.25 * h:
+        if dot < 0.9 or moved > 2.0 * h or moved < 0.25 * h:
             return None
-        return y, new_tangent
+        return (yu, yU), (nu, nU)
 
-    def trace_one_way(self, start: np.ndarray, direction: float):
+    def trace_one_way(self, start, direction: float):
         tol = self.tol
-        x = start.copy()
+        x = start
         tangent = self._start_tangent(x, direction)
-        if not tangent.any():
+        if tangent == (0.0, 0.0):
             return [x], END_UNRESOLVED
         points = [x]
-        h = min(tol.trace_step, self.caps.cap(x))
+        h = min(tol.trace_step, self._cap(x))
         travelled = 0.0
         for _ in range(tol.trace_max_steps):
             attempt = None
-            cap = self.caps.cap(x)
+            cap = self._cap(x)
             h = min(h, cap)
             kink = self._kink_crossing(x, tangent, h)
             if kink is not None:  # step onto the knot line, turn to the far side's tangent
                 k, far_tangent = kink
-                y = self.seeds.points[k].copy()
+                y = self.pts[k]
                 for _, m in self._crossings(x, y):
                     if m != k:
                         self._mark(m)
-                        points.append(self.seeds.points[m].copy())
+                        points.append(self.pts[m])
                 self._mark(k)
-                travelled += np.hypot(*(y - x))
+                travelled += math.hypot(y[0] - x[0], y[1] - x[1])
                 points.append(y)
                 x, tangent = y, far_tangent
                 continue
@@ -381,34 +411,36 @@ class _Tracer:
                 attempt = self._step(x, tangent, trial)
                 if attempt is None:
                     trial *= 0.5
-            if attempt is None and cap == np.inf:  # jump over a singular point along the tangent
-                for trial in h * np.array([2.0, 4.0, 8.0, 16.0]):
+            if attempt is None and cap == math.inf:  # jump over a singular point along the tangent
+                for trial in (2.0 * h, 4.0 * h, 8.0 * h, 16.0 * h):
                     attempt = self._step(x, tangent, trial)
                     if attempt is not None:
                         break
             if attempt is None:
                 return points, END_UNRESOLVED
             y, new_tangent = attempt
-            if np.any(y < -1e-12) or np.any(y > 1.0 + 1e-12):
+            if min(y) < -1e-12 or max(y) > 1.0 + 1e-12:
                 exit_point, side = self._boundary_exit(x, y)
                 # the grid lines crossed on the way out: along the chord to the exit point
                 # (the clipped step can point elsewhere and miss their seeds)
                 for _, k in self._crossings(x, exit_point):
-                    if not self.visited[k] and np.all(self.seeds.points[k] > 0) and np.all(self.seeds.points[k] < 1):
+                    p = self.pts[k]
+                    if not self.visited[k] and 0 < p[0] < 1 and 0 < p[1] < 1:
                         self._mark(k)
-                        points.append(self.seeds.points[k].copy())
+                        points.append(p)
                 points.append(exit_point)
                 return points, side
-            step_len = np.hypot(*(y - x))
+            step_len = math.hypot(y[0] - x[0], y[1] - x[1])
             travelled += step_len
-            closing = travelled > 2.5 * step_len and np.hypot(*(y - start)) <= max(step_len * 1.01, 1e-12)
+            closing = travelled > 2.5 * step_len and math.hypot(y[0] - start[0], y[1] - start[1]) <= max(
+                step_len * 1.01, 1e-12)
             # the closing chord ends at the start: the grid lines it crosses are those
             # between x and the start, not between x and y
             for _, k in self._crossings(x, start if closing else y):
                 self._mark(k)
-                points.append(self.seeds.points[k].copy())
+                points.append(self.pts[k])
             if closing:
-                points.append(start.copy())
+                points.append(start)
                 return points, END_LOOP
             points.append(y)
             x, tangent = y, new_tangent
@@ -416,7 +448,7 @@ class _Tracer:
         return points, END_STEP_LIMIT
 
     def trace_from(self, seed_index: int) -> Trace:
-        start = self.seeds.points[seed_index].copy()
+        start = self.pts[seed_index]
         self._mark(seed_index)
         forward, end_f = self.trace_one_way(start, 1.0)
         if end_f == END_LOOP:
@@ -424,7 +456,6 @@ class _Tracer:
         backward, end_b = self.trace_one_way(start, -1.0)
         pts = np.array(backward[::-1] + forward[1:])
         return Trace(_dedupe(pts), False, (end_b, end_f))
-
 
 def _distance_to_polyline(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Distance of each of (S, 2) points to a polyline (N, 2), shape (S,)."""
