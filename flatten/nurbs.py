@@ -21,6 +21,17 @@ from .errors import InvalidCurveError
 _GAUSS_ORDER = 12
 _ARC_SUBDIVISIONS = 8
 
+
+def _gauss_rule(order: int) -> tuple[np.ndarray, np.ndarray]:
+    nodes, weights = np.polynomial.legendre.leggauss(order)
+    nodes.setflags(write=False)
+    weights.setflags(write=False)
+    return nodes, weights
+
+
+# computed once (read-only): every arc-length call used to recompute them
+_GAUSS_NODES, _GAUSS_WEIGHTS = _gauss_rule(_GAUSS_ORDER)
+
 # Input limits (not tolerances): the solver's polynomial in T has degree 2p - 2, and it is
 # certified up to p = 9 in tests/test_hostile_inputs.py; coordinates beyond 1e9 model units
 # (1000 km in mm) overflow the products of four coordinates in the developability
@@ -215,7 +226,7 @@ class NurbsCurve:
         return edges, np.concatenate([[0.0], np.cumsum(pieces)])
 
     def _gauss_length(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        x, w = np.polynomial.legendre.leggauss(_GAUSS_ORDER)
+        x, w = _GAUSS_NODES, _GAUSS_WEIGHTS
         a = np.asarray(a, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
         half = 0.5 * (b - a)

@@ -49,6 +49,14 @@ def check_pair(c: NurbsCurve, d: NurbsCurve, tol: Tolerances) -> None:
     for name, curve in (("c", c), ("d", d)):
         if not isinstance(curve, NurbsCurve):
             raise InvalidInputError(f"{name} must be a NurbsCurve, got {type(curve).__name__}")
+    # the sampled gap below is at least the gap between the end points, and the sampled
+    # size at most the control polygon's (convex hull): ends far apart in both
+    # directions settle it without the arc-length sampling (the usual case)
+    ends_c, ends_d = c(np.array(c.domain)), d(np.array(d.domain))
+    hull = max(float(np.ptp(np.vstack([c.control_points, d.control_points]), axis=0).max()), 1e-300)
+    end_gaps = [float(np.linalg.norm(ends_c - other, axis=1).max()) for other in (ends_d, ends_d[::-1])]
+    if min(end_gaps) > 2.0 * tol.coincidence * hull:
+        return
     samples = np.linspace(0.0, 1.0, 257)
     pc = c(c.parameter_at_length(samples * c.length))
     pd = d(d.parameter_at_length(samples * d.length))
@@ -90,8 +98,9 @@ class _Block:
     a side of the block and f is evaluated from the block's side of it.
     """
 
-    def __init__(self, c: NurbsCurve, d: NurbsCurve, kind: str, plane: dict | None, tol: Tolerances):
-        self.field = developability_field(c, d, kind, plane)
+    def __init__(self, c: NurbsCurve, d: NurbsCurve, kind: str, plane: dict | None, tol: Tolerances,
+                 field=None):
+        self.field = developability_field(c, d, kind, plane) if field is None else field
         self.unit = UnitMap(self.field)
         self.tol = tol
         start = time.perf_counter()
@@ -156,11 +165,13 @@ class _Block:
             return boxes[~met]
         pts = np.vstack(dense)
         tree = cKDTree(pts)
-        near = tree.query_ball_point(centre, r=half.max(axis=1) + step, p=np.inf)
-        for k, idx in enumerate(near):
-            if idx:
-                gap = np.abs(pts[idx] - centre[k]) - half[k]
-                met[k] = bool(np.any(np.all(gap <= step, axis=1)))
+        near = tree.query_ball_point(centre, r=half.max(axis=1) + step, p=np.inf, return_sorted=False)
+        counts = np.fromiter(map(len, near), dtype=int, count=len(near))
+        if counts.sum():
+            box = np.repeat(np.arange(len(boxes)), counts)
+            idx = np.concatenate([np.asarray(n, dtype=int) for n in near[counts > 0]])
+            inside = np.all(np.abs(pts[idx] - centre[box]) - half[box] <= step, axis=1)
+            met[box[inside]] = True
         return boxes[~met]
 
 
@@ -259,7 +270,8 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
     c_parts, d_parts = _intervals(c), _intervals(d)
     for a, b in c_parts:
         for A, B in d_parts:
-            block = _Block(_piece_of(c, a, b), _piece_of(d, A, B), kind, plane, tol)
+            whole = (a, b) == c.domain and (A, B) == d.domain  # no corners: the block is the rectangle
+            block = _Block(_piece_of(c, a, b), _piece_of(d, A, B), kind, plane, tol, field if whole else None)
             walls = ((a > c.domain[0], b < c.domain[1]), (A > d.domain[0], B < d.domain[1]))
             blocks.append((block, walls))
 
