@@ -146,24 +146,44 @@ def spans_pair(n_spans: int):
     return c, d
 
 
-def growth_in_spans() -> None:
-    """Solve time (CPU, one run) and peak memory traced by tracemalloc (numpy arrays
-    included) against the span count of both curves."""
+# issue 15's before-figures (bench_solver on this 2-core machine, 2026-11-23, before the
+# float tracer and the cell filter of the line solver): CPU s and tracemalloc peak MB
+BEFORE_SPANS = {5: (0.046, 0.6), 25: (0.064, 1.2), 50: (0.097, 4.5), 100: (0.193, 17.9), 200: (0.561, 71.3)}
+TARGET_SPANS = {5: ("<= 0.010", ""), 200: ("<= 0.200", "<= 50")}
+
+
+def growth_in_spans(repeat: int = 3) -> None:
+    """Solve CPU time (median of ``repeat`` runs) and peak memory traced by tracemalloc
+    (numpy arrays included) against the span count of both curves, beside issue 15's
+    before-figures and targets."""
     import tracemalloc
 
     print()
-    print(f"{'solve against spans (both curves)':<44}{'cpu s':>10}{'peak MB':>10}{'branches':>10}")
+    print(f"{'solve against spans (both curves)':<34}{'cpu s':>9}{'peak MB':>9}{'branches':>9}"
+          f"{'before s':>10}{'before MB':>10}{'target s':>10}{'target MB':>10}")
+    rows = []
     for n_spans in (5, 25, 50, 100, 200):
         c, d = spans_pair(n_spans)
-        start = time.process_time()
-        solution = solve(c, d)
-        cpu = time.process_time() - start
-        tracemalloc.start()  # a second solve for the memory (tracing slows Python down)
+        times = []
+        for _ in range(repeat):
+            start = time.process_time()
+            solution = solve(c, d)
+            times.append(time.process_time() - start)
+        cpu = float(np.median(times))
+        tracemalloc.start()  # a further solve for the memory (tracing slows Python down)
         solve(c, d)
         peak = tracemalloc.get_traced_memory()[1] / 2**20
         tracemalloc.stop()
-        print(f"{'  ' + str(n_spans) + ' x ' + str(n_spans) + ' spans':<44}{cpu:>10.3f}{peak:>10.1f}"
-              f"{len(solution.branches):>10}")
+        before_s, before_mb = BEFORE_SPANS[n_spans]
+        target_s, target_mb = TARGET_SPANS.get(n_spans, ("", ""))
+        rows.append((n_spans, cpu))
+        print(f"{'  ' + str(n_spans) + ' x ' + str(n_spans) + ' spans':<34}{cpu:>9.4f}{peak:>9.1f}"
+              f"{len(solution.branches):>9}{before_s:>10.3f}{before_mb:>10.1f}{target_s:>10}{target_mb:>10}")
+    spans, cpu = np.array(rows).T
+    big = spans >= 25
+    slope = np.polyfit(np.log(spans[big]), np.log(cpu[big]), 1)[0]
+    print(f"  fitted exponent of CPU time against spans (>= 25 spans): {slope:.2f}   (linear = 1.00; "
+          "before: 2.4 above 50 spans, as issue 15 measured it)")
 
 
 def random_cubic_pair(seed: int):
@@ -236,6 +256,13 @@ def stage_breakdown() -> None:
     for name, value in times.items():
         print(f"  {name:<42}{value:>8.3f} s {100 * value / total:>5.1f}%")
     print(f"  {'total':<42}{total:>8.3f} s")
+    cpu = []
+    for _ in range(5):
+        t0 = time.process_time()
+        solve(part.c, part.d)
+        cpu.append(time.process_time() - t0)
+    print(f"  solve again, CPU median of 5: {np.median(cpu):.4f} s   (before, issue 15's run: 0.155 s wall "
+          "in this table; ~55 ms fixed cost per solve on a quiet machine)")
 
 
 if __name__ == "__main__":

@@ -136,11 +136,13 @@ class DevelopabilityField:
     @staticmethod
     def _powers(x: np.ndarray, n: int, order: int) -> np.ndarray:
         """Rows of d^order/dx^order (1, x, ..., x^(n-1)), shape (N, n)."""
-        powers = np.arange(n)
-        coef = np.ones(n)
-        for k in range(order):  # a (a-1) ... (a-order+1): zero for a < order
-            coef = coef * (powers - k)
-        return coef * x[:, None] ** np.maximum(powers - order, 0)
+        # columns by repeated products (no elementwise pow), times a (a-1) ... (a-order+1)
+        out = np.zeros((n, len(x)))
+        if order < n:
+            out[order] = _falling(order, order)
+            for a in range(order + 1, n):
+                out[a] = out[a - 1] * x * (a / (a - order))
+        return out.T
 
     def _prepare(self, t, T, spans):
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
@@ -160,7 +162,7 @@ class DevelopabilityField:
         shape, m, s, sig, hc, hd = self._prepare(t, T, spans)
         ps = self._powers(s, self.cells.shape[2], dt)
         pt = self._powers(sig, self.cells.shape[3], dT)
-        val = np.einsum("na,nab,nb->n", ps, m, pt)
+        val = np.einsum("na,na->n", ps, np.einsum("nab,nb->na", m, pt))
         return (val / hc**dt / hd**dT).reshape(shape)
 
     @cached_property
@@ -193,9 +195,8 @@ class DevelopabilityField:
         a, b = self.cells.shape[2:]
         ps0, ps1 = self._powers(s, a, 0), self._powers(s, a, 1)
         pt0, pt1 = self._powers(sig, b, 0), self._powers(sig, b, 1)
-        mp = np.einsum("nab,nb->na", m, pt0)
-        ft = np.einsum("na,na->n", ps1, mp) / hc
-        fT = np.einsum("na,nab,nb->n", ps0, m, pt1) / hd
+        ft = np.einsum("na,na->n", ps1, np.einsum("nab,nb->na", m, pt0)) / hc
+        fT = np.einsum("na,na->n", ps0, np.einsum("nab,nb->na", m, pt1)) / hd
         return np.stack([ft, fT], axis=-1)
 
     # ------------------------------------------------------- roots on lines

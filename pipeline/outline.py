@@ -69,15 +69,18 @@ def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.
     for index, (plane, sign) in enumerate(zip(planes, (1.0, -1.0))):
         sa, sb = sign * plane.signed(ends_c), sign * plane.signed(ends_d)
         ds = sb - sa
+        size = np.linalg.norm(ends_d - ends_c, axis=1) + np.abs(sa)
+        # a ruling on the plane to round-off (both ends within 1e-9) is not cut by it:
+        # its ds is noise, and so would be the cut (the plate's corner ruling, on a cylinder)
+        on_plane = (np.abs(sa) <= 1e-9 * size) & (np.abs(sb) <= 1e-9 * size)
         with np.errstate(divide="ignore", invalid="ignore"):
-            cut = np.where(ds != 0, -sa / np.where(ds != 0, ds, 1.0), np.nan)
+            cut = np.where((ds != 0) & ~on_plane, -sa / np.where(ds != 0, ds, 1.0), np.nan)
         raise_lo = (ds > 0) & (cut > lo)
         lo, lo_by = np.where(raise_lo, cut, lo), np.where(raise_lo, index, lo_by)
         lower_hi = (ds < 0) & (cut < hi)
         hi, hi_by = np.where(lower_hi, cut, hi), np.where(lower_hi, index, hi_by)
         # a ruling parallel to the plane lies wholly on one side: outside, it collapses
         # (a corner ruling on the plane itself, to round-off, stays whole)
-        size = np.linalg.norm(ends_d - ends_c, axis=1) + np.abs(sa)
         outside = (ds == 0) & (sa < -1e-9 * size)
         lo, hi = np.where(outside, 0.0, lo), np.where(outside, 0.0, hi)
     lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
