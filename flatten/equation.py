@@ -127,7 +127,7 @@ class DevelopabilityField:
     def _local(self, curve: NurbsCurve, x: np.ndarray, forced=None):
         b = curve.breakpoints
         if forced is None:
-            idx = np.clip(np.searchsorted(b, x, side="right") - 1, 0, len(b) - 2)
+            idx = np.minimum(np.maximum(np.searchsorted(b, x, side="right") - 1, 0), len(b) - 2)
         else:
             idx = np.full(x.shape, forced, dtype=int)
         width = b[idx + 1] - b[idx]
@@ -157,8 +157,9 @@ class DevelopabilityField:
 
         ``spans = (i, j)`` forces the cell (one-sided values at knots).
         """
-        if isinstance(t, (float, np.floating)) and isinstance(T, (float, np.floating)):
-            return np.array([self._at_point(float(t), float(T), dt, dT, spans)])
+        if np.size(t) == 1 and np.size(T) == 1:  # one point (the judge's Newton loops)
+            shape = np.broadcast_shapes(np.shape(t) or (1,), np.shape(T) or (1,))
+            return np.full(shape, self._at_point(float(np.ravel(t)[0]), float(np.ravel(T)[0]), dt, dT, spans))
         shape, m, s, sig, hc, hd = self._prepare(t, T, spans)
         ps = self._powers(s, self.cells.shape[2], dt)
         pt = self._powers(sig, self.cells.shape[3], dT)
@@ -191,6 +192,9 @@ class DevelopabilityField:
 
     def gradient(self, t, T) -> np.ndarray:
         """(f_t, f_T), shape (N, 2) (one cell lookup for both)."""
+        if np.size(t) == 1 and np.size(T) == 1:
+            t0, T0 = float(np.ravel(t)[0]), float(np.ravel(T)[0])
+            return np.array([[self._at_point(t0, T0, 1, 0, None), self._at_point(t0, T0, 0, 1, None)]])
         _, m, s, sig, hc, hd = self._prepare(t, T, None)
         a, b = self.cells.shape[2:]
         ps0, ps1 = self._powers(s, a, 0), self._powers(s, a, 1)

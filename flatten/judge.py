@@ -9,6 +9,7 @@ from __future__ import annotations
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .equation import DevelopabilityField, corner_knots, normalized_residual
 from .nurbs import NurbsCurve
@@ -226,11 +227,8 @@ def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
     out = []
     if len(r) == 0 or len(s) == 0:
         return out
-    lo_a, hi_a = np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:])
-    lo_b, hi_b = np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:])
-    near = ((lo_a[:, None, 0] <= hi_b[None, :, 0] + 1e-12) & (lo_b[None, :, 0] <= hi_a[:, None, 0] + 1e-12)
-            & (lo_a[:, None, 1] <= hi_b[None, :, 1] + 1e-12) & (lo_b[None, :, 1] <= hi_a[:, None, 1] + 1e-12))
-    ks, ls = np.nonzero(near)
+    ks, ls = _overlapping_boxes(np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:]),
+                                np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:]), 1e-12)
     for k, l in zip(ks, ls):
         if same and abs(int(k) - int(l)) <= 1:
             continue
@@ -246,6 +244,41 @@ def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
         if lo_f <= fa <= hi_f and lo_f <= fb <= hi_f:
             out.append((int(k), float(fa), int(l), float(fb), p[k] + fa * r[k]))
     return out
+
+
+def _overlapping_boxes(lo_a, hi_a, lo_b, hi_b, slack: float):
+    """(k, l) index pairs, sorted, of boxes (K, 2) and (L, 2) that overlap within ``slack``.
+
+    Small boxes are paired through a k-d tree of their centres (max norm), the few large
+    ones against all: time and memory O(K + L) for polylines of short segments, not the
+    O(K L) of the full table.
+    """
+    ca, ha = 0.5 * (lo_a + hi_a), 0.5 * (hi_a - lo_a).max(axis=1)
+    cb, hb = 0.5 * (lo_b + hi_b), 0.5 * (hi_b - lo_b).max(axis=1)
+    cut = 2.0 * float(np.percentile(np.concatenate([ha, hb]), 90))
+    small_a, small_b = ha <= cut, hb <= cut
+    ks, ls = [], []
+    ia, ib = np.flatnonzero(small_a), np.flatnonzero(small_b)
+    if len(ia) and len(ib):
+        hits = cKDTree(cb[ib]).query_ball_point(ca[ia], 2.0 * cut + 2.0 * slack, p=np.inf, return_sorted=False)
+        counts = np.fromiter(map(len, hits), dtype=int, count=len(hits))
+        if counts.sum():
+            ks.append(np.repeat(ia, counts))
+            ls.append(ib[np.concatenate([np.asarray(h, dtype=int) for h in hits if len(h)])])
+    for k in np.flatnonzero(~small_a):  # a large box of a against every box of b
+        ks.append(np.full(len(lo_b), k))
+        ls.append(np.arange(len(lo_b)))
+    for l in np.flatnonzero(~small_b):  # a large box of b against the small boxes of a
+        ks.append(ia)
+        ls.append(np.full(len(ia), l))
+    if not ks:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    k, l = np.concatenate(ks), np.concatenate(ls)
+    near = ((lo_a[k, 0] <= hi_b[l, 0] + slack) & (lo_b[l, 0] <= hi_a[k, 0] + slack)
+            & (lo_a[k, 1] <= hi_b[l, 1] + slack) & (lo_b[l, 1] <= hi_a[k, 1] + slack))
+    k, l = k[near], l[near]
+    order = np.lexsort((l, k))
+    return k[order], l[order]
 
 
 def _point_on_polyline(point: np.ndarray, poly: np.ndarray, tol: float):
