@@ -132,6 +132,7 @@ def main(argv=None) -> int:
     print(f"{'numpy.roots per t and span (' + str(args.baseline) + ')':<44}{args.baseline / base_all_time:>14.3e}")
     print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
     certification_share()
+    point_evaluation(solution.field)
     growth_in_spans()
     stage_breakdown()
     return 0
@@ -144,6 +145,22 @@ def spans_pair(n_spans: int):
     c = nurbs_curve(np.column_stack([x, 0.4 * np.sin(x / 4), 0.05 * x]), 3, name="c")
     d = nurbs_curve(np.column_stack([x * 1.02, 2.2 + 0.6 * np.sin(x / 4 + 0.2), 1.5 + 0.08 * x]), 3, name="d")
     return c, d
+
+
+def point_evaluation(field, n: int = 20000) -> None:
+    """The tracer's unit of work: f and its gradient at one point (the continuation
+    takes about three per step)."""
+    from flatten.tracer import _UnitField
+
+    unit = _UnitField(field)
+    points = np.random.default_rng(1).uniform(0.0, 1.0, (n, 2)).tolist()
+    start = time.process_time()
+    for u, U in points:
+        unit.value_gradient(u, U)
+    each = (time.process_time() - start) / n
+    print()
+    print(f"tracer point evaluation (f and gradient at one point): {each * 1e6:.1f} us CPU   "
+          "(before: ~26 us, issue 15)")
 
 
 # issue 15's before-figures (bench_solver on this 2-core machine, 2026-11-23, before the
@@ -195,26 +212,34 @@ def random_cubic_pair(seed: int):
     return c, d
 
 
+# the same 21 pairs on the code before issue 15's work (44edf27), CPU seconds, measured on
+# this machine beside this code (2026-11-23, load ~12 on 2 cores): median, total
+BEFORE_PAIRS_CPU = (0.230, 5.08)
+
+
 def certification_share(n_pairs: int = 20) -> None:
     """Share of a solve spent certifying (Bernstein exclusion, critical points, the
-    check that every sign-change box is met by a branch), per the CERTIFICATE finding."""
+    check that every sign-change box is met by a branch), per the CERTIFICATE finding;
+    and the CPU time of the same solves beside the code before issue 15's work."""
     rows = []
     pairs = [plate_pair()] + [random_cubic_pair(seed) for seed in range(n_pairs)]
     for c, d in pairs:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         solution = solve(c, d)
-        total = time.perf_counter() - start
+        total, cpu = time.perf_counter() - start, time.process_time() - cpu
         cert = next(f for f in solution.findings if f.code == "CERTIFICATE").data
-        rows.append((total, cert["certify_seconds"]))
+        rows.append((total, cert["certify_seconds"], cpu))
     rows = np.array(rows)
     print()
     print(f"certification share of a solve ({len(pairs)} cubic pairs: the plate + {n_pairs} random pairs)")
     print(f"{'':<44}{'median s':>12}{'total s':>12}")
-    print(f"{'full solve (certified)':<44}{np.median(rows[:, 0]):>12.4f}{rows[:, 0].sum():>12.3f}")
+    print(f"{'full solve (certified), wall':<44}{np.median(rows[:, 0]):>12.4f}{rows[:, 0].sum():>12.3f}")
     print(f"{'  of which certification':<44}{np.median(rows[:, 1]):>12.4f}{rows[:, 1].sum():>12.3f}")
     print(f"{'  solve without it (trace + judge)':<44}{np.median(rows[:, 0] - rows[:, 1]):>12.4f}"
           f"{(rows[:, 0] - rows[:, 1]).sum():>12.3f}")
     print(f"{'certification share':<44}{np.median(rows[:, 1] / rows[:, 0]):>11.1%} {rows[:, 1].sum() / rows[:, 0].sum():>11.1%}")
+    print(f"{'full solve, CPU':<44}{np.median(rows[:, 2]):>12.4f}{rows[:, 2].sum():>12.3f}")
+    print(f"{'  before (44edf27, CPU, printed constant)':<44}{BEFORE_PAIRS_CPU[0]:>12.4f}{BEFORE_PAIRS_CPU[1]:>12.3f}")
 
 
 def stage_breakdown() -> None:
