@@ -137,8 +137,10 @@ class Placer:
             idx = np.flatnonzero(ok)
             grown = shapely.polygons(corners[idx])
             fits = shapely.contains(self.room, grown)
-            for other in ([self.obstacles] if self.obstacles is not None else []) + self.boxes:
-                fits[fits] = ~shapely.intersects(grown[fits], other)
+            if self.obstacles is not None:
+                fits[fits] = ~shapely.intersects(grown[fits], self.obstacles)
+            if self.boxes and fits.any():  # every placed box in one call
+                fits[fits] = ~shapely.intersects(grown[fits][:, None], np.array(self.boxes)[None, :]).any(axis=1)
             if fits.any():
                 i = start + int(idx[np.argmax(fits)])
                 self.boxes.append(rectangles(centres[i:i + 1], width, height, angle[i:i + 1])[0])
