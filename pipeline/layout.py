@@ -159,9 +159,10 @@ def heights(preferred: float, smallest: float) -> list[float]:
     return out
 
 
-def grid_points(room: Polygon, obstacles=None, n: int = 60) -> np.ndarray:
-    """Points of a grid over the room, inside it, the most clear (far from its edge and
-    from the obstacles: the middle of the largest free area) first."""
+def grid_points(room: Polygon, obstacles=None, n: int = 60) -> tuple[np.ndarray, np.ndarray]:
+    """Points (P, 2) of a grid over the room, inside it, the most clear (far from its edge
+    and from the obstacles: the middle of the largest free area) first, and that clearance
+    (P,), descending."""
     x0, y0, x1, y1 = room.bounds
     xs, ys = np.linspace(x0, x1, n + 2)[1:-1], np.linspace(y0, y1, n + 2)[1:-1]
     pts = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
@@ -171,7 +172,8 @@ def grid_points(room: Polygon, obstacles=None, n: int = 60) -> np.ndarray:
     depth = shapely.distance(geoms, room.exterior)
     if obstacles is not None:
         depth = np.minimum(depth, shapely.distance(geoms, obstacles))
-    return pts[np.argsort(-depth, kind="stable")]
+    order = np.argsort(-depth, kind="stable")
+    return pts[order], depth[order]
 
 
 def _largest(geometry) -> Polygon | None:
@@ -248,7 +250,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     placer = Placer(room, [p for _, p in layout.lines], clearance)
     obstacles = placer.obstacles
     # the part data block first, in the middle of the largest free area
-    centres = grid_points(room, obstacles)
+    centres, depth = grid_points(room, obstacles)
     angles = []
     if bend_lines:
         d = np.mean([p[-1] - p[0] for _, p in bend_lines], axis=0)
@@ -269,8 +271,12 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
             for lines in splits:
                 w = CHAR_WIDTH * h * max(len(t) for t in lines)
                 hh = LINE_GAP * h * (len(lines) - 1) + 1.3 * h
+                # a centre nearer the room's edge or a line than half the grown box's smaller
+                # side cannot hold it (that point lies inside the box): only the clearer
+                # ones, a prefix of the centres, are tried
+                reach = np.count_nonzero(depth >= (0.5 * min(w, hh) + placer.clearance) * (1 - 1e-9))
                 for angle in angles:
-                    i = placer.place(centres, w, hh, angle)
+                    i = placer.place(centres[:reach], w, hh, angle)
                     if i is not None:
                         layout.texts += block_texts(lines, centres[i], h, angle)
                         placed = True
