@@ -33,15 +33,17 @@ HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kv
          "kcs": "kcs_shell.yaml"}
 
 
-def run(hull: str, method: str, out: Path) -> dict:
-    from pipeline.hullplots import class_hull_png
+def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
+    from pipeline.hullplots import class_hull_png, shell_area
     from pipeline.plan import load_run
     from pipeline.planout import write_plan_dxf
+    from pipeline.planner import is_strip
     from pipeline.plates import evaluate_plate, run_part
 
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data = copy.deepcopy(data)
     data["strake"]["plan"]["method"] = method
+    data["strake"]["plan"]["seams"] = seams
     for key in ("surface",):
         data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
@@ -53,29 +55,28 @@ def run(hull: str, method: str, out: Path) -> dict:
         config = load_run(path, evaluate_plate)
         results = [run_part(part, config) for part in config.parts]
         seconds = time.perf_counter() - start
-    areas = {"flat": 0.0, "developable": 0.0, "formed": 0.0, "failed": 0.0}
-    strip_only = 0.0
+    areas = {"flat": 0.0, "strip": 0.0, "patch": 0.0, "formed": 0.0, "failed": 0.0}
     worst_dev, worst_strain, crashes = 0.0, 0.0, 0
     for r in results:
         klass = (r.figures.get("plate_class") or {})
-        area = float((r.figures.get("region") or {}).get("area_m2") or 0.0)
+        area = shell_area(r)
         name = klass.get("class") if r.ok else "failed"
+        if name == "developable":
+            name = "strip" if is_strip(klass) else "patch"
         areas[name if name in areas else "failed"] += area
         crashes += "internal error" in r.reason
-        if r.ok and name == "developable" and klass.get("method", "").startswith("devflat strip"):
-            strip_only += area
-        if r.ok and name in ("flat", "developable"):
-            dev = klass.get("max_deviation") or 0.0
-            worst_dev = max(worst_dev, dev)
-        if r.ok and name == "formed":
+        if r.ok and name in ("flat", "strip"):
+            worst_dev = max(worst_dev, klass.get("max_deviation") or 0.0)
+        if r.ok and name in ("patch", "formed"):
             worst_strain = max(worst_strain, klass.get("max_strain") or 0.0)
     total = sum(areas.values())
     out.mkdir(parents=True, exist_ok=True)
-    class_hull_png(out / f"{hull}_{method}_classes.png", results, config.spec.units, config.mm_per_unit,
-                   f"{hull}, {method} plan: {len(results)} plates")
-    write_plan_dxf(out / f"{hull}_{method}_plan.dxf", results, config.mm_per_unit)
+    tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}")
+    class_hull_png(out / f"{tag}_classes.png", results, config.spec.units, config.mm_per_unit,
+                   f"{hull}, {method} plan, {seams} seams: {len(results)} plates")
+    write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
-            "shares": {k: v / total for k, v in areas.items()}, "strip_only": strip_only / total,
+            "shares": {k: v / total for k, v in areas.items()},
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds}
 
 
@@ -83,18 +84,20 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--hulls", nargs="+", default=list(HULLS), choices=list(HULLS))
     parser.add_argument("--methods", nargs="+", default=["uniform", "adaptive"], choices=["uniform", "adaptive"])
+    parser.add_argument("--seams", nargs="+", default=["iso"], choices=["iso", "least_curvature"],
+                        help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
     args = parser.parse_args(argv)
-    print(f"{'hull':<9}{'plan':<10}{'plates':>7}{'area m2':>9}{'flat %':>8}{'dev %':>8}{'formed %':>9}"
-          f"{'failed %':>9}{'flat+dev %':>11}{'strip-only %':>13}{'worst dev mm':>13}{'worst strain':>13}"
+    print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
+          f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'worst dev mm':>13}{'worst strain':>13}"
           f"{'crashes':>8}{'time s':>8}")
     for hull in args.hulls:
-        for method in args.methods:
-            r = run(hull, method, args.out)
+        for method, seams in [(m, s) for m in args.methods for s in args.seams]:
+            r = run(hull, method, args.out, seams)
             s = r["shares"]
-            print(f"{hull:<9}{method:<10}{r['plates']:>7}{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
-                  f"{100 * s['developable']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
-                  f"{100 * (s['flat'] + s['developable']):>11.1f}{100 * r['strip_only']:>13.1f}"
+            print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
+                  f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
+                  f"{100 * (s['flat'] + s['strip']):>13.1f}"
                   f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
                   flush=True)
     print(f"pictures and plan DXFs in {args.out}")

@@ -485,6 +485,8 @@ class PlanSpec(_Strict):
     stock: StockSpec = StockSpec()
     surfaces: list[SurfaceSource] = Field(default_factory=list, max_length=64)
     max_splits: int = Field(3, ge=0, le=6, description="depth of the adaptive splitting")
+    seams: Literal["iso", "least_curvature"] = Field("iso", description="seams along iso-parameter lines, or "
+                                                     "traced along the hull's direction of least curvature")
 
 
 class StrakeSpec(_Strict):

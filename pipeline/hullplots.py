@@ -30,6 +30,14 @@ def plate_ring(result) -> np.ndarray | None:
     return None if corners is None else np.asarray(corners)
 
 
+def shell_area(result) -> float:
+    """The plate's area on the hull (m^2) that is shell: its region inside the surface's
+    IGES trim (the whole region for an untrimmed surface)."""
+    area = float((result.figures.get("region") or {}).get("area_m2") or 0.0)
+    hull = getattr(getattr(result, "part", None), "hull", None)
+    return area * (1.0 if hull is None else float(getattr(hull, "inside_trim", 1.0)))
+
+
 def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, title: str | None = None) -> dict:
     """Side and bottom views of the plates coloured flat / developable / formed / failed;
     returns the area of each class (m^2, regions on the hull)."""
@@ -54,7 +62,7 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
     axes[-1].set_xlabel(f"x ({units})")
     for r in results:
         klass = (r.figures.get("plate_class") or {}).get("class", "failed") if r.ok else "failed"
-        areas[klass if klass in areas else "failed"] += float((r.figures.get("region") or {}).get("area_m2") or 0.0)
+        areas[klass if klass in areas else "failed"] += shell_area(r)
     total = sum(areas.values()) or 1.0
     for k, colour in CLASS_COLOURS.items():
         axes[0].plot([], [], "s", color=colour, label=f"{k}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)")

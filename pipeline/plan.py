@@ -108,6 +108,7 @@ class HullPlate:
     resolution: float = 200.0  # patch mesh spacing (model units)
     result: object = None  # filled by an adaptive plan that evaluated the plate already
     surface_note: str = ""  # e.g. a trim of the surface that is not honoured
+    inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
 
 
 def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
@@ -126,8 +127,20 @@ def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> Nu
 
 
 def load_surface_noted(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> tuple[NurbsSurface, str]:
-    """The surface and a note when the file trims it (entity 143 / 144 pointing at it): the
-    trim is not honoured, the plates cover the untrimmed surface, and the note says so."""
+    """The surface and a note when the file trims it (entity 143 / 144 pointing at it): a
+    hand-laid strake does not honour the trim, its plates cover the untrimmed surface."""
+    surface, trim, note = load_surface_trimmed(spec, base, mm_per_unit, scale)
+    if trim is not None:
+        note = (f"{note.split(';')[0]}; the trim is ignored by a hand-laid strake: plates cover the untrimmed "
+                f"surface")
+    return surface, note
+
+
+def load_surface_trimmed(spec, base: Path, mm_per_unit: float, scale: float = 1.0):
+    """(surface, trim or None, note). A trim that is the whole parameter rectangle is no
+    trim; a trim whose loops cannot be read is ignored, and the note says so."""
+    from .trims import read_trim
+
     path = source_path(base, spec.iges)
     try:
         iges = read_iges(path)
@@ -135,13 +148,16 @@ def load_surface_noted(spec, base: Path, mm_per_unit: float, scale: float = 1.0)
         surface = iges_surface(iges, entity, scale * iges.unit_mm / mm_per_unit, f"hull D{entity.directory}")
     except IgesError as exc:
         raise SourceError(str(exc)) from None
-    trims = [e for e in iges.entities if e.type in (143, 144) and len(e.parameters) > 2
-             and e.parameters[2].strip() == str(entity.directory)]
-    note = ""
-    if trims:
-        note = (f"{path.name}: surface D{entity.directory} is trimmed by entity {trims[0].type} at "
-                f"D{trims[0].directory}; the trim is ignored: plates cover the untrimmed surface")
-    return surface, note
+    try:
+        trim = read_trim(iges, entity.directory)
+    except (IgesError, ValueError, IndexError) as exc:
+        return surface, None, (f"{path.name}: surface D{entity.directory} is trimmed but its trim cannot be read "
+                               f"({exc}); the trim is ignored: plates cover the untrimmed surface")
+    if trim is None or trim.covers_rectangle(surface.domain_u, surface.domain_v):
+        return surface, None, ""
+    return surface, trim, (f"{path.name}: surface D{entity.directory} is trimmed (entity {trim.entity}); the trim is "
+                           f"honoured by area: plates wholly outside it are not planned, a plate partly outside keeps "
+                           f"its untrimmed region and reports the share inside (inside_trim)")
 
 
 def long_axis_of(surface: NurbsSurface) -> int:

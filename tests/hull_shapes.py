@@ -63,3 +63,26 @@ def cylinder_iges(path: Path, radius=20000.0, angle_deg=60.0, width=4000.0) -> P
     w = np.array([1.0, np.cos(h), 1.0])
     poles = np.array([[[x, 0.0, z], [x, width, z]] for x, z in arc])
     return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
+
+
+def cylinder_sphere_iges(path: Path, radius=10000.0, angle_deg=60.0, cylinder=1500.0, cap=3000.0,
+                         junction=0.3) -> Path:
+    """A circular cylinder of axis y (through (0, 0, radius)) for y in [0, cylinder], joined
+    tangentially by the sphere of the same radius centred on the axis at y = cylinder, for
+    a further ``cap`` of arc: a surface of revolution about the axis, exact rational
+    quadratic. u runs along x over the arc angle_deg; v along the profile, the junction at
+    v = ``junction`` (v in [0, 1])."""
+    h = np.radians(angle_deg) / 2
+    phi = cap / radius
+    # profile (r, y): the line r = R (three poles), then the arc r = R cos p, y = Y1 + R sin p
+    tan = np.tan(phi / 2)
+    profile = np.array([[radius, 0.0], [radius, cylinder / 2], [radius, cylinder],
+                        [radius, cylinder + radius * tan], [radius * np.cos(phi), cylinder + radius * np.sin(phi)]])
+    wp = np.array([1.0, 1.0, 1.0, np.cos(phi / 2), 1.0])
+    # the circle about the axis over [-h, h] as (sin, cos) with weights (1, cos h, 1)
+    circle = np.array([[-np.sin(h), np.cos(h)], [0.0, 1.0 / np.cos(h)], [np.sin(h), np.cos(h)]])
+    wc = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[r * cs[0], y, radius - r * cs[1]] for r, y in profile] for cs in circle])
+    weights = wc[:, None] * wp[None, :]
+    knots_v = [0.0, 0.0, 0.0, junction, junction, 1.0, 1.0, 1.0]
+    return write_iges_surface(path, 2, 2, poles, weights, [0, 0, 0, 1, 1, 1], knots_v)

@@ -1,0 +1,165 @@
+"""Where and which way to split a hull plate that does not fit (the adaptive plan).
+
+A developable strip fits a hull patch when the patch bends little along its rulings, and a
+strip's rulings follow the hull's direction of least normal curvature. Through a point of
+the region, a ruling in that direction crosses the plate over about
+l = min(L / |cos a|, W / |sin a|) (L, W the plate's length and girth there, a the angle of the
+direction to the length), and bends away from it by the sagitta of that chord:
+
+    misfit(p) = |kappa_min(p)| l(p)^2 / 8        (model units)
+
+The plate's estimate is the largest misfit over a coarse grid of its region, or 0 when the
+region lies within the tolerance of its least-squares plane (flat). It ranks candidate splits,
+it is not the verdict (the strip solve and hull check are): a split at x = X (a butt plane)
+or at a girth fraction w (a new seam) is scored by the area of the halves it expects to fit
+(estimate <= tolerance), then by the larger of the halves' estimates, then by how near the
+middle it lies; halves stay within the stock's minimum sizes. A plate of a cylinder joined
+to a spherical cap is thus split at the junction: one half fits, the other does not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flatten.patch import principal_curvatures, region_grid
+from flatten.patchflat import fit_plane
+
+
+
+@dataclass(frozen=True)
+class RegionSample:
+    """A plate's region on a coarse grid: points (R, C, 3), misfit terms per point, and the
+    cumulative arc lengths along rows (R, C) and columns (R, C) (model units)."""
+
+    points: np.ndarray
+    rows: np.ndarray  # girth fractions of the grid rows (R,)
+    kappa: np.ndarray  # |least principal curvature| (R, C), 1 / model units
+    cos: np.ndarray  # |cos| of the least-curvature direction to the row (R, C)
+    sin: np.ndarray
+    along: np.ndarray  # arc length from the row's start (R, C)
+    across: np.ndarray  # arc length from the column's start (R, C)
+    area: np.ndarray  # area per grid point (R, C), model units^2
+
+
+def sample_region(surface, axis: int, girths, planes, rows: int = 17, cols: int = 33) -> RegionSample | None:
+    grid = region_grid(surface, axis, girths[0], girths[1], [None if p is None else p.as_tuple() for p in planes],
+                       rows, cols, probe=160)
+    if grid is None:
+        return None
+    p = grid.points
+    r, c = p.shape[:2]
+    k, d1 = principal_curvatures(surface, grid.params[..., 0].ravel(), grid.params[..., 1].ravel())
+    t_s = np.gradient(p, axis=1)
+    t_g = np.gradient(p, axis=0)
+    t_s /= np.maximum(np.linalg.norm(t_s, axis=2, keepdims=True), 1e-300)
+    t_g = t_g - np.sum(t_g * t_s, axis=2, keepdims=True) * t_s
+    t_g /= np.maximum(np.linalg.norm(t_g, axis=2, keepdims=True), 1e-300)
+    d1 = d1.reshape(r, c, 3)
+    cos = np.abs(np.sum(d1 * t_s, axis=2))
+    sin = np.abs(np.sum(d1 * t_g, axis=2))
+    seg_s = np.linalg.norm(np.diff(p, axis=1), axis=2)
+    seg_g = np.linalg.norm(np.diff(p, axis=0), axis=2)
+    along = np.concatenate([np.zeros((r, 1)), np.cumsum(seg_s, axis=1)], axis=1)
+    across = np.concatenate([np.zeros((1, c)), np.cumsum(seg_g, axis=0)], axis=0)
+    ds = np.gradient(along, axis=1)
+    dg = np.gradient(across, axis=0)
+    kappa = np.abs(k[:, 0]).reshape(r, c)
+    kappa = np.where(np.isfinite(kappa), kappa, 0.0)
+    return RegionSample(p, grid.rows, kappa, cos, sin, along, across, ds * dg)
+
+
+def _misfit(s: RegionSample, mask: np.ndarray, length: np.ndarray, width: np.ndarray) -> float:
+    """Largest |kappa_min| l^2 / 8 over the masked points, or 0 when they are planar."""
+    if not mask.any():
+        return 0.0
+    chord = np.minimum(length / np.maximum(s.cos, 1e-9), width / np.maximum(s.sin, 1e-9))
+    return float(np.max((s.kappa * chord**2 / 8.0)[mask]))
+
+
+def _flat(s: RegionSample, mask: np.ndarray, tol: float) -> bool:
+    pts = s.points[mask]
+    return len(pts) >= 3 and float(np.abs(fit_plane(pts).distances).max()) <= tol
+
+
+def estimate(s: RegionSample, tol: float) -> float:
+    """The plate's misfit estimate (model units); 0 when the region is flat within tol."""
+    full = np.ones(s.points.shape[:2], dtype=bool)
+    if _flat(s, full, tol):
+        return 0.0
+    length = np.broadcast_to(s.along[:, -1:], s.kappa.shape)
+    width = np.broadcast_to(s.across[-1:, :], s.kappa.shape)
+    return _misfit(s, full, length, width)
+
+
+@dataclass(frozen=True)
+class Split:
+    """``kind`` "length" (a butt plane x = ``at``) or "girth" (a seam at girth fraction ``at``);
+    the halves' estimates and the area expected to fit (share of the plate)."""
+
+    kind: str
+    at: float
+    estimates: tuple[float, float]
+    fitting_share: float
+
+
+def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
+    est, good = [], 0.0
+    total = sum(float(s.area[m].sum()) for m in masks) or 1.0  # a shared row or column counts twice
+    for mask, length, width in zip(masks, lengths, widths):
+        e = 0.0 if _flat(s, mask, tol) else _misfit(s, mask, length, width)
+        est.append(e)
+        good += float(s.area[mask].sum()) if e <= tol else 0.0
+    return tuple(est), good / total
+
+
+def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float) -> Split | None:
+    """The best split of the plate within the minimum sizes, or None when none is allowed.
+    Candidates: a butt plane through each interior grid column (x = its mean x), a seam
+    along each interior grid row; the halves share that column or row."""
+    candidates = []
+    x = s.points[..., 0]
+    row_len = s.along[:, -1]
+    n_rows, n_cols = x.shape
+    for j in range(2, n_cols - 2):
+        X = float(np.mean(x[:, j]))
+        cut = np.array([np.interp(X, *(_monotone(x[i], s.along[i]))) for i in range(n_rows)])
+        if cut.min() < min_length or (row_len - cut).min() < min_length:
+            continue
+        lengths = (np.broadcast_to(cut[:, None], x.shape), np.broadcast_to((row_len - cut)[:, None], x.shape))
+        widths = (np.broadcast_to(s.across[-1:, :], x.shape),) * 2
+        sign = 1.0 if x[:, -1].mean() >= x[:, 0].mean() else -1.0
+        lower = sign * (x - X) <= 1e-9 * np.ptp(x)
+        upper = sign * (x - X) >= -1e-9 * np.ptp(x)
+        est, share = _half_scores(s, (lower, upper), lengths, widths, tol)
+        candidates.append(Split("length", X, est, share))
+    col_w = s.across[-1, :]
+    for i in range(1, n_rows - 1):
+        cut = s.across[i, :]
+        if cut.min() < min_width or (col_w - cut).min() < min_width:
+            continue
+        widths = (np.broadcast_to(cut[None, :], x.shape), np.broadcast_to((col_w - cut)[None, :], x.shape))
+        lengths = (np.broadcast_to(s.along[:, -1:], x.shape),) * 2
+        below = np.broadcast_to((np.arange(n_rows) <= i)[:, None], x.shape)
+        above = np.broadcast_to((np.arange(n_rows) >= i)[:, None], x.shape)
+        est, share = _half_scores(s, (below, above), lengths, widths, tol)
+        candidates.append(Split("girth", float(s.rows[i]), est, share))
+    if not candidates:
+        return None
+    x_mid = 0.5 * (float(np.mean(x[:, 0])) + float(np.mean(x[:, -1])))
+    x_span = max(abs(float(np.mean(x[:, -1]) - np.mean(x[:, 0]))), 1e-300)
+    w_mid = 0.5 * (s.rows[0] + s.rows[-1])
+
+    def rank(c: Split):
+        # fraction from the middle, so that among equals the plate is halved
+        mid = abs(c.at - x_mid) / x_span if c.kind == "length" else abs(c.at - w_mid)
+        return (-round(c.fitting_share, 2), round(max(c.estimates) / max(tol, 1e-300), 1), mid)
+
+    return min(candidates, key=rank)
+
+
+def _monotone(xs: np.ndarray, lengths: np.ndarray):
+    """(xs, lengths) sorted by x, for interpolating where a row crosses x = X."""
+    order = np.argsort(xs, kind="stable")
+    return xs[order], lengths[order]
