@@ -12,7 +12,24 @@ import numpy as np  # noqa: E402
 
 from .atomic import atomic_path  # noqa: E402
 
-CLASS_COLOURS = {"flat": "#8fa8c8", "developable": "#4caf50", "formed": "#ff9800", "failed": "#d32f2f"}
+# "developable" is devflat's strip; "patch" a hull patch developed within the tolerance
+# (rolled, no strip between those seams): the shares keep them apart
+CLASS_COLOURS = {"flat": "#8fa8c8", "developable": "#4caf50", "patch": "#c5e1a5", "formed": "#ff9800",
+                 "failed": "#d32f2f"}
+
+
+def display_class(result) -> str:
+    """flat, developable (devflat's strip), patch (a patch development within the
+    tolerance), formed or failed."""
+    if not result.ok:
+        return "failed"
+    klass = result.figures.get("plate_class") or {}
+    name = klass.get("class", "failed")
+    if name == "developable":
+        method = str(klass.get("method", ""))
+        return "developable" if "strip" in method and not method.startswith("isometric") and "patch" not in method \
+            else "patch"
+    return name if name in CLASS_COLOURS else "failed"
 
 
 def plate_ring(result) -> np.ndarray | None:
@@ -39,8 +56,8 @@ def shell_area(result) -> float:
 
 
 def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, title: str | None = None) -> dict:
-    """Side and bottom views of the plates coloured flat / developable / formed / failed;
-    returns the area of each class (m^2, regions on the hull)."""
+    """Side and bottom views of the plates coloured flat / developable (strip) / patch /
+    formed / failed; returns the shell area of each (m^2, regions on the hull inside trims)."""
     from matplotlib.collections import PolyCollection
 
     areas = {k: 0.0 for k in CLASS_COLOURS}
@@ -49,7 +66,7 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
         polygons, colours = [], []
         for r in results:
             ring = plate_ring(r)
-            klass = (r.figures.get("plate_class") or {}).get("class", "failed") if r.ok else "failed"
+            klass = display_class(r)
             if ring is None:
                 continue
             polygons.append(ring[:, [a, b]])
@@ -61,11 +78,10 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
         ax.set_title(label, fontsize=9)
     axes[-1].set_xlabel(f"x ({units})")
     for r in results:
-        klass = (r.figures.get("plate_class") or {}).get("class", "failed") if r.ok else "failed"
-        areas[klass if klass in areas else "failed"] += shell_area(r)
+        areas[display_class(r)] += shell_area(r)
     total = sum(areas.values()) or 1.0
     for k, colour in CLASS_COLOURS.items():
-        axes[0].plot([], [], "s", color=colour, label=f"{k}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)")
+        axes[0].plot([], [], "s", color=colour, label=f"{'developable (strip)' if k == 'developable' else k}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)")
     axes[0].legend(loc="upper left", fontsize=7, ncol=4)
     if title:
         fig.suptitle(title, fontsize=10)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_path
-from .hullplots import CLASS_COLOURS, plate_ring
+from .hullplots import plate_ring
 
 LAYER_COLOURS = {"flat": 5, "developable": 3, "formed": 30, "failed": 1}
 
@@ -21,7 +21,7 @@ def write_plan_dxf(target: str | Path, results, mm_per_unit: float) -> None:
     doc = ezdxf.new("R2000")
     doc.header["$INSUNITS"] = 4
     msp = doc.modelspace()
-    for klass in CLASS_COLOURS:
+    for klass in LAYER_COLOURS:  # the classes of the plates' reports (a patch development is "developable")
         doc.layers.add(f"PLAN_{klass.upper()}", color=LAYER_COLOURS[klass])
     for r in results:
         ring = plate_ring(r)
