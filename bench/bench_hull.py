@@ -1,15 +1,17 @@
-"""Whole hulls: the share of shell area delivered flat / developable / formed, per hull, with
-the plain seam layout (``plan.method: uniform``) and with the adaptive plan, beside the
-baseline of devflat before hull classes (a plate counted only when devflat's strip between
-its seams fits the hull within tolerance and covers its whole region).
+"""Whole hulls: the share of shell area delivered flat / devflat's strip / rolled patch /
+formed, per hull, with the plain seam layout (``plan.method: uniform``) and with the adaptive
+plan, iso-parameter or least-curvature seams.
 
     python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
-                               [--out DIR]
+                               [--seams iso least_curvature] [--out DIR]
 
-Per hull and method: plates, shares of the planned shell area per class (delivered complete),
-the strip-only baseline share, the worst deviation from the hull (flat and developable plates),
-the worst in-plane strain (formed plates), time; the hull picture coloured by class and the
-plan (plate outlines in 3D, one DXF layer per class) are written to --out.
+Per hull, method and seams: plates, shares of the shell area (plate regions inside the IGES
+trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
+or butt sections fits the hull within the tolerance and covers the region), patch (no strip
+fits; the hull patch's minimal-strain development is within the tolerance: rolled), formed,
+failed; flat + strip is the honest share. The worst deviation from the hull (flat and strip
+plates), the worst in-plane strain (patch and formed plates), crashes, time; the hull picture
+coloured by class and the plan (plate outlines in 3D, one DXF layer per class) go to --out.
 """
 
 from __future__ import annotations
@@ -34,10 +36,9 @@ HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kv
 
 
 def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
-    from pipeline.hullplots import class_hull_png, shell_area
+    from pipeline.hullplots import class_hull_png, display_class, shell_area
     from pipeline.plan import load_run
     from pipeline.planout import write_plan_dxf
-    from pipeline.planner import is_strip
     from pipeline.plates import evaluate_plate, run_part
 
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
@@ -60,9 +61,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     for r in results:
         klass = (r.figures.get("plate_class") or {})
         area = shell_area(r)
-        name = klass.get("class") if r.ok else "failed"
-        if name == "developable":
-            name = "strip" if is_strip(klass) else "patch"
+        name = {"developable": "strip", "patch": "patch"}.get(display_class(r), display_class(r))
         areas[name if name in areas else "failed"] += area
         crashes += "internal error" in r.reason
         if r.ok and name in ("flat", "strip"):
@@ -95,7 +94,8 @@ def main(argv=None) -> int:
         for method, seams in [(m, s) for m in args.methods for s in args.seams]:
             r = run(hull, method, args.out, seams)
             s = r["shares"]
-            print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
+            print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}"
+                  f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
                   f"{100 * (s['flat'] + s['strip']):>13.1f}"
                   f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",

@@ -17,10 +17,13 @@ from .atomic import atomic_path  # noqa: E402
 CLASS_COLOURS = {"flat": "#8fa8c8", "developable": "#4caf50", "patch": "#c5e1a5", "formed": "#ff9800",
                  "failed": "#d32f2f"}
 
+LABELS = {"developable": "developable (strip)", "patch": "rolled (patch within tol.)"}
+
 
 def display_class(result) -> str:
-    """flat, developable (devflat's strip), patch (a patch development within the
-    tolerance), formed or failed."""
+    """flat, developable (devflat's strip), patch (no strip fits, but the hull patch's
+    development is within the tolerance: rolled, reported developable-by-patch or formed
+    with rolling_only), formed or failed."""
     if not result.ok:
         return "failed"
     klass = result.figures.get("plate_class") or {}
@@ -29,6 +32,8 @@ def display_class(result) -> str:
         method = str(klass.get("method", ""))
         return "developable" if "strip" in method and not method.startswith("isometric") and "patch" not in method \
             else "patch"
+    if name == "formed" and klass.get("rolling_only"):
+        return "patch"
     return name if name in CLASS_COLOURS else "failed"
 
 
@@ -81,7 +86,8 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
         areas[display_class(r)] += shell_area(r)
     total = sum(areas.values()) or 1.0
     for k, colour in CLASS_COLOURS.items():
-        axes[0].plot([], [], "s", color=colour, label=f"{'developable (strip)' if k == 'developable' else k}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)")
+        label = f"{LABELS.get(k, k)}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)"
+        axes[0].plot([], [], "s", color=colour, label=label)
     axes[0].legend(loc="upper left", fontsize=7, ncol=4)
     if title:
         fig.suptitle(title, fontsize=10)

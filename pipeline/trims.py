@@ -51,8 +51,9 @@ class Trim:
         if self.outer is None:
             return True
         su, sv = np.ptp(domain_u), np.ptp(domain_v)
-        on_edge = ((np.abs(self.outer[:, 0] - domain_u[0]) <= tol * su) | (np.abs(self.outer[:, 0] - domain_u[1]) <= tol * su)
-                   | (np.abs(self.outer[:, 1] - domain_v[0]) <= tol * sv) | (np.abs(self.outer[:, 1] - domain_v[1]) <= tol * sv))
+        u, v = self.outer[:, 0], self.outer[:, 1]
+        on_edge = ((np.abs(u - domain_u[0]) <= tol * su) | (np.abs(u - domain_u[1]) <= tol * su)
+                   | (np.abs(v - domain_v[0]) <= tol * sv) | (np.abs(v - domain_v[1]) <= tol * sv))
         return bool(on_edge.all())
 
 
