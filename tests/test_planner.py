@@ -161,3 +161,35 @@ def test_least_curvature_seams_stay_ordered_when_the_hull_turns_them_hard():
     g = np.array([seam(s) for seam in least_curvature_seams(surface, 0, iso, 0.5)])
     assert np.all(np.diff(g, axis=0) >= 0.5 * np.diff(iso).min() - 1e-12)
     assert np.ptp(g[1]) > 0.5 * 0.25 * 0.17  # it did turn
+
+
+def test_a_plan_of_kcs_flat_bottom_covers_its_trimmed_area_not_its_rectangle(tmp_path):
+    """The uniform plan of KCS's flat-bottom surface DE3 alone: plates wholly outside the
+    trim are not planned, and the plates' regions weighted by their share inside the trim
+    add up to the trimmed area (1128 m2, against 2622 m2 for the rectangle)."""
+    from flatten.patch import region_grid
+    from pipeline.plan import load_run
+
+    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "strake": {"surface": {"iges": str(SHIP / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,
+                       "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "stock": {"max_length": 16000, "max_width": 4000,
+                                                               "min_length": 3000, "min_width": 1000}}}}
+    path = tmp_path / "de3.yaml"
+    path.write_text(yaml.safe_dump(data))
+    parts = load_run(path).parts
+    iges = read_iges(SHIP / "ship_kcs.igs")
+    surface = iges_surface(iges, next(e for e in iges.of_type(128) if e.directory == 3), 31.6, "de3")
+    full, inside = trimmed_area(surface, read_trim(iges, 3), 401)
+    total = 0.0
+    for part in parts:
+        h = part.hull
+        assert 0.0 < h.inside_trim <= 1.0 and "honoured by area" in h.surface_note
+        grid = region_grid(h.surface, h.long_axis, h.girths[0], h.girths[1],
+                           [None if p is None else p.as_tuple() for p in h.butts], 41, 161)
+        p = grid.points
+        a = np.cross(p[1:, :-1] - p[:-1, :-1], p[:-1, 1:] - p[:-1, :-1])
+        b = np.cross(p[1:, 1:] - p[1:, :-1], p[1:, 1:] - p[:-1, 1:])
+        total += h.inside_trim * 0.5 * (np.linalg.norm(a, axis=2).sum() + np.linalg.norm(b, axis=2).sum())
+    assert total == pytest.approx(inside, rel=0.02)
+    assert total < 0.5 * full
