@@ -260,7 +260,15 @@ def _overlapping_boxes(lo_a, hi_a, lo_b, hi_b, slack: float):
     ks, ls = [], []
     ia, ib = np.flatnonzero(small_a), np.flatnonzero(small_b)
     if len(ia) and len(ib):
-        hits = cKDTree(cb[ib]).query_ball_point(ca[ia], 2.0 * cut + 2.0 * slack, p=np.inf, return_sorted=False)
+        tree, radius = cKDTree(cb[ib]), 2.0 * cut + 2.0 * slack
+        # count first: where the segments pile up (a trace stopped at its step limit,
+        # circling in a small region) the candidates approach K L, and as lists of
+        # Python ints they would take ~20x the memory of the table: use the table then
+        if int(tree.query_ball_point(ca[ia], radius, p=np.inf, return_length=True).sum()) > 4 * (len(ca) + len(cb)) + 10**6:
+            near = ((lo_a[:, None, 0] <= hi_b[None, :, 0] + slack) & (lo_b[None, :, 0] <= hi_a[:, None, 0] + slack)
+                    & (lo_a[:, None, 1] <= hi_b[None, :, 1] + slack) & (lo_b[None, :, 1] <= hi_a[:, None, 1] + slack))
+            return np.nonzero(near)
+        hits = tree.query_ball_point(ca[ia], radius, p=np.inf, return_sorted=False)
         counts = np.fromiter(map(len, hits), dtype=int, count=len(hits))
         if counts.sum():
             ks.append(np.repeat(ia, counts))
