@@ -95,3 +95,44 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
         radius = float(1.0 / kappa[k]) if kappa[k] > 0 else float("inf")
         lines.append(BendLine(len(lines) + 1, a[k], b[k], float(stations[k]), radius, bool(sign[k] > 0)))
     return lines, length
+
+
+def lines_on_rulings(a2: np.ndarray, b2: np.ndarray, a3: np.ndarray, b3: np.ndarray, normals: np.ndarray,
+                     spacing: float, min_length: float = 0.1) -> tuple[list[BendLine], float]:
+    """Bending lines of a strip given as K dense rulings already cut to the plate (a strip
+    trimmed by its region, whichever family its rulings belong to): flat ends a2, b2 (K, 2)
+    placed, 3D ends a3, b3 (K, 3), unit normals (K, 3) seen from the drawn side, in order
+    along the plate. Lines every ``spacing`` along the centre line of the rulings' middles,
+    each interpolated between its two neighbouring rulings (nearly a ruling: the rulings are
+    dense), with the radius across it from the turn of the normals. Returns (lines, length of
+    the centre line)."""
+    if len(a2) < 3:
+        return [], 0.0
+    mid2 = 0.5 * (a2 + b2)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
+    length = float(s[-1])
+    count = int(np.floor(length / spacing))
+    if count < 1:
+        return [], length
+    stations = 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count)
+    k = np.clip(np.searchsorted(s, stations) - 1, 0, len(s) - 2)
+    f = ((stations - s[k]) / np.maximum(s[k + 1] - s[k], 1e-300))[:, None]
+    a = a2[k] + f * (a2[k + 1] - a2[k])
+    b = b2[k] + f * (b2[k + 1] - b2[k])
+    lo, hi = np.clip(k - 1, 0, len(s) - 1), np.clip(k + 2, 0, len(s) - 1)
+    mid3 = 0.5 * (a3 + b3)
+    move = mid3[hi] - mid3[lo]
+    ruling = b3[k] - a3[k]
+    ruling /= np.maximum(np.linalg.norm(ruling, axis=1), 1e-300)[:, None]
+    across = move - np.einsum("ij,ij->i", move, ruling)[:, None] * ruling
+    turn = normals[hi] - normals[lo]
+    kappa = np.linalg.norm(turn, axis=1) / np.maximum(np.linalg.norm(across, axis=1), 1e-300)
+    sign = np.sign(np.einsum("ij,ij->i", turn, across))
+    lengths = np.linalg.norm(b - a, axis=1)
+    lines = []
+    for j in range(count):
+        if lengths[j] < min_length * lengths.max():
+            continue
+        radius = float(1.0 / kappa[j]) if kappa[j] > 0 else float("inf")
+        lines.append(BendLine(len(lines) + 1, a[j], b[j], float(stations[j]), radius, bool(sign[j] > 0)))
+    return lines, length

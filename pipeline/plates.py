@@ -14,6 +14,7 @@ never the run.
 
 from __future__ import annotations
 
+import dataclasses
 import traceback
 
 import numpy as np
@@ -24,6 +25,9 @@ from flatten.patchflat import (arap_development, fit_plane, planar_development, 
                                triangle_stretches)
 
 from .config import Part, RunConfig
+from .outline import Outline
+from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family
+from .shop import bend_text
 from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from .stages import run_part as run_curve_part
 
@@ -253,6 +257,7 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
         return
     attempt = PartResult(part.name, part)
     why = hull.note
+    seam_ok, seam_deviation = False, None
     if hull.developable:
         from .strake import corner_rulings, stage_trim
 
@@ -269,27 +274,125 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                     attempt.reason = (f"strip incomplete: corner gaps {np.round(check['corner_gaps'], 2).tolist()} "
                                       f"(limit {corner_tol:g}), largest gap to the region "
                                       f"{check['max_region_gap']:.4g} (limit {tol + chord:g})")
-            if ok:
-                region = result.figures["region"]
-                result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
-                result.figures["region"] = region
-                result.figures["plate_class"] = {
-                    "class": "developable", "method": "devflat strip between the seams, trimmed by the butt planes",
-                    "max_deviation": attempt.figures["hull_fit"]["max_distance"], "max_strain": 0.0,
-                    "area_3d_m2": area3 * (mm / 1e3) ** 2, "complete": True}
-                finish_part(result, config)
-                return
-            why = attempt.reason
+            seam_ok, why = ok, attempt.reason
+            seam_deviation = (attempt.figures.get("hull_fit") or {}).get("max_distance")
         except Exception as exc:  # the strip attempt failed hard: the plate is still delivered
-            why = f"strip attempt raised {type(exc).__name__}: {exc}"
-            frame = traceback.extract_tb(exc.__traceback__)[-1]
-            why += f" (in {frame.name}, {frame.filename.rsplit('/', 2)[-2:]}:{frame.lineno})"
+            why = _raised(exc)
+    butt = Trim(BUTT_TO_BUTT)
+    try:
+        butt = butt_family(part, config, grid, corner_tol)
+    except Exception as exc:  # as above: this family is then simply not delivered
+        butt.reason = _raised(exc)
+    families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason}
+    if seam_ok and (not butt.ok or seam_deviation <= butt.deviation):
+        region = result.figures["region"]
+        result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
+        result.figures["region"] = region
+        result.figures["plate_class"] = {
+            "class": "developable", "family": SEAM_TO_SEAM,
+            "method": "devflat strip between the seams (rulings seam to seam), trimmed by the butt planes",
+            "max_deviation": attempt.figures["hull_fit"]["max_distance"], "max_strain": 0.0,
+            "area_3d_m2": area3 * (mm / 1e3) ** 2, "complete": True,
+            "other_family": _other(BUTT_TO_BUTT, butt.reason or (f"fits within {butt.deviation:.4g}, the seam family "
+                                                                 f"within {seam_deviation:.4g}"))}
+        finish_part(result, config)
+        return
+    if butt.ok:
+        _deliver_trimmed(result, config, grid, butt, area3, _other(SEAM_TO_SEAM, why or (
+            f"fits within {seam_deviation:.4g}, the butt family within {butt.deviation:.4g}")))
+        return
+    deviations = {SEAM_TO_SEAM: seam_deviation, BUTT_TO_BUTT: butt.deviation}
+    best = min((d, f) for f, d in deviations.items() if d is not None) if any(
+        d is not None for d in deviations.values()) else (None, SEAM_TO_SEAM)
+    roll_strip = butt.attempt.strip if best[1] == BUTT_TO_BUTT and butt.attempt is not None else attempt.strip
     uv, iterations = arap_development(v3, f3)
     _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
                    {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
-                    "strip_not_delivered_because": why,
-                    "strip_max_deviation": (attempt.figures.get("hull_fit") or {}).get("max_distance")},
-                   attempt.strip, (length, width))
+                    "strip_not_delivered_because": "; ".join(f"{f}: {r}" for f, r in families.items()),
+                    "families": [_other(f, r, deviations[f]) for f, r in families.items()],
+                    "strip_max_deviation": best[0]},
+                   roll_strip, (length, width))
+
+
+def _raised(exc: Exception) -> str:
+    why = f"strip attempt raised {type(exc).__name__}: {exc}"
+    frame = traceback.extract_tb(exc.__traceback__)[-1]
+    return why + f" (in {frame.name}, {frame.filename.rsplit('/', 2)[-2:]}:{frame.lineno})"
+
+
+def _other(family: str, why: str, deviation=None) -> dict:
+    out = {"family": family, "rejected_because": why}
+    if deviation is not None:
+        out["max_deviation"] = deviation
+    return out
+
+
+def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
+    """A plate delivered as a strip trimmed by its region (:mod:`pipeline.platestrip`): its
+    3D shape is the strip at the closest points of the hull's patch grid, its cut outline
+    the developed region boundary, its bending lines the strip's own rulings."""
+    from .bending import lines_on_rulings
+    from .shop import ShopPlate, _scaled
+
+    part, hull = result.part, result.part.hull
+    mm = config.mm_per_unit
+    rows, cols = grid.shape
+    flat = trim.grid_flat
+    uv_grid = flat.reshape(rows, cols, 2)
+    rot, shift = place_flat(flat, uv_grid[0])
+    placed = flat @ rot.T + shift
+    pg = placed.reshape(rows, cols, 2)
+    sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
+    outline = trim.outline_flat @ rot.T + shift
+    a2, b2, a3, b3 = trim.rulings
+    a2, b2 = a2 @ rot.T + shift, b2 @ rot.T + shift
+    spacing = config.spec.shop.bend_spacing / mm
+    lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
+    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
+    bends = np.array([[b.a, b.b] for b in lines]).reshape(-1, 2, 2)
+    result.strip, result.solution, result.development = None, None, None
+    result.mesh = (trim.grid_3d, grid.faces())
+    result.pattern = Pattern(outline, bends, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
+    attempt = trim.attempt
+    for key in ("coverage", "rulings", "developability", "unroll"):
+        if key in attempt.figures:
+            result.figures[key] = attempt.figures[key]
+    result.figures["strip_solution"] = attempt.solution.message
+    for key in ("hull_fit", "completeness", "trim", "sections"):
+        if key in trim.figures:
+            result.figures[key] = trim.figures[key]
+    result.figures["plate_class"] = {
+        "class": "developable", "family": trim.family,
+        "method": "devflat strip between the plate's butt sections (rulings butt to butt), trimmed by the seams "
+                  "(the region's boundary mapped onto the strip and developed)",
+        "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (mm / 1e3) ** 2,
+        "complete": True, "other_family": other}
+    finish_part(result, config)
+    if config.spec.profile != "steel":
+        return
+    edges = trim.edges
+    n = len(outline)
+    tolerance = config.spec.shop.outline_tolerance / mm
+    net = Outline(outline, tuple(edges), trim.outline_deviation, tolerance, 0.0)
+    outline_mm = _scaled(net, mm)
+    lines_mm = [dataclasses.replace(b, a=b.a * mm, b=b.b * mm, station=b.station * mm, radius=b.radius * mm)
+                for b in lines]
+    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm)
+    result.figures["bending"] = {
+        "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
+        "centre_line_length": centre * mm, "family": trim.family,
+        "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
+        "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
+                   "length": float(np.linalg.norm(b.b - b.a)), "radius": b.radius if np.isfinite(b.radius) else None,
+                   "convex_on_drawn_side": b.convex_on_drawn_side, "mark": bend_text(b)} for b in lines_mm]}
+    result.figures["outline"] = {
+        "units": "mm", "vertices": n, "tolerance": outline_mm.tolerance, "max_deviation": outline_mm.max_deviation,
+        "deviation_measured_at": "estimated from the boundary points' distance to their neighbours' chords",
+        "alignment_error": 0.0, "area_m2": outline_mm.area() / 1e6,
+        "edges": {name: int(edges.count(name)) for name in sorted(set(edges))}}
+    if outline_mm.max_deviation > outline_mm.tolerance:
+        result.warnings.append(f"cut outline deviates about {outline_mm.max_deviation:.3g} mm from the exact "
+                               f"development (tolerance {outline_mm.tolerance:g} mm)")
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):

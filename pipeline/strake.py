@@ -28,6 +28,8 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int
 
     def T_of(t):
         guess = np.interp(t, path[:, 0], path[:, 1])
+        if field_ is None:  # a flat pair (coplanar seams): T(t) is the path's correspondence
+            return np.atleast_1d(guess)
         return field_.refine_T(np.atleast_1d(t), np.atleast_1d(guess), 8)
 
     extra = []
@@ -39,7 +41,7 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int
         for T in plane_crossings(d, plane):
             if path[order[0], 1] <= T <= path[order[-1], 1]:
                 t = float(np.interp(T, path[order, 1], path[order, 0]))
-                for _ in range(8):  # Newton on f(., T) = 0
+                for _ in range(8 if field_ is not None else 0):  # Newton on f(., T) = 0
                     ft = field_(t, T, 1, 0)[0]
                     if ft == 0:
                         break

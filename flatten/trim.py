@@ -1,0 +1,152 @@
+"""A solved strip trimmed by any region: points mapped onto the strip and developed.
+
+A hull plate's region need not be bounded by rulings or planes (its seams are curves on the
+hull; a strip whose rulings run butt to butt is trimmed by the seams, an end plate by the
+hull's end). Each point of the region (boundary or interior, on the hull) is mapped to its
+closest point on the strip, given by the path fraction lam of its ruling and its position v
+in [0, 1] along that ruling, and developed exactly there (the development is linear along a
+ruling). The cut outline is then the developed image of the region's boundary: it holds the
+region's four corners by construction, whatever the family of rulings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .develop import develop
+from .nurbs import NurbsCurve
+from .solution import SolutionSet
+from .strip import grid_faces, sample_path
+
+NEWTON_STEPS = 4
+
+
+@dataclass(frozen=True)
+class Mapped:
+    """Points mapped onto a strip (N points; model units).
+
+    lam : (N,) path fraction of each point's ruling; v : (N,) position along it
+    on_strip : (N, 3) the closest strip points; distance : (N,) |point - on_strip|
+    flat : (N, 2) their developed positions (the strip's development frame)
+    """
+
+    lam: np.ndarray
+    v: np.ndarray
+    on_strip: np.ndarray
+    distance: np.ndarray
+    flat: np.ndarray
+
+
+class StripMap:
+    """Closest points on a solved strip and their exact developed positions.
+
+    solution : a truthy SolutionSet of the pair (c, d); n_rulings : rulings of the coarse
+    search mesh (evenly spaced in path fraction); the search only seeds a Newton iteration on
+    the exact rulings, so its density sets the cost, not the accuracy.
+    """
+
+    def __init__(self, solution: SolutionSet, c: NurbsCurve, d: NurbsCurve, n_rulings: int = 801):
+        self.solution, self.c, self.d = solution, c, d
+        self.lam = np.linspace(0.0, 1.0, max(int(n_rulings), 3))
+        self.rulings = sample_path(solution, self.lam)
+        self.a3, self.b3 = c(self.rulings[:, 0]), d(self.rulings[:, 1])
+
+    def ends(self, lam: np.ndarray):
+        """Rulings (N, 2) at path fractions lam and their 3D ends on c and d."""
+        r = sample_path(self.solution, np.clip(lam, 0.0, 1.0))
+        return r, self.c(r[:, 0]), self.d(r[:, 1])
+
+    def _seed(self, points: np.ndarray) -> np.ndarray:
+        import igl
+
+        m = len(self.lam)
+        vertices = np.empty((m, 2, 3))
+        vertices[:, 0], vertices[:, 1] = self.a3, self.b3
+        vertices = np.ascontiguousarray(vertices.reshape(-1, 3))
+        faces = np.ascontiguousarray(grid_faces(m, 2))
+        _, face, closest = igl.point_mesh_squared_distance(np.ascontiguousarray(points), vertices, faces)
+        tri = vertices[faces[face]]
+        bary = _barycentric(closest, tri)
+        return np.einsum("nk,nk->n", bary, self.lam[faces[face] // 2])
+
+    def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
+        seed on the coarse mesh, then Newton on the squared distance to the exact ruling line
+        (central differences in lam). v is not clipped: a point beyond the strip's boundary
+        curve has v < 0 or > 1, and its distance says so."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lam = self._seed(points)
+        h = 0.05 * float(self.lam[1] - self.lam[0])
+
+        def dist2(x):
+            _, a, b = self.ends(x)
+            v = _along(points, a, b)
+            q = a + np.clip(v, 0.0, 1.0)[:, None] * (b - a)
+            return np.einsum("ij,ij->i", points - q, points - q)
+
+        for _ in range(NEWTON_STEPS):
+            lo, mid, hi = dist2(lam - h), dist2(lam), dist2(lam + h)
+            slope, bend = (hi - lo) / (2 * h), (hi - 2 * mid + lo) / h**2
+            step = np.where(bend > 0, -slope / np.where(bend > 0, bend, 1.0), 0.0)
+            lam = np.clip(lam + np.clip(step, -4 * h / 0.05, 4 * h / 0.05), 0.0, 1.0)
+        rulings, a, b = self.ends(lam)
+        v = _along(points, a, b)
+        return lam, v, rulings, a + v[:, None] * (b - a)
+
+    def develop(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Developed ends (along c, along d), (N, 2) each, of the given rulings, in one frame
+        with this map's own rulings (one exact development of them all)."""
+        merged = np.vstack([self.rulings, rulings])
+        order = np.lexsort((merged[:, 1] * self.solution.path.orientation, merged[:, 0]))
+        dev = develop(self.c, self.d, merged[order], self.solution.field)
+        position = np.empty(len(merged), dtype=int)
+        position[order] = np.arange(len(merged))
+        return dev.along_c[position], dev.along_d[position]
+
+    def map(self, points: np.ndarray) -> tuple[Mapped, np.ndarray, np.ndarray]:
+        """Mapped points, and the developed ends (K, 2) x 2 of this map's own rulings in the
+        same frame."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lam, v, rulings, on_strip = self.locate(points)
+        ac, ad = self.develop(rulings)
+        k = len(self.rulings)
+        flat = ac[k:] + v[:, None] * (ad[k:] - ac[k:])
+        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat), ac[:k], ad[:k]
+
+
+def ruling_intervals(lam: np.ndarray, boundary_lam: np.ndarray, boundary_v: np.ndarray) -> np.ndarray:
+    """Per ruling at path fraction lam (K,), the interval [lo, hi] of v inside the closed
+    polygon (boundary_lam, boundary_v) (N,) in the strip's (lam, v) coordinates: the lowest and
+    highest crossing of the polygon by the ruling, (K, 2); NaN where the ruling misses it."""
+    a_l, a_v = boundary_lam, boundary_v
+    b_l, b_v = np.roll(a_l, -1), np.roll(a_v, -1)
+    out = np.full((len(lam), 2), np.nan)
+    for lo in range(0, len(lam), 512):
+        x = lam[lo:lo + 512, None]
+        crosses = ((a_l[None] <= x) & (x < b_l[None])) | ((b_l[None] <= x) & (x < a_l[None]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = (x - a_l[None]) / (b_l - a_l)[None]
+        v = np.where(crosses, a_v[None] + f * (b_v - a_v)[None], np.nan)
+        some = crosses.any(axis=1)
+        out[lo:lo + 512, 0] = np.where(some, np.nanmin(np.where(crosses, v, np.inf), axis=1), np.nan)
+        out[lo:lo + 512, 1] = np.where(some, np.nanmax(np.where(crosses, v, -np.inf), axis=1), np.nan)
+    return out
+
+
+def _along(points, a, b):
+    r = b - a
+    return np.einsum("ij,ij->i", points - a, r) / np.maximum(np.einsum("ij,ij->i", r, r), 1e-300)
+
+
+def _barycentric(p, tri):
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01**2
+    den = np.where(den == 0, 1.0, den)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.column_stack([1 - v - w, v, w])

@@ -1,0 +1,279 @@
+"""The strip of a hull plate in either family of rulings, trimmed by the plate's region.
+
+Between its two seams a plate's strip has rulings running seam to seam (across the plate);
+between its two butt sections (the hull's sections by the butt planes, a little wider than
+the plate) its rulings run butt to butt (along the plate). Where the hull is a cylinder
+whose generators run along the seams (the parallel midbody's bilge and side), the only
+strip between the seams is the plane through them, a chord across the bilge, while the
+strip between the butts is the hull itself: both families are tried and the one that fits
+is delivered.
+
+A strip between sections is trimmed by the seams, which are curves on the hull and not
+rulings or planes: the plate's region (its boundary densely, its interior on the patch grid)
+is mapped onto the strip by closest points and developed there (:mod:`flatten.trim`). The
+same trim serves end plates, whose one edge is the hull's end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flatten.closest import SurfaceDistance
+from flatten.patch import PatchGrid, region_grid
+from flatten.trim import StripMap, ruling_intervals
+
+from .config import Part, RunConfig
+from .sources import SourceError, fit_points
+from .stages import PartResult, develop_part
+
+SEAM_TO_SEAM = "rulings seam to seam"
+BUTT_TO_BUTT = "rulings butt to butt"
+SECTION_ROWS = 81  # points of a butt section fitted by a cubic B-spline
+SECTION_FIT = 1e-3  # the section fit's tolerance, a fraction of the plate's fit tolerance
+EXTEND = 0.15  # the sections reach this fraction of the plate's width beyond each seam
+BOUNDARY_MM = 25.0  # spacing of the region's boundary points mapped onto the strip
+MAP_RULINGS = 801
+
+
+@dataclass
+class Trim:
+    """A strip trimmed by the plate's region (model units, development frame before placing).
+
+    grid_3d (R*C, 3), grid_flat (R*C, 2): the patch grid's points mapped onto the strip and
+    developed; outline_3d (N, 3) on the strip, outline_flat (N, 2), edges (N,) the edge name
+    ('c', 'd' the seams, 'start', 'end' the first and second butt) of segment i -> i+1;
+    rulings: (a2, b2, a3, b3) the strip's rulings cut to the region (developed and 3D ends);
+    normals (K, 3) of those rulings, seen from the side the pattern is drawn from."""
+
+    family: str
+    ok: bool = False
+    reason: str = ""
+    deviation: float | None = None
+    figures: dict = field(default_factory=dict)
+    attempt: PartResult | None = None
+    grid_3d: np.ndarray | None = None
+    grid_flat: np.ndarray | None = None
+    outline_3d: np.ndarray | None = None
+    outline_flat: np.ndarray | None = None
+    edges: tuple = ()
+    rulings: tuple | None = None
+    normals: np.ndarray | None = None
+    outline_deviation: float = 0.0
+
+
+def _girth_domain(hull):
+    return hull.surface.domain_v if hull.long_axis == 0 else hull.surface.domain_u
+
+
+def _widened(hull, extend: float):
+    """The seams moved apart by ``extend`` times the girth between them (within the surface)."""
+    g0, g1 = hull.girths
+    lo, hi = _girth_domain(hull)
+
+    def g_lo(s):
+        a, b = np.asarray(g0(s), float), np.asarray(g1(s), float)
+        return np.clip(a - extend * (b - a), lo, hi)
+
+    def g_hi(s):
+        a, b = np.asarray(g0(s), float), np.asarray(g1(s), float)
+        return np.clip(b + extend * (b - a), lo, hi)
+
+    return g_lo, g_hi
+
+
+def _planes(hull):
+    return [None if p is None else p.as_tuple() for p in hull.butts]
+
+
+def _butt_side(hull, points: np.ndarray) -> int:
+    """0 when the points lie on the first butt (or the hull's end next to it), else 1."""
+    first, second = hull.butts
+    if first is not None and np.abs(first.signed(points)).max() <= 1e-6 * (1.0 + np.abs(points).max()):
+        return 0
+    if second is not None and np.abs(second.signed(points)).max() <= 1e-6 * (1.0 + np.abs(points).max()):
+        return 1
+    return 0 if second is not None else 1
+
+
+def section_curves(part: Part, tolerance: float) -> tuple:
+    """The hull's two end sections of the plate between its widened seams, as NURBS curves in
+    the same girth direction: the surface's iso-curve where the section is one, else a cubic
+    B-spline through SECTION_ROWS exact section points within ``tolerance``. Returns
+    ((curve, curve), figures); raises SourceError when there is no usable section."""
+    hull = part.hull
+    g_lo, g_hi = _widened(hull, EXTEND)
+    sections = region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2, probe=400)
+    if sections is None:
+        raise SourceError("the widened region misses the hull")
+    axis = hull.long_axis
+    s_dom = hull.surface.domain_u if axis == 0 else hull.surface.domain_v
+    curves, figures = [], []
+    for column in (0, -1):
+        pts, params = sections.points[:, column], sections.params[:, column]
+        s, g = params[:, axis], params[:, 1 - axis]
+        length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        if length <= 1e-6 * float(np.ptp(sections.points.reshape(-1, 3), axis=0).max()):
+            raise SourceError("a butt section collapses to a point")
+        name = f"{part.name}.section{'12'[column]}"
+        if np.ptp(s) <= 1e-12 * np.ptp(s_dom):  # the section is an iso-curve: exact
+            iso = hull.surface.iso_u(s[0], name) if axis == 0 else hull.surface.iso_v(s[0], name)
+            curve = iso.segment(float(g.min()), float(g.max()))
+            if g[0] > g[-1]:
+                curve = curve.reversed()
+            how, error = "iso-curve of the surface (exact)", 0.0
+        else:
+            curve, report = fit_points(pts, tolerance, name)
+            how, error = f"cubic B-spline through {len(pts)} exact section points", report.max_error
+        curves.append(curve)
+        figures.append({"method": how, "fit_error": error, "length": length})
+    return tuple(curves), figures
+
+
+def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
+    """The region's boundary on the hull, closed, about ``spacing`` apart: seam c (first grid
+    row), the butt at the row's far end, seam d backwards, the other butt backwards. Returns
+    (points (N, 3), edge name of each segment i -> i+1)."""
+    hull = part.hull
+    p = grid.points
+    length = float(np.linalg.norm(np.diff(p, axis=1), axis=2).sum(axis=1).max())
+    width = float(np.linalg.norm(np.diff(p, axis=0), axis=2).sum(axis=0).max())
+    rows = int(np.clip(np.ceil(width / spacing) + 1, 5, 600))
+    cols = int(np.clip(np.ceil(length / spacing) + 1, 9, 2000))
+    g0, g1 = hull.girths
+    dense = region_grid(hull.surface, hull.long_axis, g0, g1, _planes(hull), rows, 2, probe=400)
+    if dense is None:
+        raise SourceError("the region misses the hull")
+    axis = hull.long_axis
+    seam_rows = []
+    for r in (0, -1):
+        s = np.linspace(dense.params[r, 0, axis], dense.params[r, -1, axis], cols)
+        a, b = np.asarray(g0(s), float), np.asarray(g1(s), float)
+        g = a + dense.rows[r] * (b - a)
+        u, v = (s, g) if axis == 0 else (g, s)
+        seam_rows.append(hull.surface(u, v))
+    near, far = dense.points[:, 0], dense.points[:, -1]
+    near_name, far_name = ("start", "end") if _butt_side(hull, far) == 1 else ("end", "start")
+    pieces = [(seam_rows[0][:-1], "c"), (far[:-1], far_name), (seam_rows[1][::-1][:-1], "d"),
+              (near[::-1][:-1], near_name)]
+    points = np.vstack([pts for pts, _ in pieces])
+    edges = sum(((name,) * len(pts) for pts, name in pieces), ())
+    step = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    keep = step > 1e-9 * max(length, width)
+    return points[keep], tuple(e for e, k in zip(edges, keep) if k)
+
+
+def _strip_normals(c, d, rulings: np.ndarray) -> np.ndarray:
+    pc, dc = c.derivatives(rulings[:, 0], 1)
+    n = np.cross(dc, d(rulings[:, 1]) - pc)
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str, tolerance: float,
+                   corner_tolerance: float, mm_per_unit: float) -> Trim:
+    """Map the plate's region onto the attempt's solved strip and judge it: within
+    ``tolerance`` of the hull everywhere, its four corners within ``corner_tolerance``."""
+    pair = attempt.part
+    out = Trim(family, attempt=attempt)
+    smap = StripMap(attempt.solution, pair.c, pair.d, MAP_RULINGS)
+    boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
+    region = grid.points.reshape(-1, 3)
+    mapped, ac, ad = smap.map(np.vstack([region, boundary]))
+    n = len(region)
+    hull = part.hull
+    on_hull = (hull.distance or SurfaceDistance(hull.surface))(mapped.on_strip)
+    gap = mapped.distance
+    deviation = float(max(gap.max(), on_hull.max()))
+    rows, cols = grid.shape
+    corner_index = np.array([0, cols - 1, rows * cols - 1, (rows - 1) * cols])
+    corners = gap[corner_index]
+    worst = int(np.argmax(gap))
+    out.deviation = deviation
+    out.figures = {
+        "family": family,
+        "hull_fit": {"max_distance": deviation, "region_to_strip_max": float(gap.max()),
+                     "strip_to_hull_max": float(on_hull.max()),
+                     "rms_distance": float(np.sqrt(np.mean(gap ** 2))), "tolerance": tolerance,
+                     "worst_point": np.vstack([region, boundary])[worst].tolist(),
+                     "passed": bool(deviation <= tolerance),
+                     "measured_on": f"{n} patch grid points and {len(boundary)} boundary points mapped onto the "
+                                    "strip (closest points), and those strip points against the hull"},
+        "completeness": {"corner_gaps": corners.tolist(), "corner_tolerance": corner_tolerance,
+                         "max_region_gap": float(gap.max()), "worst_region_point": np.vstack([region, boundary])[worst].tolist(), "tolerance": tolerance,
+                         "passed": bool(corners.max() <= corner_tolerance and gap.max() <= tolerance)},
+    }
+    if deviation > tolerance:
+        out.reason = (f"plate deviates from the hull by {deviation:.4g} (tolerance {tolerance:g}) at "
+                      f"{np.round(np.vstack([region, boundary])[worst], 3).tolist()}")
+        return out
+    if corners.max() > corner_tolerance:
+        out.reason = (f"strip incomplete: corner gaps {np.round(corners, 3).tolist()} (limit {corner_tolerance:g})")
+        return out
+    flat = mapped.flat
+    rulings3 = (pair.c(smap.rulings[:, 0]), pair.d(smap.rulings[:, 1]))
+    normals = _strip_normals(pair.c, pair.d, smap.rulings)
+    # the pattern is drawn as the seam family draws it: seen from seam' x (across the girth)
+    p = grid.points
+    mid = cols // 2
+    along, across = p[0, -1] - p[0, 0], p[-1, mid] - p[0, mid]
+    reference = np.cross(along, across)
+    fg = flat[:n].reshape(rows, cols, 2)
+    fa, fx = fg[0, -1] - fg[0, 0], fg[-1, mid] - fg[0, mid]
+    mirror = fa[0] * fx[1] - fa[1] * fx[0] < 0
+    if mirror:
+        flat = flat * np.array([-1.0, 1.0])
+        ac, ad = ac * np.array([-1.0, 1.0]), ad * np.array([-1.0, 1.0])
+    normals = normals * np.sign(normals @ reference)[:, None]
+    lam_b, v_b = mapped.lam[n:], np.clip(mapped.v[n:], 0.0, 1.0)
+    intervals = ruling_intervals(smap.lam, lam_b, v_b)
+    keep = ~np.isnan(intervals[:, 0])
+    lo, hi = intervals[keep, 0:1], intervals[keep, 1:2]
+    a2 = ac[keep] + lo * (ad[keep] - ac[keep])
+    b2 = ac[keep] + hi * (ad[keep] - ac[keep])
+    a3 = rulings3[0][keep] + lo * (rulings3[1][keep] - rulings3[0][keep])
+    b3 = rulings3[0][keep] + hi * (rulings3[1][keep] - rulings3[0][keep])
+    out.grid_3d, out.grid_flat = mapped.on_strip[:n], flat[:n]
+    out.outline_3d, out.outline_flat, out.edges = mapped.on_strip[n:], flat[n:], edges
+    out.rulings, out.normals = (a2, b2, a3, b3), normals[keep]
+    out.outline_deviation = _chord_deviation(flat[n:], edges)
+    out.figures["trim"] = {"method": "the region's boundary and patch grid mapped onto the strip by closest points "
+                                     "and developed there (exact development along each ruling)",
+                           "boundary_points": len(boundary), "rulings_kept": int(keep.sum()),
+                           "mirrored_to_seam_side": bool(mirror)}
+    out.ok = True
+    return out
+
+
+def _chord_deviation(points: np.ndarray, edges: tuple) -> float:
+    """Estimated largest distance between the developed boundary and its polyline: a quarter
+    of each point's distance from the chord of its neighbours on the same edge (the sagitta
+    of a segment is a quarter of that of two)."""
+    prev, nxt = np.roll(points, 1, axis=0), np.roll(points, -1, axis=0)
+    same = np.array(edges) == np.roll(np.array(edges), 1)
+    seg = nxt - prev
+    rel = points - prev
+    length = np.maximum(np.linalg.norm(seg, axis=1), 1e-300)
+    dist = np.abs(seg[:, 0] * rel[:, 1] - seg[:, 1] * rel[:, 0]) / length
+    return float(0.25 * dist[same].max(initial=0.0))
+
+
+def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance: float) -> Trim:
+    """The strip between the plate's two butt sections, trimmed by its seams."""
+    hull = part.hull
+    out = Trim(BUTT_TO_BUTT)
+    try:
+        (c, d), sections = section_curves(part, SECTION_FIT * hull.fit_tolerance)
+    except SourceError as exc:
+        out.reason = f"no butt sections: {exc}"
+        return out
+    attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
+    ok = develop_part(attempt, config, None, 0.0)
+    out.attempt = attempt
+    if not ok:
+        out.reason = attempt.reason
+        return out
+    trim = trim_by_region(attempt, part, grid, BUTT_TO_BUTT, hull.fit_tolerance, corner_tolerance,
+                          config.mm_per_unit)
+    trim.figures["sections"] = sections
+    return trim
