@@ -139,7 +139,10 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     density = np.zeros(len(dense))
     for axis, curve in enumerate(curves):
         s = curve.arc_length_at(pts[:, axis])
-        kappa = curve.curvature(pts[:, axis])
+        # a seam end with zero speed (a doubled end pole) has no curvature (0/0): it moves
+        # nowhere there (ds = 0), so it asks for no rulings
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kappa = np.nan_to_num(curve.curvature(pts[:, axis]), nan=0.0, posinf=0.0)
         ds = np.abs(np.gradient(s, dense))
         density = np.maximum(density, np.sqrt(np.maximum(kappa, 0.0) / (8.0 * chord_tolerance)) * ds)
     cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(dense))])

@@ -98,3 +98,18 @@ def cylinder_along_iges(path: Path, radius=3000.0, angle_deg=90.0, length=20000.
     w = np.array([1.0, np.cos(h), 1.0])
     poles = np.array([[[x, y, z] for y, z in arc] for x in (0.0, length)])
     return write_iges_surface(path, 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
+
+
+def cone_iges(path: Path, r1=10000.0, r2=9000.0, height=3000.0, angle_deg=90.0) -> Path:
+    """Frustum of a circular cone of axis z: u runs along the circular arcs (radius r1 at
+    z = 0, r2 at z = height) x = r sin(theta), y = -r cos(theta), theta in [-angle/2,
+    angle/2] (exact rational quadratic), v along the generators, which cross from one iso-v
+    circle to the other: the strip between two such seams is the cone itself."""
+    h = np.radians(angle_deg) / 2
+    w = np.array([1.0, np.cos(h), 1.0])
+
+    def arc(r, z):
+        return [[-r * np.sin(h), -r * np.cos(h), z], [0.0, -r / np.cos(h), z], [r * np.sin(h), -r * np.cos(h), z]]
+
+    poles = np.array([arc(r1, 0.0), arc(r2, height)]).transpose(1, 0, 2)
+    return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
