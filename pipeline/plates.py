@@ -2,10 +2,13 @@
 
 flat        the plate's region on the hull fits a plane within the fit tolerance: the
             development is its orthogonal projection on that plane (exact for a plane);
-developable devflat's strip between the plate's seams, trimmed by its butts, fits the hull
-            within the tolerance and covers the whole region (four corners included);
+developable devflat's strip fits the hull within the tolerance and covers the whole region
+            (four corners included): its rulings seam to seam (between the seams, trimmed
+            by the butt planes) or butt to butt (between the butt sections, trimmed by the
+            seams; :mod:`pipeline.platestrip`), whichever fits better;
 formed      neither: the region's own fine mesh flattened with minimal strain (libigl LSCM
-            seed, then ARAP), with a strain map, shrink/stretch areas and roll lines.
+            seed, then ARAP), with a strain map, shrink/stretch areas and roll lines;
+            ``rolling_only`` when its strain is small enough to be rolled without heating.
 
 A plate is complete only when its delivered 3D shape holds its four corners and its whole
 region on the hull; any exception inside one plate makes that plate fail with the reason,
@@ -26,7 +29,7 @@ from flatten.patchflat import (arap_development, fit_plane, planar_development, 
 
 from .config import Part, RunConfig
 from .outline import Outline
-from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family
+from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
 from .shop import bend_text
 from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from .stages import run_part as run_curve_part
@@ -283,6 +286,20 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
         butt = butt_family(part, config, grid, corner_tol)
     except Exception as exc:  # as above: this family is then simply not delivered
         butt.reason = _raised(exc)
+    if not hull.developable and sum(b is None for b in hull.butts) == 1:
+        # an end plate: its seams' strip trimmed by its region (the butt plane and the hull's end)
+        seam = Trim(SEAM_TO_SEAM)
+        try:
+            seam = seam_family_trimmed(part, config, grid, corner_tol)
+        except Exception as exc:
+            seam.reason = _raised(exc)
+        why, seam_deviation = seam.reason, seam.deviation
+        if seam.ok and (not butt.ok or seam.deviation <= butt.deviation):
+            _deliver_trimmed(result, config, grid, seam, area3, _other(BUTT_TO_BUTT, butt.reason or (
+                f"fits within {butt.deviation:.4g}, the seam family within {seam.deviation:.4g}")))
+            return
+        if seam.attempt is not None:
+            attempt = seam.attempt
     families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason}
     if seam_ok and (not butt.ok or seam_deviation <= butt.deviation):
         region = result.figures["region"]
@@ -363,8 +380,10 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
             result.figures[key] = trim.figures[key]
     result.figures["plate_class"] = {
         "class": "developable", "family": trim.family,
-        "method": "devflat strip between the plate's butt sections (rulings butt to butt), trimmed by the seams "
-                  "(the region's boundary mapped onto the strip and developed)",
+        "method": ("devflat strip between the plate's butt sections (rulings butt to butt), trimmed by the seams"
+                   if trim.family == BUTT_TO_BUTT else
+                   "devflat strip between the plate's seams (rulings seam to seam), trimmed by its butt and the "
+                   "hull's end") + " (the region's boundary mapped onto the strip and developed)",
         "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (mm / 1e3) ** 2,
         "complete": True, "other_family": other}
     finish_part(result, config)
@@ -398,10 +417,11 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
     """Pattern, strain map, completeness and class of a plate developed from its hull patch.
 
-    kind "flat" (planar projection) or "patch" (minimal-strain development): a patch whose
-    largest principal strain times the plate's largest dimension (how far an edge point of
-    the flat plate, bent onto the hull without stretching, can land from its place) stays
-    within the fit tolerance is developable: it is rolled, not formed. Otherwise formed."""
+    kind "flat" (planar projection) or "patch" (minimal-strain development, class formed):
+    developable means devflat's strip fits, never a patch. A formed patch whose largest
+    principal strain times the plate's largest dimension (how far an edge point of the flat
+    plate, bent onto the hull without stretching, can land from its place) stays within the
+    fit tolerance needs rolling only (no line heating): ``rolling_only`` says so."""
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
@@ -422,16 +442,15 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm, valid)
     misfit = strains["max_abs_strain"] * max(size)
     if kind == "patch":
-        kind = "developable" if misfit <= tol else "formed"
-        info = dict(info, misfit=misfit, misfit_rule="largest principal strain x largest plate dimension <= "
-                    "fit tolerance: bent onto the hull without stretching, no edge point lands farther than the "
-                    "tolerance from its place")
-        if kind == "developable":
-            info["method"] = "isometric development of the hull patch: " + info["method"]
+        kind = "formed"
+        info = dict(info, misfit=misfit, rolling_only=bool(misfit <= tol),
+                    rolling_only_rule="largest principal strain x largest plate dimension <= fit tolerance: bent "
+                    "onto the hull without stretching, no edge point lands farther than the tolerance from its "
+                    "place, so rolling alone forms it (no line heating); no developable strip fits it")
     spacing = 500.0 / mm
     if kind == "flat":
         rolls, roll_method = np.zeros((0, 2, 2)), "none (flat plate)"
-    elif kind == "formed" and strip is not None:
+    elif strip is not None:
         rolls, roll_method = _roll_lines(strip, v3, _uv_on_welded(uv_grid_flat, index, len(v3)), f3, shape,
                                          grid.points, uv_grid, spacing)
         rolls = rolls @ rot.T + shift if len(rolls) else rolls

@@ -277,3 +277,55 @@ def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance
                           config.mm_per_unit)
     trim.figures["sections"] = sections
     return trim
+
+
+def end_plate_seams(part: Part, margin: float) -> tuple:
+    """The seams of an end plate (one butt is the hull's end) as the curve pair of its strip:
+    from the hull's end (a little short of a seam end that stands still) to past the butt
+    plane by ``margin`` times the plate's length along the seam."""
+    from .plan import _usable_end, plane_crossings
+
+    hull = part.hull
+    index = 0 if hull.butts[0] is not None else 1
+    plane = hull.butts[index]
+    out = []
+    for curve in (part.c, part.d):
+        lo, hi = curve.domain
+        cross = plane_crossings(curve, plane)
+        if len(cross) != 1:
+            raise SourceError(f"seam {curve.name} crosses the butt plane {plane.describe()} {len(cross)} times")
+        t = float(cross[0])
+        # the region lies on the plane's positive side for a first butt, negative for a second
+        sign = 1.0 if index == 0 else -1.0
+        ends = np.array([lo, hi])
+        inside = sign * plane.signed(curve(ends)) > 0
+        if inside.all() or not inside.any():
+            raise SourceError(f"seam {curve.name} does not end on the plate's side of {plane.describe()}")
+        end = float(ends[inside][0])
+        length = float(curve.arc_length_at(np.array([min(t, end), max(t, end)])) @ np.array([-1.0, 1.0]))
+        past = plane_crossings(curve, plane.shifted(-sign * margin * length))
+        beyond = float(past[0]) if len(past) == 1 else float(ends[~inside][0])
+        a, b = sorted((_usable_end(curve, end, t), beyond))
+        out.append(curve.segment(a, b))
+    return tuple(out)
+
+
+def seam_family_trimmed(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance: float) -> Trim:
+    """The strip between an end plate's seams, trimmed by its region (its butt plane and the
+    hull's end alike)."""
+    hull = part.hull
+    out = Trim(SEAM_TO_SEAM)
+    margin = float(getattr(config.spec.strake, "margin", 0.1) or 0.1)
+    try:
+        c, d = end_plate_seams(part, margin)
+    except SourceError as exc:
+        out.reason = f"end plate: {exc}"
+        return out
+    attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
+    ok = develop_part(attempt, config, None, 0.0)
+    out.attempt = attempt
+    if not ok:
+        out.reason = attempt.reason
+        return out
+    return trim_by_region(attempt, part, grid, SEAM_TO_SEAM, hull.fit_tolerance, corner_tolerance,
+                          config.mm_per_unit)
