@@ -58,9 +58,15 @@ def defect_noise(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
     """libigl's integrated Gaussian curvature 2π - Σθ at interior vertices, and
-    pointwise K = defect / Voronoi area."""
+    pointwise K = defect / Voronoi area. Collapsed triangles (two rulings through one point,
+    a ruling of zero length) have no angles: they are left out, and the vertices they border
+    count as border vertices (no defect is measured there, none is made up as NaN)."""
     v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces, dtype=np.int64)
+    f = np.asarray(faces, dtype=np.int64)
+    twice_area = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    f = np.ascontiguousarray(f[twice_area > 1e-12 * twice_area.max(initial=0.0)])
+    if not len(f):
+        return CurvatureFigures(0.0, 0.0, 0.0, 0)
     defect = np.full(len(v), np.nan)
     got = igl.gaussian_curvature(v, f)
     defect[: len(got)] = got
@@ -69,12 +75,12 @@ def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
     border[: len(flags)] = flags
     used = np.zeros(len(v), dtype=bool)
     used[f.ravel()] = True
-    interior = ~border & used & np.isfinite(defect)
-    if not interior.any():
-        return CurvatureFigures(0.0, 0.0, 0.0, 0)
     area = np.zeros(len(v))
     diag = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
     area[: len(diag)] = diag
+    interior = ~border & used & np.isfinite(defect) & np.isfinite(area) & (area > 0)
+    if not interior.any():
+        return CurvatureFigures(0.0, 0.0, 0.0, 0)
     k = defect[interior] / np.maximum(area[interior], 1e-300)
     measurable = np.maximum(np.abs(defect[interior]) - defect_noise(v, f)[interior], 0.0)
     k_sig = measurable / np.maximum(area[interior], 1e-300)

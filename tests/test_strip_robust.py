@@ -78,3 +78,23 @@ def test_the_curvature_check_still_fails_a_strip_that_is_not_developable():
     # closed form at the middle of the saddle z = 900 x y / (14000 1500): K = -a^2 / (1 + ...)^2
     a = 900.0 / (14000.0 * 1500.0)
     assert figures.max_abs_K <= 1.01 * a**2
+
+
+def test_collapsed_triangles_give_no_nan_curvature():
+    """Seams meeting at an end (a ruling of zero length there) make zero-area triangles, whose
+    angles and Voronoi areas libigl returns as NaN, at different vertices: the check read
+    |K| = NaN and failed the strip (DTMB 5415 plates, the issue's converging seams). They carry
+    no curvature and are left out; the triangles around them still count."""
+    from flatten.meshcheck import angle_defects, strip_angle_defects
+    from flatten.nurbs import nurbs_curve as curve
+
+    poles = np.array([[0, 0, 0], [3000, 800, 0], [6000, 900, 0], [9000, 500, 0.0]])
+    c = curve(poles, 3)
+    d = curve(poles + np.array([[0, 0, 0], [0, 200, 1500], [0, -300, 1500], [0, 200, 900]]), 3)  # twisted
+    t = np.linspace(0, 1, 41)
+    strip = build_strip(c, d, np.column_stack([t, t]), 5)
+    figures = strip_angle_defects(strip)
+    assert np.isfinite(figures.max_abs_K) and np.isfinite(figures.max_abs_K_raw) and figures.interior_vertices > 100
+    # the same strip without the collapsed end ruling: the same largest |K| (it lies inside)
+    inner = build_strip(c, d, np.column_stack([t[1:], t[1:]]), 5)
+    assert figures.max_abs_K >= 0.99 * angle_defects(inner.vertices, inner.faces).max_abs_K > 0
