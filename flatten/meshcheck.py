@@ -34,17 +34,19 @@ class CurvatureFigures:
                 "interior_vertices": self.interior_vertices}
 
 
-def defect_noise(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def defect_noise(vertices: np.ndarray, faces: np.ndarray, scale: float | None = None) -> np.ndarray:
     """Per vertex (V,), a bound on the round-off of its angle defect: vertex positions are known
     to a few ulps of the largest coordinate (round-off of the curves and of the rulings'
     polish, ~1e-15 relative), and an angle between edges of
     lengths l1, l2 moves by up to that error times (1/l1 + 1/l2) per moved end. Far from the
     origin (a hull plate 100 m aft of midship) with short edges (corner rulings a few mm
     apart) this floor, divided by a small Voronoi area, is a spurious |K| far above a
-    strip's true curvature: only the defect above it is curvature the mesh shows."""
+    strip's true curvature: only the defect above it is curvature the mesh shows. ``scale``:
+    the largest coordinate of the whole mesh (default: of these vertices)."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    position = 8.0 * np.finfo(np.float64).eps * float(np.abs(v).max(initial=0.0))
+    scale = float(np.abs(v).max(initial=0.0)) if scale is None else float(scale)
+    position = 8.0 * np.finfo(np.float64).eps * scale
     noise = np.zeros(len(v))
     for k in range(3):
         a, b, c = f[:, k], f[:, (k + 1) % 3], f[:, (k + 2) % 3]
@@ -56,7 +58,7 @@ def defect_noise(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return noise
 
 
-def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
+def angle_defects(vertices: np.ndarray, faces: np.ndarray, scale: float | None = None) -> CurvatureFigures:
     """libigl's integrated Gaussian curvature 2π - Σθ at interior vertices, and
     pointwise K = defect / Voronoi area. Collapsed triangles (two rulings through one point,
     a ruling of zero length) have no angles: they are left out, and the vertices they border
@@ -82,7 +84,7 @@ def angle_defects(vertices: np.ndarray, faces: np.ndarray) -> CurvatureFigures:
     if not interior.any():
         return CurvatureFigures(0.0, 0.0, 0.0, 0)
     k = defect[interior] / np.maximum(area[interior], 1e-300)
-    measurable = np.maximum(np.abs(defect[interior]) - defect_noise(v, f)[interior], 0.0)
+    measurable = np.maximum(np.abs(defect[interior]) - defect_noise(v, f, scale)[interior], 0.0)
     k_sig = measurable / np.maximum(area[interior], 1e-300)
     return CurvatureFigures(float(np.abs(defect[interior]).max()), float(np.abs(defect[interior]).sum()),
                             float(k_sig.max()), int(interior.sum()), float(np.abs(k).max()))
@@ -98,14 +100,15 @@ def strip_angle_defects(strip: Strip, chunk: int = CHUNK_RULINGS) -> CurvatureFi
     m = len(strip.samples)
     grid = strip.vertices.reshape(-1, m, 3)
     n = len(grid)
+    scale = float(np.abs(strip.vertices).max(initial=0.0))  # one round-off floor for every window
     if n <= chunk + 2:
-        return angle_defects(strip.vertices, strip.faces)
+        return angle_defects(strip.vertices, strip.faces, scale)
     max_defect = total = max_k = max_raw = 0.0
     count = 0
     for lo in range(1, n - 1, chunk):  # the interior rulings 1 .. n - 2 in windows
         hi = min(lo + chunk, n - 1)
         window = grid[lo - 1:hi + 1]
-        part = angle_defects(window.reshape(-1, 3), grid_faces(len(window), m))
+        part = angle_defects(window.reshape(-1, 3), grid_faces(len(window), m), scale)
         max_defect = max(max_defect, part.max_defect)
         total += part.integrated_abs_defect
         max_k = max(max_k, part.max_abs_K)
