@@ -131,7 +131,8 @@ class IgesCurveSource(SurfaceSource):
 
     iso: IsoSpec | None = None
     section: "PlaneSpec | None" = None
-    tolerance: float = Field(0.5, gt=0, description="fit tolerance of a plane section (config units)")
+    tolerance: float | None = Field(None, gt=0, description="fit tolerance of a plane section (config units; "
+                                    "default 0.5 mm whatever the units)")
     segment: tuple[float, float] | None = None
 
     @model_validator(mode="after")
@@ -147,7 +148,8 @@ class DxfCurveSource(_Strict):
     dxf: str
     layer: str | None = None
     handle: str | None = None
-    tolerance: float = Field(0.1, gt=0)
+    tolerance: float | None = Field(None, gt=0, description="fit tolerance of a polyline (config units; default "
+                                    "0.1 mm whatever the units)")
 
     @model_validator(mode="after")
     def _pick(self):
@@ -160,7 +162,7 @@ class PointsCurveSource(_Strict):
     """Offsets / a point list, fitted to a cubic B-spline within tolerance (config units)."""
 
     points: list[tuple[float, float, float]] = Field(min_length=4)
-    tolerance: float = Field(gt=0)
+    tolerance: float | None = Field(None, gt=0, description="config units; default 0.5 mm whatever the units")
 
 
 def _curve_kind(value) -> str:
@@ -186,6 +188,10 @@ class CurvesSpec(_Strict):
 
 
 DEFAULT_CHORD_TOLERANCE_MM = 0.5
+# physical defaults of the other tolerances, taken in mm whatever ``units:`` (a config in
+# metres must not fit its curves to 0.5 m); a value given in the config is in its units
+DEFAULT_TOLERANCES_MM = {IgesCurveSource: 0.5, DxfCurveSource: 0.1, PointsCurveSource: 0.5}
+DEFAULT_FIT_TOLERANCE_MM = 5.0
 
 
 class Resolution(_Strict):
@@ -233,9 +239,11 @@ class Layers(_Strict):
     text: str = "MARK_TEXT"
     frame: str = "MARK_FRAME"
     edge: str = "MARK_EDGE"  # edge names (seams, butts) and bevel texts
-    net: str = "MARK_NET"  # reserved for the net line of an excess allowance (not cut yet)
+    net: str = "MARK_NET"  # the net line when an excess / shrinkage allowance is cut outside it
+    shrink: str = "MARK_SHRINK"  # formed plates: areas to shrink (heat) when forming
+    stretch: str = "MARK_STRETCH"  # formed plates: areas to stretch when forming
 
-    @field_validator("cut", "bend", "text", "frame", "edge", "net")
+    @field_validator("cut", "bend", "text", "frame", "edge", "net", "shrink", "stretch")
     @classmethod
     def _layer_name(cls, value: str) -> str:
         bad = set('<>/\\":;?*|=`') & set(value)
@@ -342,6 +350,20 @@ class EdgeTexts(_Strict):
     end: str = Field("", max_length=40)
 
 
+class EdgeLengths(_Strict):
+    """Per-edge lengths in mm: the c and d edges (a hull plate's lower and upper seams),
+    the start and end edges (the first and last rulings; a hull plate's aft and fore butts)."""
+
+    c: float = Field(0.0, ge=0, le=1000, description="mm")
+    d: float = Field(0.0, ge=0, le=1000, description="mm")
+    start: float = Field(0.0, ge=0, le=1000, description="mm")
+    end: float = Field(0.0, ge=0, le=1000, description="mm")
+
+
+def _edge_lengths(value) -> EdgeLengths:
+    return value if isinstance(value, EdgeLengths) else EdgeLengths(c=value, d=value, start=value, end=value)
+
+
 class Shop(_Strict):
     """Shop-floor output of steel plates. Every length here is in mm, whatever ``units:``."""
 
@@ -355,6 +377,19 @@ class Shop(_Strict):
         default_factory=lambda: [(2500.0, 12000.0), (3000.0, 16000.0), (3500.0, 18000.0)],
         description="stock plates, width x length in mm")
     stock_margin: float = Field(10.0, ge=0, description="mm kept free around the part on a stock plate")
+    excess: Annotated[float, Field(ge=0, le=1000)] | EdgeLengths = Field(
+        0.0, description="mm added outside the net line per edge (one number: every edge), trimmed at erection")
+    shrinkage: Annotated[float, Field(ge=0, le=1000)] | EdgeLengths = Field(
+        0.0, description="mm added outside the net line per edge for weld shrinkage")
+
+    def allowance(self) -> dict:
+        """{edge key: excess + shrinkage in mm} for c, d, start, end."""
+        ex, sh = _edge_lengths(self.excess), _edge_lengths(self.shrinkage)
+        return {k: getattr(ex, k) + getattr(sh, k) for k in ("c", "d", "start", "end")}
+
+    def allowances(self) -> dict:
+        """The excess and shrinkage per edge (mm), as the report states them."""
+        return {"excess": _edge_lengths(self.excess).model_dump(), "shrinkage": _edge_lengths(self.shrinkage).model_dump()}
 
     @field_validator("text_height")
     @classmethod
@@ -375,6 +410,9 @@ class Output(_Strict):
     dxf: bool = True
     obj: bool = True
     png: bool = True
+    # one-page PDF shop drawing per steel plate (NAME_drawing.pdf); default: on for a
+    # single part, as png (the previews) for a run of several parts (strakes, hulls)
+    drawing: bool | None = None
     layers: Layers = Layers()
 
 
@@ -502,7 +540,8 @@ class StrakeSpec(_Strict):
     plan: PlanSpec | None = None
     frames: FrameSpec | None = None
     margin: float = Field(0.1, ge=0, le=1)
-    fit_tolerance: float = Field(5.0, gt=0, description="largest distance from the hull surface")
+    fit_tolerance: float | None = Field(None, gt=0, description="largest distance from the hull surface (config "
+                                        "units; default 5 mm whatever the units)")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "
@@ -563,6 +602,26 @@ class RunSpec(_Strict):
         if profile == "steel" and value.fabric_width is not None:
             raise ValueError("fabric_width is for the textile profile; steel nesting takes stock")
         return value
+
+    @model_validator(mode="after")
+    def _physical_defaults(self):
+        """Tolerances left out get their mm defaults, converted to the config's units (the
+        models are frozen: set once here, before anyone reads them)."""
+        mm = UNIT_TO_MM[self.units]
+        sources = list(self.sequence or [])
+        if self.curves is not None:
+            sources += [self.curves.c, self.curves.d]
+        for part in self.parts or []:
+            sources += [part.curves.c, part.curves.d]
+        if self.strake is not None:
+            sources += [seam.curve for seam in self.strake.seams or [] if seam.curve is not None]
+            if self.strake.fit_tolerance is None:
+                object.__setattr__(self.strake, "fit_tolerance", DEFAULT_FIT_TOLERANCE_MM / mm)
+        for source in sources:
+            default = DEFAULT_TOLERANCES_MM.get(type(source))
+            if default is not None and source.tolerance is None:
+                object.__setattr__(source, "tolerance", default / mm)
+        return self
 
     @model_validator(mode="after")
     def _parts(self):

@@ -37,7 +37,9 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
         if out.dxf and config.spec.profile == "steel":
             from .dxf_steel import write_steel_dxf  # ezdxf: imported only when a steel DXF is written
 
-            from .shop import shop_layout
+            from .shop import shop_drawing, shop_layout
+
+            drawing = out.drawing if out.drawing is not None else (out.png if len(config.parts) > 1 else True)
 
             texts = steel_texts(result)
             if config.spec.shop.mirror:  # both sides: the modelled plate and its reflection, P/S in the id
@@ -58,12 +60,17 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
                     path = out_dir / f"{name}_{side}.dxf"
                     errors += write_steel_dxf(path, plate, out.layers)
                     written.append(path)
+                    if drawing:
+                        written.append(shop_drawing(result, config, plate, out_dir / f"{name}_{side}_drawing.pdf"))
                 result.figures["sides"] = {"modelled": model, "mirrored": other,
                                            "rule": "P where the plate's mean y >= 0 (y to port)"}
             else:
                 path = out_dir / f"{name}.dxf"
-                errors = write_steel_dxf(path, shop_layout(result, config, texts), out.layers)
+                layout = shop_layout(result, config, texts)
+                errors = write_steel_dxf(path, layout, out.layers)
                 written.append(path)
+                if drawing:
+                    written.append(shop_drawing(result, config, layout, out_dir / f"{name}_drawing.pdf"))
             result.figures["dxf_audit_errors"] = errors
         if out.obj:
             path = out_dir / f"{name}.obj"

@@ -59,6 +59,13 @@ class Outline:
         return self.points[np.append(idx, (idx[-1] + 1) % n)]
 
 
+def lies_on(sa: np.ndarray, sb: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Rulings whose both ends lie on a plane to round-off (signed distances sa, sb against
+    the ruling's size, (N,) each)."""
+    eps = 1e-9 * size
+    return (np.abs(sa) <= eps) & (np.abs(sb) <= eps)
+
+
 def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                                               np.ndarray]:
     """Per ruling the interval [lo, hi] of v kept between the butt planes and which plane
@@ -72,7 +79,7 @@ def ruling_interval(ends_c: np.ndarray, ends_d: np.ndarray, planes) -> tuple[np.
         size = np.linalg.norm(ends_d - ends_c, axis=1) + np.abs(sa)
         # a ruling on the plane to round-off (both ends within 1e-9) is not cut by it:
         # its ds is noise, and so would be the cut (the plate's corner ruling, on a cylinder)
-        on_plane = (np.abs(sa) <= 1e-9 * size) & (np.abs(sb) <= 1e-9 * size)
+        on_plane = lies_on(sa, sb, size)
         with np.errstate(divide="ignore", invalid="ignore"):
             cut = np.where((ds != 0) & ~on_plane, -sa / np.where(ds != 0, ds, 1.0), np.nan)
         raise_lo = (ds > 0) & (cut > lo)
@@ -138,6 +145,17 @@ class PlateTracer:
         position[order] = np.arange(len(merged))
         new = position[len(base):]
         return dev.along_c[new] @ self.rot.T + self.shift, dev.along_d[new] @ self.rot.T + self.shift
+
+    def plane_of(self, lam: float) -> int:
+        """Index of the butt plane the ruling at lam lies in (to round-off), -1 if none."""
+        r = self.rulings(np.array([lam]))
+        pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        size = np.linalg.norm(pd - pc, axis=1)
+        for index, plane in enumerate(self.planes):
+            sa, sb = plane.signed(pc), plane.signed(pd)
+            if lies_on(sa, sb, size + np.abs(sa))[0]:
+                return index
+        return -1
 
     def normals(self, lam: np.ndarray) -> np.ndarray:
         """Unit strip normals c' x (d - c) of the rulings at lam, (N, 3): the pattern is
@@ -272,7 +290,11 @@ def exact_outline(tracer: "PlateTracer", tolerance: float = 0.05) -> Outline:
         by = lo_by if side == 0 else hi_by
         names.append(np.where(by < 0, "c" if side == 0 else "d", np.where(by == 0, "start", "end")))
     points = np.vstack([lower, upper[::-1]])
-    edges = list(names[0]) + ["end"] + list(names[1][::-1]) + ["start"]
+    # the closing rulings: a hull plate's end ruling lying in a butt plane is that butt's
+    # edge (whichever way the seams run); otherwise the strip's own last and first rulings
+    closing = [{0: "start", 1: "end"}.get(tracer.plane_of(lam), default) if tracer.planes else default
+               for lam, default in ((last, "end"), (first, "start"))]
+    edges = list(names[0]) + [closing[0]] + list(names[1][::-1]) + [closing[1]]
     # drop repeated points (degenerate corner rulings) with their zero-length segments
     step = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
     size = float(np.ptp(points, axis=0).max())

@@ -135,9 +135,15 @@ def shop_layout(result, config, part_data: list[str]):
     if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:
         part_data = part_data + [f"BEND LINES B1-B{len(plate.bending)} EVERY {plate.bend_spacing:g} MM",
                                  "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
-    layout = plate_layout(net, net, edges, bends, frames, part_data, settings.text_height, butts,
+    cut, allowance = allowance_cut(outline, result.part.hull, settings, result.shop is not None)
+    if allowance is not None:
+        part_data = part_data + [allowance["text"]]
+        result.figures.setdefault("outline", {})["allowance"] = allowance
+        if not allowance["per_edge"]:
+            result.warnings.append(allowance["note"])
+    layout = plate_layout(net, cut, edges, bends, frames, part_data, settings.text_height, butts,
                           settings.frame_clearance)
-    stock = stock_check(net, settings.stock, settings.stock_margin)
+    stock = stock_check(cut, settings.stock, settings.stock_margin)
     result.figures["stock"] = stock
     if stock["fits_on"] is None:
         result.warnings.append(f"no stock plate fits: the part needs {stock['needed'][0]:.0f} x {stock['needed'][1]:.0f} mm "
@@ -150,6 +156,38 @@ def shop_layout(result, config, part_data: list[str]):
         "findings": list(layout.findings)}
     result.warnings += [f for f in layout.findings if "not marked" not in f]
     return layout
+
+
+def allowance_cut(outline: Outline, hull, settings, per_edge: bool):
+    """The cut line (mm) around the net outline and the report's allowance section (None
+    when nothing is added). A plate whose outline has no named edges (a flat or formed hull
+    plate) gets the largest allowance all round, and a note saying so."""
+    from .allowance import cut_outline
+
+    widths = settings.allowance()
+    if not any(widths.values()):
+        return outline.points, None
+    if per_edge:
+        cut = cut_outline(outline.points, outline.edges, widths)
+    else:
+        cut = cut_outline(outline.points, ("edge",) * len(outline.points), {"edge": max(widths.values())})
+    stated = {**settings.allowances(), "total": widths}
+    label = dict(zip(("c", "d", "start", "end"), (*hull.seam_names, *hull.butt_names) if hull is not None
+                     else ("C", "D", "START", "END")))
+    text = "ALLOWANCE MM " + ", ".join(f"{label[k]} {v:g}" for k, v in widths.items() if v > 0)
+    if not per_edge:
+        text = f"ALLOWANCE {max(widths.values()):g} MM ALL ROUND"
+    net_area, cut_area = _area(outline.points), _area(cut)
+    return cut, {"units": "mm", **stated, "per_edge": per_edge, "text": text,
+                 "net_area_m2": net_area / 1e6, "cut_area_m2": cut_area / 1e6,
+                 "cut_vertices": len(cut), "net_line": "drawn on the net layer (MARK_NET by default)",
+                 "note": "" if per_edge else "this plate's outline has no named edges: the largest allowance "
+                 f"({max(widths.values()):g} mm) is cut all round"}
+
+
+def _area(points: np.ndarray) -> float:
+    x, y = points[:, 0], points[:, 1]
+    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
 
 
 def stock_check(outline_mm: np.ndarray, stock: list, margin: float) -> dict:
@@ -186,3 +224,36 @@ def mirrored(layout, side_of_model: str):
     out.lines = [(k, flip(line)) for k, line in layout.lines]
     out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle)) for t in layout.texts]
     return out
+
+
+def shop_drawing(result, config, layout, target):
+    """Write the plate's one-page shop drawing (PDF); its paper and scale go to the report."""
+    from .shopdrawing import write_shop_drawing
+
+    plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
+    bends = [(b.number, bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    steel = result.figures.get("steel") or {}
+    data = [f"PART {result.name}   THK {steel.get('thickness_mm', 0):g} MM   MAT {steel.get('material', '')}",
+            f"NET AREA {steel.get('area_m2', 0):.3f} M2   WEIGHT {steel.get('weight_kg', 0):.1f} KG",
+            f"MARKED SIDE {str(steel.get('marked_side', '')).upper()}; DRAWN FROM THE SIDE THE STRIP NORMAL "
+            "POINTS TO",
+            f"OVERALL {np.ptp(layout.cut[:, 0]):.0f} x {np.ptp(layout.cut[:, 1]):.0f} MM (CUT LINE)"]
+    allowance = (result.figures.get("outline") or {}).get("allowance")
+    if allowance:
+        data.append(allowance["text"] + " (CUT LINE SOLID, NET LINE DASHED)")
+    notes = []
+    if plate.bending:
+        spacing = plate.bend_spacing if np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0 else None
+        notes.append(f"BENDING LINES B1-B{len(plate.bending)}" + (f" EVERY {spacing:g} MM ALONG THE CENTRE LINE"
+                                                                   if spacing else ""))
+        notes.append("CVX / CCV: CONVEX / CONCAVE ON THE DRAWN SIDE; R: RADIUS ACROSS THE LINE")
+    else:
+        spacing = None
+    edges = {}
+    if result.shop is not None:
+        names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
+        names.update(edge_names(result, config.spec.shop))
+        edges = {text: plate.outline.edge_points(key) for key, text in names.items()}
+    info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges)
+    result.figures["layout"].setdefault("drawings", []).append(info)
+    return target
