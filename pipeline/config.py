@@ -410,8 +410,8 @@ class Output(_Strict):
     dxf: bool = True
     obj: bool = True
     png: bool = True
-    # one-page PDF shop drawing per steel plate (NAME_drawing.pdf); default: on for a
-    # single part, as png (the previews) for a run of several parts (strakes, hulls)
+    # one-page PDF shop drawing per steel plate (NAME_drawing.pdf); default: as png (the
+    # previews), so a single part gets it and a hull run without previews does not pay for it
     drawing: bool | None = None
     layers: Layers = Layers()
 

@@ -3,7 +3,8 @@
 Writes a :class:`pipeline.layout.Layout`: one closed LWPOLYLINE on the cut layer (and the
 net line on its own layer when an allowance is cut), bending lines and their marks on the
 bend layer, frame lines and names on the frame layer, edge names and bevels on the edge
-layer, the part data on the text layer; $EXTMIN / $EXTMAX set to the drawing. The one
+layer, the part data on the text layer, a formed plate's shrink and stretch areas as
+closed outlines on their layers; $EXTMIN / $EXTMAX set to the drawing. The one
 module that talks to ezdxf for steel.
 """
 
@@ -17,8 +18,9 @@ from ezdxf.enums import TextEntityAlignment
 
 from .atomic import atomic_path
 
-# red, blue, green, magenta, cyan, yellow
-LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6, "edge": 4, "net": 2}
+# red, blue, green, magenta, cyan, yellow, orange, blue-green
+LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6, "edge": 4, "net": 2, "shrink": 30, "stretch": 140}
+AREAS = ("shrink", "stretch")  # closed outlines of marked areas (formed plates)
 
 
 def build_document(layout, layers) -> ezdxf.document.Drawing:
@@ -34,7 +36,9 @@ def build_document(layout, layers) -> ezdxf.document.Drawing:
         msp.add_lwpolyline([tuple(p) for p in layout.net], format="xy", close=True, dxfattribs={"layer": layers.net})
     for kind, line in layout.lines:
         layer = getattr(layers, kind)
-        if len(line) == 2:
+        if kind in AREAS:
+            msp.add_lwpolyline([tuple(p) for p in line[:-1]], format="xy", close=True, dxfattribs={"layer": layer})
+        elif len(line) == 2:
             msp.add_line(tuple(line[0]), tuple(line[1]), dxfattribs={"layer": layer})
         else:
             msp.add_lwpolyline([tuple(p) for p in line], format="xy", dxfattribs={"layer": layer})

@@ -39,7 +39,7 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 
             from .shop import shop_drawing, shop_layout
 
-            drawing = out.drawing if out.drawing is not None else (out.png if len(config.parts) > 1 else True)
+            drawing = out.png if out.drawing is None else out.drawing  # the PDF follows the previews
 
             texts = steel_texts(result)
             if config.spec.shop.mirror:  # both sides: the modelled plate and its reflection, P/S in the id
@@ -198,7 +198,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
         ok = [r for r in results if r.ok]
         if ok:
             path = out_dir / f"{style}_sheet.png"
-            sheet_png(path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok], config.spec.units)
+            sheet_png(path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok], config.spec.units,
+                      config.mm_per_unit)
             written.append(path)
         classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
         if classed:

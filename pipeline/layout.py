@@ -205,7 +205,7 @@ FRACTIONS = np.array([0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.12, 0.88])
 
 def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, frames: list, part_data: list[str],
                  text_height: tuple[float, float], butt_edges: list[np.ndarray] = (),
-                 frame_clearance: float = 0.0) -> Layout:
+                 frame_clearance: float = 0.0, areas: list = ()) -> Layout:
     """Lay out one plate (all mm).
 
     net, cut : (N, 2) closed contours (the same when no allowance is cut)
@@ -214,6 +214,8 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     frames : [(name, (K, 2) polyline)] unclipped
     part_data : lines of the part data block
     butt_edges : polylines of the butts: a frame nearer than frame_clearance is skipped
+    areas : [(kind, (K, 2) closed ring)] marked areas ('shrink', 'stretch'), drawn as they
+        are (inside the plate) and kept clear of texts like the lines
     """
     plate = _largest(shapely.make_valid(Polygon(net))) or _largest(Polygon(net).buffer(0))
     if plate is None:
@@ -247,6 +249,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
             continue
         frame_lines += [(name, p) for p in parts]
     layout.lines = [("bend", p) for _, p in bend_lines] + [("frame", p) for _, p in frame_lines]
+    layout.lines += [(kind, np.asarray(ring)) for kind, ring in areas]
     placer = Placer(room, [p for _, p in layout.lines], clearance)
     obstacles = placer.obstacles
     # the part data block first, in the middle of the largest free area

@@ -89,3 +89,35 @@ def edge_labels(hull, lower: np.ndarray, upper: np.ndarray, grid_3d: np.ndarray)
         direction = line[-1] - line[0]
         labels.append((text, mid, float(np.degrees(np.arctan2(direction[1], direction[0])))))
     return labels
+
+
+def strain_areas(strain: dict, grid_shape, placed: np.ndarray) -> list:
+    """The shrink and stretch areas of a formed plate as closed rings on the flat plate:
+    [(kind, (K, 2) ring, first point repeated, region entry)], kind 'shrink' or 'stretch'.
+
+    strain : the plate's strain map (pipeline.plates.strain_map: regions of grid cells,
+        about 1 m square, each with its kind)
+    grid_shape : (rows, cols) of the plate's patch grid; placed : (rows * cols, 2) its flat
+        vertices (model units). A region is a block of grid cells (as the strain map cuts
+        them), so its boundary runs along grid lines: exact, no polygon union."""
+    regions = [r for r in strain.get("regions", []) if r.get("kind") in ("shrink", "stretch")]
+    if not regions:
+        return []
+    rows, cols = grid_shape
+    # the strain map's region counts: every region with a valid triangle is listed
+    nr = 1 + max(r["region"][0] for r in strain["regions"])
+    nc = 1 + max(r["region"][1] for r in strain["regions"])
+    cell_row = np.arange(rows - 1) * nr // (rows - 1)
+    cell_col = np.arange(cols - 1) * nc // (cols - 1)
+    pg = np.asarray(placed).reshape(rows, cols, 2)
+    out = []
+    for region in regions:
+        i, j = region["region"]
+        ci, cj = np.flatnonzero(cell_row == i), np.flatnonzero(cell_col == j)
+        if ci.size == 0 or cj.size == 0:
+            continue
+        i0, i1, j0, j1 = ci[0], ci[-1] + 1, cj[0], cj[-1] + 1
+        ring = np.vstack([pg[i0, j0:j1 + 1], pg[i0 + 1:i1 + 1, j1], pg[i1, j1 - 1:j0 - 1 if j0 else None:-1],
+                          pg[i1 - 1:i0:-1, j0], pg[i0, j0][None]])
+        out.append((region["kind"], ring, region))
+    return out

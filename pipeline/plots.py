@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
 from flatten import SolutionSet
@@ -56,17 +57,23 @@ def _save(fig: Figure, target: str | Path) -> None:
 
 def flat_pattern_png(target: str | Path, outline: np.ndarray, bend_lines: np.ndarray, title: str, units: str) -> None:
     """The cut contour (N, 2) and the bending lines (K, 2, 2), model units."""
+    _save(flat_pattern_figure(outline, bend_lines, title, units), target)
+
+
+def flat_pattern_figure(outline: np.ndarray, bend_lines: np.ndarray, title: str, units: str) -> Figure:
+    """The preview's figure: equal axes (true aspect), the legend above the axes, clear of
+    the part."""
     closed = np.vstack([outline, outline[:1]])
     fig, ax = _fitted_axes(closed, 9.0, (0.8, 0.3, 0.6, 0.6), 5.0)
     ax.add_collection(LineCollection(np.asarray(bend_lines)[:, :, :2], colors="steelblue", linewidths=0.5,
-                                     label="bending lines (rulings)"))
+                                     label="bending lines"))
     ax.plot(closed[:, 0], closed[:, 1], color="crimson", lw=1.4, label="cut")
     ax.locator_params(nbins=6)
     # title and legend above the plate, at fixed positions (no tick-label extents measured)
     ax.set_title(title, fontsize=9, loc="left", y=1.01)
     ax.set_xlabel(units)
     ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2, fontsize=7, frameon=False)
-    _save(fig, target)
+    return fig
 
 
 def solution_diagram_png(target: str | Path, solution: SolutionSet, c_domain, d_domain, title: str) -> None:
@@ -95,8 +102,34 @@ def solution_diagram_png(target: str | Path, solution: SolutionSet, c_domain, d_
     _save(fig, target)
 
 
-def sheet_png(target: str | Path, patterns, units: str) -> None:
-    """All flat patterns of a run on one sheet, in a grid, each scaled to its cell and named.
+SHEET_CELL = (2.6, 1.3, 0.4)  # inches: cell width, height (long thin plates), title band
+
+
+def sheet_layout(patterns, cols: int) -> tuple[float, list, list]:
+    """All patterns at one scale (sheet inches per model unit: the largest at which every
+    plate fits its cell), each centred in its cell of a ``cols``-wide grid. Returns
+    (scale, outlines (closed, inches), bending lines (K, 2, 2) inches)."""
+    cell_w, cell_h, _ = SHEET_CELL
+    box = np.array([cell_w - 0.2, cell_h - 0.35])  # drawing box in a cell, the name above it
+    spans = np.array([np.ptp(outline, axis=0) for _, outline, _ in patterns])
+    with np.errstate(divide="ignore"):
+        fits = np.where(spans > 0, box / np.where(spans > 0, spans, 1.0), np.inf)
+    scale = float(fits.min()) if np.isfinite(fits).any() else 1.0
+    outlines, bends = [], []
+    for i, (_, outline, bend_lines) in enumerate(patterns):
+        row, col = divmod(i, cols)
+        corner = np.array([col * cell_w, -(row + 1) * cell_h])
+        lo, span = outline.min(axis=0), np.ptp(outline, axis=0)
+        shift = corner + 0.1 + 0.5 * (box - span * scale)
+        outlines.append((np.vstack([outline, outline[:1]]) - lo) * scale + shift)
+        bends.append((np.asarray(bend_lines)[:, :, :2].reshape(-1, 2, 2) - lo) * scale + shift)
+    return scale, outlines, bends
+
+
+def sheet_png(target: str | Path, patterns, units: str, mm_per_unit: float = 1.0) -> float:
+    """All flat patterns of a run on one sheet, in a grid, at one common scale (the
+    largest plate fills its cell), each named, with a scale bar. Returns the scale
+    (sheet inches per model unit).
 
     One axes for the whole sheet whose data units are inches of the figure, the patterns
     moved into their cells, every line set one collection: a strake of 120 plates draws
@@ -104,29 +137,35 @@ def sheet_png(target: str | Path, patterns, units: str) -> None:
     n = len(patterns)
     cols = int(np.ceil(np.sqrt(n)))
     rows = int(np.ceil(n / cols))
-    cell_w, cell_h, head = 2.6, 1.3, 0.4  # inches: long thin plates, the title above
+    cell_w, cell_h, head = SHEET_CELL
     fig = _figure((cell_w * cols, cell_h * rows + head), 80)
     ax = fig.add_axes((0.0, 0.0, 1.0, cell_h * rows / (cell_h * rows + head)))
     ax.set_axis_off()
     ax.set_xlim(0.0, cell_w * cols)
     ax.set_ylim(-cell_h * rows, 0.0)
-    box = np.array([cell_w - 0.2, cell_h - 0.35])  # drawing box in a cell, the name above it
-    outlines, bends = [], []
-    for i, (name, outline, bend_lines) in enumerate(patterns):
+    scale, outlines, bends = sheet_layout(patterns, cols)
+    for i, (name, _, _) in enumerate(patterns):
         row, col = divmod(i, cols)
-        corner = np.array([col * cell_w, -(row + 1) * cell_h])
-        lo, span = outline.min(axis=0), np.ptp(outline, axis=0)
-        fits = box[span > 0] / span[span > 0]
-        scale = float(fits.min()) if fits.size else 1.0
-        shift = corner + 0.1 + 0.5 * (box - span * scale)
-        outlines.append((np.vstack([outline, outline[:1]]) - lo) * scale + shift)
-        bends.append((np.asarray(bend_lines)[:, :, :2] - lo) * scale + shift)
-        ax.text(corner[0] + 0.5 * cell_w, corner[1] + cell_h - 0.06, name, fontsize=7, ha="center", va="top")
+        ax.text((col + 0.5) * cell_w, -row * cell_h - 0.06, name, fontsize=7, ha="center", va="top")
     if bends:
         ax.add_collection(LineCollection(np.concatenate(bends), colors="steelblue", linewidths=0.3))
     ax.add_collection(LineCollection(outlines, colors="crimson", linewidths=0.8))
-    fig.suptitle(f"flat patterns ({units}), each scaled to its cell", fontsize=9)
+    # a scale bar of a round length (mm) about a cell wide, in the title band
+    bar_mm = _round_length(0.8 * cell_w / scale * mm_per_unit)
+    bar = bar_mm / mm_per_unit * scale / (cell_w * cols)  # figure fraction
+    y = 1.0 - 0.6 * head / (cell_h * rows + head)
+    fig.add_artist(Line2D([0.01, 0.01 + bar], [y, y], color="black", lw=2.0))
+    fig.text(0.015 + bar, y, f"{bar_mm / 1000:g} m" if bar_mm >= 1000 else f"{bar_mm:g} mm", fontsize=8,
+             va="center")
+    fig.suptitle(f"flat patterns ({units}), all at one scale", fontsize=9)
     _save(fig, target)
+    return scale
+
+
+def _round_length(length: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten not above ``length``."""
+    power = 10.0 ** np.floor(np.log10(length))
+    return float(max(m for m in (1.0, 2.0, 5.0) if m * power <= length) * power)
 
 
 def hull_png(target: str | Path, plates, tolerance: float, units: str) -> None:

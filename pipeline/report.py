@@ -36,6 +36,16 @@ def _solver_section(result: PartResult) -> dict:
     }
 
 
+def quantity_units(units: str) -> dict:
+    """What unit each kind of quantity in the report is in."""
+    return {"geometry": f"{units} (areas {units}^2): resolution, curve_fits, mesh, unroll, hull_fit, trim, region, "
+                        "developability lengths",
+            "parameters": "none: rulings are [t, T] curve parameters",
+            "shop": "mm: outline (with allowance), bending, layout, stock, sides",
+            "suffixed": "_m2 m^2, _mm mm, _kg kg, _kg_m3 kg/m^3, _mm_per_m mm per metre",
+            "ratios": "none: *_relative, area_ratio, coverage fractions, strains (mm/mm)"}
+
+
 def part_report(result: PartResult, units: str) -> dict:
     report = {
         "schema_version": SCHEMA_VERSION,
@@ -44,6 +54,7 @@ def part_report(result: PartResult, units: str) -> dict:
         "reason": result.reason,
         "warnings": list(result.warnings),
         "units": units,
+        "quantity_units": quantity_units(units),
         "solver": _solver_section(result),
         "coverage": result.figures.get("coverage"),
         "rulings": None if result.strip is None else result.strip.rulings.tolist(),

@@ -51,9 +51,12 @@ def stage_shop(result, config) -> None:
     planes = hull.butts if hull is not None else ()
     tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes)
     outline = exact_outline(tracer, shop.outline_tolerance / scale)
-    result.pattern = dataclasses.replace(result.pattern, outline=outline.points)
     outline_mm = _scaled(outline, scale)
     lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
+    # the pattern (previews, sheet, nesting) shows what the DXF holds: the exact outline and
+    # the shop's bending lines, not the solver's rulings
+    result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
+                                         bend_lines=np.array([(b.a, b.b) for b in lines]).reshape(-1, 2, 2))
     lines = [dataclasses.replace(b, a=b.a * scale, b=b.b * scale, station=b.station * scale, radius=b.radius * scale)
              for b in lines]
     result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale)
@@ -78,9 +81,44 @@ def stage_shop(result, config) -> None:
         "area_m2": outline_mm.area() / 1e6,
         "edges": {name: int(outline.edges.count(name)) for name in sorted(set(outline.edges))},
     }
+    if hull is not None and result.strip.trim is not None:
+        trimmed_figures(result, outline)
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates {outline_mm.max_deviation:.3g} mm from the exact development "
                                f"(tolerance {outline_mm.tolerance:g} mm): the sampling limit was reached")
+
+
+def trimmed_figures(result, outline: Outline) -> None:
+    """The ``mesh`` and ``unroll`` figures of a hull plate describe the trimmed plate the OBJ
+    and DXF hold (the stages measured the strip extended past the butts, kept under
+    ``extended_strip``); its boundary figures compare the flat c and d edges of the exact
+    outline with the seams' arc length between the butt planes (model units)."""
+    from flatten.metrics import distortion, polyline_length
+    from trimesh.grouping import group_rows
+
+    from .plan import plane_crossings
+
+    strip, part = result.strip, result.part
+    mesh = strip.mesh()
+    extended_mesh, extended_unroll = result.figures.get("mesh"), result.figures.get("unroll")
+    result.figures["mesh"] = {"vertices": len(mesh.vertices), "faces": len(mesh.faces), "area_3d": float(mesh.area),
+                              "euler_number": int(mesh.euler_number),
+                              "boundary_edges": len(group_rows(mesh.edges_sorted, require_count=1)),
+                              "describes": "the trimmed plate (the OBJ's mesh)", "extended_strip": extended_mesh}
+    m = len(strip.samples)
+    unroll = distortion(strip.vertices, result.pattern.vertices, m, part.c, part.d, strip.rulings)
+    for key, curve in (("c", part.c), ("d", part.d)):
+        crossings = [plane_crossings(curve, plane) for plane in part.hull.butts if plane is not None]
+        if len(crossings) != 2 or not all(len(x) for x in crossings):
+            continue
+        arc = float(np.diff(curve.arc_length_at(np.sort([x[0] for x in crossings])))[0])
+        flat = polyline_length(outline.edge_points(key))
+        unroll[f"arc_length_{key}"], unroll[f"flat_length_{key}"] = arc, flat
+        unroll[f"boundary_error_{key}_mm_per_m"] = 1000.0 * (flat - arc) / arc if arc > 0 else 0.0
+    unroll["describes"] = ("the trimmed plate: its mesh against its development; boundary figures: the exact "
+                           "outline's c and d edges against the seams between the butt planes")
+    unroll["extended_strip"] = {k: v for k, v in (extended_unroll or {}).items()}
+    result.figures["unroll"] = unroll
 
 
 def _fallback(result, scale: float) -> ShopPlate:
@@ -141,8 +179,14 @@ def shop_layout(result, config, part_data: list[str]):
         result.figures.setdefault("outline", {})["allowance"] = allowance
         if not allowance["per_edge"]:
             result.warnings.append(allowance["note"])
+    areas = []
+    strain, region = result.figures.get("strain"), result.figures.get("region")
+    if result.shop is None and strain and region and region.get("grid") and result.pattern is not None:
+        from .marks import strain_areas
+
+        areas = [(kind, ring * scale) for kind, ring, _ in strain_areas(strain, region["grid"], result.pattern.vertices)]
     layout = plate_layout(net, cut, edges, bends, frames, part_data, settings.text_height, butts,
-                          settings.frame_clearance)
+                          settings.frame_clearance, areas)
     stock = stock_check(cut, settings.stock, settings.stock_margin)
     result.figures["stock"] = stock
     if stock["fits_on"] is None:
@@ -152,6 +196,8 @@ def shop_layout(result, config, part_data: list[str]):
         "units": "mm", "text_height": layout.text_height,
         "texts": len(layout.texts), "bending_lines": sum(1 for k, _ in layout.lines if k == "bend"),
         "frame_lines": sum(1 for k, _ in layout.lines if k == "frame"),
+        "shrink_areas": sum(1 for k, _ in layout.lines if k == "shrink"),
+        "stretch_areas": sum(1 for k, _ in layout.lines if k == "stretch"),
         "frames_marked": sorted({t.text for t in layout.texts if t.kind == "frame"}),
         "findings": list(layout.findings)}
     result.warnings += [f for f in layout.findings if "not marked" not in f]

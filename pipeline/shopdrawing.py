@@ -14,9 +14,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 from matplotlib.backends.backend_pdf import FigureCanvasPdf
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from .atomic import atomic_path
@@ -27,6 +28,10 @@ MARGIN = 10.0  # mm of paper around the frame
 TITLE_H = 42.0  # mm: the title block under the drawing
 ROOM = 22.0  # mm of paper kept around the plate for numbers and dimensions
 PT = 72.0 / 25.4  # points per mm
+# the PDF's 14 standard fonts (Helvetica, Courier): nothing embedded, the page writes in
+# a fraction of the time of a subsetted DejaVu, and every PDF reader has them
+CORE_FONTS = {"pdf.use14corefonts": True, "font.family": "sans-serif", "font.sans-serif": ["Helvetica"],
+              "font.monospace": ["Courier"], "font.weight": "medium"}
 
 
 def choose_sheet(span: np.ndarray) -> tuple[str, float, float, int]:
@@ -55,6 +60,13 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     lo, hi = cut.min(axis=0), cut.max(axis=0)
     span = hi - lo
     paper, pw, ph, scale = choose_sheet(span)
+    with matplotlib.rc_context(CORE_FONTS):
+        return _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph,
+                     scale)
+
+
+def _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph, scale):
+    cut = layout.cut
     fig = Figure(figsize=(pw / 25.4, ph / 25.4))
     FigureCanvasPdf(fig)
     # the drawing area in paper mm; one axes whose data unit is the plate's mm at 1:scale
@@ -87,6 +99,11 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
         ax.add_collection(LineCollection(frames, colors="dimgrey", linewidths=0.4, linestyles=(0, (8, 2, 2, 2))))
     if bend_lines:
         ax.add_collection(LineCollection(bend_lines, colors="tab:blue", linewidths=0.4, linestyles=(0, (4, 2))))
+    for kind, colour, hatch in (("shrink", "tab:orange", "////"), ("stretch", "tab:cyan", "\\\\")):
+        rings = [line for k, line in layout.lines if k == kind]
+        if rings:  # a formed plate's areas to shrink / stretch, hatched
+            ax.add_collection(PolyCollection(rings, facecolors="none", edgecolors=colour, hatch=hatch,
+                                             linewidths=0.4))
     # the layout's texts where they are on the plate, at true size (at least 3 pt)
     for text in layout.texts:
         ax.text(text.at[0], text.at[1], text.text, fontsize=max(text.height / paper_mm * PT, 3.0),

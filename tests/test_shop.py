@@ -1,6 +1,10 @@
 """Shop marks on steel plates: labels checked against the 3D geometry."""
 
 import json
+import re
+import shutil
+import subprocess
+from collections import Counter
 from pathlib import Path
 
 import ezdxf
@@ -269,6 +273,55 @@ def test_every_text_inside_the_plate_clear_of_texts_and_lines(config, tmp_path):
             assert all("not marked" in f for f in findings), findings
         if rep.get("bending"):
             assert len(msp.query("LINE[layer=='MARK_BEND']")) == rep["bending"]["count"]
+        if OGRINFO is not None:  # without it, test_gdal_reads_the_shop_dxf_as_ezdxf_wrote_it says so
+            assert_gdal_agrees(path)
+
+
+OGRINFO = shutil.which("ogrinfo")
+SUBCLASS_TYPES = {"AcDbPolyline": "LWPOLYLINE", "AcDbLine": "LINE", "AcDbText": "TEXT"}
+
+
+def _gdal_features(path: Path) -> list[dict]:
+    """The DXF's entities as GDAL's DXF driver reads them (ogrinfo): layer, entity type,
+    text, point count."""
+    text = subprocess.run([OGRINFO, "-ro", "-al", "-q", "-geom=SUMMARY", str(path)], check=True,
+                          capture_output=True, text=True, timeout=120).stdout
+    features = []
+    for block in text.split("OGRFeature(entities):")[1:]:
+        fields = dict(re.findall(r"^\s+(\w+) \(String\) = (.*)$", block, flags=re.M))
+        kind = fields["SubClasses"].split(":")[1]
+        points = re.search(r"^\s+(LINESTRING|POINT|POLYGON)\b.*?(\d+) points", block, flags=re.M)
+        features.append({"layer": fields["Layer"], "type": SUBCLASS_TYPES.get(kind, kind),
+                         "text": fields.get("Text"), "points": int(points.group(2)) if points else None})
+    return features
+
+
+def assert_gdal_agrees(path: Path) -> None:
+    """An independent reader (GDAL) sees the layers, entity counts, texts and polyline
+    vertex counts ezdxf wrote."""
+    msp = ezdxf.readfile(path).modelspace()
+    ours = Counter((e.dxf.layer, e.dxftype()) for e in msp)
+    features = _gdal_features(path)
+    assert Counter((f["layer"], f["type"]) for f in features) == ours, path.name
+    assert sorted(f["text"] for f in features if f["type"] == "TEXT") == sorted(t.dxf.text for t in msp.query("TEXT"))
+    # a closed LWPOLYLINE comes back with its first vertex repeated
+    ezdxf_points = sorted(len(e) + (1 if e.closed else 0) for e in msp.query("LWPOLYLINE"))
+    assert sorted(f["points"] for f in features if f["type"] == "LWPOLYLINE") == ezdxf_points, path.name
+
+
+@pytest.mark.skipif(OGRINFO is None, reason="GDAL's ogrinfo is not installed (Debian: apt-get install gdal-bin; "
+                                            ".ci/run installs it where apt-get is available)")
+def test_gdal_reads_the_shop_dxf_as_ezdxf_wrote_it(tmp_path):
+    """The frustum and an allowance plate (net line), read by GDAL; every other steel
+    config's DXFs are read by GDAL in test_every_text_inside_the_plate_clear_of_texts_and_lines."""
+    data = yaml.safe_load((ROOT / "configs" / "frustum.yaml").read_text())
+    data["shop"] = {"excess": 25, "bevel": {"c": "X40"}}
+    config = tmp_path / "f.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    layers = {f["layer"] for f in _gdal_features(tmp_path / "o" / "frustum.dxf")}
+    assert {"CUT_OUTER", "MARK_NET", "MARK_BEND", "MARK_TEXT", "MARK_EDGE"} <= layers
+    assert_gdal_agrees(tmp_path / "o" / "frustum.dxf")
 
 
 def test_mirrored_plate_is_the_reflection_and_napa_plate_warns_no_stock(tmp_path):

@@ -180,7 +180,7 @@ def test_shop_drawing_is_one_page_to_scale_with_numbered_bending_lines(tmp_path)
 
 
 def test_drawing_follows_the_previews_for_runs_of_several_parts(tmp_path):
-    """On by default for one part; for several parts only with output.png (or drawing:)."""
+    """The drawing follows the previews switch (output.png) unless output.drawing says."""
     base = yaml.safe_load((ROOT / "configs" / "plate.yaml").read_text())
     curves = base.pop("curves")
     name = base.pop("name")
@@ -302,3 +302,83 @@ def test_hull_plate_ending_on_rulings_has_a_simple_cut_outline(hull_end_plates, 
     rep = json.loads((folder / f"{name}.json").read_text())
     assert rep["outline"]["max_deviation"] <= 0.05
     assert rep["area_m2"] == pytest.approx(rep["plate_class"]["area_3d_m2"], rel=1e-4)
+
+
+def test_previews_true_aspect_legend_clear_and_sheet_at_one_scale(tmp_path):
+    from pipeline.plots import flat_pattern_figure, sheet_layout, sheet_png
+
+    # a long thin plate and a short one (mm)
+    long_ = np.array([[0.0, 0.0], [12000.0, 0.0], [12000.0, 2500.0], [0.0, 2500.0]])
+    short = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 1000.0], [0.0, 1000.0]])
+    bends = np.array([[[1000.0, 0.0], [1000.0, 2500.0]]])
+    fig = flat_pattern_figure(long_, bends, "plate", "mm")
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    box = ax.get_window_extent()
+    # equal axes: one mm is as many pixels across as up
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert box.width / (x1 - x0) == pytest.approx(box.height / (y1 - y0), rel=1e-6)
+    legend = ax.get_legend().get_window_extent()
+    assert legend.y0 >= box.y1 - 1e-6  # above the axes, never over the part
+    # the sheet: one scale for every plate, the largest fills its cell
+    patterns = [("a", long_, bends), ("b", short, bends[:, :, :] * 0.25)]
+    scale, outlines, _ = sheet_layout(patterns, cols=2)
+    drawn = [np.ptp(o, axis=0) for o in outlines]
+    assert drawn[0] / np.ptp(long_, axis=0) == pytest.approx([scale, scale])
+    assert drawn[1] / np.ptp(short, axis=0) == pytest.approx([scale, scale])
+    assert drawn[0][0] == pytest.approx(2.6 - 0.2)
+    assert sheet_png(tmp_path / "s.png", patterns, "mm") == scale and (tmp_path / "s.png").stat().st_size > 0
+
+
+def test_formed_plate_draws_its_shrink_and_stretch_areas(tmp_path):
+    """hull160 S01_B01 (formed at the bow): each shrink / stretch region of its strain map
+    is a closed outline on MARK_SHRINK / MARK_STRETCH whose area is the region's."""
+    from pipeline.export import export_part
+    from pipeline.plan import load_run
+    from pipeline.plates import run_plate
+
+    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
+    data["strake"]["plan"]["method"] = "uniform"
+    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    config_path = tmp_path / "hull.yaml"
+    config_path.write_text(yaml.safe_dump(data))
+    config = load_run(config_path)
+    part = next(p for p in config.parts if p.name == "hull160_S01_B01")
+    result = run_plate(part, config)
+    assert result.ok and result.figures["plate_class"]["class"] == "formed"
+    export_part(result, config, tmp_path)
+    rep = json.loads((tmp_path / "hull160_S01_B01.json").read_text())
+    regions = rep["strain"]["regions"]
+    [cut] = _polylines(tmp_path / "hull160_S01_B01.dxf", "CUT_OUTER")
+    plate = shapely.Polygon(cut)
+    for kind, layer in (("shrink", "MARK_SHRINK"), ("stretch", "MARK_STRETCH")):
+        expected = [r for r in regions if r["kind"] == kind]
+        rings = _polylines(tmp_path / "hull160_S01_B01.dxf", layer)
+        assert len(rings) == len(expected) == rep["layout"][f"{kind}_areas"]
+        flat_area = sum(shapely.Polygon(r).area for r in rings) / 1e6
+        # the regions' areas are 3D (hull) areas: a formed plate's strain is ~1e-3
+        assert flat_area == pytest.approx(sum(r["area_m2"] for r in expected), rel=5e-3)
+        for ring in rings:
+            assert shapely.Polygon(ring).is_valid and plate.buffer(1e-6).contains(shapely.Polygon(ring))
+    assert rep["strain"]["shrink_area_m2"] > 0 and rep["strain"]["stretch_area_m2"] > 0
+
+
+def test_strake_plate_figures_describe_the_trimmed_plate(hull_end_plates):
+    """mesh / unroll of a hull plate: the trimmed plate of the OBJ and DXF (the extended
+    strip's figures kept beside): the mesh's 3D area is the plate's, the flat c and d
+    edges as long as the seams between the butts."""
+    from pipeline.meshio import read_obj
+
+    for name, (folder, result) in hull_end_plates.items():
+        rep = json.loads((folder / f"{name}.json").read_text())
+        v, vt, faces = read_obj(folder / f"{name}.obj")
+        assert rep["mesh"]["vertices"] == len(v) and rep["mesh"]["faces"] == len(faces)
+        assert rep["mesh"]["area_3d"] / 1e6 == pytest.approx(rep["plate_class"]["area_3d_m2"], rel=1e-3)
+        assert rep["mesh"]["extended_strip"]["area_3d"] > 1.2 * rep["mesh"]["area_3d"]
+        unroll = rep["unroll"]
+        # mesh triangles across skew quads: O(h^2) chord effects, not an error of the development
+        assert unroll["area_ratio"] == pytest.approx(1.0, abs=1e-5)
+        assert unroll["ruling_edge_max_relative_error"] < 1e-9
+        for key in ("c", "d"):
+            assert abs(unroll[f"boundary_error_{key}_mm_per_m"]) < 0.01
+        assert unroll["area_flat"] / 1e6 == pytest.approx(rep["area_m2"], rel=1e-3)
