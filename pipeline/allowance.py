@@ -85,11 +85,9 @@ def cut_outline(points: np.ndarray, edges: tuple, allowance: dict) -> np.ndarray
         s, _ = np.linalg.solve(np.column_stack([t1, t2]), p2 - p1)
         mitre = p1 + s * t1
         limit = MITRE_LIMIT * max(width, w2)
-        if np.linalg.norm(mitre - corner) > limit:  # a needle corner: bevelled at the limit
-            mitre = corner + limit * _unit(mitre - corner)
-            pieces.append(Polygon([corner, p1, p1 + max(s, 0.0) * t1, mitre, p2 - max(s, 0.0) * t2, p2]).buffer(0))
-        else:
-            pieces.append(Polygon([corner, p1, mitre, p2]).buffer(0))
+        # a needle corner whose mitre would reach farther than the limit is bevelled
+        wedge = [corner, p1, p2] if np.linalg.norm(mitre - corner) > limit else [corner, p1, mitre, p2]
+        pieces.append(Polygon(wedge).buffer(0))
     union = shapely.unary_union([p for p in pieces if not p.is_empty])
     polygons = [g for g in getattr(union, "geoms", [union]) if g.geom_type == "Polygon"]
     outer = max(polygons, key=lambda g: g.area)

@@ -12,6 +12,7 @@ hundredths of a second.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import matplotlib
@@ -31,7 +32,7 @@ PT = 72.0 / 25.4  # points per mm
 # the PDF's 14 standard fonts (Helvetica, Courier): nothing embedded, the page writes in
 # a fraction of the time of a subsetted DejaVu, and every PDF reader has them
 CORE_FONTS = {"pdf.use14corefonts": True, "font.family": "sans-serif", "font.sans-serif": ["Helvetica"],
-              "font.monospace": ["Courier"], "font.weight": "medium"}
+              "font.monospace": ["Courier"]}
 
 
 def choose_sheet(span: np.ndarray) -> tuple[str, float, float, int]:
@@ -60,9 +61,17 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     lo, hi = cut.min(axis=0), cut.max(axis=0)
     span = hi - lo
     paper, pw, ph, scale = choose_sheet(span)
-    with matplotlib.rc_context(CORE_FONTS):
-        return _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph,
-                     scale)
+    # the core fonts' AFM metrics say "medium" where matplotlib asks for "normal": its
+    # font manager would log that once per text on stderr
+    quiet = logging.getLogger("matplotlib.font_manager")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        with matplotlib.rc_context(CORE_FONTS):
+            return _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph,
+                         scale)
+    finally:
+        quiet.setLevel(level)
 
 
 def _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph, scale):
