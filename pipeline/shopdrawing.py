@@ -32,7 +32,9 @@ PT = 72.0 / 25.4  # points per mm
 # the PDF's 14 standard fonts (Helvetica, Courier): nothing embedded, the page writes in
 # a fraction of the time of a subsetted DejaVu, and every PDF reader has them
 CORE_FONTS = {"pdf.use14corefonts": True, "font.family": "sans-serif", "font.sans-serif": ["Helvetica"],
-              "font.monospace": ["Courier"]}
+              "font.monospace": ["Courier"],
+              # every vertex of the cut line drawn (matplotlib would drop nearly collinear ones)
+              "path.simplify": False}
 
 
 def choose_sheet(span: np.ndarray) -> tuple[str, float, float, int]:
