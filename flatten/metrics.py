@@ -65,7 +65,10 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
                              np.linalg.norm(a3[1:, :-1] - a3[:-1, 1:], axis=2).ravel()])  # diagonals
         l2 = np.concatenate([np.linalg.norm(a2[1:] - a2[:-1], axis=2).ravel(),
                              np.linalg.norm(a2[1:, :-1] - a2[:-1, 1:], axis=2).ravel()])
-        rel = np.abs(l2 - l3) / np.maximum(l3, 1e-300)
+        # an edge that collapses in 3D (seams meeting at a point) has no relative error: its
+        # round-off length in the plane over a zero length would read as 1e+288
+        real = l3 > 1e-12 * max(float(np.max(l3, initial=0.0)), 1e-300)
+        rel = np.abs(l2[real] - l3[real]) / l3[real]
         other_max = max(other_max, float(np.max(rel, initial=0.0)))
         other_sq += float(np.sum(rel**2))
         n_other += len(rel)

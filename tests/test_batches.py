@@ -120,3 +120,23 @@ def test_distortion_in_windows_equals_the_edge_list_computation(frustum):
         assert got["area_3d"] == pytest.approx(triangle_areas(strip.vertices, strip.faces).sum(), rel=1e-13)
         assert got["area_flat"] == pytest.approx(triangle_areas(flat, strip.faces).sum(), rel=1e-13)
         assert got["ruling_edge_max_relative_error"] > 1e-4  # the stretch is seen on the rulings
+
+
+def test_distortion_of_a_strip_whose_seams_meet_is_finite_and_warns_nothing(frustum):
+    """Seams meeting at an end collapse the edges along that ruling to zero length in 3D;
+    their round-off length in the plane over zero read as 1e+288 and overflowed the RMS (a
+    DTMB 5415 plate). Collapsed edges carry no relative error; the others keep theirs."""
+    import warnings
+
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=30)
+    m = 4
+    strip = build_strip(c, d, rulings, m)
+    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    vertices, flat = strip.vertices.copy(), flat.copy()
+    vertices[m] = vertices[0]  # the first two rulings start at one point in 3D (a seam with zero speed) ...
+    flat[m] = flat[0] + 1e-13  # ... and within round-off of one point in the plane
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = distortion(vertices, flat, m, c, d, rulings, chunk=7)
+    assert np.isfinite(got["chord_discrepancy_rms_relative"]) and got["chord_discrepancy_max_relative"] < 1.0
