@@ -170,10 +170,10 @@ def weld(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> tuple[np.
     return v, f.astype(np.int64), new_index
 
 
-def principal_curvatures(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> tuple:
-    """Principal curvatures (N, 2) [kappa_1, kappa_2] with |kappa_1| <= |kappa_2| and the 3D
-    unit direction (N, 3) of kappa_1 (the direction of least bending: the rulings of a
-    developable surface) at parameters u, v (N,), from central differences on the surface."""
+def principal_frame(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> tuple:
+    """Principal curvatures (N, 2) [kappa_1, kappa_2] with |kappa_1| <= |kappa_2|, the
+    direction (N, 2) of kappa_1 in (du, dv), and the tangents S_u, S_v (N, 3) at parameters
+    u, v (N,), from central differences on the surface."""
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
     hu = 1e-4 * np.ptp(surface.domain_u)
@@ -198,6 +198,14 @@ def principal_curvatures(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) ->
     order = np.argsort(np.abs(kappa), axis=1)
     k_sorted = np.take_along_axis(kappa, order, axis=1)
     least = np.take_along_axis(vecs, order[:, None, :1], axis=2)[..., 0]  # (N, 2) in (du, dv)
+    return k_sorted, least, su, sv
+
+
+def principal_curvatures(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> tuple:
+    """Principal curvatures (N, 2) [kappa_1, kappa_2] with |kappa_1| <= |kappa_2| and the 3D
+    unit direction (N, 3) of kappa_1 (the direction of least bending: the rulings of a
+    developable surface) at parameters u, v (N,), from central differences on the surface."""
+    k_sorted, least, su, sv = principal_frame(surface, u, v)
     d3 = least[:, :1] * su + least[:, 1:] * sv
     d3 /= np.maximum(np.linalg.norm(d3, axis=1), 1e-300)[:, None]
     return k_sorted, d3

@@ -68,7 +68,7 @@ class StripMap:
         faces = np.ascontiguousarray(grid_faces(m, 2))
         _, face, closest = igl.point_mesh_squared_distance(np.ascontiguousarray(points), vertices, faces)
         tri = vertices[faces[face]]
-        bary = _barycentric(closest, tri)
+        bary = barycentric(closest, tri)
         return np.einsum("nk,nk->n", bary, self.lam[faces[face] // 2])
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -140,7 +140,8 @@ def _along(points, a, b):
     return np.einsum("ij,ij->i", points - a, r) / np.maximum(np.einsum("ij,ij->i", r, r), 1e-300)
 
 
-def _barycentric(p, tri):
+def barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (N, 3) of points p (N, 3) in triangles tri (N, 3, 3)."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
     v0, v1, v2 = b - a, c - a, p - a
     d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))

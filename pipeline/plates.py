@@ -26,6 +26,7 @@ from flatten.closest import SurfaceDistance
 from flatten.patch import principal_curvatures, region_grid, weld
 from flatten.patchflat import (arap_development, fit_plane, planar_development, streamlines, triangle_maps,
                                triangle_stretches)
+from flatten.trim import barycentric
 
 from .config import Part, RunConfig
 from .outline import Outline
@@ -157,7 +158,7 @@ def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: floa
                 seg = a3[i] + s[:, None] * (b3[i] - a3[i])
                 d2, fi, closest = igl.point_mesh_squared_distance(seg, v3, faces)
                 tri = v3[faces[fi]]
-                bary = _barycentric(closest, tri)
+                bary = barycentric(closest, tri)
                 flat = np.einsum("nk,nkd->nd", bary, uv[faces[fi]])
                 keep = np.sqrt(d2) <= 0.02 * float(np.linalg.norm(b3[i] - a3[i]))
                 if keep.sum() >= 2:
@@ -166,18 +167,6 @@ def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: floa
             return np.array(lines), "rulings of devflat's strip between the same seams (best-fit developable), " \
                                     "projected onto the hull patch"
     return np.zeros((0, 2, 2)), ""
-
-
-def _barycentric(p, tri):
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
-    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01**2
-    den = np.where(den == 0, 1.0, den)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    return np.column_stack([1 - v - w, v, w])
 
 
 def completeness(v3: np.ndarray, faces: np.ndarray, grid, tolerance: float, corner_tolerance: float) -> dict:

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from flatten.patch import principal_frame
+
 from .plan import Girth
 
 MAX_ANGLE = np.radians(30.0)  # largest angle of a seam to the hull's length
@@ -32,26 +34,8 @@ def least_curvature_slope(surface, axis: int, s: np.ndarray, g: np.ndarray) -> n
     """dg/ds (N,) of the direction of least normal curvature at (s, g) (N,), 0 where that
     direction is undefined or more than MAX_ANGLE from the s-direction."""
     u, v = (s, g) if axis == 0 else (g, s)
-    hu = 1e-4 * np.ptp(surface.domain_u)
-    hv = 1e-4 * np.ptp(surface.domain_v)
-    u = np.clip(u, surface.domain_u[0] + hu, surface.domain_u[1] - hu)
-    v = np.clip(v, surface.domain_v[0] + hv, surface.domain_v[1] - hv)
-    p = {(i, j): surface(u + i * hu, v + j * hv) for i in (-1, 0, 1) for j in (-1, 0, 1)}
-    su = (p[1, 0] - p[-1, 0]) / (2 * hu)
-    sv = (p[0, 1] - p[0, -1]) / (2 * hv)
-    suu = (p[1, 0] - 2 * p[0, 0] + p[-1, 0]) / hu**2
-    svv = (p[0, 1] - 2 * p[0, 0] + p[0, -1]) / hv**2
-    suv = (p[1, 1] - p[1, -1] - p[-1, 1] + p[-1, -1]) / (4 * hu * hv)
-    n = np.cross(su, sv)
-    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    k, d, su, sv = principal_frame(surface, u, v)  # d: (du, dv) of least curvature
     dot = lambda a, b: np.einsum("ij,ij->i", a, b)  # noqa: E731
-    first = np.stack([np.stack([dot(su, su), dot(su, sv)], -1), np.stack([dot(su, sv), dot(sv, sv)], -1)], -2)
-    second = np.stack([np.stack([dot(suu, n), dot(suv, n)], -1), np.stack([dot(suv, n), dot(svv, n)], -1)], -2)
-    kappa, vecs = np.linalg.eig(np.linalg.solve(first, second))
-    kappa, vecs = kappa.real, vecs.real
-    order = np.argsort(np.abs(kappa), axis=1)
-    k = np.take_along_axis(kappa, order, axis=1)
-    d = np.take_along_axis(vecs, order[:, None, :1], axis=2)[..., 0]  # (du, dv) of least curvature
     ds_, dg_ = (d[:, 0], d[:, 1]) if axis == 0 else (d[:, 1], d[:, 0])
     t_s, t_g = (su, sv) if axis == 0 else (sv, su)
     d3 = ds_[:, None] * t_s + dg_[:, None] * t_g
