@@ -165,6 +165,13 @@ def stage_unroll(result: PartResult) -> None:
     result.pattern = Pattern(outline, np.stack([c_side, d_side], axis=1), placed, (rot, shift))
 
 
+def partial_percent(fraction: float) -> str:
+    """A coverage fraction as a percentage with two decimals; a strip that misses less than
+    5e-5 of a curve reads ">99.99%", never "100.00%" beside the word "partial"."""
+    text = f"{100 * fraction:.2f}%"
+    return ">99.99%" if text == "100.00%" and fraction < 1.0 else text
+
+
 def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None) -> bool:
     """Solve, strip, check and unroll; False (with the reason in the result) on a geometric
     failure."""
@@ -182,7 +189,8 @@ def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_
                          f"{100 * cov.d_fraction:.1f}% of d (min_coverage {min_coverage:g})")
         return False
     if min(cov.c_fraction, cov.d_fraction) < 1.0 - 1e-9:
-        result.warnings.append(f"partial coverage: {100 * cov.c_fraction:.2f}% of c, {100 * cov.d_fraction:.2f}% of d")
+        result.warnings.append(f"partial coverage: {partial_percent(cov.c_fraction)} of c, "
+                               f"{partial_percent(cov.d_fraction)} of d")
     stage_strip(result, config, extra_rulings)
     if not stage_check(result, config):
         return False

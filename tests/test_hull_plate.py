@@ -58,3 +58,12 @@ def test_s60_plate_runs_end_to_end(tmp_path):
     assert rep["developability"]["naive_max_abs_K_times_size_squared"] > rep["developability"]["curvature_limit"]
     assert rep["warnings"] and "partial coverage" in rep["warnings"][0]
     assert rep["steel"]["area_m2"] == pytest.approx(rep["unroll"]["area_3d"] / 1e6, rel=1e-3)
+
+
+def test_a_partial_coverage_never_reads_100_percent():
+    from pipeline.stages import partial_percent
+
+    assert partial_percent(0.8966) == "89.66%"
+    assert partial_percent(0.99996) == ">99.99%"  # the NAPA bilge plate read "partial coverage: 100.00%"
+    assert partial_percent(0.99994) == "99.99%"
+    assert partial_percent(1.0) == "100.00%"
