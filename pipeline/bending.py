@@ -74,10 +74,9 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     *_, mid2, _, _, _ = _centre_line(tracer, lam)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
     length = float(s[-1])
-    count = int(np.floor(length / spacing))
-    if count < 1:
+    stations = _stations(length, spacing)
+    if not len(stations):
         return [], length
-    stations = 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count)
     at = np.interp(stations, s, lam)
     # one secant step on the exact centre line removes the interpolation error
     *_, m_at, _, _, _ = _centre_line(tracer, at)
@@ -87,14 +86,28 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     at = np.clip(at - (exact_s - stations) / slope, first, last)
     a, b, *_ = _centre_line(tracer, at)
     kappa, sign = _curvature(tracer, at, 1e-5 * (last - first))
+    return _numbered(a, b, stations, kappa, sign, min_length), length
+
+
+def _stations(length: float, spacing: float) -> np.ndarray:
+    """Positions (K,) every ``spacing`` along a centre line of ``length``, centred so the
+    margins at both ends are equal; empty when the line is shorter than one spacing."""
+    count = int(np.floor(length / spacing))
+    return 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count) if count >= 1 else np.zeros(0)
+
+
+def _numbered(a, b, stations, kappa, sign, min_length: float) -> list[BendLine]:
+    """Bending lines numbered from 1, from flat ends a, b (K, 2), their stations, curvature
+    and roll side; lines shorter than ``min_length`` times the longest (corner slivers) are
+    left out."""
     lengths = np.linalg.norm(b - a, axis=1)
     lines = []
-    for k in range(count):
+    for k in range(len(stations)):
         if lengths[k] < min_length * lengths.max():
             continue
         radius = float(1.0 / kappa[k]) if kappa[k] > 0 else float("inf")
         lines.append(BendLine(len(lines) + 1, a[k], b[k], float(stations[k]), radius, bool(sign[k] > 0)))
-    return lines, length
+    return lines
 
 
 def lines_on_rulings(a2: np.ndarray, b2: np.ndarray, a3: np.ndarray, b3: np.ndarray, normals: np.ndarray,
@@ -111,10 +124,9 @@ def lines_on_rulings(a2: np.ndarray, b2: np.ndarray, a3: np.ndarray, b3: np.ndar
     mid2 = 0.5 * (a2 + b2)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
     length = float(s[-1])
-    count = int(np.floor(length / spacing))
-    if count < 1:
+    stations = _stations(length, spacing)
+    if not len(stations):
         return [], length
-    stations = 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count)
     k = np.clip(np.searchsorted(s, stations) - 1, 0, len(s) - 2)
     f = ((stations - s[k]) / np.maximum(s[k + 1] - s[k], 1e-300))[:, None]
     a = a2[k] + f * (a2[k + 1] - a2[k])
@@ -128,11 +140,4 @@ def lines_on_rulings(a2: np.ndarray, b2: np.ndarray, a3: np.ndarray, b3: np.ndar
     turn = normals[hi] - normals[lo]
     kappa = np.linalg.norm(turn, axis=1) / np.maximum(np.linalg.norm(across, axis=1), 1e-300)
     sign = np.sign(np.einsum("ij,ij->i", turn, across))
-    lengths = np.linalg.norm(b - a, axis=1)
-    lines = []
-    for j in range(count):
-        if lengths[j] < min_length * lengths.max():
-            continue
-        radius = float(1.0 / kappa[j]) if kappa[j] > 0 else float("inf")
-        lines.append(BendLine(len(lines) + 1, a[j], b[j], float(stations[j]), radius, bool(sign[j] > 0)))
-    return lines, length
+    return _numbered(a, b, stations, kappa, sign, min_length), length

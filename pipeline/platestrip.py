@@ -267,15 +267,19 @@ def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance
     except SourceError as exc:
         out.reason = f"no butt sections: {exc}"
         return out
+    return _solved_and_trimmed(part, c, d, config, grid, BUTT_TO_BUTT, corner_tolerance, {"sections": sections})
+
+
+def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, family: str,
+                        corner_tolerance: float, figures: dict | None = None) -> Trim:
+    """The strip between curves c and d solved and developed, then trimmed by the plate's
+    region; ``figures`` are added to the trim's once the strip is solved."""
     attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
-    ok = develop_part(attempt, config, None, 0.0)
-    out.attempt = attempt
-    if not ok:
-        out.reason = attempt.reason
-        return out
-    trim = trim_by_region(attempt, part, grid, BUTT_TO_BUTT, hull.fit_tolerance, corner_tolerance,
+    if not develop_part(attempt, config, None, 0.0):
+        return Trim(family, reason=attempt.reason, attempt=attempt)
+    trim = trim_by_region(attempt, part, grid, family, part.hull.fit_tolerance, corner_tolerance,
                           config.mm_per_unit)
-    trim.figures["sections"] = sections
+    trim.figures.update(figures or {})
     return trim
 
 
@@ -313,7 +317,6 @@ def end_plate_seams(part: Part, margin: float) -> tuple:
 def seam_family_trimmed(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance: float) -> Trim:
     """The strip between an end plate's seams, trimmed by its region (its butt plane and the
     hull's end alike)."""
-    hull = part.hull
     out = Trim(SEAM_TO_SEAM)
     margin = float(getattr(config.spec.strake, "margin", 0.1) or 0.1)
     try:
@@ -321,11 +324,4 @@ def seam_family_trimmed(part: Part, config: RunConfig, grid: PatchGrid, corner_t
     except SourceError as exc:
         out.reason = f"end plate: {exc}"
         return out
-    attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
-    ok = develop_part(attempt, config, None, 0.0)
-    out.attempt = attempt
-    if not ok:
-        out.reason = attempt.reason
-        return out
-    return trim_by_region(attempt, part, grid, SEAM_TO_SEAM, hull.fit_tolerance, corner_tolerance,
-                          config.mm_per_unit)
+    return _solved_and_trimmed(part, c, d, config, grid, SEAM_TO_SEAM, corner_tolerance)
