@@ -112,61 +112,145 @@ def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
     flat plate, whose T(t) is then interpolated between rulings. The integration pieces
     are processed ``chunk`` at a time (memory; the result does not depend on it beyond
     round-off)."""
-    rulings = np.asarray(rulings, dtype=np.float64)
-    breaks = _interval_breaks(c, d, field, rulings)
-    # spectral error on a piece of relative length h falls like h^N: 10 nodes give round-off
-    # once every piece is shorter than 1/1000 of the domain
-    longest = float(np.max(np.diff(breaks), initial=0.0)) / max(np.ptp(c.domain), 1e-300)
-    x, q = _lobatto_integration(_NODES_SHORT if longest <= _SHORT_PIECE else _NODES)
-    n_pieces = len(breaks) - 1
-    # state at every break: the start node of each piece, plus the end of the last one
-    break_theta = np.zeros(n_pieces + 1)
-    break_xy = np.zeros((n_pieces + 1, 2))
-    carry = np.zeros(3)  # theta, x, y at the end of the pieces done so far
-    # pieces in batches: the N nodes per piece are the largest temporaries (N curve
-    # evaluations per ruling); the running sums carried across batches are summed in the
-    # same order as one cumsum over all pieces
-    for lo, hi in batches(n_pieces, chunk):
-        a, b = breaks[lo:hi], breaks[lo + 1:hi + 1]
+    return DevelopedStrip(c, d, rulings, field, chunk).development
+
+
+class DevelopedStrip:
+    """One exact development of a strip (:func:`develop`), integrated once along c; the
+    developed ends of further rulings in its t range are then integrated from the nearest
+    break before each (one short piece per ruling), in the same frame, instead of
+    re-integrating the whole strip with them.
+
+    rulings : (K, 2) [t, T], t non-decreasing (as for :func:`develop`)
+    development : the development of those rulings
+    """
+
+    def __init__(self, c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
+                 field: DevelopabilityField | None, chunk: int = _CHUNK_PIECES):
+        rulings = np.asarray(rulings, dtype=np.float64)
+        self.c, self.d, self.field, self.rulings, self.chunk = c, d, field, rulings, chunk
+        breaks = _interval_breaks(c, d, field, rulings)
+        # spectral error on a piece of relative length h falls like h^N: 10 nodes give round-off
+        # once every piece is shorter than 1/1000 of the domain
+        longest = float(np.max(np.diff(breaks), initial=0.0)) / max(np.ptp(c.domain), 1e-300)
+        x, q = _lobatto_integration(_NODES_SHORT if longest <= _SHORT_PIECE else _NODES)
+        n_pieces = len(breaks) - 1
+        # state at every break: the start node of each piece, plus the end of the last one
+        break_theta = np.zeros(n_pieces + 1)
+        break_xy = np.zeros((n_pieces + 1, 2))
+        carry = np.zeros(3)  # theta, x, y at the end of the pieces done so far
+        # pieces in batches: the N nodes per piece are the largest temporaries (N curve
+        # evaluations per ruling); the running sums carried across batches are summed in the
+        # same order as one cumsum over all pieces
+        for lo, hi in batches(n_pieces, chunk):
+            a, b = breaks[lo:hi], breaks[lo + 1:hi + 1]
+            theta_local, xs, ys, _ = self._pieces(a, b, x, q, carry[0])
+            theta_start = np.cumsum(np.concatenate([carry[:1], theta_local[:, -1]]))
+            x_start = np.cumsum(np.concatenate([carry[1:2], xs[:, -1]]))
+            y_start = np.cumsum(np.concatenate([carry[2:], ys[:, -1]]))
+            theta = theta_local + theta_start[:-1, None]
+            break_theta[lo:hi] = theta[:, 0]
+            break_xy[lo:hi, 0] = x_start[:-1] + xs[:, 0]
+            break_xy[lo:hi, 1] = y_start[:-1] + ys[:, 0]
+            carry = np.array([theta_start[-1], x_start[-1], y_start[-1]])
+            break_theta[hi] = theta[-1, -1]
+            break_xy[hi] = x_start[-2] + xs[-1, -1], y_start[-2] + ys[-1, -1]
+        self.breaks, self.break_theta, self.break_xy = breaks, break_theta, break_xy
+        idx = np.clip(np.searchsorted(breaks, rulings[:, 0]), 0, len(breaks) - 1)
+        along_c = break_xy[idx]
+        self.development = Development(along_c, self._along_d(rulings, along_c, break_theta[idx]))
+
+    def _pieces(self, a: np.ndarray, b: np.ndarray, x: np.ndarray, q: np.ndarray, theta0):
+        """Integrals over pieces [a, b] (P,) at their N nodes: the turn of the developed c
+        from a, and (with the turn started at theta0 (P,) or a scalar carried through the
+        pieces in order) its x and y moves from a, (P, N) each; the nodes' T."""
         half = 0.5 * (b - a)
         nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]  # (P, N)
         t = nodes.ravel()
-        T = _T_of_t(field, rulings, t)
-        pc, dc, ddc = c.derivatives(t, 2)
-        ruling = d(T) - pc
+        T = _T_of_t(self.field, self.rulings, t)
+        pc, dc, ddc = self.c.derivatives(t, 2)
+        ruling = self.d(T) - pc
         normal = np.cross(dc, ruling)
         normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
         speed2 = np.einsum("ij,ij->i", dc, dc)
         turn_rate = np.einsum("ij,ij->i", ddc, np.cross(normal, dc)) / speed2  # dθ/dt
         shape = nodes.shape
         theta_local = (turn_rate.reshape(shape) @ q.T) * half[:, None]
-        theta_start = np.cumsum(np.concatenate([carry[:1], theta_local[:, -1]]))
-        theta = theta_local + theta_start[:-1, None]
+        if np.ndim(theta0) == 0:  # consecutive pieces: each starts where the previous ends
+            theta_start = np.cumsum(np.concatenate([[theta0], theta_local[:, -1]]))[:-1]
+        else:
+            theta_start = theta0
+        theta = theta_local + theta_start[:, None]
         speed = np.sqrt(speed2).reshape(shape)
         xs = ((speed * np.cos(theta)) @ q.T) * half[:, None]
         ys = ((speed * np.sin(theta)) @ q.T) * half[:, None]
-        x_start = np.cumsum(np.concatenate([carry[1:2], xs[:, -1]]))
-        y_start = np.cumsum(np.concatenate([carry[2:], ys[:, -1]]))
-        break_theta[lo:hi] = theta[:, 0]
-        break_xy[lo:hi, 0] = x_start[:-1] + xs[:, 0]
-        break_xy[lo:hi, 1] = y_start[:-1] + ys[:, 0]
-        carry = np.array([theta_start[-1], x_start[-1], y_start[-1]])
-        break_theta[hi] = theta[-1, -1]
-        break_xy[hi] = x_start[-2] + xs[-1, -1], y_start[-2] + ys[-1, -1]
-    idx = np.clip(np.searchsorted(breaks, rulings[:, 0]), 0, len(breaks) - 1)
-    along_c = break_xy[idx]
-    along_d = np.empty_like(along_c)
-    for lo, hi in batches(len(rulings), chunk * len(x)):
-        # each ruling leaves the developed c at its 3D angle to c'
-        pc_k, dc_k = c.derivatives(rulings[lo:hi, 0], 1)
-        r_k = d(rulings[lo:hi, 1]) - pc_k
-        cos_phi = np.einsum("ij,ij->i", dc_k, r_k)
-        sin_phi = np.linalg.norm(np.cross(dc_k, r_k), axis=1)
-        angle = break_theta[idx[lo:hi]] + np.arctan2(sin_phi, cos_phi)
-        length = np.linalg.norm(r_k, axis=1)
-        along_d[lo:hi, 0] = along_c[lo:hi, 0] + length * np.cos(angle)
-        along_d[lo:hi, 1] = along_c[lo:hi, 1] + length * np.sin(angle)
-    return Development(along_c, along_d)
+        return theta_local, xs, ys, T
+
+    def _along_d(self, rulings: np.ndarray, along_c: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """Developed d ends of rulings (K, 2) from their developed c ends and the turn of the
+        developed c there: each ruling leaves it at its 3D angle to c'."""
+        along_d = np.empty_like(along_c)
+        for lo, hi in batches(len(rulings), self.chunk * _NODES):
+            pc_k, dc_k = self.c.derivatives(rulings[lo:hi, 0], 1)
+            r_k = self.d(rulings[lo:hi, 1]) - pc_k
+            cos_phi = np.einsum("ij,ij->i", dc_k, r_k)
+            sin_phi = np.linalg.norm(np.cross(dc_k, r_k), axis=1)
+            angle = theta[lo:hi] + np.arctan2(sin_phi, cos_phi)
+            length = np.linalg.norm(r_k, axis=1)
+            along_d[lo:hi, 0] = along_c[lo:hi, 0] + length * np.cos(angle)
+            along_d[lo:hi, 1] = along_c[lo:hi, 1] + length * np.sin(angle)
+        return along_d
+
+    def ends(self, rulings: np.ndarray) -> Development:
+        """Developed ends of further rulings (N, 2) [t, T], any order, each t within the
+        strip's t range (ValueError otherwise). In order of t, each is integrated from the
+        previous one or from the last break before it, whichever is nearer (one spectral
+        piece: 10 nodes when it is shorter than 1/1000 of c's domain, else 24, round-off
+        either way as in :func:`develop`), and the pieces are summed from the break."""
+        rulings = np.asarray(rulings, dtype=np.float64).reshape(-1, 2)
+        t = rulings[:, 0]
+        breaks = self.breaks
+        if not len(t):
+            return Development(np.zeros((0, 2)), np.zeros((0, 2)))
+        if t.min() < breaks[0] or t.max() > breaks[-1]:
+            raise ValueError(f"rulings at t in [{t.min():.17g}, {t.max():.17g}] reach beyond the developed "
+                             f"strip's [{breaks[0]:.17g}, {breaks[-1]:.17g}]")
+        order = np.argsort(t, kind="stable")
+        ts = t[order]
+        i = np.clip(np.searchsorted(breaks, ts, side="right") - 1, 0, max(len(breaks) - 2, 0))
+        first = np.ones(len(ts), dtype=bool)  # first of its piece
+        first[1:] = i[1:] != i[:-1]
+        start = np.where(first, breaks[i], np.concatenate([ts[:1], ts[:-1]]))
+        h = ts - start
+        # each piece's turn and move from its start, with the turn counted from 0 there
+        turn, move = np.zeros(len(ts)), np.zeros((len(ts), 2))
+        short = h <= _SHORT_PIECE * max(np.ptp(self.c.domain), 1e-300)
+        for n_nodes, group in ((_NODES_SHORT, np.flatnonzero(short & (h > 0))), (_NODES, np.flatnonzero(~short))):
+            x, q = _lobatto_integration(n_nodes)
+            for lo, hi in batches(len(group), self.chunk):
+                sel = group[lo:hi]
+                theta_local, xs, ys, _ = self._pieces(start[sel], ts[sel], x, q, np.zeros(len(sel)))
+                turn[sel], move[sel, 0], move[sel, 1] = theta_local[:, -1], xs[:, -1], ys[:, -1]
+        # summed along each run of points in one break interval, from the break's state
+        run = np.cumsum(first) - 1
+        theta_end = self.break_theta[i] + _running_sum(turn, first, run)
+        theta_start = theta_end - turn
+        cos, sin = np.cos(theta_start), np.sin(theta_start)
+        step = np.column_stack([cos * move[:, 0] - sin * move[:, 1], sin * move[:, 0] + cos * move[:, 1]])
+        along_c_sorted = self.break_xy[i] + np.column_stack([_running_sum(step[:, 0], first, run),
+                                                             _running_sum(step[:, 1], first, run)])
+        along_c = np.empty_like(along_c_sorted)
+        theta = np.empty_like(theta_end)
+        along_c[order], theta[order] = along_c_sorted, theta_end
+        return Development(along_c, self._along_d(rulings, along_c, theta))
+
+
+def _running_sum(values: np.ndarray, first: np.ndarray, run: np.ndarray) -> np.ndarray:
+    """Cumulative sums of values (N,) restarting where ``first`` is set; ``run`` (N,) the
+    index of each value's run (cumsum(first) - 1)."""
+    total = np.cumsum(values)
+    before = (total - values)[first]  # the sum before each run starts
+    return total - before[run]
 
 
 def unfold_triangles(vertices_c: np.ndarray, vertices_d: np.ndarray, first: Development) -> Development:

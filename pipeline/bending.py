@@ -39,7 +39,7 @@ class BendLine:
 
 def _centre_line(tracer: PlateTracer, lam: np.ndarray):
     lo, hi, _, _, pc, pd = tracer.interval(lam)
-    ac, ad = tracer.developed(tracer.rulings(lam))
+    ac, ad = tracer.developed_at(lam)
     mid = 0.5 * (lo + hi)
     return ac + lo[:, None] * (ad - ac), ac + hi[:, None] * (ad - ac), ac + mid[:, None] * (ad - ac), \
         pc + mid[:, None] * (pd - pc), pc, pd

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flatten.develop import develop
+from flatten.develop import DevelopedStrip
 from flatten.strip import sample_path
 
 CHECKS = np.array([0.25, 0.5, 0.75])  # where each segment is checked against the exact curve
@@ -100,6 +100,11 @@ class PlateTracer:
     """Evaluates the plate at path fractions lam: its rulings, their kept intervals between
     the butt planes, their developed ends in the pattern's placed coordinates.
 
+    The strip is developed once (:class:`flatten.develop.DevelopedStrip`, over the whole
+    path) and every ruling asked for later is developed from it; rulings and developed ends
+    are kept per lam (the outline, the corners and the bending lines ask for the same ones
+    again). Every value is a pointwise function of lam, so batching changes nothing.
+
     planes : the two butt planes of a hull plate (pipeline.strake.Plane), or () for a
         part bounded by its first and last rulings.
     """
@@ -107,6 +112,8 @@ class PlateTracer:
     def __init__(self, part, solution, strip, pattern, planes=()):
         self.part, self.solution, self.strip, self.planes = part, solution, strip, tuple(planes)
         self._corners = None
+        self._rulings: dict[float, tuple] = {}  # lam -> (ruling (2,), c end (3,), d end (3,))
+        self._ends: dict[float, tuple] = {}  # lam -> placed developed ends (2,), (2,)
         m = len(strip.samples)
         k = np.arange(strip.n_rulings) * m
         trim = strip.trim if strip.trim is not None else np.column_stack([np.zeros(strip.n_rulings),
@@ -114,42 +121,69 @@ class PlateTracer:
         # rigid fit of this development to the pattern's ruling ends (the pattern may be
         # a trimmed strip placed from a development anchored at a ruling it no longer has)
         # anchored at the path's start, which precedes every ruling asked for later (the
-        # development's frame is fixed by its first ruling)
-        self.base = np.vstack([sample_path(solution, np.zeros(1)), strip.rulings])
-        dev = develop(part.c, part.d, self.base, solution.field)
-        dev = type(dev)(dev.along_c[1:], dev.along_d[1:])
-        src = np.vstack([dev.along_c + trim[:, :1] * (dev.along_d - dev.along_c),
-                         dev.along_c + trim[:, 1:] * (dev.along_d - dev.along_c)])
+        # development's frame is fixed by its first ruling); the path's end is developed
+        # too, so that every ruling of the path lies within the development
+        ends = sample_path(solution, np.array([0.0, 1.0]))
+        base = np.vstack([ends[:1], strip.rulings, ends[1:]])
+        order = np.lexsort((base[:, 1] * solution.path.orientation, base[:, 0]))
+        self._strip = DevelopedStrip(part.c, part.d, base[order], solution.field)
+        position = np.empty(len(base), dtype=int)
+        position[order] = np.arange(len(base))
+        mine = position[1:-1]
+        dev = self._strip.development
+        along_c, along_d = dev.along_c[mine], dev.along_d[mine]
+        src = np.vstack([along_c + trim[:, :1] * (along_d - along_c), along_c + trim[:, 1:] * (along_d - along_c)])
         dst = np.vstack([pattern.vertices[k], pattern.vertices[k + m - 1]])
         self.rot, self.shift = _rigid_fit(src, dst)
         self.alignment_error = float(np.abs(src @ self.rot.T + self.shift - dst).max())
 
+    def _ruled(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rulings (N, 2) at lam (clipped to [0, 1]) and their 3D ends on c and d, (N, 3) each."""
+        lam = np.clip(np.asarray(lam, dtype=np.float64).ravel(), 0.0, 1.0)
+        keys = lam.tolist()
+        cache = self._rulings
+        missing = list(dict.fromkeys(k for k in keys if k not in cache))
+        if missing:
+            r = sample_path(self.solution, np.array(missing))
+            pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+            cache.update(zip(missing, zip(r, pc, pd)))
+        if not keys:
+            return np.zeros((0, 2)), np.zeros((0, 3)), np.zeros((0, 3))
+        rows = [cache[k] for k in keys]
+        return tuple(np.array(column) for column in zip(*rows))
+
+    def developed_at(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Placed developed ends (along c, along d) of the rulings at lam, (N, 2) each."""
+        lam = np.clip(np.asarray(lam, dtype=np.float64).ravel(), 0.0, 1.0)
+        keys = lam.tolist()
+        cache = self._ends
+        missing = list(dict.fromkeys(k for k in keys if k not in cache))
+        if missing:
+            ac, ad = self.developed(self._ruled(np.array(missing))[0])
+            cache.update(zip(missing, zip(ac, ad)))
+        if not keys:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        rows = [cache[k] for k in keys]
+        return tuple(np.array(column) for column in zip(*rows))
+
     def rulings(self, lam: np.ndarray) -> np.ndarray:
-        return sample_path(self.solution, np.clip(lam, 0.0, 1.0))
+        return self._ruled(lam)[0]
 
     def interval(self, lam: np.ndarray):
-        r = self.rulings(lam)
-        pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        _, pc, pd = self._ruled(lam)
         if not self.planes:
-            n = len(lam)
+            n = len(pc)
             return np.zeros(n), np.ones(n), np.full(n, -1), np.full(n, -1), pc, pd
         return (*ruling_interval(pc, pd, self.planes), pc, pd)
 
     def developed(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Placed developed ends (along c, along d) of the given rulings, (N, 2) each."""
-        base = self.base
-        merged = np.vstack([base, rulings])
-        order = np.lexsort((merged[:, 1] * self.solution.path.orientation, merged[:, 0]))
-        dev = develop(self.part.c, self.part.d, merged[order], self.solution.field)
-        position = np.empty(len(merged), dtype=int)
-        position[order] = np.arange(len(merged))
-        new = position[len(base):]
-        return dev.along_c[new] @ self.rot.T + self.shift, dev.along_d[new] @ self.rot.T + self.shift
+        dev = self._strip.ends(rulings)
+        return dev.along_c @ self.rot.T + self.shift, dev.along_d @ self.rot.T + self.shift
 
     def plane_of(self, lam: float) -> int:
         """Index of the butt plane the ruling at lam lies in (to round-off), -1 if none."""
-        r = self.rulings(np.array([lam]))
-        pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        _, pc, pd = self._ruled(np.array([lam]))
         size = np.linalg.norm(pd - pc, axis=1)
         for index, plane in enumerate(self.planes):
             sa, sb = plane.signed(pc), plane.signed(pd)
@@ -160,9 +194,9 @@ class PlateTracer:
     def normals(self, lam: np.ndarray) -> np.ndarray:
         """Unit strip normals c' x (d - c) of the rulings at lam, (N, 3): the pattern is
         drawn as seen from this side."""
-        r = self.rulings(lam)
+        r, _, pd = self._ruled(lam)
         pc, dc = self.part.c.derivatives(r[:, 0], 1)
-        n = np.cross(dc, self.part.d(r[:, 1]) - pc)
+        n = np.cross(dc, pd - pc)
         return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
     def plate_range(self) -> tuple[float, float, list[float]]:
@@ -177,12 +211,15 @@ class PlateTracer:
         last = 1.0 if hi[1] - lo[1] > 1e-12 or not corners else corners[-1]
         return first, last, [c for c in corners if first <= c <= last]
 
+    def sides(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Placed points of the lower and upper boundary at lam, (N, 2) each."""
+        lo, hi, _, _, _, _ = self.interval(lam)
+        ac, ad = self.developed_at(lam)
+        return ac + lo[:, None] * (ad - ac), ac + hi[:, None] * (ad - ac)
+
     def boundary(self, lam: np.ndarray, side: int) -> np.ndarray:
         """Placed points of the lower (side 0) or upper (side 1) boundary at lam, (N, 2)."""
-        lo, hi, _, _, _, _ = self.interval(lam)
-        ac, ad = self.developed(self.rulings(lam))
-        v = lo if side == 0 else hi
-        return ac + v[:, None] * (ad - ac)
+        return self.sides(lam)[side]
 
 
 def _rigid_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -206,30 +243,52 @@ def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.linalg.norm(rel - s[..., None] * seg[:, None, :], axis=2)
 
 
-def _sample(tracer: PlateTracer, side: int, a: float, b: float, tolerance: float, max_points: int = 20000):
-    """Adaptive samples of one smooth boundary piece on [a, b]: (lam (N,), points (N, 2),
-    max deviation at the check points). A segment off by more than the tolerance is split
-    into ceil(sqrt(deviation / tolerance)) + 1 parts (a chord's deviation falls as h^2)."""
-    lam = np.linspace(a, b, 9)
-    pts = tracer.boundary(lam, side)
-    deviation = np.zeros(0)
+def _sample(tracer: PlateTracer, pieces: list[tuple[int, float, float]], tolerance: float,
+            max_points: int = 20000) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Adaptive samples of smooth boundary pieces (side, a, b) (side 0 lower, 1 upper, lam in
+    [a, b]): per piece (lam (N,), points (N, 2), max deviation at the check points). A
+    segment off by more than the tolerance is split into ceil(sqrt(deviation / tolerance))
+    + 1 parts (a chord's deviation falls as h^2). The pieces are refined side by side, each
+    round's new points and check points in one evaluation of the tracer."""
+    lams = [np.linspace(a, b, 9) for _, a, b in pieces]
+    active = list(range(len(pieces)))
+    deviations = [np.zeros(0) for _ in pieces]
     for _ in range(40):
-        la, lb = lam[:-1], lam[1:]
-        checks = la[:, None] + CHECKS[None, :] * (lb - la)[:, None]
-        exact = tracer.boundary(checks.ravel(), side).reshape(len(la), len(CHECKS), 2)
-        deviation = _segment_distance(exact, pts[:-1], pts[1:]).max(axis=1)
-        bad = np.flatnonzero(deviation > tolerance)
-        if bad.size == 0:
+        if not active:
             break
-        parts = np.ceil(np.sqrt(deviation[bad] / tolerance)).astype(int) + 1
-        if len(lam) + parts.sum() > max_points:
-            break
-        new = np.concatenate([la[i] + (lb[i] - la[i]) * np.arange(1, p) / p for i, p in zip(bad, parts)])
-        lam = np.concatenate([lam, new])
-        pts = np.vstack([pts, tracer.boundary(new, side)])
-        order = np.argsort(lam, kind="stable")
-        lam, pts = lam[order], pts[order]
-    return lam, pts, float(deviation.max(initial=0.0))
+        checks = {}
+        for k in active:
+            la, lb = lams[k][:-1], lams[k][1:]
+            checks[k] = (la[:, None] + CHECKS[None, :] * (lb - la)[:, None]).ravel()
+        ask = np.concatenate([np.concatenate([lams[k], checks[k]]) for k in active])
+        lower, upper = tracer.sides(ask)
+        at = 0
+        still = []
+        for k in active:
+            side = pieces[k][0]
+            n, n_checks = len(lams[k]), len(checks[k])
+            pts = (lower, upper)[side][at:at + n]
+            exact = (lower, upper)[side][at + n:at + n + n_checks].reshape(n - 1, len(CHECKS), 2)
+            at += n + n_checks
+            lam = lams[k]
+            la, lb = lam[:-1], lam[1:]
+            deviation = _segment_distance(exact, pts[:-1], pts[1:]).max(axis=1)
+            deviations[k] = deviation
+            bad = np.flatnonzero(deviation > tolerance)
+            if bad.size == 0:
+                continue
+            parts = np.ceil(np.sqrt(deviation[bad] / tolerance)).astype(int) + 1
+            if len(lam) + parts.sum() > max_points:
+                continue
+            new = np.concatenate([la[i] + (lb[i] - la[i]) * np.arange(1, p) / p for i, p in zip(bad, parts)])
+            lams[k] = np.sort(np.concatenate([lam, new]), kind="stable")
+            still.append(k)
+        active = still
+    out = []
+    for k, (side, _, _) in enumerate(pieces):
+        pts = tracer.sides(lams[k])[side]
+        out.append((lams[k], pts, float(deviations[k].max(initial=0.0))))
+    return out
 
 
 def _corners(tracer: PlateTracer) -> list[float]:
@@ -271,12 +330,11 @@ def exact_outline(tracer: "PlateTracer", tolerance: float = 0.05) -> Outline:
     breaks = sorted({first, last, *corners})
     sides = []
     worst = 0.0
+    spans = [(a, b) for a, b in zip(breaks[:-1], breaks[1:]) if b - a > 1e-15]
+    sampled = _sample(tracer, [(side, a, b) for side in (0, 1) for a, b in spans], tolerance)
     for side in (0, 1):
         lam_all, pts_all = [], []
-        for a, b in zip(breaks[:-1], breaks[1:]):
-            if b - a <= 1e-15:
-                continue
-            lam, pts, deviation = _sample(tracer, side, a, b, tolerance)
+        for lam, pts, deviation in sampled[side * len(spans):(side + 1) * len(spans)]:
             worst = max(worst, deviation)
             lam_all.append(lam if not lam_all else lam[1:])
             pts_all.append(pts if not pts_all else pts[1:])
