@@ -97,9 +97,11 @@ def _split4(arrays: list[np.ndarray], boxes: np.ndarray):
     """Quarter every box (K, 4) [s0, s1, σ0, σ1] and its coefficient arrays."""
     out_arrays = []
     for coefs in arrays:
-        lo, hi = _halves(coefs, 1)
-        parts = [*_halves(lo, 2), *_halves(hi, 2)]  # (s lo, σ lo), (s lo, σ hi), (s hi, ...)
-        out_arrays.append(np.concatenate(parts))
+        k = len(coefs)
+        # both s halves split along σ in one batch: rows [s lo; s hi]
+        lo, hi = _halves(np.concatenate(_halves(coefs, 1)), 2)
+        # (s lo, σ lo), (s lo, σ hi), (s hi, σ lo), (s hi, σ hi)
+        out_arrays.append(np.concatenate([lo[:k], hi[:k], lo[k:], hi[k:]]))
     s0, s1, g0, g1 = boxes.T
     sm, gm = 0.5 * (s0 + s1), 0.5 * (g0 + g1)
     quarters = [np.column_stack(q) for q in ((s0, sm, g0, gm), (s0, sm, gm, g1),

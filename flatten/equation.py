@@ -173,6 +173,11 @@ class DevelopabilityField:
     def _at_point(self, t: float, T: float, dt: int, dT: int, spans) -> float:
         """:meth:`__call__` at one point in plain floats (no per-call array set-up:
         the judge and the certification ask for one-sided derivatives point by point)."""
+        return self.derivatives_at_point(t, T, ((dt, dT),), spans)[0]
+
+    def derivatives_at_point(self, t: float, T: float, orders, spans=None) -> list[float]:
+        """∂^dt_t ∂^dT_T f at one point for each (dt, dT) of ``orders``, in plain floats,
+        with one cell lookup; ``spans = (i, j)`` forces the cell."""
         bc, bd = self._breaks
         if spans is None:
             i = min(max(bisect_right(bc, t) - 1, 0), len(bc) - 2)
@@ -182,13 +187,16 @@ class DevelopabilityField:
         hc, hd = bc[i + 1] - bc[i], bd[j + 1] - bd[j]
         s, sig = (t - bc[i]) / hc, (T - bd[j]) / hd
         rows = self.cells[i, j].tolist()
-        ps = [_falling(a, dt) * s ** (a - dt) if a >= dt else 0.0 for a in range(len(rows))]
-        pt = [_falling(b, dT) * sig ** (b - dT) if b >= dT else 0.0 for b in range(len(rows[0]))]
-        val = 0.0
-        for pa, row in zip(ps, rows):
-            if pa != 0.0:
-                val += pa * sum(m * pb for m, pb in zip(row, pt))
-        return val / hc**dt / hd**dT
+        out = []
+        for dt, dT in orders:
+            ps = [_falling(a, dt) * s ** (a - dt) if a >= dt else 0.0 for a in range(len(rows))]
+            pt = [_falling(b, dT) * sig ** (b - dT) if b >= dT else 0.0 for b in range(len(rows[0]))]
+            val = 0.0
+            for pa, row in zip(ps, rows):
+                if pa != 0.0:
+                    val += pa * sum(m * pb for m, pb in zip(row, pt))
+            out.append(val / hc**dt / hd**dT)
+        return out
 
     def gradient(self, t, T) -> np.ndarray:
         """(f_t, f_T), shape (N, 2) (one cell lookup for both)."""
@@ -202,6 +210,22 @@ class DevelopabilityField:
         ft = np.einsum("na,na->n", ps1, np.einsum("nab,nb->na", m, pt0)) / hc
         fT = np.einsum("na,na->n", ps0, np.einsum("nab,nb->na", m, pt1)) / hd
         return np.stack([ft, fT], axis=-1)
+
+    def value_gradient(self, t, T) -> tuple[np.ndarray, np.ndarray]:
+        """(f (N,), (f_t, f_T) (N, 2)) with one cell lookup: bitwise the values of
+        :meth:`__call__` and :meth:`gradient` (the same products, f_t shares f's
+        inner product), for the judge's Newton loops that need both."""
+        if np.size(t) == 1 and np.size(T) == 1:
+            return self(t, T).reshape(-1), self.gradient(t, T)
+        _, m, s, sig, hc, hd = self._prepare(t, T, None)
+        a, b = self.cells.shape[2:]
+        ps0, ps1 = self._powers(s, a, 0), self._powers(s, a, 1)
+        pt0, pt1 = self._powers(sig, b, 0), self._powers(sig, b, 1)
+        inner = np.einsum("nab,nb->na", m, pt0)
+        f = np.einsum("na,na->n", ps0, inner)
+        ft = np.einsum("na,na->n", ps1, inner) / hc
+        fT = np.einsum("na,na->n", ps0, np.einsum("nab,nb->na", m, pt1)) / hd
+        return f, np.stack([ft, fT], axis=-1)
 
     # ------------------------------------------------------- roots on lines
     def polynomials_in_T(self, t: np.ndarray) -> np.ndarray:

@@ -79,6 +79,15 @@ class UnitMap:
                      for curve, lo, width in ((self.field.c, self.lo[0], self.width[0]),
                                               (self.field.d, self.lo[1], self.width[1])))
 
+    def polish_each(self, arrays: list[np.ndarray]) -> list[np.ndarray]:
+        """:meth:`polish` of several point arrays (each (N_k, 2), N_k >= 2) in one batch:
+        polishing is point by point, so the batch gives each array's own result at the
+        set-up cost of one call."""
+        if not arrays:
+            return []
+        ends = np.cumsum([len(a) for a in arrays])[:-1]
+        return np.split(self.polish(np.concatenate(arrays)), ends)
+
     def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
         """Newton along the gradient onto f = 0, batched, staying in the unit square.
 
@@ -108,8 +117,8 @@ class UnitMap:
         for _ in range(iterations):
             on_side = fixed | (x <= 0.0) | (x >= 1.0)
             p = self.to_params(x)
-            f = self.field(p[:, 0], p[:, 1])
-            g = self.gradient(x)
+            f, g = self.field.value_gradient(p[:, 0], p[:, 1])
+            g = g * self.width
             gg = np.einsum("ij,ij->i", g, g)
             ok = gg > 0
             step = np.zeros_like(x)
@@ -126,7 +135,12 @@ class UnitMap:
             # a long step would throw the point onto another branch
             step[np.hypot(*step.T) > 1e-4] = 0.0
             step[on_side] = 0.0
-            x = np.clip(x - step, 0.0, 1.0)
+            moved = np.clip(x - step, 0.0, 1.0)
+            # a point the step no longer moves is a fixed point of every later
+            # iteration (they depend on x alone): stop once all points are
+            if np.array_equal(moved, x):
+                break
+            x = moved
         x[np.abs(x) <= 1e-14] = 0.0
         x[np.abs(x - 1.0) <= 1e-14] = 1.0
         return x
@@ -142,7 +156,12 @@ def acceptable_points(unit: UnitMap, x: np.ndarray, orientation: int = 1) -> np.
     the ruling in the tangent plane, the crossing lies at v* = a / (a - T' b), which is
     outside [0, 1] iff T' a b >= 0, i.e. f_t f_T a b <= 0.
     """
-    g = unit.gradient(x)
+    return _acceptability(unit, x, unit.gradient(x))[:, 0 if orientation > 0 else 1]
+
+
+def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """(N, 2) :func:`acceptable_points` for orientation +1 and -1 at once, given the
+    unit gradient ``g`` (N, 2) at ``x`` (the curve derivatives serve both columns)."""
     gg = np.einsum("ij,ij->i", g, g)
     p = unit.to_params(x)
     pc, dc = unit.field.c.derivatives(p[:, 0], 1)
@@ -155,8 +174,7 @@ def acceptable_points(unit: UnitMap, x: np.ndarray, orientation: int = 1) -> np.
     ab_scale = np.linalg.norm(perp_c, axis=1) * np.linalg.norm(perp_d, axis=1)
     product = g[:, 0] * g[:, 1]
     same_side = product * ab <= 1e-9 * gg * ab_scale
-    oriented = orientation * product <= 1e-9 * gg
-    return same_side & oriented
+    return np.column_stack([same_side & (product <= 1e-9 * gg), same_side & (-product <= 1e-9 * gg)])
 
 
 def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):
@@ -221,58 +239,75 @@ def _singular_point(unit: UnitMap, x: np.ndarray, tol: float):
 
 
 def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
-    """(k, fa, l, fb, point) for every crossing of polyline a's segment k with b's segment l."""
+    """(k, fa, l, fb, point) for every crossing of polyline a's segment k with b's segment l,
+    in the order of (k, l)."""
     p, r = a[:-1], np.diff(a, axis=0)
     q, s = b[:-1], np.diff(b, axis=0)
-    out = []
     if len(r) == 0 or len(s) == 0:
-        return out
+        return []
     ks, ls = _overlapping_boxes(np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:]),
                                 np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:]), 1e-12)
-    for k, l in zip(ks, ls):
-        if same and abs(int(k) - int(l)) <= 1:
-            continue
-        denom = r[k, 0] * s[l, 1] - r[k, 1] * s[l, 0]
-        if denom == 0.0:
-            continue
-        qp = q[l] - p[k]
-        fa = (qp[0] * s[l, 1] - qp[1] * s[l, 0]) / denom
-        fb = (qp[0] * r[k, 1] - qp[1] * r[k, 0]) / denom
-        # within one trace, segments meeting at a shared vertex (a grid crossing inserts
-        # very short segments) are no crossing: only interior intersections count
-        lo_f, hi_f = (1e-9, 1 - 1e-9) if same else (-1e-12, 1 + 1e-12)
-        if lo_f <= fa <= hi_f and lo_f <= fb <= hi_f:
-            out.append((int(k), float(fa), int(l), float(fb), p[k] + fa * r[k]))
-    return out
+    if same:
+        keep = np.abs(ks - ls) > 1
+        ks, ls = ks[keep], ls[keep]
+    rk, sl = r[ks], s[ls]
+    denom = rk[:, 0] * sl[:, 1] - rk[:, 1] * sl[:, 0]
+    live = denom != 0.0
+    ks, ls, rk, sl, denom = ks[live], ls[live], rk[live], sl[live], denom[live]
+    qp = q[ls] - p[ks]
+    fa = (qp[:, 0] * sl[:, 1] - qp[:, 1] * sl[:, 0]) / denom
+    fb = (qp[:, 0] * rk[:, 1] - qp[:, 1] * rk[:, 0]) / denom
+    # within one trace, segments meeting at a shared vertex (a grid crossing inserts
+    # very short segments) are no crossing: only interior intersections count
+    lo_f, hi_f = (1e-9, 1 - 1e-9) if same else (-1e-12, 1 + 1e-12)
+    hit = (lo_f <= fa) & (fa <= hi_f) & (lo_f <= fb) & (fb <= hi_f)
+    points = p[ks[hit]] + fa[hit, None] * rk[hit]
+    return list(zip(ks[hit].tolist(), fa[hit].tolist(), ls[hit].tolist(), fb[hit].tolist(), points))
+
+
+class CrossingOverflow(Exception):
+    """The crossing candidates of two polylines exceed the judge's memory budget (a
+    trace that piles up on itself: a branch that circles until its step limit)."""
+
+    def __init__(self, pairs: int, budget: int):
+        super().__init__(f"{pairs} crossing candidates (budget {budget})")
+        self.pairs, self.budget = pairs, budget
+
+
+def _pair_budget(k: int, l: int) -> int:
+    """Candidate pairs allowed for polylines of k and l segments: a smooth polyline
+    meets a few neighbours per segment; 2^20 pairs are ~25 MB of index arrays."""
+    return 16 * (k + l) + 2**20
 
 
 def _overlapping_boxes(lo_a, hi_a, lo_b, hi_b, slack: float):
     """(k, l) index pairs, sorted, of boxes (K, 2) and (L, 2) that overlap within ``slack``.
 
-    Small boxes are paired through a k-d tree of their centres (max norm), the few large
+    Small boxes are paired through k-d trees of their centres (max norm), the few large
     ones against all: time and memory O(K + L) for polylines of short segments, not the
-    O(K L) of the full table.
+    O(K L) of the full table. Raises :class:`CrossingOverflow` when the candidates
+    exceed :func:`_pair_budget` (segments piled up in one place): memory stays bounded.
     """
     ca, ha = 0.5 * (lo_a + hi_a), 0.5 * (hi_a - lo_a).max(axis=1)
     cb, hb = 0.5 * (lo_b + hi_b), 0.5 * (hi_b - lo_b).max(axis=1)
     cut = 2.0 * float(np.percentile(np.concatenate([ha, hb]), 90))
     small_a, small_b = ha <= cut, hb <= cut
-    ks, ls = [], []
     ia, ib = np.flatnonzero(small_a), np.flatnonzero(small_b)
+    budget = _pair_budget(len(lo_a), len(lo_b))
+    large = int((~small_a).sum()) * len(lo_b) + int((~small_b).sum()) * len(ia)
+    if large > budget:
+        raise CrossingOverflow(large, budget)
+    ks, ls = [], []
     if len(ia) and len(ib):
-        tree, radius = cKDTree(cb[ib]), 2.0 * cut + 2.0 * slack
-        # count first: where the segments pile up (a trace stopped at its step limit,
-        # circling in a small region) the candidates approach K L, and as lists of
-        # Python ints they would take ~20x the memory of the table: use the table then
-        if int(tree.query_ball_point(ca[ia], radius, p=np.inf, return_length=True).sum()) > 4 * (len(ca) + len(cb)) + 10**6:
-            near = ((lo_a[:, None, 0] <= hi_b[None, :, 0] + slack) & (lo_b[None, :, 0] <= hi_a[:, None, 0] + slack)
-                    & (lo_a[:, None, 1] <= hi_b[None, :, 1] + slack) & (lo_b[None, :, 1] <= hi_a[:, None, 1] + slack))
-            return np.nonzero(near)
-        hits = tree.query_ball_point(ca[ia], radius, p=np.inf, return_sorted=False)
-        counts = np.fromiter(map(len, hits), dtype=int, count=len(hits))
-        if counts.sum():
-            ks.append(np.repeat(ia, counts))
-            ls.append(ib[np.concatenate([np.asarray(h, dtype=int) for h in hits if len(h)])])
+        tree_a, tree_b, radius = cKDTree(ca[ia]), cKDTree(cb[ib]), 2.0 * cut + 2.0 * slack
+        # count first (no pair list) unless even all pairs fit the budget
+        if len(ia) * len(ib) > budget:
+            count = int(tree_a.count_neighbors(tree_b, radius, p=np.inf))
+            if count + large > budget:
+                raise CrossingOverflow(count + large, budget)
+        pairs = tree_a.sparse_distance_matrix(tree_b, radius, p=np.inf, output_type="ndarray")
+        ks.append(ia[pairs["i"]])
+        ls.append(ib[pairs["j"]])
     for k in np.flatnonzero(~small_a):  # a large box of a against every box of b
         ks.append(np.full(len(lo_b), k))
         ls.append(np.arange(len(lo_b)))
@@ -281,7 +316,7 @@ def _overlapping_boxes(lo_a, hi_a, lo_b, hi_b, slack: float):
         ls.append(np.full(len(ia), l))
     if not ks:
         return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-    k, l = np.concatenate(ks), np.concatenate(ls)
+    k, l = np.concatenate(ks).astype(np.intp), np.concatenate(ls).astype(np.intp)
     near = ((lo_a[k, 0] <= hi_b[l, 0] + slack) & (lo_b[l, 0] <= hi_a[k, 0] + slack)
             & (lo_a[k, 1] <= hi_b[l, 1] + slack) & (lo_b[l, 1] <= hi_a[k, 1] + slack))
     k, l = k[near], l[near]
@@ -305,14 +340,14 @@ def _point_on_polyline(point: np.ndarray, poly: np.ndarray, tol: float):
 def _classes(unit: UnitMap, x: np.ndarray) -> np.ndarray:
     """(N, 2) acceptability of points for orientation +1 and -1; points at singular
     points (vanishing gradient) take the class of the point before them."""
-    acc = np.column_stack([acceptable_points(unit, x, 1), acceptable_points(unit, x, -1)])
     g = unit.gradient(x)
+    acc = _acceptability(unit, x, g)
     gnorm = np.hypot(*g.T)
     weak = gnorm < 1e-8 * max(np.median(gnorm), 1e-300)
-    for k in range(1, len(acc)):
-        if weak[k]:
-            acc[k] = acc[k - 1]
-    return acc
+    weak[:1] = False  # the first point keeps its own class
+    # each weak point takes the class of the last strong point before it
+    source = np.maximum.accumulate(np.where(weak, 0, np.arange(len(acc))))
+    return acc[source]
 
 
 def _class_boundary(unit: UnitMap, a: np.ndarray, b: np.ndarray, column: int) -> tuple[np.ndarray, str]:
@@ -345,8 +380,10 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
     """Cut every trace where its class changes (for either orientation of d against c)
     and at junctions.
 
-    Returns pieces as (unit points, (acceptable for +1, acceptable for -1), trace index)
-    and class boundaries as (unit point, kind, trace index, orientation).
+    Returns pieces as (unit points, (acceptable for +1, acceptable for -1), trace index),
+    class boundaries as (unit point, kind, trace index, orientation) and the trace pairs
+    (i, j, candidates, budget) whose crossings were not searched because their segment
+    pairs exceed the memory budget (:class:`CrossingOverflow`).
     """
     cuts: list[list[tuple[int, float, np.ndarray]]] = [[] for _ in traces]
     turning = []
@@ -360,9 +397,15 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
                 frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
                 cuts[n].append((int(k), frac, point))
                 turning.append((point, kind, n, orientation))
+    unchecked = []
     for i in range(len(traces)):
         for j in range(i, len(traces)):
-            for k, fa, l, fb, point in _segment_intersections(traces[i].points, traces[j].points, i == j):
+            try:
+                crossings = _segment_intersections(traces[i].points, traces[j].points, i == j)
+            except CrossingOverflow as overflow:
+                unchecked.append((i, j, overflow.pairs, overflow.budget))
+                continue
+            for k, fa, l, fb, point in crossings:
                 point = _singular_point(unit, point, tol)
                 if point is None:
                     continue
@@ -386,7 +429,7 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
                 slope = np.prod(part[-1] - part[0])
                 acc = (bool(slope >= -1e-18), bool(slope <= 1e-18))
             pieces.append((part, acc, n))
-    return pieces, turning
+    return pieces, turning, unchecked
 
 
 def _cut_polyline(points: np.ndarray, closed: bool, cuts, tol: float) -> list[np.ndarray]:
@@ -476,30 +519,33 @@ def curvature_mismatches(c: NurbsCurve, d: NurbsCurve, branch: int, params: np.n
 def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) -> list[KnotCrossing]:
     """One-sided T' and T'' at every interior knot of c or d the branch crosses."""
     out = []
+    orders = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
     for axis, curve, name in ((0, field.c, "c"), (1, field.d, "d")):
         inner = curve.breakpoints[1:-1]
+        if len(inner) == 0 or len(params) == 0:
+            continue
         classes = curve.knot_continuity()
-        for knot, cls in zip(inner, classes):
-            hits = np.flatnonzero(np.abs(params[:, axis] - knot) <= 1e-12 * (1 + abs(knot)))
-            for h in hits:
-                t, T = params[h]
-                ic, jd = int(field.c.span_index(t)), int(field.d.span_index(T))
-                sides = []
-                for shift in (-1, 0):
-                    spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)
-                    if min(spans) < 0:
-                        break
-                    ft, fT = field(t, T, 1, 0, spans)[0], field(t, T, 0, 1, spans)[0]
-                    ftt, ftT, fTT = (field(t, T, a, b, spans)[0] for a, b in ((2, 0), (1, 1), (0, 2)))
-                    if fT == 0.0:
-                        break
-                    slope = -ft / fT
-                    sides.append((slope, -(ftt + 2 * ftT * slope + fTT * slope**2) / fT))
-                if len(sides) != 2:
-                    continue
-                (s1, c1), (s2, c2) = sides
-                out.append(KnotCrossing(branch, name, float(knot), float(t), float(T), int(cls) - 1,
-                                        abs(s1 - s2) / (1 + abs(s1)), abs(c1 - c2) / (1 + abs(c1))))
+        # (knot, point) pairs on the knot line, knot by knot, points in branch order
+        near = np.abs(params[None, :, axis] - inner[:, None]) <= 1e-12 * (1 + np.abs(inner[:, None]))
+        for n, h in zip(*np.nonzero(near)):
+            knot, cls = inner[n], classes[n]
+            t, T = params[h]
+            ic, jd = int(field.c.span_index(t)), int(field.d.span_index(T))
+            sides = []
+            for shift in (-1, 0):
+                spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)
+                if min(spans) < 0:
+                    break
+                ft, fT, ftt, ftT, fTT = field.derivatives_at_point(float(t), float(T), orders, spans)
+                if fT == 0.0:
+                    break
+                slope = -ft / fT
+                sides.append((slope, -(ftt + 2 * ftT * slope + fTT * slope**2) / fT))
+            if len(sides) != 2:
+                continue
+            (s1, c1), (s2, c2) = sides
+            out.append(KnotCrossing(branch, name, float(knot), float(t), float(T), int(cls) - 1,
+                                    abs(s1 - s2) / (1 + abs(s1)), abs(c1 - c2) / (1 + abs(c1))))
     return out
 
 

@@ -181,8 +181,8 @@ def _densify(points: np.ndarray, step: float) -> np.ndarray:
         return points
     seg = np.diff(points, axis=0)
     n = np.maximum(np.ceil(np.hypot(*seg.T) / step).astype(int), 1)
-    frac = np.concatenate([np.arange(k) / k for k in n])
     base = np.repeat(np.arange(len(seg)), n)
+    frac = (np.arange(len(base)) - np.repeat(np.cumsum(n) - n, n)) / n[base]  # k / n_i, k < n_i
     return np.vstack([points[base] + frac[:, None] * seg[base], points[-1:]])
 
 
@@ -301,7 +301,10 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
                        else "a branch could not be followed to its end")
                 findings.append(Finding("BRANCH_UNRESOLVED", why,
                                         {"end": unit.to_params(trace.points[-1]).tolist()}))
-        polished = [trace.points if len(trace.points) < 2 else unit.polish(trace.points) for trace in traces]
+        several = [k for k, tr in enumerate(traces) if len(tr.points) >= 2]
+        polished = [tr.points for tr in traces]
+        for k, points in zip(several, unit.polish_each([traces[k].points for k in several])):
+            polished[k] = points
         traces = [type(tr)(p, tr.closed, tr.ends) for tr, p in zip(traces, polished)]
         offset = len(branches)
         for k, tr in enumerate(traces):
@@ -309,9 +312,19 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
             branches.append(Branch(branch.index, branch.points, branch.closed,
                                    _end_names(branch.ends, t_walls, T_walls), branch.kind))
             knot_hits += knot_crossings(block.field, offset + k, branches[-1].points)
-        pieces_b, turning_b = split_pieces(unit, traces, tol.junction)
-        for x, acc, n in pieces_b:
-            raw_pieces.append((unit.to_params(unit.polish(x)), acc, offset + n))
+        pieces_b, turning_b, unchecked = split_pieces(unit, traces, tol.junction)
+        for i, j, pairs, budget in unchecked:
+            # a trace piled up on itself (circling until its step limit): the judge
+            # stays within its memory budget and says what it did not check
+            which = f"branch {offset + i}" + ("" if i == j else f" and branch {offset + j}")
+            findings.append(Finding(
+                "CROSSINGS_UNCHECKED", f"crossings of {which} ({len(traces[i].points)}"
+                + ("" if i == j else f" and {len(traces[j].points)}") + f" points) were not searched: "
+                f"{pairs} candidate segment pairs exceed the judge's budget of {budget} (the trace piles up "
+                "on itself); junctions there are missing and its pieces are unverified",
+                {"branches": sorted({offset + i, offset + j}), "candidate_pairs": int(pairs), "budget": int(budget)}))
+        for (_, acc, n), x in zip(pieces_b, unit.polish_each([x for x, _, _ in pieces_b])):
+            raw_pieces.append((unit.to_params(x), acc, offset + n))
         for x, kind_, n, o in turning_b:
             raw_turning.append((unit.to_params(unit.polish(x[None])[0]), kind_, offset + n, o))
         for p in block.critical.points[block.isolated]:
