@@ -398,6 +398,34 @@ def _cell_products(left: np.ndarray, middle: np.ndarray, right: np.ndarray) -> n
     return flat.reshape(nc, a, nd, b).transpose(0, 2, 1, 3)
 
 
+def _without_zero_speed_factor(poly: np.ndarray, relative: float = 1e-13) -> np.ndarray:
+    """Span polynomials (n_spans, K, m) (ascending powers of s) of a quantity that holds the
+    curve's derivative (L = C ∧ C', or (x', y')), divided by s on the first span where
+    it vanishes at s = 0 and by (1 - s) on the last where it vanishes at s = 1.
+
+    A curve with zero speed at an end (a doubled end pole) has L = 0 there although its
+    tangent line is defined (the limit C ∧ C''): f = s f~ would vanish on the whole side
+    line, a fan from the end point to every point of the other curve that exists only
+    because of the parametrisation. f~ has the same zero set inside the rectangle, the
+    same sign and, on it, a gradient in the same direction (f = 0 there).
+    """
+    out = None
+    first, last = poly[0], poly[-1]
+    if np.abs(first[0]).max() <= relative * np.abs(first).max():
+        out = poly.copy()
+        out[0, :-1], out[0, -1] = first[1:], 0.0
+    # value at s = 1: the sum of the coefficients
+    if np.abs(last.sum(axis=0)).max() <= relative * np.abs(last).sum(axis=0).max():
+        out = poly.copy() if out is None else out
+        a = out[-1].copy()
+        # synthetic division by (s - 1): a = (s - 1) q + r, r = a(1) ~ 0; a / (1 - s) = -q
+        q = np.zeros_like(a)
+        for k in range(len(a) - 1, 0, -1):
+            q[k - 1] = a[k] + (q[k] if k < len(a) - 1 else 0.0)
+        out[-1] = -q
+    return poly if out is None else out
+
+
 def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
                          plane: dict | None = None) -> DevelopabilityField:
     """Build the cell coefficients of f for the pair (c, d).
@@ -416,16 +444,16 @@ def developability_field(c: NurbsCurve, d: NurbsCurve, kind: str = GENERAL,
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(normal, e1)
         basis = np.vstack([e1, e2])
-        xc = _inplane_derivative_polynomials(c, basis)  # (nc, p, 2)
-        xd = _inplane_derivative_polynomials(d, basis)  # (nd, q, 2)
+        xc = _without_zero_speed_factor(_inplane_derivative_polynomials(c, basis))  # (nc, p, 2)
+        xd = _without_zero_speed_factor(_inplane_derivative_polynomials(d, basis))  # (nd, q, 2)
         rot = np.array([[0.0, 1.0], [-1.0, 0.0]])
         cells = plane["height"] * _cell_products(xc, rot, xd)
         scale_c = np.abs(xc).max(axis=(1, 2)) / wc
         scale_d = np.abs(xd).max(axis=(1, 2)) / wd
         scale = abs(plane["height"]) * np.outer(scale_c, scale_d)
     else:
-        lc = tangent_line_polynomials(c.power_coefficients)  # (nc, 2p-1, 6)
-        ld = tangent_line_polynomials(d.power_coefficients)  # (nd, 2q-1, 6)
+        lc = _without_zero_speed_factor(tangent_line_polynomials(c.power_coefficients))  # (nc, 2p-1, 6)
+        ld = _without_zero_speed_factor(tangent_line_polynomials(d.power_coefficients))  # (nd, 2q-1, 6)
         cells = _cell_products(lc, reciprocal_matrix(), ld)
         scale_c = np.abs(lc).max(axis=(1, 2)) / wc
         scale_d = np.abs(ld).max(axis=(1, 2)) / wd

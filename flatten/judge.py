@@ -166,6 +166,7 @@ def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray) -> np.ndarray:
     p = unit.to_params(x)
     pc, dc = unit.field.c.derivatives(p[:, 0], 1)
     pd, dd = unit.field.d.derivatives(p[:, 1], 1)
+    dc, dd = _limit_tangent(unit.field.c, p[:, 0], dc), _limit_tangent(unit.field.d, p[:, 1], dd)
     ruling = pd - pc
     rr = np.maximum(np.einsum("ij,ij->i", ruling, ruling), 1e-300)
     perp_c = dc - (np.einsum("ij,ij->i", dc, ruling) / rr)[:, None] * ruling
@@ -175,6 +176,20 @@ def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray) -> np.ndarray:
     product = g[:, 0] * g[:, 1]
     same_side = product * ab <= 1e-9 * gg * ab_scale
     return np.column_stack([same_side & (product <= 1e-9 * gg), same_side & (-product <= 1e-9 * gg)])
+
+
+def _limit_tangent(curve: NurbsCurve, t: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+    """c'(t) (N, 3), with the limit direction ±c'' where the curve stands still (a doubled
+    end pole: zero speed at the end, yet a tangent direction, that of c'' pointing into
+    the curve's domain); only the direction matters to the classification."""
+    still = ~np.any(tangent, axis=1)
+    if not still.any():
+        return tangent
+    out = tangent.copy()
+    second = curve.derivatives(t[still], 2)[2]
+    inward = np.where(t[still] <= 0.5 * (curve.domain[0] + curve.domain[1]), 1.0, -1.0)
+    out[still] = inward[:, None] * second
+    return out
 
 
 def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):

@@ -107,3 +107,31 @@ def test_batched_roots_match_numpy_roots_per_line(seed, t):
     np.testing.assert_allclose(np.sort(np.unique(np.round(roots, 9))), expected, atol=2e-9)
     if len(roots):
         assert normalized_residual(c, d, np.full(len(roots), t), roots).max() <= 1e-12
+
+
+@settings(max_examples=10, derandomize=True, deadline=None)
+@given(seed=st.integers(0, 10_000), rational=st.booleans())
+def test_a_zero_speed_end_is_divided_out_of_the_field(seed, rational):
+    # a doubled first pole of c and last pole of d: C' = 0 at t = t0 and D' = 0 at
+    # T = T1, so det[C, C', D, D'] vanishes on both side lines (no tangent line there in
+    # the product, yet the curves have one). The field is the determinant divided by s
+    # on c's first span and by (1 - σ) on d's last span; elsewhere it is the determinant.
+    rng = np.random.default_rng(seed)
+    pc, pd = rng.normal(size=(5, 3)), rng.normal(size=(6, 3)) + [0.0, 0.0, 3.0]
+    wc = rng.uniform(0.5, 2.0, 6) if rational else None
+    wd = rng.uniform(0.5, 2.0, 7) if rational else None
+    if rational:  # the doubled pole keeps its weight: the point stands still
+        wc[1], wd[-1] = wc[0], wd[-2]
+    c = nurbs_curve(np.vstack([pc[:1], pc]), 3, weights=wc, knots=[0, 0, 0, 0, 0.3, 0.6, 1, 1, 1, 1], name="c")
+    d = nurbs_curve(np.vstack([pd, pd[-1:]]), 3, weights=wd, knots=[0, 0, 0, 0, 0.2, 0.5, 0.8, 1, 1, 1, 1], name="d")
+    field = developability_field(c, d)
+    t, T = rng.uniform(0.0, 1.0, 400), rng.uniform(0.0, 1.0, 400)
+    hc, hd = c.homogeneous_derivatives(t, 1), d.homogeneous_derivatives(T, 1)
+    det = np.linalg.det(np.stack([hc[0], hc[1], hd[0], hd[1]], axis=-1))
+    s = np.where(t < 0.3, t / 0.3, 1.0)  # c's first span [0, 0.3]
+    sigma = np.where(T >= 0.8, (T - 0.8) / 0.2, 0.0)  # d's last span [0.8, 1]
+    np.testing.assert_allclose(field(t, T) * s * (1.0 - sigma), det, rtol=1e-8, atol=1e-12 * np.abs(det).max())
+    # on the side lines the field keeps its size (the tangent line C ∧ C'' there)
+    on_sides = np.abs(np.concatenate([field(np.zeros(200), np.linspace(0.0, 1.0, 200)),
+                                      field(np.linspace(0.0, 1.0, 200), np.ones(200))]))
+    assert np.median(on_sides) > 1e-6 * np.abs(det).max()

@@ -216,3 +216,46 @@ def test_a_branch_circling_until_its_step_limit_is_a_finding(monkeypatch):
     assert unchecked.data["branches"] == [0] and unchecked.data["candidate_pairs"] > unchecked.data["budget"]
     assert "40001 points" in unchecked.message and "not searched" in unchecked.message
     assert [len(b.points) for b in solution.branches] == [40001]
+
+
+def doubled_end_poles(curve, ends):
+    """The curve with its first and/or last pole doubled (zero speed there), uniform knots."""
+    poles = curve.control_points
+    poles = np.vstack([poles[:1]] * ("start" in ends) + [poles] + [poles[-1:]] * ("end" in ends))
+    inner = np.linspace(0.0, 1.0, len(poles) - 2)[1:-1]
+    return nurbs_curve(poles, 3, knots=np.concatenate([[0.0] * 4, inner, [1.0] * 4]), name=curve.name)
+
+
+@pytest.mark.parametrize("ends", [("start",), ("end",), ("start", "end")])
+def test_seams_standing_still_at_their_ends_give_no_fan(ends):
+    # a doubled end pole: c' = 0 there, so f = det[C, C', D, D'] vanished on the whole
+    # side line, which came out as fans from the end point over all of the other curve;
+    # the path chooser took two of them (a crease, 100 % coverage) for the real strip.
+    # The cone d = apex + 0.45 (c - apex) with the same poles doubled is still T = t.
+    c, d = (doubled_end_poles(k, ends) for k in oracles.cone_pair())
+    solution = solve(c, d)
+    assert solution, solution.message
+    assert not [b.kind for b in solution.branches if b.kind.startswith("fan")]
+    assert solution.path.fans == ()
+    np.testing.assert_allclose(solution.path.points[:, 1], solution.path.points[:, 0], atol=1e-9)
+    assert solution.path.coverage.c_fraction == pytest.approx(1.0)
+    assert solution.path.coverage.d_fraction == pytest.approx(1.0)
+    assert "RESIDUAL_EXCEEDED" not in {f.code for f in solution.findings}
+
+
+@pytest.mark.parametrize("which", ["c", "d", "cd"])
+@pytest.mark.parametrize("ends", [("start",), ("end",)])
+def test_a_plate_seam_with_a_doubled_end_pole_keeps_its_strip(which, ends):
+    # the bench's plate (one graph branch): a doubled end pole on a seam only slows the
+    # seam down at its end; the strip stays one graph branch, with no fan and no finding
+    x = np.linspace(0.0, 12.0, 8)
+    c = nurbs_curve(np.column_stack([x, 0.4 * np.sin(x / 4), 0.05 * x]), 3, name="c")
+    d = nurbs_curve(np.column_stack([x * 1.02, 2.2 + 0.6 * np.sin(x / 4 + 0.2), 1.5 + 0.08 * x]), 3, name="d")
+    c = doubled_end_poles(c, ends) if "c" in which else c
+    d = doubled_end_poles(d, ends) if "d" in which else d
+    solution = solve(c, d)
+    assert solution, solution.message
+    assert [b.kind for b in solution.branches] == ["graph"]
+    assert solution.path.fans == ()
+    assert {f.code for f in solution.findings} <= {"PARTIAL_COVERAGE", "CERTIFICATE"}
+    assert solution.max_residual <= 1e-12
