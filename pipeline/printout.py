@@ -28,7 +28,6 @@ import numpy as np
 import shapely
 import shapely.affinity
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon as PolygonPatch
@@ -39,7 +38,10 @@ from shapely.geometry import LineString, box
 
 from .atomic import atomic_path
 from .config import Printout
+from .pdfbackend import pdf_backend
 from .textile import TextilePiece, label_anchor
+
+PdfPages = pdf_backend().PdfPages  # without fontTools' subsetter: Type 3 fonts do not need it
 
 MARGIN_MM = 5.0  # around the pieces, inside the tiled area
 CHECK_MM = 100.0

@@ -17,11 +17,13 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-from matplotlib.backends.backend_pdf import FigureCanvasPdf
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from .atomic import atomic_path
+from .pdfbackend import pdf_backend
+
+FigureCanvasPdf = pdf_backend().FigureCanvasPdf  # without fontTools' subsetter: core fonts embed nothing
 
 PAPERS = (("A4", 297.0, 210.0), ("A3", 420.0, 297.0))  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 5000)
