@@ -109,17 +109,19 @@ def command_run(args) -> int:
     check_jobs(args.jobs)
     config = validate(args.config, evaluate_plate)
     check_plan(config, args.out)
-    if args.one_shot:
-        preload(config)
-        imports_done()
     parts = config.parts
     textile = config.spec.profile == "textile"
     progress = None
-    if len(parts) > 1 and not args.quiet:
-        from tqdm import tqdm
-        progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
     try:
-        with OutputFolder(args.out, config) as folder:
+        # the render process (if any) is forked before any thread starts (tqdm's) and is
+        # gone before the staging folder is removed
+        with OutputFolder(args.out, config) as folder, render_process(args, config) as renderer:
+            if args.one_shot:
+                preload(config, images=renderer is None)
+                imports_done()
+            if len(parts) > 1 and not args.quiet:
+                from tqdm import tqdm
+                progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
             # steel parts are written by whoever computes them; textile pieces are laid out
             # side by side first (their options are checked against every piece)
             keep_geometry = config.spec.output.png and len(parts) > 1
@@ -131,7 +133,7 @@ def command_run(args) -> int:
                 pieces = textile_pieces(results, config)
                 results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
                 export_textile(pieces, config, folder.run_folder, run_name(config))
-            export_summary(results, config, folder.run_folder)
+            export_summary(results, config, folder.run_folder)  # waits for every image
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
             n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
             folder.commit([r.name for r in results])
@@ -149,22 +151,51 @@ def command_run(args) -> int:
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
 
 
-def preload(config: RunConfig) -> None:
+def image_modules(config: RunConfig) -> tuple[str, ...]:
+    """What the run's images need ("module" or "module:function" to call): matplotlib's
+    Agg canvas for PNG previews, its PDF backend for shop drawings; () for none."""
+    out = config.spec.output
+    drawings = config.spec.profile == "steel" and out.dxf and (out.png if out.drawing is None else out.drawing)
+    return (("pipeline.plots",) if out.png else ()) + (("pipeline.pdfbackend:pdf_backend",) if drawings else ())
+
+
+def render_process(args, config: RunConfig):
+    """A :class:`pipeline.renderproc.Renderer` for a one-shot run whose parts run in this
+    process and that writes images (a second core draws them; :mod:`pipeline.renderproc`),
+    else a context that does nothing. Textile runs draw in place (their pieces are laid
+    out after all parts ran)."""
+    import contextlib
+    import os
+
+    from .runner import worker_count
+
+    modules = image_modules(config)
+    if (args.one_shot and modules and hasattr(os, "fork") and config.spec.profile == "steel"
+            and worker_count(args.jobs, len(config.parts)) == 1):
+        from .renderproc import Renderer
+
+        return Renderer(modules)
+    return contextlib.nullcontext()
+
+
+def preload(config: RunConfig, images: bool = True) -> None:
     """Import now the libraries the run's outputs need, which their stages would import
     on first use anyway: in a one-shot process this is still its start (see
     :func:`entry_point`), and worker processes forked later inherit them. Nothing that
     the configuration does not ask for: ezdxf only for steel DXFs, matplotlib only for
-    previews and shop drawings."""
+    images (``images``: drawn in this process)."""
+    import importlib
+
     import trimesh.grouping  # noqa: F401 - every part's mesh figures (pipeline.stages)
 
     out = config.spec.output
-    steel = config.spec.profile == "steel"
-    if steel and out.dxf:
+    if config.spec.profile == "steel" and out.dxf:
         from . import dxf_steel, shop  # noqa: F401
-    if out.png:
-        from . import plots  # noqa: F401
-    if steel and out.dxf and (out.png if out.drawing is None else out.drawing):
-        from . import shopdrawing  # noqa: F401
+    for name in image_modules(config) if images else ():
+        module, _, function = name.partition(":")
+        loaded = importlib.import_module(module)
+        if function:
+            getattr(loaded, function)()
 
 
 def wrote_line(n_files: int, out: Path, run: str) -> str:

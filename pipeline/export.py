@@ -12,6 +12,8 @@ import numpy as np
 from .atomic import write_text
 from .config import RunConfig
 from .meshio import write_obj
+from .renderproc import render
+from .renderproc import wait as wait_for_images
 from .report import report_json
 from .stages import PartResult
 
@@ -83,20 +85,17 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             path = out_dir / f"{name}_flat.png"
             textile_preview_png(path, result.figures["textile_piece"], config.spec.units)
             written.append(path)
-        elif out.png:
-            from .plots import flat_pattern_png  # matplotlib: imported only for previews
-
+        elif out.png:  # matplotlib: imported only for previews, by the process that draws them
             path = out_dir / f"{name}_flat.png"
-            flat_pattern_png(path, pattern.outline, pattern.bend_lines,
-                             f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)
+            render("pipeline.plots:flat_pattern_png", path, pattern.outline, pattern.bend_lines,
+                   f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)
             written.append(path)
     if out.png and result.solution is not None and result.solution.kind != "coplanar":
-        from .plots import solution_diagram_png
-
         path = out_dir / f"{name}_solutions.png"
-        solution_diagram_png(path, result.solution, result.part.c.domain, result.part.d.domain,
-                             f"{name}: {result.solution.message}")
+        render("pipeline.plots:solution_diagram_png", path, result.solution, result.part.c.domain,
+               result.part.d.domain, f"{name}: {result.solution.message}")
         written.append(path)
+    wait_for_images()  # the part's images (and their errors) before its report
     path = out_dir / f"{name}.json"
     result.figures["files"] = [p.name for p in written] + [path.name]
     write_text(path, report_json(result, config.spec.units))
@@ -192,14 +191,12 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
 
         written.append(out_dir / f"{style}_plan.dxf")
         write_plan_dxf(written[-1], classed, config.mm_per_unit)
-    if config.spec.output.png and len(results) > 1:
-        from .plots import hull_png, sheet_png  # matplotlib only when there are images
-
+    if config.spec.output.png and len(results) > 1:  # matplotlib only when there are images
         ok = [r for r in results if r.ok]
         if ok:
             path = out_dir / f"{style}_sheet.png"
-            sheet_png(path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok], config.spec.units,
-                      config.mm_per_unit)
+            render("pipeline.plots:sheet_png", path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok],
+                   config.spec.units, config.mm_per_unit)
             written.append(path)
         classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
         if classed:
@@ -211,8 +208,10 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
         hull = [r for r in results if r.part.hull is not None and r.strip is not None and r.strip.trim is not None]
         if hull:
             path = out_dir / f"{style}_hull.png"
-            hull_png(path, [(r.name, r.strip.vertices, len(r.strip.samples),
-                             (r.figures.get("hull_fit") or {}).get("max_distance", 0.0)) for r in hull],
-                     hull[0].part.hull.fit_tolerance, config.spec.units)
+            render("pipeline.plots:hull_png", path, [(r.name, r.strip.vertices, len(r.strip.samples),
+                                                      (r.figures.get("hull_fit") or {}).get("max_distance", 0.0))
+                                                     for r in hull],
+                   hull[0].part.hull.fit_tolerance, config.spec.units)
             written.append(path)
+    wait_for_images()
     return written

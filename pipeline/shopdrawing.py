@@ -7,7 +7,9 @@ beyond the plate's d side with their spacing dimensioned, the overall dimensions
 texts of the layout (edge names, bend marks, part data) at their place on the plate, and
 a title block with the part data, the scale and the bending lines' radii and roll sides.
 One ``Figure`` with the PDF canvas (no pyplot), few artists: a drawing costs a few
-hundredths of a second.
+hundredths of a second. The sheet and scale are chosen where the drawing is asked for;
+the page itself is drawn by :func:`draw_sheet` through :func:`pipeline.renderproc.render`
+(in the render process of a one-shot run), so this module imports matplotlib only there.
 """
 
 from __future__ import annotations
@@ -15,15 +17,10 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import matplotlib
 import numpy as np
-from matplotlib.collections import LineCollection, PolyCollection
-from matplotlib.figure import Figure
 
 from .atomic import atomic_path
-from .pdfbackend import pdf_backend
-
-FigureCanvasPdf = pdf_backend().FigureCanvasPdf  # without fontTools' subsetter: core fonts embed nothing
+from .renderproc import render
 
 PAPERS = (("A4", 297.0, 210.0), ("A3", 420.0, 297.0))  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 5000)
@@ -65,6 +62,17 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     lo, hi = cut.min(axis=0), cut.max(axis=0)
     span = hi - lo
     paper, pw, ph, scale = choose_sheet(span)
+    render("pipeline.shopdrawing:draw_sheet", target, layout, title, part_data, bends, spacing, notes, edges,
+           (paper, pw, ph, scale))
+    return {"file": Path(target).name, "paper": f"{paper} landscape", "scale": f"1:{scale}",
+            "plate_extent_mm": span.tolist()}
+
+
+def draw_sheet(target, layout, title, part_data, bends, spacing, notes, edges, sheet) -> None:
+    """Write the page (arguments as :func:`write_shop_drawing`'s; ``sheet`` is
+    :func:`choose_sheet`'s answer)."""
+    import matplotlib
+
     # the core fonts' AFM metrics say "medium" where matplotlib asks for "normal": its
     # font manager would log that once per text on stderr
     quiet = logging.getLogger("matplotlib.font_manager")
@@ -72,16 +80,21 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     quiet.setLevel(logging.ERROR)
     try:
         with matplotlib.rc_context(CORE_FONTS):
-            return _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph,
-                         scale)
+            _draw(target, layout, title, part_data, bends, spacing, notes, edges, *sheet)
     finally:
         quiet.setLevel(level)
 
 
-def _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi, span, paper, pw, ph, scale):
+def _draw(target, layout, title, part_data, bends, spacing, notes, edges, paper, pw, ph, scale):
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.figure import Figure
+
+    from .pdfbackend import pdf_backend
+
     cut = layout.cut
+    lo, hi = cut.min(axis=0), cut.max(axis=0)
     fig = Figure(figsize=(pw / 25.4, ph / 25.4))
-    FigureCanvasPdf(fig)
+    pdf_backend().FigureCanvasPdf(fig)  # without fontTools' subsetter: the core fonts embed nothing
     # the drawing area in paper mm; one axes whose data unit is the plate's mm at 1:scale
     area = np.array([MARGIN + ROOM, MARGIN + TITLE_H + ROOM, pw - MARGIN - ROOM, ph - MARGIN - ROOM])
     size = area[2:] - area[:2]
@@ -139,13 +152,13 @@ def _draw(target, layout, title, part_data, bends, spacing, notes, edges, lo, hi
                     family="monospace", linespacing=1.25, wrap=False)
     with atomic_path(target) as tmp:
         fig.savefig(tmp, format="pdf", metadata={"Title": title, "Creator": "devflat"})
-    return {"file": Path(target).name, "paper": f"{paper} landscape", "scale": f"1:{scale}",
-            "plate_extent_mm": span.tolist()}
 
 
 def _bend_numbers(ax, bends: list, spacing: float | None, paper_mm: float) -> None:
     """Numbers beyond the d end of each bending line, and the spacing between neighbours
     dimensioned along them (positions in plate mm, offsets in paper mm)."""
+    from matplotlib.collections import LineCollection
+
     if not bends:
         return
     ends, dirs = [], []
@@ -197,6 +210,8 @@ def _edge_names(ax, edges: dict, cut: np.ndarray, paper_mm: float) -> None:
 
 def _overall(ax, lo: np.ndarray, hi: np.ndarray, paper_mm: float) -> None:
     """Overall length under the plate and height on its left, with extension lines."""
+    from matplotlib.collections import LineCollection
+
     y = lo[1] - 12.0 * paper_mm
     x = lo[0] - 12.0 * paper_mm
     segments = [[(lo[0], y), (hi[0], y)], [(lo[0], y - paper_mm), (lo[0], lo[1] - 2 * paper_mm)],

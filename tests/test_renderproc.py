@@ -1,0 +1,85 @@
+"""The render process of a one-shot run (pipeline.renderproc): the same files as drawn in
+place, the jobs' errors raised in the run with their type, no hang when it dies."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.cli import main
+from pipeline.renderproc import ACTIVE, Renderer, render, wait
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the render process is forked")
+
+# a trapezoid plate (mm) and three bending lines across it
+OUTLINE = np.array([[0.0, 0.0], [3000.0, 0.0], [2600.0, 1200.0], [400.0, 1200.0]])
+BENDS = np.array([[[750.0 * k, 0.0], [750.0 * k, 1200.0]] for k in (1, 2, 3)])
+FLAT = "pipeline.plots:flat_pattern_png"
+
+
+def test_images_drawn_by_the_render_process_are_the_bytes_drawn_in_place(tmp_path):
+    render(FLAT, tmp_path / "here.png", OUTLINE, BENDS, "plate: flat pattern", "mm")
+    assert ACTIVE.get() is None
+    with Renderer(("pipeline.plots",)) as renderer:
+        assert ACTIVE.get() is renderer
+        for k in range(6):  # more than IN_FLIGHT: the run waits for answers as it sends
+            render(FLAT, tmp_path / f"there{k}.png", OUTLINE, BENDS, "plate: flat pattern", "mm")
+        wait()
+        assert renderer.pending == 0
+    assert ACTIVE.get() is None
+    here = (tmp_path / "here.png").read_bytes()
+    assert here[:8] == b"\x89PNG\r\n\x1a\n"
+    for k in range(6):
+        assert (tmp_path / f"there{k}.png").read_bytes() == here
+
+
+def test_a_job_error_is_raised_in_the_run_with_its_type(tmp_path):
+    with Renderer(("pipeline.plots",)):
+        render(FLAT, tmp_path / "no such folder" / "flat.png", OUTLINE, BENDS, "t", "mm")
+        render(FLAT, tmp_path / "fine.png", OUTLINE, BENDS, "t", "mm")
+        with pytest.raises(FileNotFoundError) as raised:  # an OSError stays one: an output fault
+            wait()
+        assert "in the render process" in "".join(raised.value.__notes__)
+        render(FLAT, tmp_path / "bad.png", OUTLINE[:, :1], BENDS, "t", "mm")  # (N, 1): not a plane outline
+        with pytest.raises(IndexError):
+            wait()
+    assert (tmp_path / "fine.png").exists()  # the jobs after a failed one still ran
+
+
+def test_a_killed_render_process_fails_the_wait_and_leaves_no_child(tmp_path):
+    with pytest.raises(RuntimeError, match="render process ended"):
+        with Renderer(("pipeline.plots",)) as renderer:
+            os.kill(renderer.pid, signal.SIGKILL)
+            render(FLAT, tmp_path / "flat.png", OUTLINE, BENDS, "t", "mm")
+            wait()
+    with pytest.raises(ChildProcessError):
+        os.waitpid(renderer.pid, os.WNOHANG)  # reaped by the with block
+
+
+def test_a_one_shot_run_writes_what_an_in_process_run_writes(tmp_path):
+    """`python -m pipeline run` (render process, frozen collector) against main() here."""
+    config = ROOT / "configs" / "plate.yaml"
+    assert main(["run", str(config), "--out", str(tmp_path / "here"), "--quiet"]) == 0
+    env = dict(os.environ, PYTHONPATH=str(ROOT), SOURCE_DATE_EPOCH="0")
+    done = subprocess.run([sys.executable, "-m", "pipeline", "run", str(config), "--out", str(tmp_path / "there")],
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1].startswith("wrote 8 files")
+    here, there = sorted(p.name for p in (tmp_path / "here").iterdir()), sorted(
+        p.name for p in (tmp_path / "there").iterdir())
+    assert here == there and "bilge_plate_drawing.pdf" in there
+    for name in ("bilge_plate_flat.png", "bilge_plate_solutions.png", "bilge_plate.obj"):
+        assert (tmp_path / "here" / name).read_bytes() == (tmp_path / "there" / name).read_bytes(), name
+    report = json.loads((tmp_path / "there" / "bilge_plate.json").read_text())
+    assert report == json.loads((tmp_path / "here" / "bilge_plate.json").read_text())
+    assert report["layout"]["drawings"][0]["file"] == "bilge_plate_drawing.pdf"
+    pdf = (tmp_path / "there" / "bilge_plate_drawing.pdf").read_bytes()
+    assert pdf.startswith(b"%PDF") and b"/CreationDate (D:19700101000000Z)" in pdf
