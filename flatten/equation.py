@@ -144,6 +144,20 @@ class DevelopabilityField:
                 out[a] = out[a - 1] * x * (a / (a - order))
         return out.T
 
+    @staticmethod
+    def _powers_01(x: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`_powers` (x, n, 0), :meth:`_powers` (x, n, 1)) by one recurrence on
+        both rows (the same products, half the array operations)."""
+        out = np.zeros((2, n, len(x)))
+        out[0, 0] = 1.0
+        ratio = np.array([[1.0], [1.0]])
+        for a in range(1, n):
+            ratio[1, 0] = a / (a - 1) if a > 1 else 1.0
+            out[:, a] = out[:, a - 1] * x * ratio
+            if a == 1:
+                out[1, 1] = 1.0  # d/dx x = 1 (the recurrence starts there)
+        return out[0].T, out[1].T
+
     def _prepare(self, t, T, spans):
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         T = np.atleast_1d(np.asarray(T, dtype=np.float64))
@@ -217,10 +231,16 @@ class DevelopabilityField:
         inner product), for the judge's Newton loops that need both."""
         if np.size(t) == 1 and np.size(T) == 1:
             return self(t, T).reshape(-1), self.gradient(t, T)
-        _, m, s, sig, hc, hd = self._prepare(t, T, None)
+        t, T = np.asarray(t, dtype=np.float64), np.asarray(T, dtype=np.float64)
+        if t.ndim == 1 and t.shape == T.shape:  # the judge's case: no broadcasting to do
+            i, s, hc = self._local(self.c, t)
+            j, sig, hd = self._local(self.d, T)
+            m = self.cells[i, j]
+        else:
+            _, m, s, sig, hc, hd = self._prepare(t, T, None)
         a, b = self.cells.shape[2:]
-        ps0, ps1 = self._powers(s, a, 0), self._powers(s, a, 1)
-        pt0, pt1 = self._powers(sig, b, 0), self._powers(sig, b, 1)
+        ps0, ps1 = self._powers_01(s, a)
+        pt0, pt1 = self._powers_01(sig, b)
         inner = np.einsum("nab,nb->na", m, pt0)
         f = np.einsum("na,na->n", ps0, inner)
         ft = np.einsum("na,na->n", ps1, inner) / hc
@@ -249,37 +269,58 @@ class DevelopabilityField:
         Returns (line index (R,), T (R,), vanishing (N, n_d_spans)): vanishing marks
         spans of d on which f(t_k, ·) is identically zero (a fan with apex c(t_k)).
         """
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        i, s, _ = self._local(self.c, t)
-        return self._line_roots(i, self._powers(s, self.cells.shape[2], 0), self.cells,
-                                self.live_cells(zero_relative), self.d, zero_relative,
-                                self._zero_level(zero_relative))
+        return self.roots_on_lines(t, np.zeros(0), zero_relative)[0]
 
     def roots_in_t(self, T: np.ndarray, zero_relative: float = 1e-11):
         """Every real root t of f(t, T_k) = 0 for a batch of T (see :meth:`roots_in_T`)."""
+        return self.roots_on_lines(np.zeros(0), T, zero_relative)[1]
+
+    def roots_on_lines(self, t: np.ndarray, T: np.ndarray, zero_relative: float = 1e-11):
+        """(:meth:`roots_in_T` (t), :meth:`roots_in_t` (T)) with one batched root solve
+        where the degrees in t and T agree (the polynomials are solved row by row)."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         T = np.atleast_1d(np.asarray(T, dtype=np.float64))
+        live, level = self.live_cells(zero_relative), self._zero_level(zero_relative)
+        i, s, _ = self._local(self.c, t)
         j, sig, _ = self._local(self.d, T)
-        return self._line_roots(j, self._powers(sig, self.cells.shape[3], 0), self.cells.transpose(1, 0, 3, 2),
-                                self.live_cells(zero_relative).T, self.c, zero_relative,
-                                self._zero_level(zero_relative).T)
+        sides = [(i, self._powers(s, self.cells.shape[2], 0), self.cells, live, level, self.d),
+                 (j, self._powers(sig, self.cells.shape[3], 0), self.cells.transpose(1, 0, 3, 2), live.T,
+                  level.T, self.c)]
+        lines = [self._line_polynomials(row, powers, cells, on) for row, powers, cells, on, _, _ in sides]
+        (_, _, first), (_, _, second) = lines
+        if first.shape[1] == second.shape[1]:
+            row, root, vanishing = real_roots_unit_interval(np.concatenate([first, second]),
+                                                            zero_relative=zero_relative)
+            lower = row < len(first)
+            solved = [(row[lower], root[lower], vanishing[:len(first)]),
+                      (row[~lower] - len(first), root[~lower], vanishing[len(first):])]
+        else:
+            solved = [real_roots_unit_interval(coefs, zero_relative=zero_relative) for _, _, coefs in lines]
+        return tuple(self._line_roots(row_k, cells.shape[1], line, span, coefs, found, lev, curve)
+                     for (row_k, _, cells, _, lev, curve), (line, span, coefs), found in zip(sides, lines, solved))
 
     @staticmethod
-    def _line_roots(cell_row: np.ndarray, powers: np.ndarray, cells: np.ndarray, live: np.ndarray,
-                    curve: NurbsCurve, zero_relative: float, level: np.ndarray):
-        """Roots along the other curve for lines through cell rows ``cell_row`` (N,).
+    def _line_polynomials(cell_row: np.ndarray, powers: np.ndarray, cells: np.ndarray, live: np.ndarray):
+        """(line, span, coefficients (K, B)) of f along lines through cell rows ``cell_row`` (N,).
 
         ``powers`` (N, A): powers of the lines' local variable; ``cells`` (n_rows, n_spans,
-        A, B) oriented so that the line variable comes first; ``live`` and ``level``
-        (n_rows, n_spans) in the same orientation.
+        A, B) oriented so that the line variable comes first; ``live`` (n_rows, n_spans)
+        in the same orientation.
         Only (line, span) pairs whose cell may hold a zero (:attr:`live_cells`) are
         solved: a cell whose Bernstein coefficients keep one sign beyond the zero level
         holds neither a root nor a vanishing line, and a branch meets O(spans) cells of
         the rectangle, so the work and memory are linear in the spans, not quadratic.
         """
-        n, n_spans = len(cell_row), cells.shape[1]
         line, span = np.nonzero(live[cell_row])
-        coefs = np.einsum("ka,kab->kb", powers[line], cells[cell_row[line], span])
-        row, root, vanishing = real_roots_unit_interval(coefs, zero_relative=zero_relative)
+        return line, span, np.einsum("ka,kab->kb", powers[line], cells[cell_row[line], span])
+
+    @staticmethod
+    def _line_roots(cell_row: np.ndarray, n_spans: int, line: np.ndarray, span: np.ndarray, coefs: np.ndarray,
+                    found, level: np.ndarray, curve: NurbsCurve):
+        """Roots along the other curve from the solved line polynomials (see
+        :meth:`_line_polynomials`; ``found`` = (row, root, vanishing) of the root solver)."""
+        n = len(cell_row)
+        row, root, vanishing = found
         # identically zero on the line (a fan on the line): small against f's size on
         # the cell, and not above round-off of the natural scale (nearly coplanar curves
         # have an f far below its natural scale, but a zero line is zero to round-off)
@@ -312,6 +353,11 @@ class DevelopabilityField:
         out.setflags(write=False)
         return out
 
+    @cached_property
+    def _live(self) -> dict:
+        """:meth:`live_cells` by zero level (every seed line set of a solve asks again)."""
+        return {}
+
     def live_cells(self, zero_relative: float = 1e-11) -> np.ndarray:
         """(n_c_spans, n_d_spans) bool: cells where f may vanish (or nearly vanish on a line).
 
@@ -320,13 +366,18 @@ class DevelopabilityField:
         rounding of the coefficients and 1e-9 of their largest (the margin of the line
         solver's own sign filter, so that no near-double root is dropped).
         """
-        bern = self.bernstein
-        flat = bern.reshape(bern.shape[0], bern.shape[1], -1)
-        lo, hi = flat.min(axis=2), flat.max(axis=2)
-        big = np.maximum(np.abs(lo), np.abs(hi))
-        margin = np.maximum.reduce([self._zero_level(zero_relative),
-                                    64.0 * np.finfo(float).eps * flat.shape[2] * self.scale, 1e-9 * big])
-        return ~((lo > margin) | (hi < -margin))
+        live = self._live.get(zero_relative)
+        if live is None:
+            bern = self.bernstein
+            flat = bern.reshape(bern.shape[0], bern.shape[1], -1)
+            lo, hi = flat.min(axis=2), flat.max(axis=2)
+            big = np.maximum(np.abs(lo), np.abs(hi))
+            margin = np.maximum.reduce([self._zero_level(zero_relative),
+                                        64.0 * np.finfo(float).eps * flat.shape[2] * self.scale, 1e-9 * big])
+            live = ~((lo > margin) | (hi < -margin))
+            live.setflags(write=False)
+            self._live[zero_relative] = live
+        return live
 
     def _zero_level(self, zero_relative: float) -> np.ndarray:
         """(n_c_spans, n_d_spans) size below which f on a line counts as identically zero:

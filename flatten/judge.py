@@ -114,19 +114,25 @@ class UnitMap:
             if len(lines):
                 fixed[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
         one = fixed.sum(axis=1) == 1
+        # only the points still moving are iterated: a point the step no longer moves
+        # is a fixed point of every later iteration (they depend on the point alone)
+        active = np.arange(len(x))
         for _ in range(iterations):
-            on_side = fixed | (x <= 0.0) | (x >= 1.0)
-            p = self.to_params(x)
+            if len(active) == 0:
+                break
+            xa = x[active]
+            on_side = fixed[active] | (xa <= 0.0) | (xa >= 1.0)
+            p = self.to_params(xa)
             f, g = self.field.value_gradient(p[:, 0], p[:, 1])
             g = g * self.width
             gg = np.einsum("ij,ij->i", g, g)
             ok = gg > 0
-            step = np.zeros_like(x)
+            step = np.zeros_like(xa)
             step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
             # on a line: Newton along the free axis
-            line = (on_side.sum(axis=1) == 1) | one
+            line = (on_side.sum(axis=1) == 1) | one[active]
             free = np.argmin(on_side, axis=1)
-            g_free = g[np.arange(len(x)), free]
+            g_free = g[np.arange(len(xa)), free]
             # (not where f is constant along the line: a fan lying on it)
             along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
             step[along] = 0.0
@@ -135,12 +141,13 @@ class UnitMap:
             # a long step would throw the point onto another branch
             step[np.hypot(*step.T) > 1e-4] = 0.0
             step[on_side] = 0.0
-            moved = np.clip(x - step, 0.0, 1.0)
-            # a point the step no longer moves is a fixed point of every later
-            # iteration (they depend on x alone): stop once all points are
-            if np.array_equal(moved, x):
-                break
-            x = moved
+            moved = np.clip(xa - step, 0.0, 1.0)
+            x[active] = moved
+            active = active[np.any(moved != xa, axis=1)]
+            if len(active) == 1 < len(x):
+                # one point alone would take the field's one-point path (other round-off):
+                # a settled point keeps it company (it stays where it is)
+                active = np.append(active, 1 if active[0] == 0 else 0)
         x[np.abs(x) <= 1e-14] = 0.0
         x[np.abs(x - 1.0) <= 1e-14] = 1.0
         return x
@@ -433,17 +440,24 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
                 hit = _point_on_polyline(end, traces[j].points, tol)
                 if hit is not None:
                     cuts[j].append((hit[0], hit[1], end.copy()))
-    pieces = []
+    pieces, middles = [], []
     for n, trace in enumerate(traces):
         for part in _cut_polyline(trace.points, trace.closed, cuts[n], tol):
             if len(part) < 2:
                 continue
-            if len(part) > 2:
-                acc = tuple(bool(v) for v in _classes(unit, part[len(part) // 2][None])[0])
+            if len(part) > 2:  # judged at its middle point, below, all pieces at once
+                acc = None
+                middles.append(part[len(part) // 2])
             else:  # a two-point piece: judge by its direction
                 slope = np.prod(part[-1] - part[0])
                 acc = (bool(slope >= -1e-18), bool(slope <= 1e-18))
             pieces.append((part, acc, n))
+    if middles:
+        # the gradient point by point, as :func:`_classes` of one point takes it
+        middle = np.array(middles)
+        grad = np.vstack([unit.gradient(x[None]) for x in middle])
+        judged = iter(_acceptability(unit, middle, grad).tolist())
+        pieces = [(part, tuple(next(judged)) if acc is None else acc, n) for part, acc, n in pieces]
     return pieces, turning, unchecked
 
 
@@ -666,8 +680,10 @@ def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
             fans.append({"apex_on": "d", "T": float(pts[0, 1]),
                          "t_interval": [float(pts[0, 0]), float(pts[-1, 0])], **extra})
     cov = coverage(c, d, (points[0, 0], points[-1, 0]), sorted((points[0, 1], points[-1, 1])))
+    # a path of one piece is that piece (the usual plate): its area is already known
+    one = len(chain) == 1 and np.array_equal(points, candidates[chain[0]][1])
     cov = Coverage(cov.t_interval, cov.T_interval, cov.c_length, cov.d_length, cov.c_fraction,
-                   cov.d_fraction, strip_area(c, d, points))
+                   cov.d_fraction, gains[chain[0]][2] if one else strip_area(c, d, points))
     return Path(points, tuple(candidates[i][0] for i in chain), cov, tuple(fans), orientation)
 
 

@@ -185,20 +185,16 @@ class NurbsCurve:
         Entry [i, k] is the coefficient of s^k with s = (t - b_i) / (b_{i+1} - b_i)
         in [0, 1] on span i (b = :attr:`breakpoints`).
         """
-        pw = self.homogeneous.c
-        coefs = []
-        for axis in range(4):
-            pp = ppoly_from_spline(BSpline(self.knots, pw[:, axis], self.degree))
-            coefs.append(pp)
+        # the Taylor coefficients of ppoly_from_spline, all four coordinates in one
+        # evaluation of the homogeneous B-spline per derivative order (the same values)
+        k, t = self.degree, self.knots
+        x = np.unique(t[k: len(t) - k])
+        desc = np.array([self.homogeneous(x[:-1], nu=k - m) / factorial(k - m) for m in range(k + 1)])
         starts = self.breakpoints[:-1]
         widths = np.diff(self.breakpoints)
-        out = np.empty((len(starts), self.degree + 1, 4))
-        for axis, pp in enumerate(coefs):
-            idx = np.searchsorted(pp.x, starts, side="right") - 1
-            desc = pp.c[:, idx]  # (degree+1, n_spans), powers of (t - x_i) descending
-            asc = desc[::-1].T  # (n_spans, degree+1) ascending
-            out[:, :, axis] = asc * widths[:, None] ** np.arange(self.degree + 1)
-        return _readonly(out)
+        idx = np.searchsorted(x, starts, side="right") - 1
+        asc = desc[::-1][:, idx].transpose(1, 0, 2)  # (n_spans, degree+1, 4) ascending powers
+        return _readonly(asc * (widths[:, None] ** np.arange(k + 1))[:, :, None])
 
     @cached_property
     def bezier_control_points(self) -> np.ndarray:

@@ -165,13 +165,22 @@ class _Block:
             return boxes[~met]
         pts = np.vstack(dense)
         tree = cKDTree(pts)
-        near = tree.query_ball_point(centre, r=half.max(axis=1) + step, p=np.inf, return_sorted=False)
-        counts = np.fromiter(map(len, near), dtype=int, count=len(near))
-        if counts.sum():
+        reach = half.max(axis=1) + step
+        if reach.max() <= 2.0 * reach.min():
+            # boxes of about one size (the subdivision's target): all candidate pairs at
+            # the largest reach as index arrays, in one call
+            pairs = cKDTree(centre).sparse_distance_matrix(tree, float(reach.max()), p=np.inf,
+                                                           output_type="ndarray")
+            box, idx = pairs["i"].astype(np.intp), pairs["j"].astype(np.intp)
+        else:
+            near = tree.query_ball_point(centre, r=reach, p=np.inf, return_sorted=False)
+            counts = np.fromiter(map(len, near), dtype=int, count=len(near))
             box = np.repeat(np.arange(len(boxes)), counts)
-            idx = np.concatenate([np.asarray(n, dtype=int) for n in near[counts > 0]])
-            inside = np.all(np.abs(pts[idx] - centre[box]) - half[box] <= step, axis=1)
-            met[box[inside]] = True
+            idx = np.concatenate([np.asarray(n, dtype=np.intp) for n in near[counts > 0]] or [np.zeros(0, np.intp)])
+        # a point within step of the box (either axis) meets it; a candidate beyond the
+        # box's own reach fails this test, so the common reach changes nothing
+        inside = np.all(np.abs(pts[idx] - centre[box]) - half[box] <= step, axis=1)
+        met[box[inside]] = True
         return boxes[~met]
 
 
@@ -379,7 +388,9 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
     if path is not None:
         checked.append(path.points)
     all_points = np.vstack(checked) if checked else np.zeros((0, 2))
-    point_residual = normalized_residual(c, d, all_points[:, 0], all_points[:, 1])
+    # branch, piece and path points are mostly the same points: each is checked once
+    unique, inverse = np.unique(all_points, axis=0, return_inverse=True)
+    point_residual = normalized_residual(c, d, unique[:, 0], unique[:, 1])[inverse.ravel()]
     residual = float(point_residual.max(initial=0.0))
     if residual > tol.residual:
         bad = all_points[point_residual > tol.residual]

@@ -147,8 +147,11 @@ class _UnitField:
         j = min(max(bisect_right(bd, T) - 1, 0), self.last_d)
         hd = bd[j + 1] - bd[j]
         sig = (T - bd[j]) / hd
+        rows = self._rows.get(i * (self.last_d + 1) + j)
+        if rows is None:
+            rows = self._cell_rows(i, j)
         f = fs = fg = 0.0
-        for row in self._cell_rows(i, j):  # powers of s, highest first
+        for row in rows:  # powers of s, highest first
             q = dq = 0.0
             for coef in row:  # powers of σ, highest first
                 dq = dq * sig + q
@@ -193,8 +196,8 @@ def find_seeds(field: DevelopabilityField, tol: Tolerances, extra_u=(), extra_U=
     unit = _UnitField(field)
     u_lines = _merge_lines(grid_lines(field.c.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines), extra_u)
     U_lines = _merge_lines(grid_lines(field.d.breakpoints, tol.grid_lines_per_span, tol.min_grid_lines), extra_U)
-    line_v, T, van_u = field.roots_in_T(unit.t0 + u_lines * unit.dt, tol.zero_relative)
-    line_h, t, van_U = field.roots_in_t(unit.T0 + U_lines * unit.dT, tol.zero_relative)
+    (line_v, T, van_u), (line_h, t, van_U) = field.roots_on_lines(
+        unit.t0 + u_lines * unit.dt, unit.T0 + U_lines * unit.dT, tol.zero_relative)
     pts_v = np.column_stack([u_lines[line_v], (T - unit.T0) / unit.dT])
     pts_h = np.column_stack([(t - unit.t0) / unit.dt, U_lines[line_h]])
     return GridSeeds(
@@ -263,12 +266,15 @@ class _Tracer:
     def _crossings(self, x, y) -> list[tuple[float, int]]:
         """Seeds on grid lines crossed by the chord x -> y, as (chord fraction, seed)."""
         found = []
-        chord = (y[0] - x[0], y[1] - x[1])
-        length = math.hypot(*chord)
+        chord = None
         for axis in (0, 1):
             lines = self.lines[axis]
             lo, hi = (x[axis], y[axis]) if x[axis] <= y[axis] else (y[axis], x[axis])
-            for idx in range(bisect_left(lines, lo - 1e-15), bisect_right(lines, hi + 1e-15)):
+            first, last = bisect_left(lines, lo - 1e-15), bisect_right(lines, hi + 1e-15)
+            if first < last and chord is None:  # most steps cross no grid line
+                chord = (y[0] - x[0], y[1] - x[1])
+                length = math.hypot(*chord)
+            for idx in range(first, last):
                 frac = (lines[idx] - x[axis]) / chord[axis] if chord[axis] != 0.0 else 0.0
                 if frac <= 1e-12:
                     continue  # the start point itself
@@ -363,21 +369,45 @@ class _Tracer:
 
     # -- continuation --------------------------------------------------------
     def _step(self, x, tangent, h: float):
+        """One predictor-corrector step of length h from x along the unit tangent:
+        ((u, U), tangent there) or None. :meth:`_UnitField.project` and
+        :meth:`_UnitField.tangent` written out (the same float operations): a step is
+        the tracer's inner loop, and calls cost as much as its arithmetic."""
+        value_gradient = self.unit.value_gradient
+        x0, x1 = x
+        t0, t1 = tangent
+        u, U = x0 + h * t0, x1 + h * t1
         # polyline points need not be exact (they are polished afterwards and checked):
         # a Newton step of 1e-4 h is converged even where round-off keeps it from 0
-        yu, yU, ok = self.unit.project(x[0] + h * tangent[0], x[1] + h * tangent[1], accept=max(1e-12, 1e-6 * h))
-        if not ok:
-            return None
-        nu, nU = self.unit.tangent(yu, yU)
-        dot = nu * tangent[0] + nU * tangent[1]
+        accept = max(1e-12, 1e-6 * h)
+        stop = max(1e-14, accept)
+        size = math.inf
+        for _ in range(8):  # Newton onto f = 0 along the gradient
+            f, gu, gU = value_gradient(u, U)
+            gg = gu * gu + gU * gU
+            if gg == 0.0:
+                return None
+            k = f / gg
+            su, sU = k * gu, k * gU
+            u, U = u - su, U - sU
+            size = math.sqrt(su * su + sU * sU)
+            if size <= stop:
+                break
+        else:
+            if not size <= accept:
+                return None
+        _, gu, gU = value_gradient(u, U)
+        n = math.hypot(gu, gU)
+        nu, nU = (-gU / n, gu / n) if n > 0 else (0.0, 0.0)
+        dot = nu * t0 + nU * t1
         if dot < 0:
             nu, nU, dot = -nu, -nU, -dot
-        moved = math.hypot(yu - x[0], yU - x[1])
+        moved = math.hypot(u - x0, U - x1)
         # a corrector that pulls the point back (moved ~ 0) would let the trace stall
         # forever; one that moves it far has jumped to another arm
         if dot < 0.9 or moved > 2.0 * h or moved < 0.25 * h:
             return None
-        return (yu, yU), (nu, nU)
+        return (u, U), (nu, nU)
 
     def trace_one_way(self, start, direction: float):
         tol = self.tol
@@ -388,11 +418,14 @@ class _Tracer:
         points = [x]
         h = min(tol.trace_step, self._cap(x))
         travelled = 0.0
+        # per-step work is a few field evaluations: skip the calls that cannot matter
+        capped, kinked = bool(self.caps), bool(self.kinks[0] or self.kinks[1])
+        trace_step, trace_min_step = tol.trace_step, tol.trace_min_step
         for _ in range(tol.trace_max_steps):
             attempt = None
-            cap = self._cap(x)
+            cap = self._cap(x) if capped else math.inf
             h = min(h, cap)
-            kink = self._kink_crossing(x, tangent, h)
+            kink = self._kink_crossing(x, tangent, h) if kinked else None
             if kink is not None:  # step onto the knot line, turn to the far side's tangent
                 k, far_tangent = kink
                 y = self.pts[k]
@@ -406,7 +439,7 @@ class _Tracer:
                 x, tangent = y, far_tangent
                 continue
             trial = h
-            min_step = min(tol.trace_min_step, 0.125 * cap)
+            min_step = min(trace_min_step, 0.125 * cap)
             while trial >= min_step and attempt is None:
                 attempt = self._step(x, tangent, trial)
                 if attempt is None:
@@ -444,7 +477,7 @@ class _Tracer:
                 return points, END_LOOP
             points.append(y)
             x, tangent = y, new_tangent
-            h = min(trial * 1.5, tol.trace_step)
+            h = min(trial * 1.5, trace_step)
         return points, END_STEP_LIMIT
 
     def trace_from(self, seed_index: int) -> Trace:
