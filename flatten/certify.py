@@ -80,17 +80,21 @@ def bernstein_cells(field: DevelopabilityField) -> np.ndarray:
 
 def _halves(coefs: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     """De Casteljau split at 1/2 of Bernstein coefficients (K, A, B) along axis 1 or 2."""
-    work = np.moveaxis(coefs, axis, -1)
-    n = work.shape[-1]
-    left, right = [work[..., 0]], [work[..., -1]]
-    cur = work
-    for _ in range(n - 1):
-        cur = 0.5 * (cur[..., :-1] + cur[..., 1:])
-        left.append(cur[..., 0])
-        right.append(cur[..., -1])
-    lo = np.stack(left, axis=-1)
-    hi = np.stack(right[::-1], axis=-1)
-    return np.moveaxis(lo, -1, axis), np.moveaxis(hi, -1, axis)
+    def at(k):  # index of slice k along the axis
+        return (slice(None), k) if axis == 1 else (slice(None), slice(None), k)
+
+    def part(start, stop):
+        return (slice(None), slice(start, stop)) if axis == 1 else (slice(None), slice(None), slice(start, stop))
+
+    n = coefs.shape[axis]
+    lo, hi = np.empty_like(coefs), np.empty_like(coefs)
+    lo[at(0)], hi[at(n - 1)] = coefs[at(0)], coefs[at(n - 1)]
+    cur = coefs
+    for r in range(1, n):
+        m = cur.shape[axis]
+        cur = 0.5 * (cur[part(0, m - 1)] + cur[part(1, m)])
+        lo[at(r)], hi[at(n - 1 - r)] = cur[at(0)], cur[at(-1)]
+    return lo, hi
 
 
 def _split4(arrays: list[np.ndarray], boxes: np.ndarray):
