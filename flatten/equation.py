@@ -201,10 +201,13 @@ class DevelopabilityField:
         hc, hd = bc[i + 1] - bc[i], bd[j + 1] - bd[j]
         s, sig = (t - bc[i]) / hc, (T - bd[j]) / hd
         rows = self.cells[i, j].tolist()
+        # s ** k and σ ** k once for all orders (the same powers each order takes)
+        pow_s = [s ** k for k in range(len(rows))]
+        pow_sig = [sig ** k for k in range(len(rows[0]))]
         out = []
         for dt, dT in orders:
-            ps = [_falling(a, dt) * s ** (a - dt) if a >= dt else 0.0 for a in range(len(rows))]
-            pt = [_falling(b, dT) * sig ** (b - dT) if b >= dT else 0.0 for b in range(len(rows[0]))]
+            ps = [_falling(a, dt) * pow_s[a - dt] if a >= dt else 0.0 for a in range(len(rows))]
+            pt = [_falling(b, dT) * pow_sig[b - dT] if b >= dT else 0.0 for b in range(len(rows[0]))]
             val = 0.0
             for pa, row in zip(ps, rows):
                 if pa != 0.0:

@@ -6,6 +6,7 @@ All functions take traces in the unit square (u, U) and the developability field
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from functools import cached_property
 
 import numpy as np
@@ -559,7 +560,9 @@ def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) 
         for n, h in zip(*np.nonzero(near)):
             knot, cls = inner[n], classes[n]
             t, T = params[h]
-            ic, jd = int(field.c.span_index(t)), int(field.d.span_index(T))
+            # NurbsCurve.span_index (the last span holds the domain end), in floats
+            ic = min(max(bisect_right(field._breaks[0], t) - 1, 0), field.c.n_spans - 1)
+            jd = min(max(bisect_right(field._breaks[1], T) - 1, 0), field.d.n_spans - 1)
             sides = []
             for shift in (-1, 0):
                 spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)
