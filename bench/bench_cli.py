@@ -16,11 +16,14 @@ The children run as an installed devflat would: bytecode compiled once (an untim
 round) into a cache in a temporary folder, even where PYTHONDONTWRITEBYTECODE is set.
 
 Each is printed with its ratio to the baseline, in wall time and in CPU time (the
-children's user + system time: on a machine shared with other jobs wall time measures
-them too, CPU time much less), beside issue 15's targets (run <= 2x, check <= 1.2x) and the figures the issue measured before (not re-measured here: the
-old code is not run by this bench). Then the import cost of the run per library
-(``python -X importtime``, self times summed per top-level package; importtime adds its
-own overhead, so read them as shares). Warm: ``pipeline.cli.main(["run", ...])`` called
+children's user + system time, the run's render process included: on a machine shared
+with other jobs wall time measures them too, CPU time much less), beside issue 15's
+targets (run <= 2x, check <= 1.2x) and the figures measured before (printed constants:
+the old code is not run by this bench). A one-shot run with images draws them in a
+forked render process (pipeline/renderproc.py) on the second core: its wall time can be
+below its CPU time. Then the import cost of the run per library (``python -X
+importtime``, self times summed per top-level package, the render process's imports
+included; importtime adds its own overhead, so read them as shares). Warm: ``pipeline.cli.main(["run", ...])`` called
 again and again in one process whose imports are done (config read and validated,
 solve, strip, check, unroll, every file written), median, with and without previews,
 and the solve alone (``flatten.solve`` on the same curves).
@@ -44,8 +47,10 @@ from common import ROOT, machine_line
 import yaml  # noqa: E402
 
 BARE = "import numpy, scipy.interpolate, scipy.optimize"
-# issue 15, measured on this 2-core machine before this work (its own runs, not ours)
-BEFORE = {"run": "~1.8 s, 4x", "check": "2.1x", "warm": "0.57 s (previews 60 %)"}
+# measured on this 2-core machine before the CLI start-up work: issue 15's own runs, then
+# this bench near idle on main 1960379 (wall)
+BEFORE = {"run": "4x; 1.851 s, 4.33x", "check": "2.1x; 0.650 s, 1.52x", "warm": "0.57 s; 0.339 s",
+          "warm off": "0.189 s"}
 
 
 def child_env(cache: Path) -> dict:
@@ -135,7 +140,7 @@ def main(argv=None) -> int:
             targets = {"check": "<= 1.2x", "run": "<= 2x", "run, png off": "-"}
             print()
             print(f"{'one-shot':<14}{'wall s':>8}{'x base':>8}{'CPU s':>8}{'x base':>8}{'target':>10}"
-                  "   before (issue 15)")
+                  "   before (issue 15; main 1960379 near idle)")
             for name in commands:
                 print(f"{name:<14}{wall[name]:>8.3f}{wall[name] / wall['baseline']:>8.2f}{cpu[name]:>8.3f}"
                       f"{cpu[name] / cpu['baseline']:>8.2f}{targets.get(name, ''):>10}   {BEFORE.get(name, '')}")
@@ -147,7 +152,7 @@ def main(argv=None) -> int:
             for name, seconds in shares:
                 print(f"  {name:<18}{seconds:>8.3f} s{100 * seconds / total:>7.1f} %")
             print("  of which the baseline imports numpy and scipy; check imports neither trimesh, "
-                  "ezdxf nor matplotlib")
+                  "ezdxf nor matplotlib; matplotlib is imported by the render process")
 
             sys.path.insert(0, str(ROOT))
             from flatten import solve
@@ -167,8 +172,9 @@ def main(argv=None) -> int:
             print()
             print(f"warm, one process, per plate ({n_parts} part(s) in the config): the whole `run` "
                   "(config, solve, strip, check, unroll, shop outline and layout, files)")
-            print(f"{'':<22}{'wall s':>8}{'CPU s':>8}{'target':>9}   before (issue 15)")
-            rows = [("previews on", with_png, "<= 0.3", BEFORE["warm"]), ("previews off", without, "<= 0.15", ""),
+            print(f"{'':<22}{'wall s':>8}{'CPU s':>8}{'target':>9}   before (issue 15; main 1960379, wall)")
+            rows = [("previews on", with_png, "<= 0.3", BEFORE["warm"]),
+                    ("previews off", without, "<= 0.15", BEFORE["warm off"]),
                     ("  previews alone", (with_png[0] - without[0], with_png[1] - without[1]), "", ""),
                     ("  solve alone", (statistics.median(solve_wall) * n_parts, statistics.median(solve_cpu) * n_parts),
                      "", "(flatten.solve, part 1)")]

@@ -163,14 +163,14 @@ def render_process(args, config: RunConfig):
     """A :class:`pipeline.renderproc.Renderer` for a one-shot run whose parts run in this
     process and that writes images (a second core draws them; :mod:`pipeline.renderproc`),
     else a context that does nothing. Textile runs draw in place (their pieces are laid
-    out after all parts ran)."""
+    out after all parts ran); so do systems other than Linux (fork without exec is unsafe
+    on macOS, absent on Windows)."""
     import contextlib
-    import os
 
     from .runner import worker_count
 
     modules = image_modules(config)
-    if (args.one_shot and modules and hasattr(os, "fork") and config.spec.profile == "steel"
+    if (args.one_shot and modules and sys.platform.startswith("linux") and config.spec.profile == "steel"
             and worker_count(args.jobs, len(config.parts)) == 1):
         from .renderproc import Renderer
 

@@ -1,16 +1,17 @@
-"""The hull picture of a shell expansion: every plate's region coloured by its class."""
+"""The hull picture of a shell expansion: every plate's region coloured by its class.
+
+matplotlib is imported by :func:`class_hull_png` only (the plan DXF uses
+:func:`plate_ring` without it), and as in :mod:`pipeline.plots` without pyplot: a bare
+``Figure`` on the Agg canvas (no figure registry, no backend selection).
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .atomic import atomic_path  # noqa: E402
+from .atomic import atomic_path
 
 # "developable" is devflat's strip; "patch" a hull patch developed within the tolerance
 # (rolled, no strip between those seams): the shares keep them apart
@@ -62,28 +63,43 @@ def shell_area(result) -> float:
 
 def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, title: str | None = None) -> dict:
     """Side and bottom views of the plates coloured flat / developable (strip) / patch /
-    formed / failed; returns the shell area of each (m^2, regions on the hull inside trims)."""
-    from matplotlib.collections import PolyCollection
+    formed / failed; returns the shell area of each (m^2, regions on the hull inside trims).
+    The picture is drawn by :func:`draw_class_hull` through :func:`pipeline.renderproc.render`
+    (in the render process of a one-shot run: only the rings and colours are sent)."""
+    from .renderproc import render
 
+    rings, colours = [], []
+    for r in results:
+        ring = plate_ring(r)
+        if ring is not None:
+            rings.append(ring)
+            colours.append(CLASS_COLOURS.get(display_class(r), CLASS_COLOURS["failed"]))
     areas = {k: 0.0 for k in CLASS_COLOURS}
-    fig, axes = plt.subplots(2, 1, figsize=(12, 7), dpi=110, sharex=True)
+    for r in results:
+        areas[display_class(r)] += shell_area(r)
+    render("pipeline.hullplots:draw_class_hull", target, rings, colours, areas, units, title)
+    return areas
+
+
+def draw_class_hull(target: str | Path, rings: list, colours: list, areas: dict, units: str,
+                    title: str | None) -> None:
+    """The picture of :func:`class_hull_png`: rings (N, 3) in model units, their colours,
+    the shell area of each class (m^2)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import PolyCollection
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 7), dpi=110)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 1, sharex=True)
     for ax, (a, b), label in zip(axes, ((0, 2), (0, 1)), ("side view (x, z)", "bottom view (x, y)")):
-        polygons, colours = [], []
-        for r in results:
-            ring = plate_ring(r)
-            klass = display_class(r)
-            if ring is None:
-                continue
-            polygons.append(ring[:, [a, b]])
-            colours.append(CLASS_COLOURS.get(klass, CLASS_COLOURS["failed"]))
+        polygons = [ring[:, [a, b]] for ring in rings]
         ax.add_collection(PolyCollection(polygons, facecolors=colours, edgecolor="black", linewidth=0.3, alpha=0.85))
         ax.autoscale_view()
         ax.set_aspect("equal")
         ax.set_ylabel(f"{'zy'[b == 1]} ({units})")
         ax.set_title(label, fontsize=9)
     axes[-1].set_xlabel(f"x ({units})")
-    for r in results:
-        areas[display_class(r)] += shell_area(r)
     total = sum(areas.values()) or 1.0
     for k, colour in CLASS_COLOURS.items():
         label = f"{LABELS.get(k, k)}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)"
@@ -94,5 +110,3 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
     fig.tight_layout()
     with atomic_path(target) as tmp:
         fig.savefig(tmp, format="png")
-    plt.close(fig)
-    return areas
