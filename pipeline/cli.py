@@ -156,7 +156,7 @@ def image_modules(config: RunConfig) -> tuple[str, ...]:
     Agg canvas for PNG previews, its PDF backend for shop drawings; () for none."""
     out = config.spec.output
     drawings = config.spec.profile == "steel" and out.dxf and (out.png if out.drawing is None else out.drawing)
-    return (("pipeline.plots",) if out.png else ()) + (("pipeline.pdfbackend:pdf_backend",) if drawings else ())
+    return (("pipeline.plots",) if out.png else ()) + (("pipeline.lazymodules:pdf_backend",) if drawings else ())
 
 
 def render_process(args, config: RunConfig):
@@ -186,6 +186,9 @@ def preload(config: RunConfig, images: bool = True) -> None:
     images (``images``: drawn in this process)."""
     import importlib
 
+    from .lazymodules import defer
+
+    defer("scipy.ndimage")  # imported by trimesh's voxels, which devflat does not use
     import trimesh.grouping  # noqa: F401 - every part's mesh figures (pipeline.stages)
 
     out = config.spec.output

@@ -38,7 +38,7 @@ from shapely.geometry import LineString, box
 
 from .atomic import atomic_path
 from .config import Printout
-from .pdfbackend import pdf_backend
+from .lazymodules import pdf_backend
 from .textile import TextilePiece, label_anchor
 
 PdfPages = pdf_backend().PdfPages  # without fontTools' subsetter: Type 3 fonts do not need it

@@ -89,7 +89,7 @@ def _draw(target, layout, title, part_data, bends, spacing, notes, edges, paper,
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.figure import Figure
 
-    from .pdfbackend import pdf_backend
+    from .lazymodules import pdf_backend
 
     cut = layout.cut
     lo, hi = cut.min(axis=0), cut.max(axis=0)
