@@ -5,7 +5,11 @@ flat        the plate's region on the hull fits a plane within the fit tolerance
 developable devflat's strip fits the hull within the tolerance and covers the whole region
             (four corners included): its rulings seam to seam (between the seams, trimmed
             by the butt planes) or butt to butt (between the butt sections, trimmed by the
-            seams; :mod:`pipeline.platestrip`), whichever fits better;
+            seams; :mod:`pipeline.platestrip`), whichever fits better; where neither
+            fits but one misses by less than three tolerances, its best-fit strip (the
+            boundary curves moved off the hull so that the hull lies on both sides of the
+            rulings, :mod:`pipeline.bestfit`) is tried, and a seam strip that leans short
+            of a corner is solved again between the seams extended far past the butts;
 formed      neither: the region's own fine mesh flattened with minimal strain (libigl LSCM
             seed, then ARAP), with a strain map, shrink/stretch areas and roll lines;
             ``rolling_only`` when its strain is small enough to be rolled without heating.
@@ -30,6 +34,7 @@ from flatten.trim import barycentric
 
 from .config import Part, RunConfig
 from .outline import Outline
+from .bestfit import best_fit, seam_family_far, worth_moving
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
 from .shop import bend_text
 from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
@@ -275,20 +280,24 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
         butt = butt_family(part, config, grid, corner_tol)
     except Exception as exc:  # as above: this family is then simply not delivered
         butt.reason = _raised(exc)
-    if not hull.developable and sum(b is None for b in hull.butts) == 1:
-        # an end plate: its seams' strip trimmed by its region (the butt plane and the hull's end)
-        seam = Trim(SEAM_TO_SEAM)
+    seam = Trim(SEAM_TO_SEAM)
+    if not seam_ok:
+        # the seams' strip trimmed by the region: an end plate's only seam strip; an interior
+        # plate's when the plain one leans short of a corner (seams extended far past the butts)
+        end_plate = not hull.developable and sum(b is None for b in hull.butts) == 1
         try:
-            seam = seam_family_trimmed(part, config, grid, corner_tol)
+            if end_plate:
+                seam = seam_family_trimmed(part, config, grid, corner_tol)
+            elif hull.developable:
+                seam = seam_family_far(part, config, grid, corner_tol)
         except Exception as exc:
             seam.reason = _raised(exc)
-        why, seam_deviation = seam.reason, seam.deviation
-        if seam.ok and (not butt.ok or seam.deviation <= butt.deviation):
-            _deliver_trimmed(result, config, grid, seam, area3, _other(BUTT_TO_BUTT, butt.reason or (
-                f"fits within {butt.deviation:.4g}, the seam family within {seam.deviation:.4g}")))
-            return
-        if seam.attempt is not None:
-            attempt = seam.attempt
+    if not (seam_ok or seam.ok or butt.ok):
+        seam, butt = _moved(seam, part, config, grid), _moved(butt, part, config, grid)
+    if seam.reason:
+        why = f"{why}; {seam.reason}" if why and hull.developable else seam.reason
+    if seam.deviation is not None and (seam_deviation is None or seam.deviation < seam_deviation):
+        seam_deviation, attempt = seam.deviation, seam.attempt
     families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason}
     if seam_ok and (not butt.ok or seam_deviation <= butt.deviation):
         region = result.figures["region"]
@@ -303,9 +312,14 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                                                                  f"within {seam_deviation:.4g}"))}
         finish_part(result, config)
         return
-    if butt.ok:
-        _deliver_trimmed(result, config, grid, butt, area3, _other(SEAM_TO_SEAM, why or (
-            f"fits within {seam_deviation:.4g}, the butt family within {butt.deviation:.4g}")))
+    fitting = sorted((t for t in (seam, butt) if t.ok), key=lambda t: t.deviation)
+    if fitting:
+        chosen = fitting[0]
+        other = butt if chosen is seam else seam
+        other_family = BUTT_TO_BUTT if chosen is seam else SEAM_TO_SEAM
+        other_why = (f"fits within {other.deviation:.4g}, the chosen family within {chosen.deviation:.4g}"
+                     if other.ok else (why if other_family == SEAM_TO_SEAM else butt.reason))
+        _deliver_trimmed(result, config, grid, chosen, area3, _other(other_family, other_why))
         return
     deviations = {SEAM_TO_SEAM: seam_deviation, BUTT_TO_BUTT: butt.deviation}
     best = min((d, f) for f, d in deviations.items() if d is not None) if any(
@@ -318,6 +332,17 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                     "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                     "strip_max_deviation": best[0]},
                    roll_strip, (length, width))
+
+
+def _moved(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
+    """The trim's best-fit strip when it misses the tolerance by a little (else the trim)."""
+    if not worth_moving(trim, part.hull.fit_tolerance):
+        return trim
+    try:
+        return best_fit(trim, part, config, grid)
+    except Exception as exc:  # the plain strip's verdict stands
+        trim.reason = f"{trim.reason}; best fit: {_raised(exc)}"
+        return trim
 
 
 def _raised(exc: Exception) -> str:
@@ -373,6 +398,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
                    if trim.family == BUTT_TO_BUTT else
                    "devflat strip between the plate's seams (rulings seam to seam), trimmed by its butt and the "
                    "hull's end") + " (the region's boundary mapped onto the strip and developed)",
+        "best_fit": trim.figures.get("best_fit"), "seams_extended": trim.figures.get("seams_extended"),
         "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (mm / 1e3) ** 2,
         "complete": True, "other_family": other}
     finish_part(result, config)

@@ -97,13 +97,13 @@ def _butt_side(hull, points: np.ndarray) -> int:
     return 0 if second is not None else 1
 
 
-def section_curves(part: Part, tolerance: float) -> tuple:
+def section_curves(part: Part, tolerance: float, extend: float = EXTEND) -> tuple:
     """The hull's two end sections of the plate between its widened seams, as NURBS curves in
     the same girth direction: the surface's iso-curve where the section is one, else a cubic
     B-spline through SECTION_ROWS exact section points within ``tolerance``. Returns
     ((curve, curve), figures); raises SourceError when there is no usable section."""
     hull = part.hull
-    g_lo, g_hi = _widened(hull, EXTEND)
+    g_lo, g_hi = _widened(hull, extend)
     sections = region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2, probe=400)
     if sections is None:
         raise SourceError("the widened region misses the hull")
@@ -258,12 +258,14 @@ def _chord_deviation(points: np.ndarray, edges: tuple) -> float:
     return float(0.25 * dist[same].max(initial=0.0))
 
 
-def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance: float) -> Trim:
-    """The strip between the plate's two butt sections, trimmed by its seams."""
+def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance: float,
+                extend: float = EXTEND) -> Trim:
+    """The strip between the plate's two butt sections (reaching ``extend`` times the girth
+    beyond each seam), trimmed by its seams."""
     hull = part.hull
     out = Trim(BUTT_TO_BUTT)
     try:
-        (c, d), sections = section_curves(part, SECTION_FIT * hull.fit_tolerance)
+        (c, d), sections = section_curves(part, SECTION_FIT * hull.fit_tolerance, extend)
     except SourceError as exc:
         out.reason = f"no butt sections: {exc}"
         return out

@@ -4,9 +4,11 @@ A developable strip fits a hull patch when the patch bends little along its ruli
 strip's rulings follow the hull's direction of least normal curvature. Through a point of
 the region, a ruling in that direction crosses the plate over about
 l = min(L / |cos a|, W / |sin a|) (L, W the plate's length and girth there, a the angle of the
-direction to the length), and bends away from it by the sagitta of that chord:
+direction to the length), and the hull bends away from it by the sagitta of that chord,
+kappa l^2 / 8; the best-fit strip (pipeline/bestfit.py) centres its rulings in that bow and
+meets it within half of it:
 
-    misfit(p) = |kappa_min(p)| l(p)^2 / 8        (model units)
+    misfit(p) = |kappa_min(p)| l(p)^2 / 16        (model units)
 
 The plate's estimate is the largest misfit over a coarse grid of its region, or 0 when the
 region lies within the tolerance of its least-squares plane (flat). It ranks candidate splits,
@@ -71,11 +73,11 @@ def sample_region(surface, axis: int, girths, planes, rows: int = 17, cols: int 
 
 
 def _misfit(s: RegionSample, mask: np.ndarray, length: np.ndarray, width: np.ndarray) -> float:
-    """Largest |kappa_min| l^2 / 8 over the masked points, or 0 when they are planar."""
+    """Largest |kappa_min| l^2 / 16 over the masked points, or 0 when they are planar."""
     if not mask.any():
         return 0.0
     chord = np.minimum(length / np.maximum(s.cos, 1e-9), width / np.maximum(s.sin, 1e-9))
-    return float(np.max((s.kappa * chord**2 / 8.0)[mask]))
+    return float(np.max((s.kappa * chord**2 / 16.0)[mask]))
 
 
 def _flat(s: RegionSample, mask: np.ndarray, tol: float) -> bool:

@@ -113,3 +113,43 @@ def cone_iges(path: Path, r1=10000.0, r2=9000.0, height=3000.0, angle_deg=90.0) 
 
     poles = np.array([arc(r1, 0.0), arc(r2, height)]).transpose(1, 0, 2)
     return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
+
+
+def bowed_bilge_iges(path: Path, bow=138000.0, bilge=3000.0, length=20000.0, angle_deg=60.0) -> Path:
+    """A torus patch: a bilge tube of radius ``bilge`` whose centre line bows along the hull
+    on a circle of radius ``bow`` (a hull without parallel midbody). A surface of revolution
+    about the axis parallel to y through (0, 0, bow): u runs along x over ``length`` of the
+    centre line, v around the tube over angle_deg (the section at x = 0 is the circle of
+    radius ``bilge`` about the origin in the y-z plane); exact rational quadratic both ways.
+    The iso-v rows are circles of radius bow - bilge cos(phi) about the axis: a chord of one
+    between two butts 2a apart stands off it by the sagitta r - sqrt(r^2 - a^2)."""
+    h = np.arcsin(length / 2 / bow)
+    k = np.radians(angle_deg) / 2
+    # profile (r, y) around the tube: r = bow - bilge cos(phi), y = bilge sin(phi), phi in [-k, k]
+    profile = np.array([[bow - bilge * np.cos(k), -bilge * np.sin(k)], [bow - bilge / np.cos(k), 0.0],
+                        [bow - bilge * np.cos(k), bilge * np.sin(k)]])
+    wp = np.array([1.0, np.cos(k), 1.0])
+    circle = np.array([[-np.sin(h), np.cos(h)], [0.0, 1.0 / np.cos(h)], [np.sin(h), np.cos(h)]])
+    wc = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[r * cs[0], y, bow - r * cs[1]] for r, y in profile] for cs in circle])
+    return write_iges_surface(path, 2, 2, poles, wc[:, None] * wp[None, :], [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1])
+
+
+def leaning_cylinder_iges(path: Path, radius=20000.0, angle_deg=60.0, width=4000.0, lean_deg=35.0) -> Path:
+    """A circular cylinder whose generators lean by ``lean_deg`` from the girth direction
+    (y) towards x: axis (sin lean, cos lean, 0) through (0, 0, radius). u runs along the
+    cross-section circle (perpendicular to the axis, mostly along x), v along the
+    generators over ``width``; exact rational quadratic in u. Its iso-v seams are circles,
+    the strip between two of them is the cylinder, and its rulings (the generators) cross
+    the butt planes x = const at the lean: a plate's seam strip reaches past one butt by
+    about its girth times tan(lean)."""
+    h = np.radians(angle_deg) / 2
+    lean = np.radians(lean_deg)
+    axis = np.array([np.sin(lean), np.cos(lean), 0.0])
+    across = np.array([np.cos(lean), -np.sin(lean), 0.0])
+    up = np.array([0.0, 0.0, 1.0])
+    arc = [(-radius * np.sin(h), radius * (1 - np.cos(h))), (0.0, radius - radius / np.cos(h)),
+           (radius * np.sin(h), radius * (1 - np.cos(h)))]
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[a * across + b * up + t * axis for t in (0.0, width)] for a, b in arc])
+    return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])

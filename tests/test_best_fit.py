@@ -1,0 +1,132 @@
+"""Best-fit strips (pipeline/bestfit.py): a strip moved off the hull so that the hull lies on
+both sides of it meets a bow of sagitta s within s / 2, the least any straight ruling can."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, seed, settings
+from hypothesis import strategies as st
+
+from pipeline.bestfit import end_offsets
+from pipeline.cli import main
+from tests.hull_shapes import bowed_bilge_iges
+
+
+def run_strake(tmp_path, strake: dict, name="t") -> tuple[int, Path]:
+    config = tmp_path / f"{name}.yaml"
+    config.write_text(yaml.safe_dump({"name": name, "units": "mm", "strake": strake}))
+    out = tmp_path / "out"
+    return main(["run", str(config), "--out", str(out)]), out
+
+
+@seed(20261123)
+@settings(max_examples=40, deadline=None)
+@given(a=st.floats(-8, 8), b=st.floats(-8, 8), s=st.floats(0, 10))
+def test_the_end_offsets_centre_each_ruling_in_its_gaps(a, b, s):
+    """Gaps a + b v - 4 s v (1 - v) along every ruling (a tilt and a sagitta): the least-
+    squares line and the residuals' midrange give end offsets a - s/2 and a + b - s/2, which
+    leave gaps of +-s/2 (the minimax line of a parabola's arc)."""
+    v = np.tile(np.linspace(0.0, 1.0, 21), 50)
+    lam = np.repeat(np.linspace(0.0, 1.0, 50), 21)
+    gap = a + b * v - 4.0 * s * v * (1.0 - v)
+    near, far = end_offsets(lam, v, gap, np.linspace(0.0, 1.0, 11))
+    assert near == pytest.approx(np.full(11, a - s / 2), abs=1e-6 * (1 + abs(a) + s))
+    assert far == pytest.approx(np.full(11, a + b - s / 2), abs=1e-6 * (1 + abs(a) + abs(b) + s))
+    left = gap - (near[0] + (far[0] - near[0]) * v)
+    assert np.abs(left).max() == pytest.approx(s / 2, abs=1e-6 * (1 + s))
+
+
+def test_a_bowed_bilge_plate_fits_within_half_its_sagitta(tmp_path):
+    """A 3 m bilge plate of a hull bowed on a 138 m radius, between butts 3 m apart: the
+    strip through its butt sections stands off the hull by the sagitta of the bow,
+    r - sqrt(r^2 - 1.5 m^2) = 8.3 mm, above the 5 mm tolerance; moved off the hull it fits
+    within half of that (no straight ruling 3 m long can do better), and it is delivered
+    developable with its four corners and its whole region within the tolerance."""
+    bow, bilge, half = 138000.0, 3000.0, 1500.0
+    iges = bowed_bilge_iges(tmp_path / "bowed.igs", bow=bow, bilge=bilge)
+    code, out = run_strake(tmp_path, {"surface": {"iges": str(iges)}, "butts": [-half, half], "fit_tolerance": 5.0,
+                                      "seams": [{"iso": {"v": 0.3}}, {"iso": {"v": 0.7}}]})
+    assert code == 0
+    rep = json.loads((out / "t_S1_B1.json").read_text())
+    klass = rep["plate_class"]
+    assert klass["class"] == "developable" and klass["family"] == "rulings butt to butt" and klass["best_fit"]
+    # the rows' radii about the bow's axis, from the region's corners (closed form: the torus)
+    corners = np.array(rep["region"]["corners"])
+    radii = np.hypot(corners[:, 0], bow - corners[:, 2])
+    sagitta = radii - np.sqrt(radii**2 - half**2)
+    assert klass["best_fit"]["deviation_before"] == pytest.approx(sagitta.max(), rel=0.03)
+    assert sagitta.min() / 2 * (1 - 1e-3) <= klass["max_deviation"] <= 0.6 * sagitta.max()
+    assert klass["max_deviation"] <= 5.0 and rep["hull_fit"]["passed"]
+    assert rep["completeness"]["passed"] and max(rep["completeness"]["corner_gaps"]) <= 5.0
+    # the developed plate has the region's area (a strip 4 mm off a 138 m bow: 1e-7 relative)
+    assert rep["outline"]["area_m2"] == pytest.approx(rep["region"]["area_m2"], rel=2e-3)
+
+
+def test_a_seam_strip_whose_rulings_lean_is_solved_between_seams_reaching_far_past_the_butts(tmp_path):
+    """A cylinder whose generators lean 35 degrees from the girth direction: the strip between
+    two seams (circles) is the cylinder, but its rulings run from x on one seam to x + 2.8 m
+    on the other, past the 0.2 x 6 m the plain seam strip extends beyond each butt, so it
+    stops short of two corners. Between the seams extended half the plate length past both
+    butts and trimmed by the region, it covers the plate and lies on the hull."""
+    from pipeline.bestfit import seam_family_far
+    from pipeline.plan import load_run
+    from pipeline.plates import _grid, completeness
+    from pipeline.stages import PartResult, develop_part
+    from pipeline.strake import corner_rulings, stage_trim
+    from tests.hull_shapes import leaning_cylinder_iges
+
+    iges = leaning_cylinder_iges(tmp_path / "lean.igs")
+    config_path = tmp_path / "t.yaml"
+    config_path.write_text(yaml.safe_dump({"name": "t", "units": "mm", "strake": {
+        "surface": {"iges": str(iges)}, "butts": [-3000.0, 3000.0], "margin": 0.2,
+        "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 1.0}}]}}))
+    config = load_run(config_path)
+    part = config.parts[0]
+    grid = _grid(part, config)
+    plain = PartResult(part.name, part)
+    ok = develop_part(plain, config, lambda sol: corner_rulings(sol, part.c, part.d, part.hull.butts), 0.0)
+    assert ok and stage_trim(plain, 0.0)
+    check = completeness(plain.strip.vertices, plain.strip.faces, grid, 5.0, 1.0)
+    assert max(check["corner_gaps"]) > 1000.0  # two corners cut off by the lean
+    far = seam_family_far(part, config, grid, 1.0)
+    assert far.ok, far.reason
+    assert far.deviation < 1e-6 * 20000.0
+    assert max(far.figures["completeness"]["corner_gaps"]) < 1e-6 * 20000.0
+    # the cylinder develops isometrically: the developed region has the region's area
+    from shapely.geometry import Polygon
+
+    developed = Polygon(far.outline_flat).area
+    hull_area = sum(0.5 * np.linalg.norm(np.cross(q[1] - q[0], q[2] - q[0])) for q in _triangles(grid))
+    assert developed == pytest.approx(hull_area, rel=1e-3)  # the patch grid's facets: chord error ~1e-4
+
+
+def _triangles(grid):
+    p = grid.points
+    for i in range(p.shape[0] - 1):
+        for j in range(p.shape[1] - 1):
+            yield p[i, j], p[i, j + 1], p[i + 1, j + 1]
+            yield p[i, j], p[i + 1, j + 1], p[i + 1, j]
+
+
+def test_a_7m_bilge_plate_of_the_160m_hull_fits_only_as_a_best_fit_strip(tmp_path):
+    """The midbody bilge plate of test_plate_families lengthened to 7 m: the hull bows
+    lengthwise (no true parallel midbody), the strip through its butt sections stands off it
+    by 7.4 mm; moved off the hull, by about half of that, within the 5 mm."""
+    strake = {"surface": {"iges": str(Path(__file__).parent / "data" / "ship" / "test_1_hull_exported.igs")},
+              "margin": 0.2, "seams": [{"iso": {"v": 1.69}}, {"iso": {"v": 2.28}}], "butts": [84000.0, 91000.0]}
+    code, out = run_strake(tmp_path, strake, name="bilge")
+    assert code == 0
+    rep = json.loads((out / "bilge_S1_B1.json").read_text())
+    klass = rep["plate_class"]
+    assert klass["class"] == "developable" and klass["family"] == "rulings butt to butt"
+    before = klass["best_fit"]["deviation_before"]
+    assert before > 5.0
+    assert klass["max_deviation"] <= min(5.0, 0.6 * before)
+    assert rep["hull_fit"]["passed"] and rep["completeness"]["passed"]
+    assert rep["outline"]["area_m2"] == pytest.approx(klass["area_3d_m2"], rel=5e-3)
+    assert set(rep["outline"]["edges"]) == {"c", "d", "start", "end"}
