@@ -409,8 +409,10 @@ class _Tracer:
             return None
         return (u, U), (nu, nU)
 
-    def trace_one_way(self, start, direction: float):
+    def trace_one_way(self, start, direction: float, start_seed: int | None = None):
         tol = self.tol
+        at_start = set(self.same[start_seed]) if start_seed is not None else set()
+        knot_roots: set[int] = set()  # knot-line roots this trace stepped onto
         x = start
         tangent = self._start_tangent(x, direction)
         if tangent == (0.0, 0.0):
@@ -429,6 +431,17 @@ class _Tracer:
             if kink is not None:  # step onto the knot line, turn to the far side's tangent
                 k, far_tangent = kink
                 y = self.pts[k]
+                # a loop smaller than a step around a crossing of knot lines is followed
+                # from root to root on those lines: back at the start it is closed; at
+                # another root met before the trace is going round without its start
+                if k in at_start or k in knot_roots:
+                    for _, m in self._crossings(x, y):
+                        if m != k:
+                            self._mark(m)
+                            points.append(self.pts[m])
+                    points.append(start if k in at_start else y)
+                    return points, END_LOOP if k in at_start else END_UNRESOLVED
+                knot_roots.add(k)
                 for _, m in self._crossings(x, y):
                     if m != k:
                         self._mark(m)
@@ -483,10 +496,10 @@ class _Tracer:
     def trace_from(self, seed_index: int) -> Trace:
         start = self.pts[seed_index]
         self._mark(seed_index)
-        forward, end_f = self.trace_one_way(start, 1.0)
+        forward, end_f = self.trace_one_way(start, 1.0, seed_index)
         if end_f == END_LOOP:
             return Trace(_dedupe(np.array(forward)), True, (END_LOOP, END_LOOP))
-        backward, end_b = self.trace_one_way(start, -1.0)
+        backward, end_b = self.trace_one_way(start, -1.0, seed_index)
         pts = np.array(backward[::-1] + forward[1:])
         return Trace(_dedupe(pts), False, (end_b, end_f))
 

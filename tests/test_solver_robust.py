@@ -259,3 +259,30 @@ def test_a_plate_seam_with_a_doubled_end_pole_keeps_its_strip(which, ends):
     assert solution.path.fans == ()
     assert {f.code for f in solution.findings} <= {"PARTIAL_COVERAGE", "CERTIFICATE"}
     assert solution.max_residual <= 1e-12
+
+
+def random_rational_quadratics(seed):
+    """Degree-2 rational pairs, 8 poles each, drawn like tests/test_solver.py's random pairs."""
+    rng = np.random.default_rng(seed)
+    c = nurbs_curve(rng.uniform(-1, 1, size=(8, 3)), 2, weights=rng.uniform(0.5, 2.0, 8), name="c")
+    d = nurbs_curve(rng.uniform(-1, 1, size=(8, 3)) + [0, 0, 2.0], 2, weights=rng.uniform(0.5, 2.0, 8), name="d")
+    return c, d
+
+
+@pytest.mark.parametrize("seed", [252, 300])
+def test_a_loop_smaller_than_a_step_round_a_crossing_of_knot_lines_closes(seed):
+    # every interior knot of a quadratic is C1, so f is only C0 on every knot line and the
+    # tracer crosses those lines from root to root; a loop smaller than a trace step round
+    # a crossing of two knot lines was followed from root to root for 2 x 20000 steps
+    # (4 distinct points, then a MemoryError in the judge's crossing table, or minutes)
+    c, d = random_rational_quadratics(seed)
+    solution = solve(c, d)
+    codes = {f.code for f in solution.findings}
+    assert not {"BRANCH_UNRESOLVED", "CROSSINGS_UNCHECKED", "RESIDUAL_EXCEEDED", "UNTRACED_REGION"} & codes
+    loops = [b for b in solution.branches if b.closed]
+    assert len(loops) == 1 and len(loops[0].points) < 10
+    # round a crossing of a knot of c and a knot of d, and on the zero set
+    lo, hi = loops[0].points.min(axis=0), loops[0].points.max(axis=0)
+    assert any(lo[0] < k < hi[0] for k in c.breakpoints) and any(lo[1] < k < hi[1] for k in d.breakpoints)
+    assert normalized_residual(c, d, *loops[0].points.T).max() <= 1e-12
+    assert sum(len(b.points) for b in solution.branches) < 5000
