@@ -162,8 +162,10 @@ def summary_csv(results: list[PartResult]) -> str:
 
 
 def class_shares(results: list[PartResult]) -> dict | None:
-    """Area of the hull regions per plate class (delivered plates; 'failed' for the rest),
-    in m^2 and as shares of the whole; None when no part is a hull plate."""
+    """Shell area per plate class (delivered plates; 'failed' for the rest), in m^2 and as
+    shares of the whole: each plate's region on the hull times its share inside the
+    surface's IGES trim (what the bench and the class picture count); None when no part is
+    a hull plate."""
     areas = {"flat": 0.0, "developable": 0.0, "formed": 0.0, "failed": 0.0}
     seen = False
     for r in results:
@@ -172,7 +174,8 @@ def class_shares(results: list[PartResult]) -> dict | None:
             continue
         seen = True
         klass = (r.figures.get("plate_class") or {}).get("class") if r.ok else "failed"
-        areas[klass if klass in areas else "failed"] += float(region.get("area_m2") or 0.0)
+        inside = float(getattr(getattr(r.part, "hull", None), "inside_trim", 1.0))
+        areas[klass if klass in areas else "failed"] += float(region.get("area_m2") or 0.0) * inside
     if not seen:
         return None
     total = sum(areas.values()) or 1.0

@@ -182,3 +182,19 @@ def test_a_uniform_plan_covers_the_shell_with_classed_plates(tmp_path):
     assert len(outlines) == len(summary["parts"])
     layers = sorted(e.dxf.layer for e in outlines)
     assert layers == sorted(f"PLAN_{row['class'].upper()}" for row in summary["parts"])
+
+
+def test_the_summary_class_shares_count_only_the_shell_inside_the_trims():
+    """A plate half outside its surface's IGES trim counts half its region in the run's
+    class shares (as in the bench and the class picture)."""
+    from types import SimpleNamespace
+
+    from pipeline.report import class_shares
+
+    def plate(klass, area, inside):
+        return SimpleNamespace(ok=True, figures={"region": {"area_m2": area}, "plate_class": {"class": klass}},
+                               part=SimpleNamespace(hull=SimpleNamespace(inside_trim=inside)))
+
+    shares = class_shares([plate("flat", 40.0, 0.5), plate("developable", 30.0, 1.0), plate("formed", 10.0, 0.0)])
+    assert shares["area_m2"] == {"flat": 20.0, "developable": 30.0, "formed": 0.0, "failed": 0.0}
+    assert shares["share"]["flat"] == pytest.approx(0.4) and shares["share"]["developable"] == pytest.approx(0.6)
