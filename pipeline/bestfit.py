@@ -14,10 +14,9 @@ B-splines (the new boundary curves), the strip between them is solved again by d
 trimmed by the plate's region as before; a few rounds settle it (each round's rulings differ
 a little from the last). The result is judged like any trimmed strip: every point of the
 region mapped onto the strip within the tolerance, the strip within it of the hull. Its
-corners are then off the hull by the same gap as the rest (at most the tolerance), which is
-what "the cut outline contains the four corners" asks: the outline is the region's boundary
-mapped onto the strip, corners included, and the corners' strip points lie on the strip
-(never beyond its boundary curves).
+corners are then off the hull by the same gap as the rest (at most the tolerance), and are
+judged by the fit tolerance: the cut outline is the region's boundary mapped onto the strip
+by closest points, corners included, so it holds them whenever they map within it.
 
 A second remedy lives here too: a seam strip whose rulings lean (a near-flat side plate,
 where they pair points a metre apart along the two seams) reaches past one butt and stops
@@ -66,8 +65,8 @@ def seam_family_far(part: Part, config: RunConfig, grid, corner_tolerance: float
 
 
 def signed_gaps(trim: Trim, part: Part, grid, mm_per_unit: float):
-    """(lam, v, gap) of the region's points (patch grid and boundary) against the trim's
-    strip: path fraction and position along the ruling of each point's closest strip point,
+    """(strip map, lam, v, gap) of the region's points (patch grid and boundary) against
+    the trim's strip: path fraction and position along the ruling of each point's closest strip point,
     and the signed distance along the strip's normal there (model units)."""
     attempt = trim.attempt
     c, d = attempt.part.c, attempt.part.d
