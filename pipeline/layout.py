@@ -107,6 +107,20 @@ def _box_corners(centres: np.ndarray, width: float, height: float, angle: float)
     return centres[:, None, :] + offsets
 
 
+def _long_axes(corners: np.ndarray) -> np.ndarray:
+    """Shapely segments (N,) along the longer middle line of rectangles given by their
+    corners (N, 4, 2) (as :func:`_box_corners` orders them), a hair (1e-9 of its length)
+    inside the rectangle at both ends."""
+    a = 0.5 * (corners[:, 0] + corners[:, 3])  # middles of the sides at -width/2, +width/2
+    b = 0.5 * (corners[:, 1] + corners[:, 2])
+    c = 0.5 * (corners[:, 0] + corners[:, 1])  # middles of the sides at -height/2, +height/2
+    d = 0.5 * (corners[:, 3] + corners[:, 2])
+    wide = np.linalg.norm(b - a, axis=1) >= np.linalg.norm(d - c, axis=1)
+    p, q = np.where(wide[:, None], a, c), np.where(wide[:, None], b, d)
+    inset = 1e-9 * (q - p)
+    return shapely.linestrings(np.stack([p + inset, q - inset], axis=1))
+
+
 class Placer:
     """Places text boxes one after the other inside ``room`` (a polygon), clear (by
     ``clearance``) of ``lines`` and of what it placed before."""
@@ -133,7 +147,12 @@ class Placer:
             stop = min(start + size, len(centres))
             corners = _box_corners(centres[start:stop], width + 2 * self.clearance, height + 2 * self.clearance,
                                    angle[start:stop])
-            ok = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
+            if self.obstacles is not None:
+                # a line across the box's long axis meets the box: lines are cheaper than boxes
+                ok = ~shapely.intersects(self.obstacles, _long_axes(corners))
+                ok[ok] = shapely.contains_xy(self.room, corners[ok][..., 0], corners[ok][..., 1]).all(axis=1)
+            else:
+                ok = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
             idx = np.flatnonzero(ok)
             grown = shapely.polygons(corners[idx])
             fits = shapely.contains(self.room, grown)
@@ -187,6 +206,14 @@ def _inward(poly: Polygon, point: np.ndarray, direction: np.ndarray, probe: floa
     d = direction / max(np.linalg.norm(direction), 1e-300)
     n = np.array([-d[1], d[0]])
     return n if poly.contains(shapely.Point(point + probe * n)) else -n
+
+
+def _inwards(poly: Polygon, points: np.ndarray, directions: np.ndarray, probe: float) -> np.ndarray:
+    """:func:`_inward` at points (K, 2) with directions (K, 2), (K, 2), in one test."""
+    n = np.array([[-d[1], d[0]] for d in (v / max(np.linalg.norm(v), 1e-300) for v in directions)]).reshape(-1, 2)
+    probes = points + probe * n
+    inside = shapely.contains_xy(poly, probes[:, 0], probes[:, 1])
+    return np.where(inside[:, None], n, -n)
 
 
 def _along(line: np.ndarray, fractions) -> tuple[np.ndarray, np.ndarray]:
@@ -315,18 +342,17 @@ def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.
         # a box 2 clearances off a straight edge has its grown side on the room's boundary,
         # where round-off decides whether it fits: 1 % of a clearance more decides it
         gap = 0.5 * hh + 2.01 * clearance
+        inward = _inwards(plate, points, directions, gap) if side is None else None
         centres, angles = [], []
-        for p, d in zip(points, directions):
-            normals = [_inward(plate, p, d, gap)] if side is None else [np.array([-d[1], d[0]]),
-                                                                         np.array([d[1], -d[0]])]
+        for j, (p, d) in enumerate(zip(points, directions)):
+            normals = [inward[j]] if side is None else [np.array([-d[1], d[0]]), np.array([d[1], -d[0]])]
             for n in normals:
                 for k in (1.0, 2.0, 3.5):
                     centres.append(p + k * gap * n)
                     angles.append(readable(np.degrees(np.arctan2(d[1], d[0]))))
         # a short edge or a line across a narrow plate: the text runs away from it
-        for p, d in zip(points, directions):
-            normals = [_inward(plate, p, d, gap)] if side is None else [np.array([-d[1], d[0]]),
-                                                                         np.array([d[1], -d[0]])]
+        for j, (p, d) in enumerate(zip(points, directions)):
+            normals = [inward[j]] if side is None else [np.array([-d[1], d[0]]), np.array([d[1], -d[0]])]
             for n in normals:
                 centres.append(p + (0.5 * w + 0.5 * hh + 3.0 * clearance) * n)
                 angles.append(readable(np.degrees(np.arctan2(n[1], n[0]))))
