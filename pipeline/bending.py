@@ -45,14 +45,21 @@ def _centre_line(tracer: PlateTracer, lam: np.ndarray):
         pc + mid[:, None] * (pd - pc), pc, pd
 
 
+def _middle(tracer: PlateTracer, lam: np.ndarray):
+    """The 3D middles of the kept rulings at lam and their ends (no development needed)."""
+    lo, hi, _, _, pc, pd = tracer.interval(lam)
+    mid = 0.5 * (lo + hi)
+    return pc + mid[:, None] * (pd - pc), pc, pd
+
+
 def _curvature(tracer: PlateTracer, lam: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
     """Signed curvature across the rulings at lam (the normal's turn over the distance
     between neighbouring rulings at their middles), > 0 where the plate is convex on the
     side its normal points to."""
     lo_lam, hi_lam = np.clip(lam - step, 0, 1), np.clip(lam + step, 0, 1)
     n0, n1 = tracer.normals(lo_lam), tracer.normals(hi_lam)
-    *_, m0, pc0, pd0 = _centre_line(tracer, lo_lam)
-    *_, m1, pc1, pd1 = _centre_line(tracer, hi_lam)
+    m0, pc0, pd0 = _middle(tracer, lo_lam)
+    m1, pc1, pd1 = _middle(tracer, hi_lam)
     move = m1 - m0
     ruling = pd0 + pd1 - pc0 - pc1
     ruling /= np.maximum(np.linalg.norm(ruling, axis=1), 1e-300)[:, None]
