@@ -35,6 +35,7 @@ SECTION_FIT = 1e-3  # the section fit's tolerance, a fraction of the plate's fit
 EXTEND = 0.15  # the sections reach this fraction of the plate's width beyond each seam
 BOUNDARY_MM = 25.0  # spacing of the region's boundary points mapped onto the strip
 MAP_RULINGS = 801
+PROBE = 400  # samples along the whole surface where a region's rows are searched
 
 
 @dataclass
@@ -97,14 +98,20 @@ def _butt_side(hull, points: np.ndarray) -> int:
     return 0 if second is not None else 1
 
 
-def section_curves(part: Part, tolerance: float, extend: float = EXTEND) -> tuple:
+def section_curves(part: Part, tolerance: float, extend: float = EXTEND, near: PatchGrid | None = None) -> tuple:
     """The hull's two end sections of the plate between its widened seams, as NURBS curves in
     the same girth direction: the surface's iso-curve where the section is one, else a cubic
     B-spline through SECTION_ROWS exact section points within ``tolerance``. Returns
-    ((curve, curve), figures); raises SourceError when there is no usable section."""
+    ((curve, curve), figures); raises SourceError when there is no usable section.
+
+    ``near``: the plate's own grid, whose longitudinal extent (twice as long) is searched
+    first for the sections, at the same sample spacing as the whole surface would be."""
     hull = part.hull
     g_lo, g_hi = _widened(hull, extend)
-    sections = region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2, probe=400)
+    sections = None if near is None else _sections_near(hull, g_lo, g_hi, near)
+    if sections is None:
+        sections = region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2,
+                               probe=PROBE)
     if sections is None:
         raise SourceError("the widened region misses the hull")
     axis = hull.long_axis
@@ -129,6 +136,25 @@ def section_curves(part: Part, tolerance: float, extend: float = EXTEND) -> tupl
         curves.append(curve)
         figures.append({"method": how, "fit_error": error, "length": length})
     return tuple(curves), figures
+
+
+def _sections_near(hull, g_lo, g_hi, near: PatchGrid) -> PatchGrid | None:
+    """:func:`flatten.patch.region_grid` of the sections searched only around the plate (its
+    longitudinal extent doubled), at the whole surface's sample spacing: the same sections
+    (every row's ends bisected to round-off) from a tenth of the samples. None (search the
+    whole surface) when a row's run reaches an end of that range, so that it may go on."""
+    axis = hull.long_axis
+    lo, hi = hull.surface.domain_u if axis == 0 else hull.surface.domain_v
+    s = near.params[..., axis]
+    s0, s1 = float(s.min()), float(s.max())
+    a, b = max(lo, s0 - 0.5 * (s1 - s0)), min(hi, s1 + 0.5 * (s1 - s0))
+    if not b > a:
+        return None
+    probe = max(9, int(np.ceil((PROBE - 1) * (b - a) / (hi - lo))) + 1)
+    grid = region_grid(hull.surface, axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2, probe=probe, s_range=(a, b))
+    if grid is None or len(grid.rows) < SECTION_ROWS or not grid.ends.all():
+        return None  # a row misses the range, or ends at its end or the hull's (not on a butt plane)
+    return grid
 
 
 def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
@@ -265,7 +291,7 @@ def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance
     hull = part.hull
     out = Trim(BUTT_TO_BUTT)
     try:
-        (c, d), sections = section_curves(part, SECTION_FIT * hull.fit_tolerance, extend)
+        (c, d), sections = section_curves(part, SECTION_FIT * hull.fit_tolerance, extend, grid)
     except SourceError as exc:
         out.reason = f"no butt sections: {exc}"
         return out
