@@ -57,6 +57,7 @@ def _curvature(tracer: PlateTracer, lam: np.ndarray, step: float) -> tuple[np.nd
     between neighbouring rulings at their middles), > 0 where the plate is convex on the
     side its normal points to."""
     lo_lam, hi_lam = np.clip(lam - step, 0, 1), np.clip(lam + step, 0, 1)
+    tracer.rulings(np.concatenate([lo_lam, hi_lam]))  # both sides in one evaluation of the path
     n0, n1 = tracer.normals(lo_lam), tracer.normals(hi_lam)
     m0, pc0, pd0 = _middle(tracer, lo_lam)
     m1, pc1, pd1 = _middle(tracer, hi_lam)
