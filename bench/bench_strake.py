@@ -9,6 +9,11 @@ trimmed, checked, unrolled, fitted to the hull and written (DXF, OBJ, JSON; no P
 Besides wall time it prints the CPU time of the run (parent and workers): on a machine
 shared with other jobs wall time measures them too, so the last line gives the plates per
 second the CPU time allows on idle cores.
+
+    python bench/bench_strake.py --stages [--every 4]
+
+runs every 4th plate in this process instead and prints the CPU time per plate of each
+stage (nested stages are inside their callers: the column does not add up).
 """
 
 from __future__ import annotations
@@ -51,10 +56,76 @@ def one(args) -> int:
     return 0
 
 
+# (module, function, what it is): the stages timed by --stages, in the order printed
+STAGES = [
+    ("pipeline.plates", "run_part", "the plate: class, strip, shop data (no files)"),
+    ("pipeline.plates", "_grid", "  region grid of the plate on the hull (two region_grid)"),
+    ("pipeline.stages", "develop_part", "  solve, strip, unroll, check (both families)"),
+    ("flatten.solver", "solve", "    solve"),
+    ("pipeline.stages", "stage_strip", "    rulings and strip mesh"),
+    ("pipeline.platestrip", "butt_family", "  butt-to-butt family (sections, solve, trim)"),
+    ("pipeline.platestrip", "section_curves", "    butt sections"),
+    ("pipeline.strake", "stage_trim", "  trim by the butt planes, hull distance"),
+    ("pipeline.marks", "frame_polylines", "    frame lines"),
+    ("pipeline.shop", "stage_shop", "  shop data"),
+    ("pipeline.outline", "exact_outline", "    exact outline"),
+    ("pipeline.outline", "_corners", "      plate corners"),
+    ("pipeline.bending", "bending_lines", "    bending lines"),
+    ("pipeline.export", "export_part", "the plate's files"),
+    ("pipeline.layout", "plate_layout", "  text layout"),
+    ("pipeline.dxf_steel", "write_steel_dxf", "  DXF"),
+    ("pipeline.export", "write_obj", "  OBJ"),
+]
+
+
+def stages(args) -> int:
+    """CPU time per plate of each stage, every ``args.every``-th plate, in this process."""
+    import functools
+    import importlib
+
+    import pipeline.export
+    import pipeline.plates
+    from pipeline.plan import load_run
+
+    spent = {name: 0.0 for _, name, _ in STAGES}
+    for module, name, _ in STAGES:
+        original = getattr(importlib.import_module(module), name)
+
+        def timed(*a, _f=original, _name=name, **k):
+            start = time.process_time()
+            try:
+                return _f(*a, **k)
+            finally:
+                spent[_name] += time.process_time() - start
+        functools.update_wrapper(timed, original)
+        for loaded in list(sys.modules.values()):  # every module that imported it by name
+            if getattr(loaded, "__name__", "").startswith(("pipeline", "flatten")) and \
+                    getattr(loaded, name, None) is original:
+                setattr(loaded, name, timed)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "strake.yaml"
+        path.write_text(yaml.safe_dump(config(args.seams, args.butts)))
+        plan = load_run(path)
+        parts = plan.parts[::args.every]
+        start = time.process_time()
+        for k, part in enumerate(parts):
+            folder = Path(tmp) / f"part{k}"
+            folder.mkdir()
+            pipeline.export.export_part(pipeline.plates.run_part(part, plan), plan, folder)
+        total = time.process_time() - start
+    print(f"{len(parts)} plates (every {args.every}th of {len(plan.parts)}), {1000 * total / len(parts):.0f} ms CPU "
+          f"per plate in all")
+    for _, name, label in STAGES:
+        print(f"  {label:<58}{1000 * spent[name] / len(parts):8.1f} ms")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seams", type=int, default=13)
     parser.add_argument("--butts", type=int, default=11)
+    parser.add_argument("--stages", action="store_true", help="CPU time per plate of each stage, in this process")
+    parser.add_argument("--every", type=int, default=4, help="with --stages: every n-th plate")
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--config", help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
@@ -62,6 +133,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.one:
         return one(args)
+    if args.stages:
+        return stages(args)
     import platform
     plates = (args.seams - 1) * (args.butts - 1)
     print(f"machine: {platform.machine()}, python {platform.python_version()}; {plates} plates "
