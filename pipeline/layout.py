@@ -99,26 +99,30 @@ def rectangles(centres: np.ndarray, width: float, height: float, angle: float) -
 def _box_corners(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
     """Corners (N, 4, 2) of the rectangles of :func:`rectangles`."""
     centres = np.asarray(centres, dtype=float)
-    a = np.radians(np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),)))
-    u = np.column_stack([np.cos(a), np.sin(a)])[:, None, :]
-    v = np.column_stack([-np.sin(a), np.cos(a)])[:, None, :]
+    return _corners_on(centres, width, height, *_axes(angle, len(centres)))
+
+
+def _axes(angle, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors (n, 2) along the width and the height of rectangles turned by angle
+    degrees (a number or (n,))."""
+    a = np.radians(np.broadcast_to(np.asarray(angle, dtype=float), (n,)))
+    return np.column_stack([np.cos(a), np.sin(a)]), np.column_stack([-np.sin(a), np.cos(a)])
+
+
+def _corners_on(centres: np.ndarray, width: float, height: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Corners (N, 4, 2) of width x height rectangles centred at centres (N, 2) with axes
+    u, v (N, 2) each (row by row: any subset of rows gives the same corners)."""
     corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], dtype=float) * [width / 2, height / 2]
-    offsets = corners[None, :, :1] * u + corners[None, :, 1:] * v  # (N, 4, 2)
+    offsets = corners[None, :, :1] * u[:, None, :] + corners[None, :, 1:] * v[:, None, :]  # (N, 4, 2)
     return centres[:, None, :] + offsets
 
 
-def _long_axes(corners: np.ndarray) -> np.ndarray:
-    """Shapely segments (N,) along the longer middle line of rectangles given by their
-    corners (N, 4, 2) (as :func:`_box_corners` orders them), a hair (1e-9 of its length)
-    inside the rectangle at both ends."""
-    a = 0.5 * (corners[:, 0] + corners[:, 3])  # middles of the sides at -width/2, +width/2
-    b = 0.5 * (corners[:, 1] + corners[:, 2])
-    c = 0.5 * (corners[:, 0] + corners[:, 1])  # middles of the sides at -height/2, +height/2
-    d = 0.5 * (corners[:, 3] + corners[:, 2])
-    wide = np.linalg.norm(b - a, axis=1) >= np.linalg.norm(d - c, axis=1)
-    p, q = np.where(wide[:, None], a, c), np.where(wide[:, None], b, d)
-    inset = 1e-9 * (q - p)
-    return shapely.linestrings(np.stack([p + inset, q - inset], axis=1))
+def _long_axes(centres: np.ndarray, width: float, height: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Shapely segments (N,) along the longer middle line of the rectangles of
+    :func:`_corners_on`, a hair (1e-9 of its length) inside the rectangle at both ends."""
+    half, axis = (0.5 * width, u) if width >= height else (0.5 * height, v)
+    reach = (half * (1.0 - 1e-9)) * axis
+    return shapely.linestrings(np.stack([centres - reach, centres + reach], axis=1))
 
 
 class Placer:
@@ -145,16 +149,18 @@ class Placer:
         start, size = 0, 16
         while start < len(centres):
             stop = min(start + size, len(centres))
-            corners = _box_corners(centres[start:stop], width + 2 * self.clearance, height + 2 * self.clearance,
-                                   angle[start:stop])
+            wide, high = width + 2 * self.clearance, height + 2 * self.clearance
+            chunk = centres[start:stop]
+            u, v = _axes(angle[start:stop], len(chunk))
+            idx = np.arange(len(chunk))
             if self.obstacles is not None:
-                # a line across the box's long axis meets the box: lines are cheaper than boxes
-                ok = ~shapely.intersects(self.obstacles, _long_axes(corners))
-                ok[ok] = shapely.contains_xy(self.room, corners[ok][..., 0], corners[ok][..., 1]).all(axis=1)
-            else:
-                ok = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
-            idx = np.flatnonzero(ok)
-            grown = shapely.polygons(corners[idx])
+                # a line across the box's long axis meets the box: lines are cheaper than
+                # boxes, and the corners are built only for the boxes that pass
+                idx = np.flatnonzero(~shapely.intersects(self.obstacles, _long_axes(chunk, wide, high, u, v)))
+            corners = _corners_on(chunk[idx], wide, high, u[idx], v[idx])
+            inside = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
+            idx, corners = idx[inside], corners[inside]
+            grown = shapely.polygons(corners)
             fits = shapely.contains(self.room, grown)
             if self.obstacles is not None:  # the prepared geometry first: only then is it used
                 fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
