@@ -15,6 +15,11 @@ from scipy.spatial import cKDTree
 from .surface import NurbsSurface
 
 
+# a Gauss-Newton move below this fraction of the domain: the next one is round-off (the
+# distance is then exact to round-off; the closest parameters keep all 12 steps)
+CONVERGED = 1e-9
+
+
 class SurfaceDistance:
     """Distances and closest parameters of points to one surface (or the nearest of several).
 
@@ -37,9 +42,11 @@ class SurfaceDistance:
             out.append((uu.ravel(), vv.ravel(), cKDTree(samples)))
         return out
 
-    def closest(self, points: np.ndarray, index: int = 0, iterations: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    def closest(self, points: np.ndarray, index: int = 0, iterations: int = 12,
+                converged: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Closest parameters (N, 2) on surface ``index`` of each point (N, 3) and the
-        distances (N,)."""
+        distances (N,). With ``converged`` (a fraction of the domain), one more step after
+        the first whose every move is below it ends the iteration early."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         surface = self.surfaces[index]
         uu, vv, tree = self._seeds[index]
@@ -48,7 +55,10 @@ class SurfaceDistance:
         hu = 1e-7 * np.ptp(surface.domain_u)
         hv = 1e-7 * np.ptp(surface.domain_v)
         n = len(points)
-        for _ in range(iterations):
+        last = iterations
+        for step in range(iterations):
+            if step > last:
+                break
             # the point and its four neighbours in one evaluation (the surface is evaluated
             # point by point: the batch changes nothing but the number of calls)
             at = surface(np.concatenate([pu, pu + hu, pu - hu, pu, pu]), np.concatenate([pv, pv, pv, pv + hv, pv - hv]))
@@ -65,6 +75,10 @@ class SurfaceDistance:
             dv = np.where(ok, (a11 * b2 - a12 * b1) / np.where(ok, det, 1), 0)
             pu = np.clip(pu - du, *surface.domain_u)
             pv = np.clip(pv - dv, *surface.domain_v)
+            if converged is not None and last == iterations and \
+                    np.abs(du).max(initial=0.0) <= converged * np.ptp(surface.domain_u) and \
+                    np.abs(dv).max(initial=0.0) <= converged * np.ptp(surface.domain_v):
+                last = step + 1  # the difference Jacobian is good to ~1e-9: one more step is round-off
         return np.column_stack([pu, pv]), np.linalg.norm(surface(pu, pv) - points, axis=1)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
@@ -72,5 +86,5 @@ class SurfaceDistance:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         best = np.full(len(points), np.inf)
         for k in range(len(self.surfaces)):
-            best = np.minimum(best, self.closest(points, k)[1])
+            best = np.minimum(best, self.closest(points, k, converged=CONVERGED)[1])
         return best
