@@ -108,10 +108,7 @@ def section_curves(part: Part, tolerance: float, extend: float = EXTEND, near: P
     first for the sections, at the same sample spacing as the whole surface would be."""
     hull = part.hull
     g_lo, g_hi = _widened(hull, extend)
-    sections = None if near is None else _sections_near(hull, g_lo, g_hi, near)
-    if sections is None:
-        sections = region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2,
-                               probe=PROBE)
+    sections = _region_ends(hull, g_lo, g_hi, SECTION_ROWS, near)
     if sections is None:
         raise SourceError("the widened region misses the hull")
     axis = hull.long_axis
@@ -138,23 +135,24 @@ def section_curves(part: Part, tolerance: float, extend: float = EXTEND, near: P
     return tuple(curves), figures
 
 
-def _sections_near(hull, g_lo, g_hi, near: PatchGrid) -> PatchGrid | None:
-    """:func:`flatten.patch.region_grid` of the sections searched only around the plate (its
-    longitudinal extent doubled), at the whole surface's sample spacing: the same sections
-    (every row's ends bisected to round-off) from a tenth of the samples. None (search the
-    whole surface) when a row's run reaches an end of that range, so that it may go on."""
-    axis = hull.long_axis
-    lo, hi = hull.surface.domain_u if axis == 0 else hull.surface.domain_v
-    s = near.params[..., axis]
-    s0, s1 = float(s.min()), float(s.max())
-    a, b = max(lo, s0 - 0.5 * (s1 - s0)), min(hi, s1 + 0.5 * (s1 - s0))
-    if not b > a:
-        return None
-    probe = max(9, int(np.ceil((PROBE - 1) * (b - a) / (hi - lo))) + 1)
-    grid = region_grid(hull.surface, axis, g_lo, g_hi, _planes(hull), SECTION_ROWS, 2, probe=probe, s_range=(a, b))
-    if grid is None or len(grid.rows) < SECTION_ROWS or not grid.ends.all():
-        return None  # a row misses the range, or ends at its end or the hull's (not on a butt plane)
-    return grid
+def _region_ends(hull, g_lo, g_hi, rows: int, near: PatchGrid | None) -> PatchGrid | None:
+    """:func:`flatten.patch.region_grid` of ``rows`` rows and their two ends, searched only
+    around the plate's grid ``near`` (its longitudinal extent doubled) at the whole surface's
+    sample spacing: the same ends (every row's ends bisected to round-off) from a tenth of
+    the samples. The whole surface when ``near`` is None or a row misses that range or ends
+    at its end or the hull's (not on a butt plane), so that the search may go on."""
+    if near is not None:
+        axis = hull.long_axis
+        lo, hi = hull.surface.domain_u if axis == 0 else hull.surface.domain_v
+        s = near.params[..., axis]
+        s0, s1 = float(s.min()), float(s.max())
+        a, b = max(lo, s0 - 0.5 * (s1 - s0)), min(hi, s1 + 0.5 * (s1 - s0))
+        if b > a:
+            probe = max(9, int(np.ceil((PROBE - 1) * (b - a) / (hi - lo))) + 1)
+            grid = region_grid(hull.surface, axis, g_lo, g_hi, _planes(hull), rows, 2, probe=probe, s_range=(a, b))
+            if grid is not None and len(grid.rows) == rows and grid.ends.all():
+                return grid
+    return region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), rows, 2, probe=PROBE)
 
 
 def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
@@ -168,7 +166,7 @@ def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.nda
     rows = int(np.clip(np.ceil(width / spacing) + 1, 5, 600))
     cols = int(np.clip(np.ceil(length / spacing) + 1, 9, 2000))
     g0, g1 = hull.girths
-    dense = region_grid(hull.surface, hull.long_axis, g0, g1, _planes(hull), rows, 2, probe=400)
+    dense = _region_ends(hull, g0, g1, rows, grid)
     if dense is None:
         raise SourceError("the region misses the hull")
     axis = hull.long_axis
