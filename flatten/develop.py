@@ -25,6 +25,8 @@ from .strip import batches
 _NODES = 24  # Chebyshev-Lobatto nodes on a piece; fewer on the short pieces of dense strips
 _NODES_SHORT = 10
 _SHORT_PIECE = 1.0 / 1000.0
+_NODES_TINY = 6  # on the pieces of further rulings (DevelopedStrip.ends) shorter than 1/2000
+_TINY_PIECE = 1.0 / 2000.0
 _MAX_PIECE = 1.0 / 64.0
 _CHUNK_PIECES = 2048  # pieces per batch: N nodes each, so ~2e4 to 5e4 curve evaluations
 
@@ -205,8 +207,9 @@ class DevelopedStrip:
         """Developed ends of further rulings (N, 2) [t, T], any order, each t within the
         strip's t range (ValueError otherwise). In order of t, each is integrated from the
         previous one or from the last break before it, whichever is nearer (one spectral
-        piece: 10 nodes when it is shorter than 1/1000 of c's domain, else 24, round-off
-        either way as in :func:`develop`), and the pieces are summed from the break."""
+        piece: 6 nodes when it is shorter than 1/2000 of c's domain, 10 below 1/1000, else
+        24, round-off each way as in :func:`develop`), and the pieces are summed from the
+        break."""
         rulings = np.asarray(rulings, dtype=np.float64).reshape(-1, 2)
         t = rulings[:, 0]
         breaks = self.breaks
@@ -224,8 +227,10 @@ class DevelopedStrip:
         h = ts - start
         # each piece's turn and move from its start, with the turn counted from 0 there
         turn, move = np.zeros(len(ts)), np.zeros((len(ts), 2))
-        short = h <= _SHORT_PIECE * max(np.ptp(self.c.domain), 1e-300)
-        for n_nodes, group in ((_NODES_SHORT, np.flatnonzero(short & (h > 0))), (_NODES, np.flatnonzero(~short))):
+        width = max(np.ptp(self.c.domain), 1e-300)
+        short, tiny = h <= _SHORT_PIECE * width, h <= _TINY_PIECE * width
+        for n_nodes, group in ((_NODES_TINY, np.flatnonzero(tiny & (h > 0))),
+                               (_NODES_SHORT, np.flatnonzero(short & ~tiny)), (_NODES, np.flatnonzero(~short))):
             x, q = _lobatto_integration(n_nodes)
             for lo, hi in batches(len(group), self.chunk):
                 sel = group[lo:hi]

@@ -62,3 +62,39 @@ def test_triangle_unfolding_drifts_quadratically():
         drifts.append(np.abs(unf.along_c - dev.along_c).max())
     assert drifts[0] / drifts[1] == pytest.approx(4.0, rel=0.15)
     assert drifts[1] / drifts[2] == pytest.approx(4.0, rel=0.15)
+
+
+@pytest.mark.parametrize("n_new", [1, 7, 2001])
+def test_further_rulings_developed_from_the_strip_match_one_development_of_them_all(n_new):
+    """DevelopedStrip.ends (further rulings integrated from the nearest break or ruling)
+    against develop() of the base and the further rulings together, and against the
+    closed-form frustum sector (rulings in any order, a repeat and the path's ends)."""
+    from flatten.develop import DevelopedStrip
+    from flatten.strip import sample_path
+
+    c, d = oracles.frustum_pair(R1, R2, H, ANGLE, n_spans=3)
+    solution = solve(c, d)
+    ends_of_path = sample_path(solution, np.array([0.0, 1.0]))
+    base = np.vstack([ends_of_path[:1], choose_rulings(solution, c, d, n_rulings=30), ends_of_path[1:]])
+    lam = np.random.default_rng(5).random(n_new)
+    new = sample_path(solution, np.concatenate([lam, lam[:1], [0.0, 1.0]]))
+    strip = DevelopedStrip(c, d, base, solution.field)
+    got = strip.ends(new)
+    # one development of them all, anchored at the same first ruling (the path's start)
+    merged = np.vstack([base, new])
+    order = np.lexsort((merged[:, 1] * solution.path.orientation, merged[:, 0]))
+    dev = develop(c, d, merged[order], solution.field)
+    position = np.empty(len(merged), dtype=int)
+    position[order] = np.arange(len(merged))
+    mine = position[len(base):]
+    assert np.abs(got.along_c - dev.along_c[mine]).max() <= 1e-12
+    assert np.abs(got.along_d - dev.along_d[mine]).max() <= 1e-12
+    # the closed form: ends on circles about one apex with the sector's radii
+    s = np.hypot(R1 - R2, H)
+    rho1, rho2 = R1 * s / (R1 - R2), R2 * s / (R1 - R2)
+    a, b = got.along_c, got.along_d
+    apex = (a + (b - a) * (rho1 / (rho1 - rho2))).mean(axis=0)
+    assert np.abs(np.hypot(*(a - apex).T) - rho1).max() <= 1e-12 * rho1
+    assert np.abs(np.hypot(*(b - apex).T) - rho2).max() <= 1e-12 * rho2
+    with pytest.raises(ValueError, match="beyond the developed strip"):
+        DevelopedStrip(c, d, base[2:-2], solution.field).ends(new)  # the path's ends lie outside
