@@ -117,10 +117,15 @@ class Renderer:
         return self
 
     def submit(self, target: str, args: tuple, kwargs: dict) -> None:
+        try:
+            job = pickle.dumps((target, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception:  # noqa: BLE001 - arguments that do not pickle: drawn here, as without the process
+            _call(target, args, kwargs)
+            return
         if self.pending >= IN_FLIGHT:
             self._answer()
         try:
-            _write(self._jobs_w, pickle.dumps((target, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL))
+            _write(self._jobs_w, job)
         except BrokenPipeError:
             raise RuntimeError("the render process ended unexpectedly (killed?); its images were not written") \
                 from None

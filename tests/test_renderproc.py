@@ -83,3 +83,13 @@ def test_a_one_shot_run_writes_what_an_in_process_run_writes(tmp_path):
     assert report["layout"]["drawings"][0]["file"] == "bilge_plate_drawing.pdf"
     pdf = (tmp_path / "there" / "bilge_plate_drawing.pdf").read_bytes()
     assert pdf.startswith(b"%PDF") and b"/CreationDate (D:19700101000000Z)" in pdf
+
+
+def test_arguments_that_do_not_pickle_are_drawn_in_the_run(tmp_path):
+    class Title(str):  # a local class: pickle cannot name it
+        pass
+
+    with Renderer(("pipeline.plots",)) as renderer:
+        render(FLAT, tmp_path / "here.png", OUTLINE, BENDS, Title("plate: flat pattern"), "mm")
+        assert renderer.pending == 0  # not sent: written already
+        assert (tmp_path / "here.png").exists()
