@@ -12,7 +12,9 @@ its check and run are measured in the same rounds:
 - ``python -m pipeline run CONFIG --out TMP --quiet``: every file of the config (for
   plate.yaml: DXF, OBJ, JSON, two PNG previews, summary CSV/JSON);
 - the same run with ``output.png: false`` (a copy of the config beside it, removed after);
-- the run with its images drawn in place, without the render process ("in place").
+- the run with its images drawn in place ("in place") and by the render process ("2
+  procs") whatever the load (by default the run uses the render process only when the
+  last minute's load average leaves a core free: pipeline.cli.spare_core).
 
 The children run as an installed devflat would: bytecode compiled once (an untimed first
 round) into a cache in a temporary folder, even where PYTHONDONTWRITEBYTECODE is set.
@@ -49,11 +51,10 @@ from common import ROOT, machine_line
 import yaml  # noqa: E402
 
 BARE = "import numpy, scipy.interpolate, scipy.optimize"
-# the one-shot run with its images drawn in place (no render process), otherwise as devflat
-# starts (pipeline.cli.entry_point): what the render process changes, in the same rounds
-IN_PLACE = ("import contextlib, gc, sys; gc.disable(); import pipeline.cli as cli; "
-            "cli.render_process = lambda args, config: contextlib.nullcontext(); "
-            "code = cli.main(sys.argv[1:], one_shot=True); gc.freeze(); sys.exit(code)")
+# the one-shot run with its images drawn in place / by the render process whatever the load
+# (pipeline.cli.spare_core decides otherwise), started as devflat starts (entry_point)
+FORCED = ("import gc, sys; gc.disable(); import pipeline.cli as cli; cli.spare_core = lambda: {}; "
+          "code = cli.main(sys.argv[1:], one_shot=True); gc.freeze(); sys.exit(code)")
 # measured on this 2-core machine before the CLI start-up work: issue 15's own runs, then
 # this bench near idle on main 1960379 (wall)
 BEFORE = {"run": "4x; 1.851 s, 4.33x", "check": "2.1x; 0.650 s, 1.52x", "warm": "0.57 s; 0.339 s",
@@ -137,7 +138,8 @@ def main(argv=None) -> int:
                 "check": ["-m", "pipeline", "check", str(config)],
                 "run": ["-m", "pipeline", "run", str(config), "--out", tmp, "--quiet"],
                 "run, png off": ["-m", "pipeline", "run", str(no_png), "--out", tmp, "--quiet"],
-                "run, in place": ["-c", IN_PLACE, "run", str(config), "--out", tmp, "--quiet"],
+                "run, in place": ["-c", FORCED.format(False), "run", str(config), "--out", tmp, "--quiet"],
+                "run, 2 procs": ["-c", FORCED.format(True), "run", str(config), "--out", tmp, "--quiet"],
             }
             env = child_env(Path(tmp) / "pycache")
             envs = {name: env for name in commands}

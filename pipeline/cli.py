@@ -171,11 +171,26 @@ def render_process(args, config: RunConfig):
 
     modules = image_modules(config)
     if (args.one_shot and modules and sys.platform.startswith("linux") and config.spec.profile == "steel"
-            and worker_count(args.jobs, len(config.parts)) == 1):
+            and worker_count(args.jobs, len(config.parts)) == 1 and spare_core()):
         from .renderproc import Renderer
 
         return Renderer(modules)
     return contextlib.nullcontext()
+
+
+def spare_core() -> bool:
+    """Whether a core is free for the render process: the last minute's load average
+    leaves one beside the run's own. The second process pays for itself only there: it
+    costs 0.1-0.2 s CPU (pages the fork shares and either process then writes are copied;
+    the images' arguments are pickled), and on a machine whose cores are all busy it
+    measured slower in wall time too (bench/bench_cli.py)."""
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:
+        cores = os.cpu_count() or 1
+    return os.getloadavg()[0] <= cores - 1
 
 
 def preload(config: RunConfig, images: bool = True) -> None:

@@ -4,9 +4,9 @@ matplotlib is the run's largest import (~0.3 s of a one-shot plate, more than it
 and its PNG previews and PDF shop drawings are the largest part of a plate's files; none
 of it feeds back into the computation. In a one-shot ``devflat run`` (one process for the
 parts, 2 cores on this machine) the command forks a render process right after the
-configuration is validated: it imports matplotlib while the run imports its other
-libraries and solves, then writes each image it is sent while the run writes the DXF
-and OBJ. The functions it runs are named (``"pipeline.plots:flat_pattern_png"``) and their
+configuration is validated, when a core is free (:func:`pipeline.cli.spare_core`): it
+imports matplotlib while the run imports its other libraries and solves, then writes each
+image it is sent while the run writes the DXF and OBJ. The functions it runs are named (``"pipeline.plots:flat_pattern_png"``) and their
 arguments pickled, so the run itself never imports matplotlib; the files are the same
 bytes as when written in the run's process (same function, same arguments).
 

@@ -64,12 +64,17 @@ def test_a_killed_render_process_fails_the_wait_and_leaves_no_child(tmp_path):
         os.waitpid(renderer.pid, os.WNOHANG)  # reaped by the with block
 
 
+# devflat's start (pipeline.cli.entry_point) with the render process whatever the load
+ONE_SHOT = ("import gc, sys; gc.disable(); import pipeline.cli as cli; cli.spare_core = lambda: True; "
+            "code = cli.main(sys.argv[1:], one_shot=True); gc.freeze(); sys.exit(code)")
+
+
 def test_a_one_shot_run_writes_what_an_in_process_run_writes(tmp_path):
-    """`python -m pipeline run` (render process, frozen collector) against main() here."""
+    """A one-shot run (render process, frozen collector) against main() here."""
     config = ROOT / "configs" / "plate.yaml"
     assert main(["run", str(config), "--out", str(tmp_path / "here"), "--quiet"]) == 0
     env = dict(os.environ, PYTHONPATH=str(ROOT), SOURCE_DATE_EPOCH="0")
-    done = subprocess.run([sys.executable, "-m", "pipeline", "run", str(config), "--out", str(tmp_path / "there")],
+    done = subprocess.run([sys.executable, "-c", ONE_SHOT, "run", str(config), "--out", str(tmp_path / "there")],
                           env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[-1].startswith("wrote 8 files")
