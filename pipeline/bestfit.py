@@ -64,15 +64,20 @@ def seam_family_far(part: Part, config: RunConfig, grid, corner_tolerance: float
     return trim
 
 
-def signed_gaps(trim: Trim, part: Part, grid, mm_per_unit: float):
-    """(strip map, lam, v, gap) of the region's points (patch grid and boundary) against
-    the trim's strip: path fraction and position along the ruling of each point's closest strip point,
-    and the signed distance along the strip's normal there (model units)."""
+def region_points(part: Part, grid, mm_per_unit: float) -> np.ndarray:
+    """The plate's region as points (N, 3): its patch grid and its boundary about
+    BOUNDARY_MM apart (the points a trim is judged on)."""
+    boundary, _ = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
+    return np.vstack([grid.points.reshape(-1, 3), boundary])
+
+
+def signed_gaps(trim: Trim, points: np.ndarray):
+    """(strip map, lam, v, gap) of points (N, 3) of the region against the trim's strip:
+    path fraction and position along the ruling of each point's closest strip point, and
+    the signed distance along the strip's normal there (model units)."""
     attempt = trim.attempt
     c, d = attempt.part.c, attempt.part.d
     smap = StripMap(attempt.solution, c, d, MAP_RULINGS)
-    boundary, _ = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
-    points = np.vstack([grid.points.reshape(-1, 3), boundary])
     lam, v, rulings, on_strip = smap.locate(points)
     normals = _strip_normals(c, d, rulings)
     return smap, lam, v, np.einsum("ij,ij->i", points - on_strip, normals)
@@ -152,10 +157,11 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
             if wide.ok:
                 return wide
     moved = 0.0
+    points = region_points(part, grid, config.mm_per_unit)  # the same for every round
     for round_ in range(ROUNDS):
         if current.attempt is None or current.attempt.solution is None or not current.attempt.solution:
             break
-        smap, lam, v, gap = signed_gaps(current, part, grid, config.mm_per_unit)
+        smap, lam, v, gap = signed_gaps(current, points)
         at = np.linspace(0.0, 1.0, CURVE_POINTS)
         near, far = end_offsets(lam, v, gap, at)
         rulings, _, _ = smap.ends(at)

@@ -258,16 +258,10 @@ def hull_end_plates(tmp_path_factory):
     stern: its rulings run parallel to the butt planes, the plate ends are rulings lying
     in them). The uniform plan lays the same plates as the adaptive one, in seconds."""
     from pipeline.export import export_part
-    from pipeline.plan import load_run
     from pipeline.plates import run_plate
 
     tmp = tmp_path_factory.mktemp("hull")
-    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
-    data["strake"]["plan"]["method"] = "uniform"
-    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
-    config_path = tmp / "hull.yaml"
-    config_path.write_text(yaml.safe_dump(data))
-    config = load_run(config_path)
+    config = hull160_uniform(tmp)
     out = {}
     for name in ("hull160_S01_B10", "hull160_S01_B11"):
         part = next(p for p in config.parts if p.name == name)
@@ -336,15 +330,9 @@ def test_formed_plate_draws_its_shrink_and_stretch_areas(tmp_path):
     """hull160 S01_B01 (formed at the bow): each shrink / stretch region of its strain map
     is a closed outline on MARK_SHRINK / MARK_STRETCH whose area is the region's."""
     from pipeline.export import export_part
-    from pipeline.plan import load_run
     from pipeline.plates import run_plate
 
-    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
-    data["strake"]["plan"]["method"] = "uniform"
-    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
-    config_path = tmp_path / "hull.yaml"
-    config_path.write_text(yaml.safe_dump(data))
-    config = load_run(config_path)
+    config = hull160_uniform(tmp_path)
     part = next(p for p in config.parts if p.name == "hull160_S01_B01")
     result = run_plate(part, config)
     assert result.ok and result.figures["plate_class"]["class"] == "formed"
@@ -384,3 +372,15 @@ def test_strake_plate_figures_describe_the_trimmed_plate(hull_end_plates):
         for key in ("c", "d"):
             assert abs(unroll[f"boundary_error_{key}_mm_per_m"]) < 0.01
         assert unroll["area_flat"] / 1e6 == pytest.approx(rep["area_m2"], rel=1e-3)
+
+
+def hull160_uniform(folder: Path):
+    """The 160 m hull's shell config with the uniform layout, planned (no plate run)."""
+    from pipeline.plan import load_run
+
+    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
+    data["strake"]["plan"]["method"] = "uniform"
+    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    config_path = folder / "hull.yaml"
+    config_path.write_text(yaml.safe_dump(data))
+    return load_run(config_path)
