@@ -90,6 +90,12 @@ def readable(angle: float) -> float:
     return angle
 
 
+def _readable(angles: np.ndarray) -> np.ndarray:
+    """:func:`readable` of every angle (degrees, any shape)."""
+    angles = (np.asarray(angles, dtype=float) + 180.0) % 360.0 - 180.0
+    return np.where(angles > 90.0 + 1e-9, angles - 180.0, np.where(angles <= -90.0 + 1e-9, angles + 180.0, angles))
+
+
 def rectangles(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
     """Shapely polygons (N,) of width x height rectangles centred at centres (N, 2), turned
     by angle degrees."""
@@ -125,6 +131,39 @@ def _long_axes(centres: np.ndarray, width: float, height: float, u: np.ndarray, 
     return shapely.linestrings(np.stack([centres - reach, centres + reach], axis=1))
 
 
+def free_reach(centres: np.ndarray, direction: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Half-length (P,) of the longest segment centred at each of centres (P, 2) along the unit
+    vector direction (2,) that no segment of segments (S, 2, 2) crosses (inf when none is in
+    the way; segments along the direction are left out, so it is never an underestimate).
+
+    A box whose middle line along direction is longer than twice this meets one of the
+    segments inside (mm, as the inputs)."""
+    centres = np.asarray(centres, dtype=float)
+    normal = np.array([-direction[1], direction[0]])
+    cn, cd = centres @ normal, centres @ direction
+    an, bn = segments[:, 0] @ normal, segments[:, 1] @ normal
+    ad, bd = segments[:, 0] @ direction, segments[:, 1] @ direction
+    across = an != bn
+    an, bn, ad, bd = an[across], bn[across], ad[across], bd[across]
+    # a line along direction through a centre meets a segment iff the centre's normal
+    # coordinate is within the segment's: sorted, each segment meets a run of centres
+    order = np.argsort(cn, kind="stable")
+    first = np.searchsorted(cn[order], np.minimum(an, bn), "left")
+    counts = np.searchsorted(cn[order], np.maximum(an, bn), "right") - first
+    seg = np.repeat(np.arange(len(an)), counts)
+    p = order[np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts - first, counts)]
+    s = np.clip((cn[p] - an[seg]) / (bn[seg] - an[seg]), 0.0, 1.0)
+    reach = np.full(len(centres), np.inf)
+    np.minimum.at(reach, p, np.abs(ad[seg] + s * (bd[seg] - ad[seg]) - cd[p]))
+    return reach
+
+
+def _segments(rings: list[np.ndarray]) -> np.ndarray:
+    """The segments (S, 2, 2) of polylines (K, 2)."""
+    parts = [np.stack([r[:-1], r[1:]], axis=1) for r in (np.asarray(r, dtype=float) for r in rings) if len(r) >= 2]
+    return np.concatenate(parts) if parts else np.zeros((0, 2, 2))
+
+
 class Placer:
     """Places text boxes one after the other inside ``room`` (a polygon), clear (by
     ``clearance``) of ``lines`` and of what it placed before."""
@@ -137,41 +176,73 @@ class Placer:
         self.obstacles = MultiLineString(geoms) if geoms else None
         if self.obstacles is not None:
             shapely.prepare(self.obstacles)
+        # what a box may not cross: the room's edges and the lines, (S, 2, 2)
+        rings = [room.exterior.coords, *(r.coords for r in room.interiors)]
+        self.segments = _segments([np.asarray(r) for r in rings] + [line for line in lines if len(line) >= 2])
         self.boxes: list[Polygon] = []
+        self.placed = np.zeros((0, 5))  # the placed boxes, as self.boxes: centre, angle (rad), half sides
 
-    def place(self, centres: np.ndarray, width: float, height: float, angle: float) -> int | None:
+    def reaches(self, centres: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
+        """Free half-lengths (P,), P = len(centres), along the width and along the height of
+        boxes turned by angle degrees at centres: a box whose grown width (height) is longer
+        than twice the first (second) crosses the room's edge or a line (:func:`free_reach`);
+        what was placed is not counted."""
+        u, v = _axes(angle, 1)
+        return free_reach(centres, u[0], self.segments), free_reach(centres, v[0], self.segments)
+
+    def place(self, centres: np.ndarray, width: float, height: float, angle) -> int | None:
         """Index of the first centre whose box (grown by the clearance) is free; the box is
         taken. None when no centre fits."""
         angle = np.broadcast_to(np.asarray(angle, dtype=float), (len(centres),))
+        wide, high = width + 2 * self.clearance, height + 2 * self.clearance
+        u_all, v_all = _axes(angle, len(centres))
         # only the first free centre is wanted: test them in growing chunks (the first few
-        # usually fit), each test only where the cheaper ones passed; a box whose corners
-        # are not all in the room cannot lie in it (points are cheaper than polygons)
+        # usually fit), each test only where the cheaper ones passed: corners in the room
+        # (points), sure overlaps with placed boxes (numpy), a line across the box's long
+        # axis (lines are cheaper than boxes); the exact tests on polygons decide the rest
         start, size = 0, 16
         while start < len(centres):
             stop = min(start + size, len(centres))
-            wide, high = width + 2 * self.clearance, height + 2 * self.clearance
-            chunk = centres[start:stop]
-            u, v = _axes(angle[start:stop], len(chunk))
-            idx = np.arange(len(chunk))
-            if self.obstacles is not None:
-                # a line across the box's long axis meets the box: lines are cheaper than
-                # boxes, and the corners are built only for the boxes that pass
-                idx = np.flatnonzero(~shapely.intersects(self.obstacles, _long_axes(chunk, wide, high, u, v)))
-            corners = _corners_on(chunk[idx], wide, high, u[idx], v[idx])
-            inside = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
-            idx, corners = idx[inside], corners[inside]
-            grown = shapely.polygons(corners)
-            fits = shapely.contains(self.room, grown)
-            if self.obstacles is not None:  # the prepared geometry first: only then is it used
-                fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
-            if self.boxes and fits.any():  # every placed box in one call
-                fits[fits] = ~shapely.intersects(grown[fits][:, None], np.array(self.boxes)[None, :]).any(axis=1)
-            if fits.any():
-                i = start + int(idx[np.argmax(fits)])
-                self.boxes.append(rectangles(centres[i:i + 1], width, height, angle[i:i + 1])[0])
-                return i
+            chunk, u, v = centres[start:stop], u_all[start:stop], v_all[start:stop]
+            corners = _corners_on(chunk, wide, high, u, v)
+            idx = np.flatnonzero(shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1))
+            if len(self.placed) and idx.size:
+                idx = idx[~_sure_overlaps(chunk[idx], u[idx], v[idx], np.array([0.5 * wide, 0.5 * high]), self.placed)]
+            if self.obstacles is not None and idx.size:
+                idx = idx[~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))]
+            if idx.size:
+                grown = shapely.polygons(corners[idx])
+                fits = shapely.contains(self.room, grown)
+                if self.obstacles is not None:  # the prepared geometry first: only then is it used
+                    fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
+                if self.boxes and fits.any():  # every placed box in one call
+                    fits[fits] = ~shapely.intersects(grown[fits][:, None], np.array(self.boxes)[None, :]).any(axis=1)
+                if fits.any():
+                    i = start + int(idx[np.argmax(fits)])
+                    taken = _corners_on(centres[i:i + 1], width, height, u_all[i:i + 1], v_all[i:i + 1])
+                    self.boxes.append(shapely.polygons(taken)[0])
+                    self.placed = np.vstack([self.placed, [*centres[i], np.radians(angle[i]), 0.5 * width, 0.5 * height]])
+                    return i
             start, size = stop, 4 * size
         return None
+
+
+def _sure_overlaps(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: np.ndarray, placed: np.ndarray) -> np.ndarray:
+    """(N,): which rectangles (centres, unit axes u, v (N, 2), half sides (2,)) overlap one
+    of the placed ones (M, 6: centre, angle (rad), half sides) by more than round-off along
+    every separating axis, so that shapely too finds them intersecting (when they only touch,
+    or nearly, it is False and the exact test decides)."""
+    a = placed[:, 2]
+    pu, pv = np.column_stack([np.cos(a), np.sin(a)]), np.column_stack([-np.sin(a), np.cos(a)])
+    d = placed[None, :, :2] - centres[:, None]  # (N, M, 2)
+    uu, uv, vu, vv = np.abs(u @ pu.T), np.abs(u @ pv.T), np.abs(v @ pu.T), np.abs(v @ pv.T)  # (N, M)
+    pw, ph = placed[:, 3], placed[:, 4]
+    eps = 1e-9 * (np.abs(centres).max() + np.abs(placed[:, :2]).max() + half.sum() + pw.max() + ph.max())
+    deep = (np.abs(np.einsum("nmd,nd->nm", d, u)) < half[0] + pw * uu + ph * uv - eps) \
+        & (np.abs(np.einsum("nmd,nd->nm", d, v)) < half[1] + pw * vu + ph * vv - eps) \
+        & (np.abs(np.einsum("nmd,md->nm", d, pu)) < pw + half[0] * uu + half[1] * vu - eps) \
+        & (np.abs(np.einsum("nmd,md->nm", d, pv)) < ph + half[0] * uv + half[1] * vv - eps)
+    return deep.any(axis=1)
 
 
 def heights(preferred: float, smallest: float) -> list[float]:
@@ -297,6 +368,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     long_side = sides[np.argmax(np.linalg.norm(sides, axis=1))]
     angles += [readable(np.degrees(np.arctan2(long_side[1], long_side[0]))), 0.0, 90.0]
     placed = False
+    free = {}  # angle: the free half-lengths of Placer.reaches at every centre
     if part_data:
         splits = [part_data]
         for k in (3, 2, 1):
@@ -312,8 +384,17 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                 # ones, a prefix of the centres, are tried
                 reach = np.count_nonzero(depth >= (0.5 * min(w, hh) + placer.clearance) * (1 - 1e-9))
                 for angle in angles:
-                    i = placer.place(centres[:reach], w, hh, angle)
+                    # nor one whose grown box's middle lines cross the room's edge or a line:
+                    # most tries fail everywhere, and this decides most of their centres
+                    if angle not in free:
+                        free[angle] = placer.reaches(centres, angle)
+                    along, across = free[angle]
+                    fit = (along[:reach] >= (0.5 * w + placer.clearance) * (1 - 1e-6)) & \
+                          (across[:reach] >= (0.5 * hh + placer.clearance) * (1 - 1e-6))
+                    idx = np.flatnonzero(fit)
+                    i = placer.place(centres[idx], w, hh, angle)
                     if i is not None:
+                        i = idx[i]
                         layout.texts += block_texts(lines, centres[i], h, angle)
                         placed = True
                         break
@@ -343,27 +424,23 @@ def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.
     """Put a text beside a polyline: parallel to it, on the plate side of an edge (side
     None) or on either side of a mark line, at several places along it."""
     points, directions = _along(line, FRACTIONS)
+    ahead = _readable(np.degrees(np.arctan2(directions[:, 1], directions[:, 0])))  # (J,)
+    left = np.column_stack([-directions[:, 1], directions[:, 0]])
     for h in heights(0.8 * preferred, smallest):
         w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
         # a box 2 clearances off a straight edge has its grown side on the room's boundary,
         # where round-off decides whether it fits: 1 % of a clearance more decides it
         gap = 0.5 * hh + 2.01 * clearance
-        inward = _inwards(plate, points, directions, gap) if side is None else None
-        centres, angles = [], []
-        for j, (p, d) in enumerate(zip(points, directions)):
-            normals = [inward[j]] if side is None else [np.array([-d[1], d[0]]), np.array([d[1], -d[0]])]
-            for n in normals:
-                for k in (1.0, 2.0, 3.5):
-                    centres.append(p + k * gap * n)
-                    angles.append(readable(np.degrees(np.arctan2(d[1], d[0]))))
+        # (J, 1 or 2, 2): the inward normal of an edge, either normal of a mark line
+        normals = _inwards(plate, points, directions, gap)[:, None] if side is None else \
+            np.stack([left, np.column_stack([directions[:, 1], -directions[:, 0]])], axis=1)
+        steps = np.array([1.0, 2.0, 3.5]) * gap
+        beside = points[:, None, None] + steps[None, None, :, None] * normals[:, :, None]  # (J, n, 3, 2)
         # a short edge or a line across a narrow plate: the text runs away from it
-        for j, (p, d) in enumerate(zip(points, directions)):
-            normals = [inward[j]] if side is None else [np.array([-d[1], d[0]]), np.array([d[1], -d[0]])]
-            for n in normals:
-                centres.append(p + (0.5 * w + 0.5 * hh + 3.0 * clearance) * n)
-                angles.append(readable(np.degrees(np.arctan2(n[1], n[0]))))
-        centres = np.array(centres)
-        angles = np.array(angles)
+        away = points[:, None] + (0.5 * w + 0.5 * hh + 3.0 * clearance) * normals  # (J, n, 2)
+        centres = np.concatenate([beside.reshape(-1, 2), away.reshape(-1, 2)])
+        angles = np.concatenate([np.repeat(ahead, beside.shape[1] * 3),
+                                 _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0]))).ravel()])
         i = placer.place(centres, w, hh, angles)
         if i is not None:
             layout.texts.append(Text(kind, text, tuple(centres[i]), h, float(angles[i])))
