@@ -28,11 +28,35 @@ def steel_texts(result: PartResult) -> list[str]:
             f"MARKED SIDE {steel['marked_side'].upper()}"]
 
 
+def _previews(result: PartResult, config: RunConfig, out_dir: Path) -> list[tuple[Path, str, tuple]]:
+    """The part's PNG previews drawn by :mod:`pipeline.plots` (matplotlib: imported only by
+    the process that draws them): [(path, "module:function", its other arguments)]."""
+    out, name = config.spec.output, result.name
+    if not out.png:
+        return []
+    previews = []
+    if result.ok and result.figures.get("textile_piece") is None:
+        pattern = result.pattern
+        previews.append((out_dir / f"{name}_flat.png", "pipeline.plots:flat_pattern_png",
+                         (pattern.outline, pattern.bend_lines,
+                          f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)))
+    if result.solution is not None and result.solution.kind != "coplanar":
+        previews.append((out_dir / f"{name}_solutions.png", "pipeline.plots:solution_diagram_png",
+                         (result.solution, result.part.c.domain, result.part.d.domain,
+                          f"{name}: {result.solution.message}")))
+    return previews
+
+
 def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Path]:
     """Write the part's files; returns the paths written."""
     out = config.spec.output
     written = []
     name = result.name
+    # the previews are sent first: a render process (pipeline.renderproc) draws them while
+    # this one lays out and writes the DXF; the list of files keeps its order
+    previews = _previews(result, config, out_dir)
+    for path, target, args in previews:
+        render(target, path, *args)
     if result.ok:
         scale = config.mm_per_unit
         pattern = result.pattern
@@ -85,23 +109,13 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             path = out_dir / f"{name}_flat.png"
             textile_preview_png(path, result.figures["textile_piece"], config.spec.units)
             written.append(path)
-        elif out.png:  # matplotlib: imported only for previews, by the process that draws them
-            path = out_dir / f"{name}_flat.png"
-            render("pipeline.plots:flat_pattern_png", path, pattern.outline, pattern.bend_lines,
-                   f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)
-            written.append(path)
-    if out.png and result.solution is not None and result.solution.kind != "coplanar":
-        path = out_dir / f"{name}_solutions.png"
-        render("pipeline.plots:solution_diagram_png", path, result.solution, result.part.c.domain,
-               result.part.d.domain, f"{name}: {result.solution.message}")
-        written.append(path)
+    written += [path for path, _, _ in previews]
     wait_for_images()  # the part's images (and their errors) before its report
     path = out_dir / f"{name}.json"
     result.figures["files"] = [p.name for p in written] + [path.name]
     write_text(path, report_json(result, config.spec.units))
     written.append(path)
     return written
-
 
 
 def textile_pieces(results: list[PartResult], config: RunConfig) -> list:

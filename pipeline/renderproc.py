@@ -3,10 +3,12 @@
 matplotlib is the run's largest import (~0.3 s of a one-shot plate, more than its solve)
 and its PNG previews and PDF shop drawings are the largest part of a plate's files; none
 of it feeds back into the computation. In a one-shot ``devflat run`` (one process for the
-parts, 2 cores on this machine) the command forks a render process right after the
-configuration is validated, when a core is free (:func:`pipeline.cli.spare_core`): it
-imports matplotlib while the run imports its other libraries and solves, then writes each
-image it is sent while the run writes the DXF and OBJ. The functions it runs are named (``"pipeline.plots:flat_pattern_png"``) and their
+parts, 2 cores on this machine) the command forks a render process as soon as it has read
+the configuration file, when a core is free (:func:`pipeline.cli.early_renderer`): it
+imports matplotlib while the run validates the configuration, imports its other libraries
+and solves; the validated configuration then keeps it or ends it unused. It writes each
+image it is sent (a part's previews are sent first) while the run lays out and writes the
+DXF and OBJ. The functions it runs are named (``"pipeline.plots:flat_pattern_png"``) and their
 arguments pickled, so the run itself never imports matplotlib; the files are the same
 bytes as when written in the run's process (same function, same arguments).
 
@@ -95,7 +97,34 @@ class Renderer:
         self.pending = 0
         self.error: BaseException | None = None
 
+    def start(self) -> Renderer:
+        """Fork the process now (it imports ``preload`` at once), before the run decides to
+        use it: ``with`` then takes it over, or :meth:`discard` ends it unused."""
+        if self.pid is None:
+            self._fork()
+        return self
+
+    def discard(self) -> None:
+        """End a started process that the run does not use."""
+        if self.pid is not None:
+            os.close(self._jobs_w)
+            os.close(self._answers_r)
+            self._kill_and_reap()
+            self.pid = None
+
+    def _kill_and_reap(self) -> None:
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        os.waitpid(self.pid, 0)
+
     def __enter__(self) -> Renderer:
+        self.start()
+        self._token = ACTIVE.set(self)
+        return self
+
+    def _fork(self) -> None:
         jobs_r, self._jobs_w = os.pipe()
         self._answers_r, answers_w = os.pipe()
         sys.stdout.flush()
@@ -113,8 +142,6 @@ class Renderer:
         self.pid = pid
         os.close(jobs_r)
         os.close(answers_w)
-        self._token = ACTIVE.set(self)
-        return self
 
     def submit(self, target: str, args: tuple, kwargs: dict) -> None:
         try:
@@ -156,11 +183,9 @@ class Renderer:
             os.close(self._jobs_w)  # end of file: the process exits after its last job
             os.close(self._answers_r)
             if exc[0] is not None or self.pending:  # interrupted or failed: its files are not wanted
-                try:
-                    os.kill(self.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-            os.waitpid(self.pid, 0)
+                self._kill_and_reap()
+            else:
+                os.waitpid(self.pid, 0)
 
 
 def _serve(parent: int, jobs: int, answers: int, preload: tuple[str, ...]) -> int:

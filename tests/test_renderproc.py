@@ -98,3 +98,43 @@ def test_arguments_that_do_not_pickle_are_drawn_in_the_run(tmp_path):
         render(FLAT, tmp_path / "here.png", OUTLINE, BENDS, Title("plate: flat pattern"), "mm")
         assert renderer.pending == 0  # not sent: written already
         assert (tmp_path / "here.png").exists()
+
+
+def test_a_render_process_started_before_validation_is_ended_by_a_bad_config(tmp_path, monkeypatch):
+    """The run forks its render process before it validates (pipeline.cli.early_renderer):
+    a config that fails validation ends it, writes nothing and leaves no child."""
+    import pipeline.cli as cli
+
+    monkeypatch.setattr(cli, "spare_core", lambda: True)
+    started = []
+    start = Renderer.start
+    monkeypatch.setattr(Renderer, "start", lambda self: started.append(self) or start(self))
+    text = (ROOT / "configs" / "plate.yaml").read_text().replace("degree: 3", "degree: 0", 1)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    assert main(["run", str(bad), "--out", str(tmp_path / "out"), "--quiet"], one_shot=True) == 2
+    assert len(started) == 1 and started[0].pid is None  # forked, then ended
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ChildProcessError):
+        os.waitpid(-1, os.WNOHANG)
+
+
+@pytest.mark.parametrize("output, forked", [({}, True), ({"png": False}, False)])
+def test_the_early_render_process_follows_the_raw_previews_setting(tmp_path, monkeypatch, output, forked):
+    import yaml
+
+    import pipeline.cli as cli
+
+    monkeypatch.setattr(cli, "spare_core", lambda: True)
+    raw = yaml.safe_load((ROOT / "configs" / "plate.yaml").read_text())
+    raw["output"] = output
+    config = tmp_path / "plate.yaml"
+    config.write_text(yaml.safe_dump(raw))
+    args = cli.build_parser().parse_args(["run", str(config), "--out", str(tmp_path / "out")])
+    args.one_shot = True
+    early = cli.early_renderer(args)
+    try:
+        assert (early is not None) == forked
+    finally:
+        if early is not None:
+            early.discard()
