@@ -99,7 +99,17 @@ def check_jobs(jobs: int) -> None:
         raise ConfigError(f"--jobs {jobs}: give a number of processes from 1 to {MAX_JOBS}")
 
 
-def command_run(args) -> int:
+def command_run(args, early=None) -> int:
+    """``devflat run``; ``early``: the render process :func:`early_renderer` started."""
+    try:
+        return _run(args, early)
+    except BaseException:
+        if early is not None:
+            early.discard()  # no-op once the run took it over
+        raise
+
+
+def _run(args, early) -> int:
     from .export import export_summary, export_textile, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
@@ -107,14 +117,8 @@ def command_run(args) -> int:
     from .runner import guarded_export, run_parts
 
     check_jobs(args.jobs)
-    early = early_renderer(args)
-    try:
-        config = validate(args.config, evaluate_plate)
-        check_plan(config, args.out)
-    except BaseException:
-        if early is not None:
-            early.discard()
-        raise
+    config = validate(args.config, evaluate_plate)
+    check_plan(config, args.out)
     parts = config.parts
     textile = config.spec.profile == "textile"
     progress = None
@@ -123,7 +127,9 @@ def command_run(args) -> int:
         # gone before the staging folder is removed
         with OutputFolder(args.out, config) as folder, render_process(args, config, early) as renderer:
             if args.one_shot:
-                preload(config, images=renderer is None)
+                # with a render process, ezdxf too is imported when the first DXF is written:
+                # after the part's previews are sent, while the render process draws them
+                preload(config, images=renderer is None, dxf=renderer is None)
                 imports_done()
             if len(parts) > 1 and not args.quiet:
                 from tqdm import tqdm
@@ -157,12 +163,19 @@ def command_run(args) -> int:
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
 
 
-def image_modules(config: RunConfig) -> tuple[str, ...]:
+def image_modules(config: RunConfig, warm: bool = False) -> tuple[str, ...]:
     """What the run's images need ("module" or "module:function" to call): matplotlib's
-    Agg canvas for PNG previews, its PDF backend for shop drawings; () for none."""
+    Agg canvas for PNG previews, its PDF backend for shop drawings; () for none. ``warm``:
+    a first drawing of each kind too (a render process makes it while it waits)."""
     out = config.spec.output
     drawings = config.spec.profile == "steel" and out.dxf and (out.png if out.drawing is None else out.drawing)
-    return (("pipeline.plots",) if out.png else ()) + (("pipeline.lazymodules:pdf_backend",) if drawings else ())
+    return _image_modules(out.png, drawings, warm)
+
+
+def _image_modules(previews: bool, drawings: bool, warm: bool) -> tuple[str, ...]:
+    png = "pipeline.plots:warm_up" if warm else "pipeline.plots"
+    pdf = "pipeline.shopdrawing:warm_up" if warm else "pipeline.lazymodules:pdf_backend"
+    return ((png,) if previews else ()) + ((pdf,) if drawings else ())
 
 
 def render_process(args, config: RunConfig, early=None):
@@ -177,7 +190,7 @@ def render_process(args, config: RunConfig, early=None):
 
     from .runner import worker_count
 
-    modules = image_modules(config)
+    modules = image_modules(config, warm=True)
     if (args.one_shot and modules and sys.platform.startswith("linux") and config.spec.profile == "steel"
             and worker_count(args.jobs, len(config.parts)) == 1 and (early is not None or spare_core())):
         from .renderproc import Renderer
@@ -214,8 +227,7 @@ def early_renderer(args):
 
     from .renderproc import Renderer
 
-    modules = ("pipeline.plots",) + (("pipeline.lazymodules:pdf_backend",) if drawings else ())
-    return Renderer(modules).start()
+    return Renderer(_image_modules(True, drawings, warm=True)).start()
 
 
 def spare_core() -> bool:
@@ -233,12 +245,13 @@ def spare_core() -> bool:
     return os.getloadavg()[0] <= cores - 1
 
 
-def preload(config: RunConfig, images: bool = True) -> None:
+def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:
     """Import now the libraries the run's outputs need, which their stages would import
     on first use anyway: in a one-shot process this is still its start (see
     :func:`entry_point`), and worker processes forked later inherit them. Nothing that
     the configuration does not ask for: ezdxf only for steel DXFs, matplotlib only for
-    images (``images``: drawn in this process)."""
+    images (``images``: drawn in this process); ezdxf not before it is needed when not
+    ``dxf``."""
     import importlib
 
     from .lazymodules import defer
@@ -247,7 +260,7 @@ def preload(config: RunConfig, images: bool = True) -> None:
     import trimesh.grouping  # noqa: F401 - every part's mesh figures (pipeline.stages)
 
     out = config.spec.output
-    if config.spec.profile == "steel" and out.dxf:
+    if config.spec.profile == "steel" and out.dxf and dxf:
         from . import dxf_steel, shop  # noqa: F401
     for name in image_modules(config) if images else ():
         module, _, function = name.partition(":")
@@ -278,6 +291,8 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
     args.one_shot = one_shot
+    # before anything heavy is imported: the render process imports matplotlib meanwhile
+    early = early_renderer(args) if args.command == "run" else None
     from flatten.errors import DevflatError
 
     from .config import ConfigError
@@ -285,7 +300,7 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     previous_term = signal.signal(signal.SIGTERM, _terminated)
     try:
         if args.command == "run":
-            return command_run(args)
+            return command_run(args, early)
         if args.command == "nest":
             from .nesting_io import command_nest
 

@@ -93,10 +93,10 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             else:
                 path = out_dir / f"{name}.dxf"
                 layout = shop_layout(result, config, texts)
+                # the drawing before the DXF: a render process draws it while this one writes
+                pdf = shop_drawing(result, config, layout, out_dir / f"{name}_drawing.pdf") if drawing else None
                 errors = write_steel_dxf(path, layout, out.layers)
-                written.append(path)
-                if drawing:
-                    written.append(shop_drawing(result, config, layout, out_dir / f"{name}_drawing.pdf"))
+                written += [path] if pdf is None else [path, pdf]
             result.figures["dxf_audit_errors"] = errors
         if out.obj:
             path = out_dir / f"{name}.obj"

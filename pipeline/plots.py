@@ -217,3 +217,15 @@ def layout_png(target: str | Path, width: float, length: float, parts, title: st
     ax.set_xlabel(units)
     ax.set_title(title, fontsize=9, loc="left", y=1.01)
     _save(fig, target)
+
+
+def warm_up() -> None:
+    """Draw a small flat pattern into memory. A process's first drawing loads the fonts and
+    fills matplotlib's caches (several times a later drawing's cost); a render process
+    (:mod:`pipeline.renderproc`) does it while it waits for its first image."""
+    import io
+
+    square = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    bends = np.array([[[50.0, 0.0], [50.0, 100.0]]])
+    flat_pattern_figure(square, bends, "warm-up: flat pattern (1 bending line)", "mm").savefig(
+        io.BytesIO(), format="png", pil_kwargs=PNG_OPTIONS)

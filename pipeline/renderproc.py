@@ -94,6 +94,7 @@ class Renderer:
     def __init__(self, preload: tuple[str, ...]):
         self.preload = preload
         self.pid: int | None = None
+        self.running = False  # forked and not yet reaped
         self.pending = 0
         self.error: BaseException | None = None
 
@@ -105,19 +106,22 @@ class Renderer:
         return self
 
     def discard(self) -> None:
-        """End a started process that the run does not use."""
-        if self.pid is not None:
+        """End a started process that the run does not use (nothing once it is reaped)."""
+        if self.running:
             os.close(self._jobs_w)
             os.close(self._answers_r)
             self._kill_and_reap()
-            self.pid = None
 
     def _kill_and_reap(self) -> None:
         try:
             os.kill(self.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
+        self._reap()
+
+    def _reap(self) -> None:
         os.waitpid(self.pid, 0)
+        self.running = False
 
     def __enter__(self) -> Renderer:
         self.start()
@@ -139,7 +143,7 @@ class Renderer:
                 code = _serve(parent, jobs_r, answers_w, self.preload)
             finally:
                 os._exit(code)  # no atexit handlers or buffers of the run's process
-        self.pid = pid
+        self.pid, self.running = pid, True
         os.close(jobs_r)
         os.close(answers_w)
 
@@ -185,7 +189,7 @@ class Renderer:
             if exc[0] is not None or self.pending:  # interrupted or failed: its files are not wanted
                 self._kill_and_reap()
             else:
-                os.waitpid(self.pid, 0)
+                self._reap()
 
 
 def _serve(parent: int, jobs: int, answers: int, preload: tuple[str, ...]) -> int:

@@ -222,3 +222,20 @@ def _overall(ax, lo: np.ndarray, hi: np.ndarray, paper_mm: float) -> None:
     ax.text(0.5 * (lo[0] + hi[0]), y + 1.2 * paper_mm, f"{hi[0] - lo[0]:.0f}", fontsize=7, ha="center", va="bottom")
     ax.text(x - 1.2 * paper_mm, 0.5 * (lo[1] + hi[1]), f"{hi[1] - lo[1]:.0f}", fontsize=7, ha="right", va="center",
             rotation=90)
+
+
+def warm_up() -> None:
+    """Draw a small sheet into a temporary folder: the first PDF of a process reads the core
+    fonts' metrics and fills matplotlib's caches (three to four times a later drawing's
+    cost); a render process (:mod:`pipeline.renderproc`) does it while it waits."""
+    import tempfile
+
+    from .layout import Layout, Text
+
+    square = np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 500.0], [0.0, 500.0]])
+    layout = Layout(cut=square, net=None, lines=[("bend", np.array([[500.0, 0.0], [500.0, 500.0]]))],
+                    texts=[Text("text", "PART WARM-UP", (250.0, 250.0), 20.0, 0.0)])
+    bends = [(1, "B1 CVX R 1000", np.array([500.0, 0.0]), np.array([500.0, 500.0]))]
+    with tempfile.TemporaryDirectory() as folder:
+        draw_sheet(Path(folder) / "warm-up.pdf", layout, "PART WARM-UP", ["THK 10 MM"], bends, None,
+                   ["BENDING LINES B1-B1"], {"EDGE C": square[:2]}, choose_sheet(np.ptp(square, axis=0)))

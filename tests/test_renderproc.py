@@ -113,7 +113,7 @@ def test_a_render_process_started_before_validation_is_ended_by_a_bad_config(tmp
     bad = tmp_path / "bad.yaml"
     bad.write_text(text)
     assert main(["run", str(bad), "--out", str(tmp_path / "out"), "--quiet"], one_shot=True) == 2
-    assert len(started) == 1 and started[0].pid is None  # forked, then ended
+    assert len(started) == 1 and started[0].pid is not None and not started[0].running  # forked, ended
     assert not (tmp_path / "out").exists()
     with pytest.raises(ChildProcessError):
         os.waitpid(-1, os.WNOHANG)
