@@ -9,7 +9,7 @@ Boor). Parameters live on the curve's own knot domain [U_p, U_{n+1}].
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from math import comb, factorial
 
 import numpy as np
@@ -22,6 +22,7 @@ _GAUSS_ORDER = 12
 _ARC_SUBDIVISIONS = 8
 
 
+@lru_cache(maxsize=8)
 def _gauss_rule(order: int) -> tuple[np.ndarray, np.ndarray]:
     nodes, weights = np.polynomial.legendre.leggauss(order)
     nodes.setflags(write=False)
@@ -221,8 +222,8 @@ class NurbsCurve:
         pieces = self._gauss_length(edges[:-1], edges[1:])
         return edges, np.concatenate([[0.0], np.cumsum(pieces)])
 
-    def _gauss_length(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        x, w = _GAUSS_NODES, _GAUSS_WEIGHTS
+    def _gauss_length(self, a: np.ndarray, b: np.ndarray, order: int | None = None) -> np.ndarray:
+        x, w = (_GAUSS_NODES, _GAUSS_WEIGHTS) if order is None else _gauss_rule(order)
         a = np.asarray(a, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
         half = 0.5 * (b - a)
@@ -236,6 +237,35 @@ class NurbsCurve:
         edges, cumulative = self._arc_table
         idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
         return cumulative[idx] + self._gauss_length(edges[idx], t)
+
+    def arc_length_along(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`arc_length_at` of many parameters at once (N,), model units: in order of t,
+        each is integrated from the previous one or from the arc table's edge before it,
+        whichever is nearer, and the pieces are summed from the edge. A piece shorter than
+        1/16 of its table interval (1/64) takes 6 (4) Gauss nodes instead of 12: on the
+        interval the 12-node rule is exact to round-off, and the error of an n-node rule falls
+        as the piece length to the power 2n, so the short pieces are too; a dense sample costs
+        a third of the evaluations."""
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=np.float64)), *self.domain)
+        edges, cumulative = self._arc_table
+        order = np.argsort(t, kind="stable")
+        ts = t[order]
+        i = np.clip(np.searchsorted(edges, ts, side="right") - 1, 0, len(edges) - 2)
+        first = np.ones(len(ts), dtype=bool)  # first of its table interval
+        first[1:] = i[1:] != i[:-1]
+        start = np.where(first, edges[i], np.concatenate([ts[:1], ts[:-1]]))
+        h = (ts - start) / (edges[i + 1] - edges[i])
+        piece = np.zeros(len(ts))
+        for n_nodes, group in ((4, h <= 1.0 / 64.0), (6, (h > 1.0 / 64.0) & (h <= 1.0 / 16.0)), (None, h > 1.0 / 16.0)):
+            sel = np.flatnonzero(group & (h > 0))
+            if len(sel):
+                piece[sel] = self._gauss_length(start[sel], ts[sel], n_nodes)
+        # summed along each run of points in one table interval, from its edge
+        total = np.cumsum(piece)
+        run = np.cumsum(first) - 1
+        out = np.empty(len(ts))
+        out[order] = cumulative[i] + total - (total - piece)[first][run]
+        return out
 
     @property
     def length(self) -> float:

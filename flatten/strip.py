@@ -138,7 +138,7 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     curves = (c, d)
     density = np.zeros(len(dense))
     for axis, curve in enumerate(curves):
-        s = curve.arc_length_at(pts[:, axis])
+        s = curve.arc_length_along(pts[:, axis])
         # a seam end with zero speed (a doubled end pole) has no curvature (0/0): it moves
         # nowhere there (ds = 0), so it asks for no rulings
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from math import factorial
 
 import numpy as np
 from scipy.interpolate import BSpline
@@ -101,14 +102,59 @@ class NurbsSurface:
         hom = np.einsum("ai,ijk,bj->abk", bu, self._homogeneous, bv)
         return hom[..., :3] / hom[..., 3:]
 
+    @cached_property
+    def _patches(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The surface as polynomial patches, one per pair of non-empty knot spans:
+        breakpoints in u (Su+1,) and v (Sv+1,), their inverse widths (Su,), (Sv,), and
+        homogeneous coefficients (Su, Sv, pv+1, (pu+1) 4) of s^a sigma^b in the local
+        (s, sigma) in [0, 1]^2 of the patch: the Taylor coefficients at its lower corner
+        (de Boor derivatives of the net, right limits at the knots)."""
+        nu, nv, _ = self._homogeneous.shape
+        pu, pv = self.degree_u, self.degree_v
+        lo_u, hi_u = self.domain_u
+        lo_v, hi_v = self.domain_v
+        bu = np.unique(self.knots_u[(self.knots_u >= lo_u) & (self.knots_u <= hi_u)])
+        bv = np.unique(self.knots_v[(self.knots_v >= lo_v) & (self.knots_v <= hi_v)])
+        wu, wv = np.diff(bu), np.diff(bv)
+        along_u = BSpline(self.knots_u, self._homogeneous.reshape(nu, nv * 4), pu)
+        # (a, Su, nv, 4): d^a/du^a / a! at the u spans' starts, times width^a
+        du = np.stack([along_u(bu[:-1], nu=a).reshape(-1, nv, 4) * (wu[:, None, None] ** a / factorial(a))
+                       for a in range(pu + 1)])
+        su = len(bu) - 1
+        net = du.transpose(2, 0, 1, 3).reshape(nv, (pu + 1) * su * 4)
+        along_v = BSpline(self.knots_v, net, pv)
+        dv = np.stack([along_v(bv[:-1], nu=b).reshape(-1, pu + 1, su, 4) * (wv[:, None, None, None] ** b / factorial(b))
+                       for b in range(pv + 1)])  # (b, Sv, a, Su, 4)
+        # (Su, Sv, b, a * 4): a point's sigma row times its patch's matrix is one small product
+        coef = np.ascontiguousarray(dv.transpose(3, 1, 0, 2, 4)).reshape(su, len(bv) - 1, pv + 1, (pu + 1) * 4)
+        for array in (bu, bv, coef):
+            array.setflags(write=False)
+        return bu, 1.0 / wu, bv, 1.0 / wv, coef
+
     def __call__(self, u, v) -> np.ndarray:
         """Points S(u_k, v_k) for matching arrays, shape (N, 3).
 
-        Only the (pu + 1) x (pv + 1) poles acting at each point take part: the dense basis
-        matrices (N, nu) and (N, nv) cost N nu nv products per coordinate."""
+        Up to degree :data:`PATCH_MAX_DEGREE` on the polynomial patches (:attr:`_patches`):
+        a patch lookup and two short power rows per point (the many small evaluations of a
+        plate pay per call, not per point). Above it only the (pu + 1) x (pv + 1) poles
+        acting at each point take part in the basis recurrence: the dense basis matrices
+        (N, nu) and (N, nv) cost N nu nv products per coordinate."""
         u = np.atleast_1d(np.asarray(u, dtype=np.float64))
         v = np.atleast_1d(np.asarray(v, dtype=np.float64))
         out = np.empty((len(u), 3))
+        if max(self.degree_u, self.degree_v) <= PATCH_MAX_DEGREE:
+            bu, iwu, bv, iwv, coef = self._patches
+            for k in range(0, len(u), _CHUNK):
+                uu = np.clip(u[k:k + _CHUNK], *self.domain_u)
+                vv = np.clip(v[k:k + _CHUNK], *self.domain_v)
+                i = np.minimum(np.searchsorted(bu, uu, side="right") - 1, len(bu) - 2)
+                j = np.minimum(np.searchsorted(bv, vv, side="right") - 1, len(bv) - 2)
+                pu = _powers((uu - bu[i]) * iwu[i], self.degree_u)
+                pv = _powers((vv - bv[j]) * iwv[j], self.degree_v)
+                along = np.matmul(pv[:, None, :], coef[i, j])[:, 0].reshape(len(uu), -1, 4)  # (N, pu+1, 4)
+                hom = np.matmul(pu[:, None, :], along)[:, 0]
+                out[k:k + _CHUNK] = hom[:, :3] / hom[:, 3:]
+            return out
         for k in range(0, len(u), _CHUNK):  # bounded temporaries: (chunk, pu+1, pv+1, 4)
             su, bu = _local_basis(np.clip(u[k:k + _CHUNK], *self.domain_u), self.knots_u, self.degree_u)
             sv, bv = _local_basis(np.clip(v[k:k + _CHUNK], *self.domain_v), self.knots_v, self.degree_v)
@@ -149,6 +195,18 @@ def nurbs_surface(degree_u, degree_v, poles, knots_u, knots_v, weights=None, nam
 
 
 _CHUNK = 16384
+# surfaces up to this degree are evaluated on polynomial patches (power form, which loses
+# digits as the degree grows), higher ones by the basis recurrence
+PATCH_MAX_DEGREE = 3
+
+
+def _powers(s: np.ndarray, degree: int) -> np.ndarray:
+    """Rows (1, s, ..., s^degree), shape (N, degree + 1)."""
+    out = np.empty((len(s), degree + 1))
+    out[:, 0] = 1.0
+    for a in range(1, degree + 1):
+        out[:, a] = out[:, a - 1] * s
+    return out
 
 
 def _local_basis(x: np.ndarray, knots: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:

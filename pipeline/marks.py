@@ -11,9 +11,12 @@ import numpy as np
 def frame_polylines(result, frames, lo, hi, keep, n_v: int = 41):
     """Each frame plane x = X on the plate, as developed points (unplaced): along lines of
     constant v the crossing between two rulings is solved exactly (secant on t with T(t)
-    from f = 0), and the crossing points are developed exactly (one development with those
-    rulings added)."""
-    from flatten.develop import develop
+    from f = 0), and the crossing points are developed exactly (the strip developed once,
+    every frame's crossing rulings developed from it: :class:`flatten.develop.DevelopedStrip`).
+
+    The frames are solved side by side, each as if alone: a frame's points stop moving
+    once they all meet the tolerance, as they would in a loop over the frames."""
+    from flatten.develop import DevelopedStrip
 
     part, solution, strip = result.part, result.solution, result.strip
     field_ = solution.field
@@ -22,48 +25,53 @@ def frame_polylines(result, frames, lo, hi, keep, n_v: int = 41):
     k = np.arange(strip.n_rulings) * m
     a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
     v = np.linspace(0.0, 1.0, n_v)
-    lines = []
+    xs = a3[:, None, 0] + v[None, :] * (b3 - a3)[:, None, 0]  # (K, n_v)
+    found = []  # per frame with >= 2 crossings: (x, v (n,), t, t_lo, t_hi (n,) each)
     for x in frames:
-        xs = a3[:, None, 0] + v[None, :] * (b3 - a3)[:, None, 0]  # (K, n_v)
-        crossings = []
-        for j in range(n_v):
-            idx = np.flatnonzero(np.diff(np.sign(xs[:, j] - x)) != 0)
-            for i in idx[:1]:
-                frac = (x - xs[i, j]) / (xs[i + 1, j] - xs[i, j])
-                crossings.append((v[j], rulings[i, 0] + frac * (rulings[i + 1, 0] - rulings[i, 0]),
-                                  rulings[i, 0], rulings[i + 1, 0]))
-        if len(crossings) < 2:
+        change = np.diff(np.sign(xs - x), axis=0) != 0  # (K - 1, n_v)
+        cols = np.flatnonzero(change.any(axis=0))  # lines of constant v crossing the frame
+        if len(cols) < 2:
             continue
-        vv = np.array([cr[0] for cr in crossings])
-        t = np.array([cr[1] for cr in crossings])
-        t_lo = np.array([cr[2] for cr in crossings])
-        t_hi = np.array([cr[3] for cr in crossings])
+        i = np.argmax(change[:, cols], axis=0)  # the first crossing along each
+        frac = (x - xs[i, cols]) / (xs[i + 1, cols] - xs[i, cols])
+        found.append((float(x), v[cols], rulings[i, 0] + frac * (rulings[i + 1, 0] - rulings[i, 0]),
+                      rulings[i, 0], rulings[i + 1, 0]))
+    if not found:
+        return []
+    owner = np.concatenate([np.full(len(f[1]), n) for n, f in enumerate(found)])
+    target = np.array([f[0] for f in found])
+    vv, t, t_lo, t_hi = (np.concatenate([f[k] for f in found]) for k in range(1, 5))
+    x_of = target[owner]
 
-        def x_at(tt):
-            TT = field_.refine_T(tt, np.interp(tt, rulings[:, 0], rulings[:, 1]), 8)
-            pc, pd = part.c(tt), part.d(TT)
-            return pc[:, 0] + vv * (pd[:, 0] - pc[:, 0]) - x, TT
+    def x_at(tt, sel):
+        guess = np.interp(tt, rulings[:, 0], rulings[:, 1])
+        TT = guess if field_ is None else field_.refine_T(tt, guess, 8)
+        pc, pd = part.c(tt), part.d(TT)
+        return pc[:, 0] + vv[sel] * (pd[:, 0] - pc[:, 0]) - x_of[sel], TT
 
-        g0, _ = x_at(t_lo)
-        g1, _ = x_at(t_hi)
-        for _ in range(40):  # regula falsi (Illinois) inside the bracket
-            g, _ = x_at(t)
-            left = np.sign(g) == np.sign(g0)
-            t_lo, g0 = np.where(left, t, t_lo), np.where(left, g, g0)
-            t_hi, g1 = np.where(left, t_hi, t), np.where(left, g1, g)
-            t = np.where(g1 != g0, t_hi - g1 * (t_hi - t_lo) / (g1 - g0), t)
-            if np.abs(g).max() <= 1e-9 * (1 + abs(x)):
-                break
-        _, T = x_at(t)
-        merged = np.vstack([rulings, np.column_stack([t, T])])
-        order = np.lexsort((merged[:, 1] * solution.path.orientation, merged[:, 0]))
-        dev = develop(part.c, part.d, merged[order], field_)
-        position = np.empty(len(merged), dtype=int)
-        position[order] = np.arange(len(merged))
-        new = position[len(rulings):]
-        pts = dev.along_c[new] + vv[:, None] * (dev.along_d[new] - dev.along_c[new])
-        lines.append((float(x), pts))
-    return lines
+    everything = np.arange(len(t))
+    g0, _ = x_at(t_lo, everything)
+    g1, _ = x_at(t_hi, everything)
+    moving = np.ones(len(found), dtype=bool)
+    for _ in range(40):  # regula falsi (Illinois) inside the bracket
+        sel = np.flatnonzero(moving[owner])
+        if not len(sel):
+            break
+        g, _ = x_at(t[sel], sel)
+        left = np.sign(g) == np.sign(g0[sel])
+        t_lo[sel], g0[sel] = np.where(left, t[sel], t_lo[sel]), np.where(left, g, g0[sel])
+        t_hi[sel], g1[sel] = np.where(left, t_hi[sel], t[sel]), np.where(left, g1[sel], g)
+        t[sel] = np.where(g1[sel] != g0[sel], t_hi[sel] - g1[sel] * (t_hi[sel] - t_lo[sel]) / (g1[sel] - g0[sel]),
+                          t[sel])
+        worst = np.zeros(len(found))
+        np.maximum.at(worst, owner[sel], np.abs(g))
+        moving &= ~(worst <= 1e-9 * (1 + np.abs(target)))
+    _, T = x_at(t, everything)
+    strip_dev = DevelopedStrip(part.c, part.d, rulings[np.lexsort((rulings[:, 1] * solution.path.orientation,
+                                                                    rulings[:, 0]))], field_)
+    dev = strip_dev.ends(np.column_stack([t, T]))
+    pts = dev.along_c + vv[:, None] * (dev.along_d - dev.along_c)
+    return [(x, pts[owner == n]) for n, (x, *_) in enumerate(found)]
 
 
 def butt_order(butts, first_3d: np.ndarray, last_3d: np.ndarray) -> tuple[int, int]:

@@ -48,8 +48,11 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int
                     t -= field_(t, T)[0] / ft
                 extra.append((t, T))
                 corners_t.append(t)
-        for t in corners_t[:1] if len(corners_t) < 2 else np.linspace(min(corners_t), max(corners_t), per_zone):
-            extra.append((float(t), float(T_of(t)[0])))
+        # the zone's rulings in one batch: T_of is pointwise (a Newton per t)
+        ts = np.array(corners_t[:1] if len(corners_t) < 2 else np.linspace(min(corners_t), max(corners_t), per_zone),
+                      dtype=np.float64)
+        if len(ts):
+            extra.extend(zip(ts.tolist(), T_of(ts).tolist()))
     return np.array(extra).reshape(-1, 2)
 
 
