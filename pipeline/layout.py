@@ -180,15 +180,25 @@ class Placer:
         rings = [room.exterior.coords, *(r.coords for r in room.interiors)]
         self.segments = _segments([np.asarray(r) for r in rings] + [line for line in lines if len(line) >= 2])
         self.boxes: list[Polygon] = []
-        self.placed = np.zeros((0, 5))  # the placed boxes, as self.boxes: centre, angle (rad), half sides
+        self._reach_of, self._reach = None, {}
+        self.placed = np.zeros((0, 8))  # the placed boxes, as self.boxes: centre, unit axes, half sides
 
     def reaches(self, centres: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
         """Free half-lengths (P,), P = len(centres), along the width and along the height of
         boxes turned by angle degrees at centres: a box whose grown width (height) is longer
         than twice the first (second) crosses the room's edge or a line (:func:`free_reach`);
-        what was placed is not counted."""
-        u, v = _axes(angle, 1)
-        return free_reach(centres, u[0], self.segments), free_reach(centres, v[0], self.segments)
+        what was placed is not counted. Kept for the last centres asked, per direction (a
+        width at 0 degrees is a height at 90)."""
+        if centres is not self._reach_of:
+            self._reach_of, self._reach = centres, {}
+        out = []
+        for turn in (0.0, 90.0):
+            key = round((angle + turn) % 180.0, 9) % 180.0
+            if key not in self._reach:
+                a = np.radians(angle + turn)
+                self._reach[key] = free_reach(centres, np.array([np.cos(a), np.sin(a)]), self.segments)
+            out.append(self._reach[key])
+        return out[0], out[1]
 
     def place(self, centres: np.ndarray, width: float, height: float, angle) -> int | None:
         """Index of the first centre whose box (grown by the clearance) is free; the box is
@@ -207,7 +217,7 @@ class Placer:
             corners = _corners_on(chunk, wide, high, u, v)
             idx = np.flatnonzero(shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1))
             if len(self.placed) and idx.size:
-                idx = idx[~_sure_overlaps(chunk[idx], u[idx], v[idx], np.array([0.5 * wide, 0.5 * high]), self.placed)]
+                idx = idx[~_sure_overlaps(chunk[idx], u[idx], v[idx], (0.5 * wide, 0.5 * high), self.placed)]
             if self.obstacles is not None and idx.size:
                 idx = idx[~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))]
             if idx.size:
@@ -219,30 +229,28 @@ class Placer:
                     fits[fits] = ~shapely.intersects(grown[fits][:, None], np.array(self.boxes)[None, :]).any(axis=1)
                 if fits.any():
                     i = start + int(idx[np.argmax(fits)])
-                    taken = _corners_on(centres[i:i + 1], width, height, u_all[i:i + 1], v_all[i:i + 1])
-                    self.boxes.append(shapely.polygons(taken)[0])
-                    self.placed = np.vstack([self.placed, [*centres[i], np.radians(angle[i]), 0.5 * width, 0.5 * height]])
+                    self.boxes.append(Polygon(_corners_on(centres[i:i + 1], width, height, u_all[i:i + 1],
+                                                          v_all[i:i + 1])[0]))
+                    self.placed = np.vstack([self.placed, [*centres[i], *u_all[i], *v_all[i], 0.5 * width, 0.5 * height]])
                     return i
             start, size = stop, 4 * size
         return None
 
 
-def _sure_overlaps(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: np.ndarray, placed: np.ndarray) -> np.ndarray:
-    """(N,): which rectangles (centres, unit axes u, v (N, 2), half sides (2,)) overlap one
-    of the placed ones (M, 6: centre, angle (rad), half sides) by more than round-off along
-    every separating axis, so that shapely too finds them intersecting (when they only touch,
-    or nearly, it is False and the exact test decides)."""
-    a = placed[:, 2]
-    pu, pv = np.column_stack([np.cos(a), np.sin(a)]), np.column_stack([-np.sin(a), np.cos(a)])
-    d = placed[None, :, :2] - centres[:, None]  # (N, M, 2)
+def _sure_overlaps(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: tuple[float, float],
+                   placed: np.ndarray) -> np.ndarray:
+    """(N,): which rectangles (centres, unit axes u, v (N, 2), half sides) overlap one of the
+    placed ones (M, 8: centre, unit axes, half sides) by more than round-off along every
+    separating axis, so that shapely too finds them intersecting (when they only touch, or
+    nearly, it is False and the exact test decides)."""
+    pc, pu, pv, pw, ph = placed[:, 0:2], placed[:, 2:4], placed[:, 4:6], placed[:, 6], placed[:, 7]
     uu, uv, vu, vv = np.abs(u @ pu.T), np.abs(u @ pv.T), np.abs(v @ pu.T), np.abs(v @ pv.T)  # (N, M)
-    pw, ph = placed[:, 3], placed[:, 4]
-    eps = 1e-9 * (np.abs(centres).max() + np.abs(placed[:, :2]).max() + half.sum() + pw.max() + ph.max())
-    deep = (np.abs(np.einsum("nmd,nd->nm", d, u)) < half[0] + pw * uu + ph * uv - eps) \
-        & (np.abs(np.einsum("nmd,nd->nm", d, v)) < half[1] + pw * vu + ph * vv - eps) \
-        & (np.abs(np.einsum("nmd,md->nm", d, pu)) < pw + half[0] * uu + half[1] * vu - eps) \
-        & (np.abs(np.einsum("nmd,md->nm", d, pv)) < ph + half[0] * uv + half[1] * vv - eps)
-    return deep.any(axis=1)
+    cu, cv = (centres * u).sum(axis=1)[:, None], (centres * v).sum(axis=1)[:, None]  # (N, 1)
+    eps = 1e-9 * (np.abs(centres).max() + np.abs(pc).max() + half[0] + half[1] + pw.max() + ph.max())
+    return ((np.abs(u @ pc.T - cu) < half[0] + pw * uu + ph * uv - eps)
+            & (np.abs(v @ pc.T - cv) < half[1] + pw * vu + ph * vv - eps)
+            & (np.abs((pc * pu).sum(axis=1) - centres @ pu.T) < pw + half[0] * uu + half[1] * vu - eps)
+            & (np.abs((pc * pv).sum(axis=1) - centres @ pv.T) < ph + half[0] * uv + half[1] * vv - eps)).any(axis=1)
 
 
 def heights(preferred: float, smallest: float) -> list[float]:
@@ -262,9 +270,8 @@ def grid_points(room: Polygon, obstacles=None, n: int = 60) -> tuple[np.ndarray,
     x0, y0, x1, y1 = room.bounds
     xs, ys = np.linspace(x0, x1, n + 2)[1:-1], np.linspace(y0, y1, n + 2)[1:-1]
     pts = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+    pts = pts[shapely.contains_xy(room, pts[:, 0], pts[:, 1])]  # points only for those inside
     geoms = shapely.points(pts)
-    inside = shapely.contains(room, geoms)
-    pts, geoms = pts[inside], geoms[inside]
     depth = shapely.distance(geoms, room.exterior)
     if obstacles is not None:
         depth = np.minimum(depth, shapely.distance(geoms, obstacles))
@@ -368,7 +375,6 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     long_side = sides[np.argmax(np.linalg.norm(sides, axis=1))]
     angles += [readable(np.degrees(np.arctan2(long_side[1], long_side[0]))), 0.0, 90.0]
     placed = False
-    free = {}  # angle: the free half-lengths of Placer.reaches at every centre
     if part_data:
         splits = [part_data]
         for k in (3, 2, 1):
@@ -386,9 +392,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                 for angle in angles:
                     # nor one whose grown box's middle lines cross the room's edge or a line:
                     # most tries fail everywhere, and this decides most of their centres
-                    if angle not in free:
-                        free[angle] = placer.reaches(centres, angle)
-                    along, across = free[angle]
+                    along, across = placer.reaches(centres, angle)
                     fit = (along[:reach] >= (0.5 * w + placer.clearance) * (1 - 1e-6)) & \
                           (across[:reach] >= (0.5 * hh + placer.clearance) * (1 - 1e-6))
                     idx = np.flatnonzero(fit)
