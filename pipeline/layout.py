@@ -208,25 +208,33 @@ class Placer:
         u_all, v_all = _axes(angle, len(centres))
         # only the first free centre is wanted: test them in growing chunks (the first few
         # usually fit), each test only where the cheaper ones passed: corners in the room
-        # (points), sure overlaps with placed boxes (numpy), a line across the box's long
-        # axis (lines are cheaper than boxes); the exact tests on polygons decide the rest
+        # (points), placed boxes by separating axes (numpy: shapely only where round-off
+        # decides), a line across the box's long axis (lines are cheaper than boxes); the
+        # exact tests on polygons decide the rest
         start, size = 0, 16
         while start < len(centres):
             stop = min(start + size, len(centres))
             chunk, u, v = centres[start:stop], u_all[start:stop], v_all[start:stop]
             corners = _corners_on(chunk, wide, high, u, v)
             idx = np.flatnonzero(shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1))
+            near = None  # (len(idx), M): placed boxes only round-off decides about
             if len(self.placed) and idx.size:
-                idx = idx[~_sure_overlaps(chunk[idx], u[idx], v[idx], (0.5 * wide, 0.5 * high), self.placed)]
+                sep = _separation(chunk[idx], u[idx], v[idx], (0.5 * wide, 0.5 * high), self.placed)
+                eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
+                keep = ~(sep < -eps).any(axis=1)
+                idx, near = idx[keep], np.abs(sep[keep]) <= eps
             if self.obstacles is not None and idx.size:
-                idx = idx[~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))]
+                free = ~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))
+                idx, near = idx[free], None if near is None else near[free]
             if idx.size:
                 grown = shapely.polygons(corners[idx])
                 fits = shapely.contains(self.room, grown)
                 if self.obstacles is not None:  # the prepared geometry first: only then is it used
                     fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
-                if self.boxes and fits.any():  # every placed box in one call
-                    fits[fits] = ~shapely.intersects(grown[fits][:, None], np.array(self.boxes)[None, :]).any(axis=1)
+                if near is not None and near.any():  # shapely decides the nearly touching pairs
+                    rows, cols = np.nonzero(near & fits[:, None])
+                    hit = shapely.intersects(grown[rows], np.array(self.boxes)[cols])
+                    fits[rows[hit]] = False
                 if fits.any():
                     i = start + int(idx[np.argmax(fits)])
                     self.boxes.append(Polygon(_corners_on(centres[i:i + 1], width, height, u_all[i:i + 1],
@@ -237,20 +245,21 @@ class Placer:
         return None
 
 
-def _sure_overlaps(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: tuple[float, float],
-                   placed: np.ndarray) -> np.ndarray:
-    """(N,): which rectangles (centres, unit axes u, v (N, 2), half sides) overlap one of the
-    placed ones (M, 8: centre, unit axes, half sides) by more than round-off along every
-    separating axis, so that shapely too finds them intersecting (when they only touch, or
-    nearly, it is False and the exact test decides)."""
-    pc, pu, pv, pw, ph = placed[:, 0:2], placed[:, 2:4], placed[:, 4:6], placed[:, 6], placed[:, 7]
-    uu, uv, vu, vv = np.abs(u @ pu.T), np.abs(u @ pv.T), np.abs(v @ pu.T), np.abs(v @ pv.T)  # (N, M)
-    cu, cv = (centres * u).sum(axis=1)[:, None], (centres * v).sum(axis=1)[:, None]  # (N, 1)
-    eps = 1e-9 * (np.abs(centres).max() + np.abs(pc).max() + half[0] + half[1] + pw.max() + ph.max())
-    return ((np.abs(u @ pc.T - cu) < half[0] + pw * uu + ph * uv - eps)
-            & (np.abs(v @ pc.T - cv) < half[1] + pw * vu + ph * vv - eps)
-            & (np.abs((pc * pu).sum(axis=1) - centres @ pu.T) < pw + half[0] * uu + half[1] * vu - eps)
-            & (np.abs((pc * pv).sum(axis=1) - centres @ pv.T) < ph + half[0] * uv + half[1] * vv - eps)).any(axis=1)
+def _separation(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: tuple[float, float],
+                placed: np.ndarray) -> np.ndarray:
+    """(N, M): how far apart (mm) rectangles (centres, unit axes u, v (N, 2), half sides)
+    and the placed ones (M, 8: centre, unit axes, half sides) are along the axis that
+    separates them best (separating axes of both); negative: they overlap that deep."""
+    n = len(centres)
+    pc, pw, ph = placed[:, 0:2], placed[:, 6], placed[:, 7]
+    axes, paxes = np.concatenate([u, v]), np.concatenate([placed[:, 2:4], placed[:, 4:6]])  # (2N, 2), (2M, 2)
+    cross = np.abs(axes @ paxes.T)  # (2N, 2M): u.pu u.pv / v.pu v.pv
+    uu, uv, vu, vv = cross[:n, :len(pc)], cross[:n, len(pc):], cross[n:, :len(pc)], cross[n:, len(pc):]
+    mine = np.abs(axes @ pc.T - (axes * np.concatenate([centres, centres])).sum(axis=1)[:, None])  # (2N, M)
+    theirs = np.abs((paxes * np.concatenate([pc, pc])).sum(axis=1) - centres @ paxes.T)  # (N, 2M)
+    return np.maximum(np.maximum(mine[:n] - (half[0] + pw * uu + ph * uv), mine[n:] - (half[1] + pw * vu + ph * vv)),
+                      np.maximum(theirs[:, :len(pc)] - (pw + half[0] * uu + half[1] * vu),
+                                 theirs[:, len(pc):] - (ph + half[0] * uv + half[1] * vv)))
 
 
 def heights(preferred: float, smallest: float) -> list[float]:
