@@ -183,22 +183,18 @@ class Placer:
         self._reach_of, self._reach = None, {}
         self.placed = np.zeros((0, 8))  # the placed boxes, as self.boxes: centre, unit axes, half sides
 
-    def reaches(self, centres: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
-        """Free half-lengths (P,), P = len(centres), along the width and along the height of
-        boxes turned by angle degrees at centres: a box whose grown width (height) is longer
-        than twice the first (second) crosses the room's edge or a line (:func:`free_reach`);
-        what was placed is not counted. Kept for the last centres asked, per direction (a
-        width at 0 degrees is a height at 90)."""
+    def reach(self, centres: np.ndarray, angle: float) -> np.ndarray:
+        """Free half-lengths (P,), P = len(centres), along the direction angle (degrees) at
+        centres: a box whose grown middle line along it is longer than twice this crosses
+        the room's edge or a line (:func:`free_reach`); what was placed is not counted.
+        Kept per direction for the last centres asked."""
         if centres is not self._reach_of:
             self._reach_of, self._reach = centres, {}
-        out = []
-        for turn in (0.0, 90.0):
-            key = round((angle + turn) % 180.0, 9) % 180.0
-            if key not in self._reach:
-                a = np.radians(angle + turn)
-                self._reach[key] = free_reach(centres, np.array([np.cos(a), np.sin(a)]), self.segments)
-            out.append(self._reach[key])
-        return out[0], out[1]
+        key = round(angle % 180.0, 9) % 180.0
+        if key not in self._reach:
+            a = np.radians(angle)
+            self._reach[key] = free_reach(centres, np.array([np.cos(a), np.sin(a)]), self.segments)
+        return self._reach[key]
 
     def place(self, centres: np.ndarray, width: float, height: float, angle) -> int | None:
         """Index of the first centre whose box (grown by the clearance) is free; the box is
@@ -399,12 +395,11 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                 # ones, a prefix of the centres, are tried
                 reach = np.count_nonzero(depth >= (0.5 * min(w, hh) + placer.clearance) * (1 - 1e-9))
                 for angle in angles:
-                    # nor one whose grown box's middle lines cross the room's edge or a line:
-                    # most tries fail everywhere, and this decides most of their centres
-                    along, across = placer.reaches(centres, angle)
-                    fit = (along[:reach] >= (0.5 * w + placer.clearance) * (1 - 1e-6)) & \
-                          (across[:reach] >= (0.5 * hh + placer.clearance) * (1 - 1e-6))
-                    idx = np.flatnonzero(fit)
+                    # nor one whose grown box's long middle line crosses the room's edge or a
+                    # line (the short one is clear: the centre is that deep): most tries fail
+                    # everywhere, and this decides most of their centres
+                    free = placer.reach(centres, angle if w >= hh else angle + 90.0)[:reach]
+                    idx = np.flatnonzero(free >= (0.5 * max(w, hh) + placer.clearance) * (1 - 1e-6))
                     i = placer.place(centres[idx], w, hh, angle)
                     if i is not None:
                         i = idx[i]

@@ -170,7 +170,7 @@ def test_free_reach_is_where_the_middle_line_first_meets_a_segment(key, count, a
 @settings(max_examples=40, deadline=None)
 @given(key=st.integers(0, 2**32 - 1), lines=st.integers(0, 6), angle=st.sampled_from([0.0, 90.0, 33.0, -71.5]))
 def test_a_box_longer_than_its_reaches_is_refused_by_the_exact_tests(key, lines, angle):
-    """What the part data block's search rules out by the reaches (Placer.reaches) the exact
+    """What the part data block's search rules out by the reaches (Placer.reach) the exact
     tests rule out too; and boxes just inside the reaches are not all refused."""
     rng = np.random.default_rng(key)
     room = shapely.Polygon(_star(rng, 9, 1000.0, rng.choice([1.0, 6.0])))
@@ -180,7 +180,7 @@ def test_a_box_longer_than_its_reaches_is_refused_by_the_exact_tests(key, lines,
     x0, y0, x1, y1 = room.bounds
     centres = rng.uniform([x0, y0], [x1, y1], size=(80, 2))
     centres = centres[shapely.contains_xy(room, centres[:, 0], centres[:, 1])]
-    along, across = placer.reaches(centres, angle)
+    along, across = placer.reach(centres, angle), placer.reach(centres, angle + 90.0)
     c = placer.clearance
     for p, ra, rc in zip(centres, along, across):
         for w, h in ((2 * ra * 1.001 - 2 * c, 0.1), (0.1, 2 * rc * 1.001 - 2 * c)):
@@ -199,6 +199,6 @@ def test_the_reaches_skip_only_what_the_exact_tests_refuse(key, corners, aspect,
     """The same layout without the reaches (every centre tried by the placer's own tests)."""
     args = _random_plate(key, corners, aspect, bends, 1, data_lines)
     fast = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
-    with mock.patch.object(Placer, "reaches", lambda self, centres, angle: (np.full(len(centres), np.inf),) * 2):
+    with mock.patch.object(Placer, "reach", lambda self, centres, angle: np.full(len(centres), np.inf)):
         slow = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
     assert fast.texts == slow.texts and fast.findings == slow.findings
