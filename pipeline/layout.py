@@ -112,7 +112,8 @@ def _axes(angle, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors (n, 2) along the width and the height of rectangles turned by angle
     degrees (a number or (n,))."""
     a = np.radians(np.broadcast_to(np.asarray(angle, dtype=float), (n,)))
-    return np.column_stack([np.cos(a), np.sin(a)]), np.column_stack([-np.sin(a), np.cos(a)])
+    c, s = np.cos(a), np.sin(a)
+    return np.stack([c, s], axis=1), np.stack([-s, c], axis=1)
 
 
 def _corners_on(centres: np.ndarray, width: float, height: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -400,7 +401,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                     # everywhere, and this decides most of their centres
                     free = placer.reach(centres, angle if w >= hh else angle + 90.0)[:reach]
                     idx = np.flatnonzero(free >= (0.5 * max(w, hh) + placer.clearance) * (1 - 1e-6))
-                    i = placer.place(centres[idx], w, hh, angle)
+                    i = placer.place(centres[idx], w, hh, angle) if len(idx) else None
                     if i is not None:
                         i = idx[i]
                         layout.texts += block_texts(lines, centres[i], h, angle)
