@@ -16,11 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import BSpline
+from scipy.interpolate import PPoly
 
 from flatten import NurbsCurve
 from flatten.closest import SurfaceDistance
-from flatten.nurbs import ppoly_from_spline
 from flatten.surface import NurbsSurface
 
 from .config import ConfigError, Part, RunConfig, _curve, _line_of, load_config
@@ -112,11 +111,16 @@ class HullPlate:
 
 
 def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
-    """Parameters where the curve meets the plane (exact roots of the homogeneous B-spline
-    n . A - offset w), sorted."""
-    spline = curve.homogeneous
-    coef = spline.c[:, :3] @ np.asarray(plane.normal) - plane.offset * spline.c[:, 3]
-    roots = ppoly_from_spline(BSpline(spline.t, coef, spline.k)).roots(extrapolate=False)
+    """Parameters where the curve meets the plane (exact roots of the homogeneous
+    polynomial n . A - offset w on every span), sorted. The span polynomials are the
+    curve's (computed once per curve, whatever the number of planes)."""
+    spans = curve.power_coefficients  # (n_spans, degree + 1, 4) in s = (t - b_i) / w_i
+    coef = spans[:, :, :3] @ np.asarray(plane.normal, dtype=float) - plane.offset * spans[:, :, 3]
+    breaks = curve.breakpoints
+    widths = np.diff(breaks)
+    # PPoly wants powers of (t - b_i), highest first: (degree + 1, n_spans)
+    taylor = (coef / widths[:, None] ** np.arange(curve.degree + 1)).T[::-1]
+    roots = PPoly(taylor, breaks, extrapolate=False).roots(extrapolate=False)
     lo, hi = curve.domain
     return np.unique(roots[(roots >= lo) & (roots <= hi)])
 
