@@ -19,6 +19,8 @@ reports boxes and points in the curves' own parameters (t, T).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
+from math import comb
 
 import numpy as np
 
@@ -78,34 +80,32 @@ def bernstein_cells(field: DevelopabilityField) -> np.ndarray:
     return field.bernstein
 
 
-def _halves(coefs: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """De Casteljau split at 1/2 of Bernstein coefficients (K, A, B) along axis 1 or 2."""
-    def at(k):  # index of slice k along the axis
-        return (slice(None), k) if axis == 1 else (slice(None), slice(None), k)
-
-    def part(start, stop):
-        return (slice(None), slice(start, stop)) if axis == 1 else (slice(None), slice(None), slice(start, stop))
-
-    n = coefs.shape[axis]
-    lo, hi = np.empty_like(coefs), np.empty_like(coefs)
-    lo[at(0)], hi[at(n - 1)] = coefs[at(0)], coefs[at(n - 1)]
-    cur = coefs
-    for r in range(1, n):
-        m = cur.shape[axis]
-        cur = 0.5 * (cur[part(0, m - 1)] + cur[part(1, m)])
-        lo[at(r)], hi[at(n - 1 - r)] = cur[at(0)], cur[at(-1)]
-    return lo, hi
+@lru_cache(maxsize=None)
+def _halving_matrix(n: int) -> np.ndarray:
+    """(2n, n): Bernstein coefficients (n of them) of the halves [0, 1/2] (rows :n) and
+    [1/2, 1] (rows n:) from those of the whole interval, read-only. De Casteljau at 1/2
+    as one linear map: lo_r = sum_k C(r, k) c_k / 2^r, hi_r = sum_k C(n-1-r, k-r) c_k / 2^(n-1-r);
+    every entry is a dyadic fraction (exact), every row sums to 1."""
+    out = np.zeros((2 * n, n))
+    for r in range(n):
+        for k in range(r + 1):
+            out[r, k] = comb(r, k) / 2.0**r
+        for k in range(r, n):
+            out[n + r, k] = comb(n - 1 - r, k - r) / 2.0 ** (n - 1 - r)
+    out.setflags(write=False)
+    return out
 
 
 def _split4(arrays: list[np.ndarray], boxes: np.ndarray):
-    """Quarter every box (K, 4) [s0, s1, σ0, σ1] and its coefficient arrays."""
+    """Quarter every box (K, 4) [s0, s1, σ0, σ1] and its coefficient arrays (K, A, B):
+    two matrix products per array (the halving along s, then along σ, for all boxes)."""
     out_arrays = []
     for coefs in arrays:
-        k = len(coefs)
-        # both s halves split along σ in one batch: rows [s lo; s hi]
-        lo, hi = _halves(np.concatenate(_halves(coefs, 1)), 2)
-        # (s lo, σ lo), (s lo, σ hi), (s hi, σ lo), (s hi, σ hi)
-        out_arrays.append(np.concatenate([lo[:k], hi[:k], lo[k:], hi[k:]]))
+        k, a, b = coefs.shape
+        x = _halving_matrix(a) @ coefs.transpose(1, 0, 2).reshape(a, k * b)  # (2a, k b): [s half, a] x [k, b]
+        y = x.reshape(2 * a * k, b) @ _halving_matrix(b).T  # (2 a k, 2 b): [s half, a, k] x [σ half, b]
+        # (s lo, σ lo), (s lo, σ hi), (s hi, σ lo), (s hi, σ hi), each K boxes
+        out_arrays.append(y.reshape(2, a, k, 2, b).transpose(0, 3, 2, 1, 4).reshape(4 * k, a, b))
     s0, s1, g0, g1 = boxes.T
     sm, gm = 0.5 * (s0 + s1), 0.5 * (g0 + g1)
     quarters = [np.column_stack(q) for q in ((s0, sm, g0, gm), (s0, sm, gm, g1),

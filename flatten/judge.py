@@ -454,9 +454,8 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
                 acc = (bool(slope >= -1e-18), bool(slope <= 1e-18))
             pieces.append((part, acc, n))
     if middles:
-        # the gradient point by point, as :func:`_classes` of one point takes it
         middle = np.array(middles)
-        grad = np.vstack([unit.gradient(x[None]) for x in middle])
+        grad = unit.gradient(middle)
         judged = iter(_acceptability(unit, middle, grad).tolist())
         pieces = [(part, tuple(next(judged)) if acc is None else acc, n) for part, acc, n in pieces]
     return pieces, turning, unchecked
@@ -487,7 +486,9 @@ def _cut_polyline(points: np.ndarray, closed: bool, cuts, tol: float) -> list[np
         keep = np.ones(len(part), dtype=bool)
         keep[1:] = np.hypot(*np.diff(part, axis=0).T) > 1e-15
         part = part[keep]
-        if len(part) >= 2 and np.hypot(*(part[-1] - part[0])) > 0.1 * tol or len(part) > 2:
+        # a part all within round-off of one point is no piece: two cuts at the same
+        # point (a turning point found from both segments beside a seed at it)
+        if len(part) >= 2 and np.abs(part - part[0]).max() > 0.1 * tol:
             cleaned.append(part)
     return cleaned
 
@@ -560,9 +561,15 @@ def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) 
         for n, h in zip(*np.nonzero(near)):
             knot, cls = inner[n], classes[n]
             t, T = params[h]
-            # NurbsCurve.span_index (the last span holds the domain end), in floats
+            # NurbsCurve.span_index (the last span holds the domain end), in floats; on
+            # the knot's own axis the two sides are the spans n and n + 1 beside it
+            # (the point may lie a few ulps off the knot, on either side)
             ic = min(max(bisect_right(field._breaks[0], t) - 1, 0), field.c.n_spans - 1)
             jd = min(max(bisect_right(field._breaks[1], T) - 1, 0), field.d.n_spans - 1)
+            if axis == 0:
+                ic = int(n) + 1
+            else:
+                jd = int(n) + 1
             sides = []
             for shift in (-1, 0):
                 spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)

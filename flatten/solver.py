@@ -308,10 +308,17 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
                 f"{pairs} candidate segment pairs exceed the judge's budget of {budget} (the trace piles up "
                 "on itself); junctions there are missing and its pieces are unverified",
                 {"branches": sorted({offset + i, offset + j}), "candidate_pairs": int(pairs), "budget": int(budget)}))
-        for (_, acc, n), x in zip(pieces_b, unit.polish_each([x for x, _, _ in pieces_b])):
+        # a piece is a run of polished trace points between two cut points (turning
+        # points, junctions, class boundaries): only the ends are new, and are polished
+        # here with the turning points, in one batch
+        ends = [x[[0, -1]] for x, _, _ in pieces_b] + [x[None] for x, _, _, _ in turning_b]
+        polished_ends = unit.polish_each(ends) if ends else []
+        for (x, acc, n), e in zip(pieces_b, polished_ends):
+            x = x.copy()
+            x[[0, -1]] = e
             raw_pieces.append((unit.to_params(x), acc, offset + n))
-        for x, kind_, n, o in turning_b:
-            raw_turning.append((unit.to_params(unit.polish(x[None])[0]), kind_, offset + n, o))
+        for (_, kind_, n, o), e in zip(turning_b, polished_ends[len(pieces_b):]):
+            raw_turning.append((unit.to_params(e[0]), kind_, offset + n, o))
         for p in block.critical.points[block.isolated]:
             # a degenerate critical point on a traced branch (e.g. the apex of a pointed
             # plate, where c and d meet) is a singular point of that branch, not isolated
@@ -365,8 +372,16 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
         checked.append(path.points)
     all_points = np.vstack(checked) if checked else np.zeros((0, 2))
     # branch, piece and path points are mostly the same points: each is checked once
-    unique, inverse = np.unique(all_points, axis=0, return_inverse=True)
-    point_residual = normalized_residual(c, d, unique[:, 0], unique[:, 1])[inverse.ravel()]
+    # (by a lexsort of the two columns: np.unique along an axis sorts a structured view,
+    # several times slower)
+    order = np.lexsort((all_points[:, 1], all_points[:, 0]))
+    ordered = all_points[order]
+    first = np.ones(len(ordered), dtype=bool)
+    first[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    inverse = np.empty(len(ordered), dtype=np.intp)
+    inverse[order] = np.cumsum(first) - 1
+    unique = ordered[first]
+    point_residual = normalized_residual(c, d, unique[:, 0], unique[:, 1])[inverse]
     residual = float(point_residual.max(initial=0.0))
     if residual > tol.residual:
         bad = all_points[point_residual > tol.residual]

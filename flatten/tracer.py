@@ -27,6 +27,20 @@ END_UNRESOLVED = "unresolved"
 END_STEP_LIMIT = "step_limit"
 SIDE_NAMES = ("t_start", "t_end", "T_start", "T_end")
 
+# Step control of the continuation (unit square). Where Z is nearly straight the
+# predictor lands close to it and the step grows to MAX_STEP_FACTOR trace steps; it is
+# held so that the corrector moves the predicted point about STEP_DEFLECTION (the
+# predictor's error, ~ curvature h^2 / 2) and the tangent turns about STEP_TURN radians
+# per step. A corrector that moves the point more than 4 STEP_DEFLECTION is refused (the
+# step is halved): the trace cannot reach an arm of Z farther away than that.
+MAX_STEP_FACTOR = 16.0
+STEP_DEFLECTION = 1e-4
+STEP_TURN = 0.1
+# Where Z runs within ~ 11 degrees of a grid direction (or turns through it: a turning
+# point) it may cross a grid line twice within a long step whose chord crosses it
+# never; the step there stays at most a trace step, as the tracer always took.
+AXIS_SLOPE = 0.2
+
 
 @dataclass(frozen=True)
 class GridSeeds:
@@ -192,6 +206,29 @@ class _UnitField:
         # where |grad f| is small (near a small loop or a saddle) round-off in f keeps
         # the last Newton steps near 1e-14 instead of 0: the point is on Z all the same
         return u, U, size <= accept
+
+    def value_gradient_many(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(f (N,), (f_u, f_U) (N, 2)) at unit points (N, 2), batched."""
+        t, T = self.params(x)
+        f, g = self.field.value_gradient(t, T)
+        return f, g * [self.dt, self.dT]
+
+    def project_on_lines(self, x: np.ndarray, direction: np.ndarray, iterations: int = 8) -> np.ndarray:
+        """Points (N, 2) moved along their own unit directions (N, 2) onto f = 0 (Newton
+        on each line, batched); NaN where Newton does not settle to 1e-12."""
+        x = np.array(x, dtype=np.float64, copy=True)
+        active = np.arange(len(x))
+        for _ in range(iterations):
+            if len(active) == 0:
+                break
+            f, g = self.value_gradient_many(x[active])
+            slope = np.einsum("ij,ij->i", g, direction[active])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = f / slope
+            x[active] -= step[:, None] * direction[active]
+            active = active[~(np.abs(step) <= 1e-12)]
+        x[active] = np.nan
+        return x
 
     def tangent(self, u: float, U: float) -> tuple[float, float]:
         _, gu, gU = self.value_gradient(u, U)
@@ -379,15 +416,20 @@ class _Tracer:
         return tangent
 
     # -- continuation --------------------------------------------------------
-    def _step(self, x, tangent, h: float):
+    def _step(self, x, tangent, h: float, curvature: float = 0.0):
         """One predictor-corrector step of length h from x along the unit tangent:
-        ((u, U), tangent there) or None. :meth:`_UnitField.project` and
+        ((u, U), tangent there, corrector deflection, sine of the tangent's turn (signed,
+        to the left)) or None. :meth:`_UnitField.project` and
         :meth:`_UnitField.tangent` written out (the same float operations): a step is
         the tracer's inner loop, and calls cost as much as its arithmetic."""
         value_gradient = self.unit.value_gradient
         x0, x1 = x
         t0, t1 = tangent
-        u, U = x0 + h * t0, x1 + h * t1
+        # predictor: the osculating parabola of the last step's curvature (signed, to
+        # the left of the tangent); the corrector then moves the point ~ h^3, not h^2
+        bend = 0.5 * h * h * curvature
+        pu, pU = x0 + h * t0 - bend * t1, x1 + h * t1 + bend * t0
+        u, U = pu, pU
         # polyline points need not be exact (they are polished afterwards and checked):
         # a Newton step of 1e-4 h is converged even where round-off keeps it from 0
         accept = max(1e-12, 1e-6 * h)
@@ -418,27 +460,39 @@ class _Tracer:
         # forever; one that moves it far has jumped to another arm
         if dot < 0.9 or moved > 2.0 * h or moved < 0.25 * h:
             return None
-        return (u, U), (nu, nU)
+        deflection = math.hypot(u - pu, U - pU)
+        if deflection > 4.0 * STEP_DEFLECTION:
+            return None
+        return (u, U), (nu, nU), deflection, t0 * nU - t1 * nu
 
     def trace_one_way(self, start, direction: float, start_seed: int | None = None):
+        """(points, end kind, arcs) of the walk from ``start`` along ``direction``: arcs
+        (i, j, tangent at i, tangent at j) index the walk's points where points[i] ->
+        points[j] is one regular continuation step (with the grid-line seeds it crossed
+        between them), along which Z is smooth and :meth:`_fill` may put further points
+        (the unit tangents point along the walk; at an exit point or the closing start,
+        that of the step's corrected point beside it)."""
         tol = self.tol
         at_start = set(self.same[start_seed]) if start_seed is not None else set()
         knot_roots: set[int] = set()  # knot-line roots this trace stepped onto
         x = start
         tangent = self._start_tangent(x, direction)
         if tangent == (0.0, 0.0):
-            return [x], END_UNRESOLVED
+            return [x], END_UNRESOLVED, []
         points = [x]
+        arcs: list[tuple] = []
         h = min(tol.trace_step, self._cap(x))
+        curvature = 0.0  # of Z at x, signed, estimated from the last step's turn
         travelled = 0.0
         # per-step work is a few field evaluations: skip the calls that cannot matter
         capped, kinked = bool(self.caps), bool(self.kinks[0] or self.kinks[1])
         trace_step, trace_min_step = tol.trace_step, tol.trace_min_step
+        max_step = MAX_STEP_FACTOR * trace_step
         for _ in range(tol.trace_max_steps):
             attempt = None
             cap = self._cap(x) if capped else math.inf
             h = min(h, cap)
-            kink = self._kink_crossing(x, tangent, h) if kinked else None
+            kink = self._kink_crossing(x, tangent, min(h, trace_step)) if kinked else None
             if kink is not None:  # step onto the knot line, turn to the far side's tangent
                 k, far_tangent = kink
                 y = self.pts[k]
@@ -451,7 +505,7 @@ class _Tracer:
                             self._mark(m)
                             points.append(self.pts[m])
                     points.append(start if k in at_start else y)
-                    return points, END_LOOP if k in at_start else END_UNRESOLVED
+                    return points, END_LOOP if k in at_start else END_UNRESOLVED, arcs
                 knot_roots.add(k)
                 for _, m in self._crossings(x, y):
                     if m != k:
@@ -460,22 +514,37 @@ class _Tracer:
                 self._mark(k)
                 travelled += math.hypot(y[0] - x[0], y[1] - x[1])
                 points.append(y)
-                x, tangent = y, far_tangent
+                x, tangent, curvature = y, far_tangent, 0.0
                 continue
+            if kinked and h > trace_step:
+                # a long step stops a trace step short of a kink line, which the next
+                # step then reaches root to root (the corrector cannot turn its corner)
+                ahead = self._kink_distance(x, tangent, 1.5 * h)
+                h = max(min(h, ahead - trace_step), trace_step)
+            if h > trace_step and min(abs(tangent[0]), abs(tangent[1])) < AXIS_SLOPE:
+                h = trace_step
             trial = h
             min_step = min(trace_min_step, 0.125 * cap)
             while trial >= min_step and attempt is None:
-                attempt = self._step(x, tangent, trial)
+                attempt = self._step(x, tangent, trial, curvature)
+                if attempt is not None and trial > trace_step:
+                    far = attempt[1]
+                    if (min(abs(far[0]), abs(far[1])) < AXIS_SLOPE or far[0] * tangent[0] < 0
+                            or far[1] * tangent[1] < 0):
+                        attempt, trial = None, 2.0 * trace_step  # halved below
                 if attempt is None:
                     trial *= 0.5
+            jumped = attempt is None
             if attempt is None and cap == math.inf:  # jump over a singular point along the tangent
-                for trial in (2.0 * h, 4.0 * h, 8.0 * h, 16.0 * h):
+                base = min(h, trace_step)
+                for trial in (2.0 * base, 4.0 * base, 8.0 * base, 16.0 * base):
                     attempt = self._step(x, tangent, trial)
                     if attempt is not None:
                         break
             if attempt is None:
-                return points, END_UNRESOLVED
-            y, new_tangent = attempt
+                return points, END_UNRESOLVED, arcs
+            y, new_tangent, deflection, turn = attempt
+            first = len(points) - 1
             if min(y) < -1e-12 or max(y) > 1.0 + 1e-12:
                 exit_point, side = self._boundary_exit(x, y)
                 # the grid lines crossed on the way out: along the chord to the exit point
@@ -486,7 +555,9 @@ class _Tracer:
                         self._mark(k)
                         points.append(p)
                 points.append(exit_point)
-                return points, side
+                if not jumped:
+                    arcs.append((first, len(points) - 1, tangent, new_tangent))
+                return points, side, arcs
             step_len = math.hypot(y[0] - x[0], y[1] - x[1])
             travelled += step_len
             closing = travelled > 2.5 * step_len and math.hypot(y[0] - start[0], y[1] - start[1]) <= max(
@@ -498,21 +569,116 @@ class _Tracer:
                 points.append(self.pts[k])
             if closing:
                 points.append(start)
-                return points, END_LOOP
+                if not jumped:
+                    arcs.append((first, len(points) - 1, tangent, new_tangent))
+                return points, END_LOOP, arcs
             points.append(y)
+            if not jumped:
+                arcs.append((first, len(points) - 1, tangent, new_tangent))
             x, tangent = y, new_tangent
-            h = min(trial * 1.5, trace_step)
-        return points, END_STEP_LIMIT
+            angle = math.asin(max(-1.0, min(turn, 1.0)))
+            curvature = 0.0 if jumped else angle / step_len
+            # the next step: the deflection grows as h^3 (h^2 where the curvature
+            # changes fast: the step then shrinks) and the turn as h
+            grow = 2.0
+            if deflection > 0.0:
+                grow = min(grow, (STEP_DEFLECTION / deflection) ** (1.0 / 3.0))
+            if angle != 0.0:
+                grow = min(grow, STEP_TURN / abs(angle))
+            h = min(trial * max(grow, 0.5), max_step)
+        return points, END_STEP_LIMIT, arcs
+
+    def _kink_distance(self, x, tangent, reach: float) -> float:
+        """Distance along the tangent to the nearest kink line ahead, ``reach`` if none
+        is nearer."""
+        best = reach
+        for axis in (0, 1):
+            lines = self.kinks[axis]
+            if not lines or tangent[axis] == 0.0:
+                continue
+            if tangent[axis] > 0:
+                k = bisect_right(lines, x[axis] + 1e-13)
+                if k < len(lines):
+                    best = min(best, (lines[k] - x[axis]) / tangent[axis])
+            else:
+                k = bisect_left(lines, x[axis] - 1e-13) - 1
+                if k >= 0:
+                    best = min(best, (lines[k] - x[axis]) / tangent[axis])
+        return best
+
+    def _fill(self, walks):
+        """The walks' points with Z's points put between those of each arc longer than a
+        trace step, so that no two points are more than ~1.25 trace steps apart there.
+
+        ``walks`` : list of (points, arcs) (see :meth:`trace_one_way`). The new points
+        start on the cubic Hermite curve of the arc (its end points and Z's tangents
+        there) and move onto Z along the chord's normal (Newton on the line, all at
+        once): each stays beside its place on the chord, in the chord's order, and the
+        grid seeds of the arc are merged in by their position along the chord.
+        """
+        step = self.tol.trace_step
+        owner, ends = [], []
+        for w, (points, arcs) in enumerate(walks):
+            for i, j, tx, ty in arcs:
+                x, y = points[i], points[j]
+                if math.hypot(y[0] - x[0], y[1] - x[1]) > 1.25 * step:
+                    owner.append((w, i, j))
+                    ends.append((x, y, tx, ty))
+        if not owner:
+            return [points for points, _ in walks]
+        ends = np.array(ends)  # (K, [start, end, tangent at start, tangent at end], 2)
+        a, b = ends[:, 0], ends[:, 1]
+        chord = b - a
+        length = np.hypot(*chord.T)
+        along = chord / length[:, None]
+        normal = np.column_stack([-along[:, 1], along[:, 0]])
+        m0, m1 = ends[:, 2] * length[:, None], ends[:, 3] * length[:, None]
+        # sub-chords per arc (a step of one trace step, whose chord is a little longer
+        # or shorter, is left as it is)
+        n = np.maximum(np.ceil(length / step - 0.25), 1).astype(int)
+        row = np.repeat(np.arange(len(a)), n - 1)
+        s = (np.arange(len(row)) - np.repeat(np.cumsum(n - 1) - (n - 1), n - 1) + 1) / n[row]
+        s2, s3 = s * s, s * s * s
+        guess = ((2 * s3 - 3 * s2 + 1)[:, None] * a[row] + (s3 - 2 * s2 + s)[:, None] * m0[row]
+                 + (3 * s2 - 2 * s3)[:, None] * b[row] + (s3 - s2)[:, None] * m1[row])
+        moved = self.unit.project_on_lines(guess, normal[row])
+        ok = np.isfinite(moved).all(axis=1) & (np.hypot(*(moved - guess).T) <= 0.25 * (length / n)[row])
+        where = np.einsum("ij,ij->i", moved - a[row], along[row])
+        fills: dict[tuple[int, int], list] = {}
+        for (w, i, j), k in zip(owner, range(len(a))):
+            fills[(w, i)] = [j, k, []]
+        for r, pos, p in zip(row[ok].tolist(), where[ok].tolist(), moved[ok].tolist()):
+            fills[(owner[r][0], owner[r][1])][2].append((pos, tuple(p)))
+        out = []
+        for w, (points, _) in enumerate(walks):
+            new, k = [], 0
+            while k < len(points):
+                new.append(points[k])
+                fill = fills.get((w, k))
+                if fill is None:
+                    k += 1
+                    continue
+                j, r, extra = fill
+                (x0, x1), (e0, e1) = points[k], along[r].tolist()
+                inner = [((p[0] - x0) * e0 + (p[1] - x1) * e1, p) for p in points[k + 1:j]] + extra
+                inner.sort(key=lambda q: q[0])
+                new.extend(p for _, p in inner)
+                k = j
+            out.append(new)
+        return out
 
     def trace_from(self, seed_index: int) -> Trace:
         start = self.pts[seed_index]
         self._mark(seed_index)
-        forward, end_f = self.trace_one_way(start, 1.0, seed_index)
+        forward, end_f, arcs_f = self.trace_one_way(start, 1.0, seed_index)
         if end_f == END_LOOP:
+            (forward,) = self._fill([(forward, arcs_f)])
             return Trace(_dedupe(np.array(forward)), True, (END_LOOP, END_LOOP))
-        backward, end_b = self.trace_one_way(start, -1.0, seed_index)
+        backward, end_b, arcs_b = self.trace_one_way(start, -1.0, seed_index)
+        forward, backward = self._fill([(forward, arcs_f), (backward, arcs_b)])
         pts = np.array(backward[::-1] + forward[1:])
         return Trace(_dedupe(pts), False, (end_b, end_f))
+
 
 def _distance_to_polyline(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Distance of each of (S, 2) points to a polyline (N, 2), shape (S,)."""

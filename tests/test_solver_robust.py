@@ -120,7 +120,9 @@ def test_a_trace_stops_at_its_step_limit_with_a_finding():
     solution = solve(*oracles.cone_pair(), Tolerances(trace_max_steps=30))
     limited = [f for f in solution.findings if f.code == "BRANCH_UNRESOLVED" and "step limit" in f.message]
     assert limited
-    assert all(len(b.points) <= 2 * 30 + 200 for b in solution.branches)  # steps + grid crossings
+    # steps (each filled in to at most MAX_STEP_FACTOR points a trace step apart) + grid crossings
+    from flatten.tracer import MAX_STEP_FACTOR
+    assert all(len(b.points) <= 2 * 30 * MAX_STEP_FACTOR + 200 for b in solution.branches)
 
 
 def test_seed_matching_is_linear_in_memory_and_agrees_with_all_pairs():
