@@ -215,6 +215,22 @@ class DevelopabilityField:
             out.append(val / hc**dt / hd**dT)
         return out
 
+    def derivatives_in_cells(self, t: np.ndarray, T: np.ndarray, i: np.ndarray, j: np.ndarray,
+                             orders) -> np.ndarray:
+        """∂^dt_t ∂^dT_T f for each (dt, dT) of ``orders`` at points (t, T) (N,) taken in
+        the given cells (span i of c, span j of d; one-sided values at knots), shape
+        (len(orders), N)."""
+        bc, bd = self.c.breakpoints, self.d.breakpoints
+        hc, hd = bc[i + 1] - bc[i], bd[j + 1] - bd[j]
+        s, sig = (t - bc[i]) / hc, (T - bd[j]) / hd
+        m = self.cells[i, j]
+        a, b = self.cells.shape[2:]
+        out = np.empty((len(orders), len(t)))
+        for k, (dt, dT) in enumerate(orders):
+            inner = np.einsum("nab,nb->na", m, self._powers(sig, b, dT))
+            out[k] = np.einsum("na,na->n", self._powers(s, a, dt), inner) / hc**dt / hd**dT
+        return out
+
     def gradient(self, t, T) -> np.ndarray:
         """(f_t, f_T), shape (N, 2) (one cell lookup for both)."""
         if np.size(t) == 1 and np.size(T) == 1:
@@ -393,28 +409,33 @@ class DevelopabilityField:
         """(n_c_spans, n_d_spans) largest |coefficient| of f on each cell."""
         return np.abs(self.cells).max(axis=(2, 3))
 
-    def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4) -> np.ndarray:
-        """Newton on f(t_k, ·) from T_guess for a batch, shape (N,).
+    def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4,
+                 chunk: int = 1 << 14) -> np.ndarray:
+        """Newton on f(t_k, ·) from T_guess for a batch, shape of ``T_guess``.
 
-        Grouped by cell: one (n, A) x (A, B) product gives the polynomial in σ of every
-        t in the cell, then Horner iterations on B coefficients. Points whose root lies
-        in a neighbouring span of d are redone there.
+        Each point's polynomial in σ on its cell is one row of a gathered (n, A) x (n, A, B)
+        product, then Horner iterations on B coefficients, all points at once (a fixed
+        number of array operations per call, whatever the cells: the strip and the
+        pipeline call this for a few points at a time); ``chunk`` points at a time bound
+        the gathered coefficients (16384 points: 3 MB for bicubic cells). Points whose
+        root lies in a neighbouring span of d are redone there.
         """
         t = np.asarray(t, dtype=np.float64)
         T = np.array(T_guess, dtype=np.float64, copy=True)
-        i, s, _ = self._local(self.c, t)
-        ps = s[:, None] ** np.arange(self.cells.shape[2])
+        flat_t, flat_T = np.broadcast_to(t, T.shape).ravel(), T.reshape(-1)
+        i, s, _ = self._local(self.c, flat_t)
         bd = self.d.breakpoints
-        todo = np.arange(t.size)
+        last = len(bd) - 2
+        todo = np.arange(flat_T.size)
         for _ in range(3):
-            j = self.d.span_index(T[todo])
             moved = []
-            for key in np.unique(i[todo] * self.cells.shape[1] + j):
-                ci, cj = divmod(int(key), self.cells.shape[1])
-                sel = todo[(i[todo] == ci) & (j == cj)]
-                coef = ps[sel] @ self.cells[ci, cj]  # (n, B), ascending in σ
-                width = bd[cj + 1] - bd[cj]
-                sig = (T[sel] - bd[cj]) / width
+            for lo in range(0, todo.size, chunk):
+                sel = todo[lo:lo + chunk]
+                j = np.clip(np.searchsorted(bd, flat_T[sel], side="right") - 1, 0, last)
+                ps = self._powers(s[sel], self.cells.shape[2], 0)
+                coef = np.einsum("na,nab->nb", ps, self.cells[i[sel], j])  # (n, B), ascending in σ
+                left, width = bd[j], bd[j + 1] - bd[j]
+                sig = (flat_T[sel] - left) / width
                 for _ in range(iterations):
                     value = np.zeros_like(sig)
                     slope = np.zeros_like(sig)
@@ -422,8 +443,8 @@ class DevelopabilityField:
                         slope = slope * sig + value
                         value = value * sig + coef[:, k]
                     sig = sig - np.divide(value, slope, out=np.zeros_like(value), where=slope != 0)
-                outside = ((sig < 0) & (cj > 0)) | ((sig > 1) & (cj < len(bd) - 2))
-                T[sel] = np.clip(bd[cj] + sig * width, bd[0], bd[-1])
+                outside = ((sig < 0) & (j > 0)) | ((sig > 1) & (j < last))
+                flat_T[sel] = np.clip(left + sig * width, bd[0], bd[-1])
                 moved.append(sel[outside])
             todo = np.concatenate(moved) if moved else np.zeros(0, dtype=int)
             if todo.size == 0:

@@ -6,7 +6,6 @@ All functions take traces in the unit square (u, U) and the developability field
 
 from __future__ import annotations
 
-from bisect import bisect_right
 from functools import cached_property
 
 import numpy as np
@@ -116,7 +115,7 @@ class UnitMap:
                 fixed[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
         one = fixed.sum(axis=1) == 1
         # only the points still moving are iterated: a point the step no longer moves
-        # is a fixed point of every later iteration (they depend on the point alone)
+        # (or moves by round-off) stays (each point's iterations depend on it alone)
         active = np.arange(len(x))
         for _ in range(iterations):
             if len(active) == 0:
@@ -144,7 +143,9 @@ class UnitMap:
             step[on_side] = 0.0
             moved = np.clip(xa - step, 0.0, 1.0)
             x[active] = moved
-            active = active[np.any(moved != xa, axis=1)]
+            # a step below a few ulps of the unit square leaves the point where the
+            # next steps would (round-off): it is settled
+            active = active[np.any(moved != xa, axis=1) & (np.abs(step).max(axis=1) > 1e-15)]
             if len(active) == 1 < len(x):
                 # one point alone would take the field's one-point path (other round-off):
                 # a settled point keeps it company (it stays where it is)
@@ -268,6 +269,10 @@ def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
     q, s = b[:-1], np.diff(b, axis=0)
     if len(r) == 0 or len(s) == 0:
         return []
+    if same and (np.all(r[:, 0] > 0) or np.all(r[:, 0] < 0) or np.all(r[:, 1] > 0) or np.all(r[:, 1] < 0)):
+        return []  # strictly monotone in u or U: segments apart do not even share a u (U) range
+    if not same and (np.any(a.min(axis=0) > b.max(axis=0) + 1e-12) or np.any(b.min(axis=0) > a.max(axis=0) + 1e-12)):
+        return []  # bounding boxes apart
     ks, ls = _overlapping_boxes(np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:]),
                                 np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:]), 1e-12)
     if same:
@@ -548,43 +553,45 @@ def curvature_mismatches(c: NurbsCurve, d: NurbsCurve, branch: int, params: np.n
 
 # ------------------------------------------------------------------- knots
 def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) -> list[KnotCrossing]:
-    """One-sided T' and T'' at every interior knot of c or d the branch crosses."""
-    out = []
-    orders = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
-    for axis, curve, name in ((0, field.c, "c"), (1, field.d, "d")):
+    """One-sided T' and T'' at every interior knot of c or d the branch crosses (all
+    crossings of the branch and both sides of each in one batched evaluation)."""
+    hits = []  # (axis, knot index, point index), knot by knot, points in branch order
+    for axis, curve in ((0, field.c), (1, field.d)):
         inner = curve.breakpoints[1:-1]
         if len(inner) == 0 or len(params) == 0:
             continue
-        classes = curve.knot_continuity()
-        # (knot, point) pairs on the knot line, knot by knot, points in branch order
         near = np.abs(params[None, :, axis] - inner[:, None]) <= 1e-12 * (1 + np.abs(inner[:, None]))
-        for n, h in zip(*np.nonzero(near)):
-            knot, cls = inner[n], classes[n]
-            t, T = params[h]
-            # NurbsCurve.span_index (the last span holds the domain end), in floats; on
-            # the knot's own axis the two sides are the spans n and n + 1 beside it
-            # (the point may lie a few ulps off the knot, on either side)
-            ic = min(max(bisect_right(field._breaks[0], t) - 1, 0), field.c.n_spans - 1)
-            jd = min(max(bisect_right(field._breaks[1], T) - 1, 0), field.d.n_spans - 1)
-            if axis == 0:
-                ic = int(n) + 1
-            else:
-                jd = int(n) + 1
-            sides = []
-            for shift in (-1, 0):
-                spans = (ic + shift, jd) if axis == 0 else (ic, jd + shift)
-                if min(spans) < 0:
-                    break
-                ft, fT, ftt, ftT, fTT = field.derivatives_at_point(float(t), float(T), orders, spans)
-                if fT == 0.0:
-                    break
-                slope = -ft / fT
-                sides.append((slope, -(ftt + 2 * ftT * slope + fTT * slope**2) / fT))
-            if len(sides) != 2:
-                continue
-            (s1, c1), (s2, c2) = sides
-            out.append(KnotCrossing(branch, name, float(knot), float(t), float(T), int(cls) - 1,
-                                    abs(s1 - s2) / (1 + abs(s1)), abs(c1 - c2) / (1 + abs(c1))))
+        n, h = np.nonzero(near)
+        hits.append((np.full(len(n), axis), n, h))
+    if not hits or not sum(len(h[1]) for h in hits):
+        return []
+    axis, n, h = (np.concatenate(x) for x in zip(*hits))
+    t, T = params[h, 0], params[h, 1]
+    # the cells of the point (the last span holds the domain end); on the knot's own
+    # axis the two sides are the spans n and n + 1 beside it (the point may lie a few
+    # ulps off the knot, on either side)
+    ic = np.clip(np.searchsorted(field.c.breakpoints, t, side="right") - 1, 0, field.c.n_spans - 1)
+    jd = np.clip(np.searchsorted(field.d.breakpoints, T, side="right") - 1, 0, field.d.n_spans - 1)
+    on_c = axis == 0
+    ic_lo, ic_hi = np.where(on_c, n, ic), np.where(on_c, n + 1, ic)
+    jd_lo, jd_hi = np.where(on_c, jd, n), np.where(on_c, jd, n + 1)
+    orders = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+    ft, fT, ftt, ftT, fTT = field.derivatives_in_cells(np.concatenate([t, t]), np.concatenate([T, T]),
+                                                       np.concatenate([ic_lo, ic_hi]),
+                                                       np.concatenate([jd_lo, jd_hi]), orders)
+    ok = fT != 0.0
+    safe = np.where(ok, fT, 1.0)
+    slope = -ft / safe
+    bend = -(ftt + 2 * ftT * slope + fTT * slope**2) / safe
+    k = len(t)
+    s1, s2, c1, c2 = slope[:k], slope[k:], bend[:k], bend[k:]
+    out = []
+    for m in np.flatnonzero(ok[:k] & ok[k:]):
+        curve, name = (field.c, "c") if axis[m] == 0 else (field.d, "d")
+        cls = curve.knot_continuity()[n[m]]
+        out.append(KnotCrossing(branch, name, float(curve.breakpoints[n[m] + 1]), float(t[m]), float(T[m]),
+                                int(cls) - 1, float(abs(s1[m] - s2[m]) / (1 + abs(s1[m]))),
+                                float(abs(c1[m] - c2[m]) / (1 + abs(c1[m])))))
     return out
 
 
@@ -640,9 +647,10 @@ def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
         candidates.append((p.index, pts * mirror))
     if not candidates:
         return None
-    gains = []
+    gains, covs = [], []
     for _, pts in candidates:
         cov = coverage(c, d, sorted(pts[[0, -1], 0]), sorted(pts[[0, -1], 1]))
+        covs.append(cov)
         gains.append((cov.c_fraction, cov.d_fraction, strip_area(c, d, pts)))
     scale = np.array([np.ptp(c.domain), np.ptp(d.domain)])
     flat = np.vstack([pts[[0, -1]] for _, pts in candidates]) / scale
@@ -689,9 +697,10 @@ def choose_path(c: NurbsCurve, d: NurbsCurve, pieces: list[Piece], tol: float,
         elif np.ptp(pts[:, 1]) <= 1e-9 * scale[1]:
             fans.append({"apex_on": "d", "T": float(pts[0, 1]),
                          "t_interval": [float(pts[0, 0]), float(pts[-1, 0])], **extra})
-    cov = coverage(c, d, (points[0, 0], points[-1, 0]), sorted((points[0, 1], points[-1, 1])))
-    # a path of one piece is that piece (the usual plate): its area is already known
+    # a path of one piece is that piece (the usual plate): its coverage and area are known
     one = len(chain) == 1 and np.array_equal(points, candidates[chain[0]][1])
+    cov = covs[chain[0]] if one else coverage(c, d, (points[0, 0], points[-1, 0]),
+                                               sorted((points[0, 1], points[-1, 1])))
     cov = Coverage(cov.t_interval, cov.T_interval, cov.c_length, cov.d_length, cov.c_fraction,
                    cov.d_fraction, gains[chain[0]][2] if one else strip_area(c, d, points))
     return Path(points, tuple(candidates[i][0] for i in chain), cov, tuple(fans), orientation)

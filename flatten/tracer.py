@@ -607,8 +607,9 @@ class _Tracer:
         return best
 
     def _fill(self, walks):
-        """The walks' points with Z's points put between those of each arc longer than a
-        trace step, so that no two points are more than ~1.25 trace steps apart there.
+        """The walks' points (each (N_w, 2)) with Z's points put between those of each arc
+        longer than a trace step, so that no two points are more than ~1.25 trace steps
+        apart there.
 
         ``walks`` : list of (points, arcs) (see :meth:`trace_one_way`). The new points
         start on the cubic Hermite curve of the arc (its end points and Z's tangents
@@ -625,7 +626,7 @@ class _Tracer:
                     owner.append((w, i, j))
                     ends.append((x, y, tx, ty))
         if not owner:
-            return [points for points, _ in walks]
+            return [np.array(points, dtype=np.float64).reshape(-1, 2) for points, _ in walks]
         ends = np.array(ends)  # (K, [start, end, tangent at start, tangent at end], 2)
         a, b = ends[:, 0], ends[:, 1]
         chord = b - a
@@ -643,28 +644,30 @@ class _Tracer:
                  + (3 * s2 - 2 * s3)[:, None] * b[row] + (s3 - s2)[:, None] * m1[row])
         moved = self.unit.project_on_lines(guess, normal[row])
         ok = np.isfinite(moved).all(axis=1) & (np.hypot(*(moved - guess).T) <= 0.25 * (length / n)[row])
-        where = np.einsum("ij,ij->i", moved - a[row], along[row])
-        fills: dict[tuple[int, int], list] = {}
-        for (w, i, j), k in zip(owner, range(len(a))):
-            fills[(w, i)] = [j, k, []]
-        for r, pos, p in zip(row[ok].tolist(), where[ok].tolist(), moved[ok].tolist()):
-            fills[(owner[r][0], owner[r][1])][2].append((pos, tuple(p)))
+        # every point of a filled arc, new or a seed met on the way, is ordered by its
+        # place along the chord: key i + (j - i) * place / length lies between i and j
+        walk = np.array([w for w, _, _ in owner])
+        first = np.array([i for _, i, _ in owner])
+        last = np.array([j for _, _, j in owner])
+        span = (last - first) / length
+        arrays = [np.array(points, dtype=np.float64).reshape(-1, 2) for points, _ in walks]
+        keys = [np.arange(len(x), dtype=np.float64) for x in arrays]
+        inner = last - first - 1  # seeds met between the ends
+        if inner.any():
+            arc = np.repeat(np.arange(len(a)), inner)
+            idx = np.arange(len(arc)) - np.repeat(np.cumsum(inner) - inner, inner) + first[arc] + 1
+            for w in range(len(walks)):
+                mine = walk[arc] == w
+                rel = arrays[w][idx[mine]] - a[arc[mine]]
+                place = np.clip(np.einsum("ij,ij->i", rel, along[arc[mine]]), 0.0, length[arc[mine]])
+                keys[w][idx[mine]] = first[arc[mine]] + span[arc[mine]] * place
+        place = np.clip(np.einsum("ij,ij->i", moved - a[row], along[row]), 0.0, length[row])
+        fill_key = first[row] + span[row] * place
         out = []
-        for w, (points, _) in enumerate(walks):
-            new, k = [], 0
-            while k < len(points):
-                new.append(points[k])
-                fill = fills.get((w, k))
-                if fill is None:
-                    k += 1
-                    continue
-                j, r, extra = fill
-                (x0, x1), (e0, e1) = points[k], along[r].tolist()
-                inner = [((p[0] - x0) * e0 + (p[1] - x1) * e1, p) for p in points[k + 1:j]] + extra
-                inner.sort(key=lambda q: q[0])
-                new.extend(p for _, p in inner)
-                k = j
-            out.append(new)
+        for w in range(len(walks)):
+            mine = ok & (walk[row] == w)
+            x = np.vstack([arrays[w], moved[mine]])
+            out.append(x[np.argsort(np.concatenate([keys[w], fill_key[mine]]), kind="stable")])
         return out
 
     def trace_from(self, seed_index: int) -> Trace:
@@ -673,10 +676,10 @@ class _Tracer:
         forward, end_f, arcs_f = self.trace_one_way(start, 1.0, seed_index)
         if end_f == END_LOOP:
             (forward,) = self._fill([(forward, arcs_f)])
-            return Trace(_dedupe(np.array(forward)), True, (END_LOOP, END_LOOP))
+            return Trace(_dedupe(forward), True, (END_LOOP, END_LOOP))
         backward, end_b, arcs_b = self.trace_one_way(start, -1.0, seed_index)
         forward, backward = self._fill([(forward, arcs_f), (backward, arcs_b)])
-        pts = np.array(backward[::-1] + forward[1:])
+        pts = np.vstack([backward[::-1], forward[1:]])
         return Trace(_dedupe(pts), False, (end_b, end_f))
 
 
