@@ -47,8 +47,11 @@ def tangent_line_polynomials(power: np.ndarray) -> np.ndarray:
     n_spans, p1, _ = power.shape
     p = p1 - 1
     deriv = power[:, 1:, :] * np.arange(1, p1)[None, :, None]  # (n_spans, p, 4)
+    # every product of a power term a with a derivative term b at once: (n, p+1, p, 4, 4)
+    outer = power[:, :, None, :, None] * deriv[:, None, :, None, :]
+    rows, cols = np.array(PAIRS).T
+    minors = outer[..., rows, cols] - outer[..., cols, rows]  # (n, p+1, p, 6): a ∧ b terms
     out = np.zeros((n_spans, 2 * p, 6))
-    for a in range(p1):
-        for b in range(p):
-            out[:, a + b, :] += wedge(power[:, a, :], deriv[:, b, :])
+    for a in range(p1):  # the term s^a s^b lands on s^(a+b)
+        out[:, a:a + p, :] += minors[:, a]
     return out[:, : 2 * p - 1, :]
