@@ -34,7 +34,7 @@ SIDE_NAMES = ("t_start", "t_end", "T_start", "T_end")
 # per step. A corrector that moves the point more than 4 STEP_DEFLECTION is refused (the
 # step is halved): the trace cannot reach an arm of Z farther away than that.
 MAX_STEP_FACTOR = 16.0
-STEP_DEFLECTION = 1e-4
+STEP_DEFLECTION = 1.5e-4
 STEP_TURN = 0.1
 # Where Z runs within ~ 11 degrees of a grid direction (or turns through it: a turning
 # point) it may cross a grid line twice within a long step whose chord crosses it
