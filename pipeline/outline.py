@@ -107,17 +107,19 @@ class PlateTracer:
 
     planes : the two butt planes of a hull plate (pipeline.strake.Plane), or () for a
         part bounded by its first and last rulings.
+    developed : the development of the (untrimmed) strip's rulings the stages made
+        (``PartResult.developed``), used instead of developing the strip again when it
+        reaches the path's ends.
     """
 
-    def __init__(self, part, solution, strip, pattern, planes=()):
+    def __init__(self, part, solution, strip, pattern, planes=(), developed: DevelopedStrip | None = None):
         self.part, self.solution, self.strip, self.planes = part, solution, strip, tuple(planes)
         self._corners = None
-        # per lam asked for: its row in the rulings and their 3D ends kept so far (N, 2),
-        # (N, 3), (N, 3), and in their placed developed ends (N, 2), (N, 2)
-        self._rulings: dict[float, int] = {}
-        self._ruled_rows = [np.zeros((0, 2)), np.zeros((0, 3)), np.zeros((0, 3))]
-        self._ends: dict[float, int] = {}
-        self._end_rows = [np.zeros((0, 2)), np.zeros((0, 2))]
+        # per lam asked for: the ruling (N, 2), its 3D ends (N, 3), (N, 3), its kept interval
+        # and what sets its ends (N,) x 4; and its placed developed ends (N, 2), (N, 2)
+        self._ruled_rows = _PerLam([np.zeros((0, 2)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                                    np.zeros(0, dtype=int), np.zeros(0, dtype=int)])
+        self._end_rows = _PerLam([np.zeros((0, 2)), np.zeros((0, 2))])
         m = len(strip.samples)
         k = np.arange(strip.n_rulings) * m
         trim = strip.trim if strip.trim is not None else np.column_stack([np.zeros(strip.n_rulings),
@@ -128,56 +130,55 @@ class PlateTracer:
         # development's frame is fixed by its first ruling); the path's end is developed
         # too, so that every ruling of the path lies within the development
         ends = sample_path(solution, np.array([0.0, 1.0]))
-        base = np.vstack([ends[:1], strip.rulings, ends[1:]])
-        order = np.lexsort((base[:, 1] * solution.path.orientation, base[:, 0]))
-        self._strip = DevelopedStrip(part.c, part.d, base[order], solution.field)
-        position = np.empty(len(base), dtype=int)
-        position[order] = np.arange(len(base))
-        mine = position[1:-1]
-        dev = self._strip.development
-        along_c, along_d = dev.along_c[mine], dev.along_d[mine]
+        same = developed is not None and developed.c is part.c and developed.d is part.d and \
+            developed.field is solution.field
+        if same and developed.breaks[0] <= ends[:, 0].min() and ends[:, 0].max() <= developed.breaks[-1] and \
+                strip.rulings[:, 0].min() >= developed.breaks[0] and strip.rulings[:, 0].max() <= developed.breaks[-1]:
+            # the strip's own development (stage_unroll) reaches the path's ends: every
+            # ruling asked for is developed from it, and so are this strip's rulings
+            # (a strip trimmed from it keeps some of them: they are its breaks)
+            self._strip = developed
+            dev = developed.ends(strip.rulings)
+            along_c, along_d = dev.along_c, dev.along_d
+        else:
+            base = np.vstack([ends[:1], strip.rulings, ends[1:]])
+            order = np.lexsort((base[:, 1] * solution.path.orientation, base[:, 0]))
+            self._strip = DevelopedStrip(part.c, part.d, base[order], solution.field)
+            position = np.empty(len(base), dtype=int)
+            position[order] = np.arange(len(base))
+            mine = position[1:-1]
+            dev = self._strip.development
+            along_c, along_d = dev.along_c[mine], dev.along_d[mine]
         src = np.vstack([along_c + trim[:, :1] * (along_d - along_c), along_c + trim[:, 1:] * (along_d - along_c)])
         dst = np.vstack([pattern.vertices[k], pattern.vertices[k + m - 1]])
         self.rot, self.shift = _rigid_fit(src, dst)
         self.alignment_error = float(np.abs(src @ self.rot.T + self.shift - dst).max())
 
-    def _ruled(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rulings (N, 2) at lam (clipped to [0, 1]) and their 3D ends on c and d, (N, 3) each."""
-        rows = self._rows(lam, self._rulings, self._ruled_rows, self._compute_ruled)
-        return self._ruled_rows[0][rows], self._ruled_rows[1][rows], self._ruled_rows[2][rows]
+    def _ruled(self, lam: np.ndarray) -> tuple[np.ndarray, ...]:
+        """At lam (clipped to [0, 1]): rulings (N, 2), their 3D ends on c and d (N, 3) each,
+        and :func:`ruling_interval` of them (N,) x 4."""
+        return self._ruled_rows.at(lam, self._compute_ruled)
 
     def developed_at(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Placed developed ends (along c, along d) of the rulings at lam, (N, 2) each."""
-        rows = self._rows(lam, self._ends, self._end_rows, lambda new: self.developed(self._ruled(new)[0]))
-        return self._end_rows[0][rows], self._end_rows[1][rows]
-
-    @staticmethod
-    def _rows(lam: np.ndarray, index: dict, store: list, compute) -> np.ndarray:
-        """Rows of ``store`` (arrays with one row per lam computed so far) holding the values
-        at lam (clipped to [0, 1]); the lam not seen before are computed first (``compute``
-        of their array gives one array per entry of ``store``)."""
-        keys = np.clip(np.asarray(lam, dtype=np.float64).ravel(), 0.0, 1.0).tolist()
-        missing = list(dict.fromkeys(k for k in keys if k not in index))
-        if missing:
-            start = len(store[0])
-            for k, value in enumerate(compute(np.array(missing))):
-                store[k] = np.concatenate([store[k], value])
-            index.update(zip(missing, range(start, start + len(missing))))
-        return np.array([index[k] for k in keys], dtype=np.int64)
+        return self._end_rows.at(lam, lambda new: self.developed(self._ruled(new)[0]))
 
     def _compute_ruled(self, lam: np.ndarray):
         r = sample_path(self.solution, lam)
-        return r, self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
+        if not self.planes:
+            n = len(pc)
+            return r, pc, pd, np.zeros(n), np.ones(n), np.full(n, -1), np.full(n, -1)
+        return (r, pc, pd, *ruling_interval(pc, pd, self.planes))
 
     def rulings(self, lam: np.ndarray) -> np.ndarray:
         return self._ruled(lam)[0]
 
     def interval(self, lam: np.ndarray):
-        _, pc, pd = self._ruled(lam)
-        if not self.planes:
-            n = len(pc)
-            return np.zeros(n), np.ones(n), np.full(n, -1), np.full(n, -1), pc, pd
-        return (*ruling_interval(pc, pd, self.planes), pc, pd)
+        """(lo, hi, lo_by, hi_by) of :func:`ruling_interval` and the 3D ends pc, pd of the
+        rulings at lam."""
+        _, pc, pd, lo, hi, lo_by, hi_by = self._ruled(lam)
+        return lo, hi, lo_by, hi_by, pc, pd
 
     def developed(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Placed developed ends (along c, along d) of the given rulings, (N, 2) each."""
@@ -186,7 +187,7 @@ class PlateTracer:
 
     def plane_of(self, lam: float) -> int:
         """Index of the butt plane the ruling at lam lies in (to round-off), -1 if none."""
-        _, pc, pd = self._ruled(np.array([lam]))
+        _, pc, pd, *_ = self._ruled(np.array([lam]))
         size = np.linalg.norm(pd - pc, axis=1)
         for index, plane in enumerate(self.planes):
             sa, sb = plane.signed(pc), plane.signed(pd)
@@ -197,7 +198,7 @@ class PlateTracer:
     def normals(self, lam: np.ndarray) -> np.ndarray:
         """Unit strip normals c' x (d - c) of the rulings at lam, (N, 3): the pattern is
         drawn as seen from this side."""
-        r, _, pd = self._ruled(lam)
+        r, _, pd, *_ = self._ruled(lam)
         pc, dc = self.part.c.derivatives(r[:, 0], 1)
         n = np.cross(dc, pd - pc)
         return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
@@ -223,6 +224,38 @@ class PlateTracer:
     def boundary(self, lam: np.ndarray, side: int) -> np.ndarray:
         """Placed points of the lower (side 0) or upper (side 1) boundary at lam, (N, 2)."""
         return self.sides(lam)[side]
+
+
+class _PerLam:
+    """Arrays with one row per path fraction lam computed so far, looked up by lam (kept
+    sorted: no Python work per lam); values at lam not seen before are computed first,
+    all in one call. Every value is a pointwise function of lam, so which lam share a call
+    changes nothing."""
+
+    def __init__(self, empty: list[np.ndarray]):
+        self.store = list(empty)
+        self.keys = np.zeros(0)  # lam computed, sorted
+        self.rows = np.zeros(0, dtype=np.int64)  # their rows in store
+
+    def at(self, lam: np.ndarray, compute) -> tuple[np.ndarray, ...]:
+        """The stored arrays at lam (clipped to [0, 1]); ``compute`` of an array of new lam
+        gives one array per entry of the store."""
+        keys = np.clip(np.asarray(lam, dtype=np.float64).ravel(), 0.0, 1.0)
+        pos = np.searchsorted(self.keys, keys)
+        hit = pos < len(self.keys)
+        hit[hit] = self.keys[pos[hit]] == keys[hit]
+        if not hit.all():
+            missing = np.unique(keys[~hit])
+            start = len(self.store[0])
+            for k, value in enumerate(compute(missing)):
+                self.store[k] = np.concatenate([self.store[k], value])
+            merged = np.concatenate([self.keys, missing])
+            order = np.argsort(merged, kind="stable")
+            self.keys = merged[order]
+            self.rows = np.concatenate([self.rows, np.arange(start, start + len(missing))])[order]
+            pos = np.searchsorted(self.keys, keys)
+        rows = self.rows[pos]
+        return tuple(array[rows] for array in self.store)
 
 
 def _rigid_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -298,8 +331,10 @@ def _corners(tracer: PlateTracer) -> list[float]:
     """Path fractions where a butt plane crosses c or d (the plate corners): bracketed on
     a scan, then narrowed, all brackets at once, to the last bit of lam. Each step (one
     evaluation of the path, the costly part) tries 31 even points of each bracket (1/32
-    per step at worst) and, around the secant estimate of the crossing, points 1e-4, 1e-8
-    and 1e-12 of the bracket away: a smooth crossing is pinned in three or four steps."""
+    per step at worst) and, around the secant estimate of the crossing, points 1e-2, 1e-3,
+    1e-4, 1e-6, ..., 1e-14 of the bracket away (the estimate's error falls as the square of
+    the bracket; the points cost little beside the evaluation itself): a smooth crossing is
+    pinned in three steps, rarely four or five."""
     grid = np.linspace(0.0, 1.0, 513)
     r = tracer.rulings(grid)
     ends = (tracer.part.c(r[:, 0]), tracer.part.d(r[:, 1]))
@@ -314,7 +349,7 @@ def _corners(tracer: PlateTracer) -> list[float]:
         return []
     a, b, sa, sb = (np.array([f[k] for f in found], dtype=float) for k in (2, 3, 4, 5))
     steps = np.linspace(0.0, 1.0, 33)[1:-1]
-    near = np.array([-1e-4, -1e-8, -1e-12, 0.0, 1e-12, 1e-8, 1e-4])
+    near = np.array([-1e-2, -1e-3, -1e-4, -1e-6, -1e-8, -1e-10, -1e-12, -1e-14, 0.0, 1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4, 1e-3, 1e-2])
     for _ in range(12):
         width = b - a
         if np.all(width <= 2.0 * np.spacing(np.maximum(np.abs(a), np.abs(b)))):

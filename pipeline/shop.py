@@ -49,7 +49,7 @@ def stage_shop(result, config) -> None:
     shop = config.spec.shop
     hull = result.part.hull
     planes = hull.butts if hull is not None else ()
-    tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes)
+    tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes, result.developed)
     outline = exact_outline(tracer, shop.outline_tolerance / scale)
     outline_mm = _scaled(outline, scale)
     lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)

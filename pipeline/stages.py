@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flatten import DEFAULT_TOLERANCES, SolutionSet, solve
-from flatten.develop import Development, develop, unfold_triangles
+from flatten.develop import DevelopedStrip, Development, unfold_triangles
 from flatten.meshcheck import naive_reference, ruling_residuals, strip_angle_defects
 from flatten.metrics import distortion, polyline_length, triangle_areas
 from flatten.strip import Strip, build_strip, choose_rulings
@@ -51,6 +51,9 @@ class PartResult:
     solution: SolutionSet | None = None
     strip: Strip | None = None
     development: Development | None = None
+    # the exact development of the strip's rulings (stage_unroll), kept so that later stages
+    # (frame lines, the exact outline, bending lines) develop further rulings from it
+    developed: DevelopedStrip | None = None
     pattern: Pattern | None = None
     figures: dict = field(default_factory=dict)
     mesh: tuple | None = None  # (vertices (V, 3), faces (F, 3)) of a plate that is no strip (flat, formed)
@@ -141,7 +144,8 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
 
 def stage_unroll(result: PartResult) -> None:
     strip, part = result.strip, result.part
-    development = develop(part.c, part.d, strip.rulings, result.solution.field)
+    developed = DevelopedStrip(part.c, part.d, strip.rulings, result.solution.field)
+    development = developed.development
     m = len(strip.samples)
     k = np.arange(strip.n_rulings) * m
     flat = development.vertices(strip.samples)
@@ -152,7 +156,7 @@ def stage_unroll(result: PartResult) -> None:
                 np.abs(unfolded.along_d - development.along_d).max())
     figures["triangle_unfold_drift"] = float(drift)
     figures["triangle_unfold_drift_relative"] = float(drift / size) if size > 0 else 0.0
-    result.development = development
+    result.development, result.developed = development, developed
     result.figures["unroll"] = figures
     rot, shift = place_flat(flat, development.along_c)
     placed = flat @ rot.T + shift
