@@ -183,6 +183,7 @@ class Placer:
         self.boxes: list[Polygon] = []
         self._reach_of, self._reach = None, {}
         self.placed = np.zeros((0, 8))  # the placed boxes, as self.boxes: centre, unit axes, half sides
+        self._radius = np.zeros(0)
 
     def reach(self, centres: np.ndarray, angle: float) -> np.ndarray:
         """Free half-lengths (P,), P = len(centres), along the direction angle (degrees) at
@@ -216,10 +217,17 @@ class Placer:
             idx = np.flatnonzero(shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1))
             near = None  # (len(idx), M): placed boxes only round-off decides about
             if len(self.placed) and idx.size:
-                sep = _separation(chunk[idx], u[idx], v[idx], (0.5 * wide, 0.5 * high), self.placed)
-                eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
-                keep = ~(sep < -eps).any(axis=1)
-                idx, near = idx[keep], np.abs(sep[keep]) <= eps
+                # only boxes whose circumcircles meet can meet: most are far apart
+                d = chunk[idx, None] - self.placed[None, :, :2]  # (N, M, 2)
+                gap = np.hypot(d[..., 0], d[..., 1]) - self._radius - 0.5 * np.hypot(wide, high)
+                rows = np.flatnonzero((gap <= 1e-6 * (wide + high)).any(axis=1))
+                if rows.size:
+                    sep = np.full(gap.shape, np.inf)
+                    sep[rows] = _separation(chunk[idx[rows]], u[idx[rows]], v[idx[rows]], (0.5 * wide, 0.5 * high),
+                                            self.placed)
+                    eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
+                    keep = ~(sep < -eps).any(axis=1)
+                    idx, near = idx[keep], np.abs(sep[keep]) <= eps
             if self.obstacles is not None and idx.size:
                 free = ~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))
                 idx, near = idx[free], None if near is None else near[free]
@@ -236,7 +244,9 @@ class Placer:
                     i = start + int(idx[np.argmax(fits)])
                     self.boxes.append(Polygon(_corners_on(centres[i:i + 1], width, height, u_all[i:i + 1],
                                                           v_all[i:i + 1])[0]))
-                    self.placed = np.vstack([self.placed, [*centres[i], *u_all[i], *v_all[i], 0.5 * width, 0.5 * height]])
+                    taken = [*centres[i], *u_all[i], *v_all[i], 0.5 * width, 0.5 * height]
+                    self.placed = np.vstack([self.placed, taken])
+                    self._radius = np.hypot(self.placed[:, 6], self.placed[:, 7])  # circumradii (M,)
                     return i
             start, size = stop, 4 * size
         return None
