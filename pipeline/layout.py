@@ -124,14 +124,6 @@ def _corners_on(centres: np.ndarray, width: float, height: float, u: np.ndarray,
     return centres[:, None, :] + offsets
 
 
-def _long_axes(centres: np.ndarray, width: float, height: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Shapely segments (N,) along the longer middle line of the rectangles of
-    :func:`_corners_on`, a hair (1e-9 of its length) inside the rectangle at both ends."""
-    half, axis = (0.5 * width, u) if width >= height else (0.5 * height, v)
-    reach = (half * (1.0 - 1e-9)) * axis
-    return shapely.linestrings(np.stack([centres - reach, centres + reach], axis=1))
-
-
 def free_reach(centres: np.ndarray, direction: np.ndarray, segments: np.ndarray) -> np.ndarray:
     """Half-length (P,) of the longest segment centred at each of centres (P, 2) along the unit
     vector direction (2,) that no segment of segments (S, 2, 2) crosses (inf when none is in
@@ -206,9 +198,9 @@ class Placer:
         u_all, v_all = _axes(angle, len(centres))
         # only the first free centre is wanted: test them in growing chunks (the first few
         # usually fit), each test only where the cheaper ones passed: corners in the room
-        # (points), placed boxes by separating axes (numpy: shapely only where round-off
-        # decides), a line across the box's long axis (lines are cheaper than boxes); the
-        # exact tests on polygons decide the rest
+        # (points: this rules out nearly all that do not fit), placed boxes by circumcircles
+        # and separating axes (numpy: shapely only where round-off decides); the exact tests
+        # on polygons decide the rest
         start, size = 0, 16
         while start < len(centres):
             stop = min(start + size, len(centres))
@@ -228,9 +220,6 @@ class Placer:
                     eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
                     keep = ~(sep < -eps).any(axis=1)
                     idx, near = idx[keep], np.abs(sep[keep]) <= eps
-            if self.obstacles is not None and idx.size:
-                free = ~shapely.intersects(self.obstacles, _long_axes(chunk[idx], wide, high, u[idx], v[idx]))
-                idx, near = idx[free], None if near is None else near[free]
             if idx.size:
                 grown = shapely.polygons(corners[idx])
                 fits = shapely.contains(self.room, grown)

@@ -114,7 +114,7 @@ def _brute_place(placer: Placer, centres, width, height, angles):
 @settings(max_examples=40, deadline=None)
 @given(key=st.integers(0, 2**32 - 1), lines=st.integers(0, 6), boxes=st.integers(0, 6))
 def test_placer_takes_the_first_centre_the_exact_tests_accept(key, lines, boxes):
-    """The placer's cheap tests (corner points, separating axes, middle lines) only rule out
+    """The placer's cheap tests (corner points, circumcircles, separating axes) only rule out
     boxes the exact shapely tests rule out: it takes the same centre as a one-by-one search,
     also on centres on a grid (touching boxes and lines included)."""
     rng = np.random.default_rng(key)
