@@ -136,9 +136,12 @@ def _initial(field: DevelopabilityField):
 
 
 def _unit_size(field: DevelopabilityField, cell: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Larger side of each box in the block's unit square, (K,)."""
-    p = _to_params(field, cell, boxes)
-    return np.maximum((p[:, 1] - p[:, 0]) / np.ptp(field.c.domain), (p[:, 3] - p[:, 2]) / np.ptp(field.d.domain))
+    """Larger side of each box in the block's unit square, (K,): the local side times the
+    cell's share of the domain."""
+    share_c = np.diff(field.c.breakpoints) / np.ptp(field.c.domain)
+    share_d = np.diff(field.d.breakpoints) / np.ptp(field.d.domain)
+    return np.maximum((boxes[:, 1] - boxes[:, 0]) * share_c[cell[:, 0]],
+                      (boxes[:, 3] - boxes[:, 2]) * share_d[cell[:, 1]])
 
 
 def enclose(field: DevelopabilityField, target: float = 4e-3, max_boxes: int = 6000,

@@ -168,14 +168,20 @@ def acceptable_points(unit: UnitMap, x: np.ndarray, orientation: int = 1) -> np.
     return _acceptability(unit, x, unit.gradient(x))[:, 0 if orientation > 0 else 1]
 
 
-def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray, derivs=None) -> np.ndarray:
     """(N, 2) :func:`acceptable_points` for orientation +1 and -1 at once, given the
-    unit gradient ``g`` (N, 2) at ``x`` (the curve derivatives serve both columns)."""
+    unit gradient ``g`` (N, 2) at ``x`` (the curve derivatives serve both columns);
+    ``derivs`` : (c.derivatives, d.derivatives) to order 2 at the points, if known."""
     gg = np.einsum("ij,ij->i", g, g)
     p = unit.to_params(x)
-    pc, dc = unit.field.c.derivatives(p[:, 0], 1)
-    pd, dd = unit.field.d.derivatives(p[:, 1], 1)
-    dc, dd = _limit_tangent(unit.field.c, p[:, 0], dc), _limit_tangent(unit.field.d, p[:, 1], dd)
+    if derivs is None:
+        (pc, dc), (pd, dd) = unit.field.c.derivatives(p[:, 0], 1), unit.field.d.derivatives(p[:, 1], 1)
+        seconds = (None, None)
+    else:
+        (pc, dc, ddc), (pd, dd, ddd) = derivs
+        seconds = (ddc, ddd)
+    dc = _limit_tangent(unit.field.c, p[:, 0], dc, seconds[0])
+    dd = _limit_tangent(unit.field.d, p[:, 1], dd, seconds[1])
     ruling = pd - pc
     rr = np.maximum(np.einsum("ij,ij->i", ruling, ruling), 1e-300)
     perp_c = dc - (np.einsum("ij,ij->i", dc, ruling) / rr)[:, None] * ruling
@@ -187,7 +193,7 @@ def _acceptability(unit: UnitMap, x: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.column_stack([same_side & (product <= 1e-9 * gg), same_side & (-product <= 1e-9 * gg)])
 
 
-def _limit_tangent(curve: NurbsCurve, t: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+def _limit_tangent(curve: NurbsCurve, t: np.ndarray, tangent: np.ndarray, second=None) -> np.ndarray:
     """c'(t) (N, 3), with the limit direction ±c'' where the curve stands still (a doubled
     end pole: zero speed at the end, yet a tangent direction, that of c'' pointing into
     the curve's domain); only the direction matters to the classification."""
@@ -195,7 +201,7 @@ def _limit_tangent(curve: NurbsCurve, t: np.ndarray, tangent: np.ndarray) -> np.
     if not still.any():
         return tangent
     out = tangent.copy()
-    second = curve.derivatives(t[still], 2)[2]
+    second = curve.derivatives(t[still], 2)[2] if second is None else second[still]
     inward = np.where(t[still] <= 0.5 * (curve.domain[0] + curve.domain[1]), 1.0, -1.0)
     out[still] = inward[:, None] * second
     return out
@@ -365,11 +371,11 @@ def _point_on_polyline(point: np.ndarray, poly: np.ndarray, tol: float):
 
 
 # ------------------------------------------------------------------- pieces
-def _classes(unit: UnitMap, x: np.ndarray) -> np.ndarray:
+def _classes(unit: UnitMap, x: np.ndarray, derivs=None) -> np.ndarray:
     """(N, 2) acceptability of points for orientation +1 and -1; points at singular
     points (vanishing gradient) take the class of the point before them."""
     g = unit.gradient(x)
-    acc = _acceptability(unit, x, g)
+    acc = _acceptability(unit, x, g, derivs)
     gnorm = np.hypot(*g.T)
     weak = gnorm < 1e-8 * max(np.median(gnorm), 1e-300)
     weak[:1] = False  # the first point keeps its own class
@@ -404,7 +410,7 @@ def _class_boundary(unit: UnitMap, a: np.ndarray, b: np.ndarray, column: int) ->
     return unit.project_along(0.5 * (lo + hi)[None], normal)[0], kind
 
 
-def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
+def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, derivs=None):
     """Cut every trace where its class changes (for either orientation of d against c)
     and at junctions.
 
@@ -417,7 +423,7 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float):
     turning = []
     for n, trace in enumerate(traces):
         x = trace.points
-        acc = _classes(unit, x)
+        acc = _classes(unit, x, None if derivs is None else derivs[n])
         for column, orientation in ((0, 1), (1, -1)):
             for k in np.flatnonzero(acc[1:, column] != acc[:-1, column]):
                 point, kind = _class_boundary(unit, x[k], x[k + 1], column)
@@ -511,14 +517,14 @@ def branch_kind(x: np.ndarray, closed: bool) -> str:
 
 
 # ----------------------------------------------------------- Theorem 2
-def curvature_signs(c: NurbsCurve, d: NurbsCurve, params: np.ndarray):
+def curvature_signs(c: NurbsCurve, d: NurbsCurve, params: np.ndarray, derivs=None):
     """Normal curvature signs of c and d against the strip normal along each ruling.
 
     Returns (kc, kd) (N,), the normal curvatures c''.ν / |c'|^2 and d''.ν / |d'|^2.
+    ``derivs`` : (c.derivatives, d.derivatives) to order 2 at the points, if known.
     """
     t, T = params[:, 0], params[:, 1]
-    pc, dc, ddc = c.derivatives(t, 2)
-    pd, dd, ddd = d.derivatives(T, 2)
+    (pc, dc, ddc), (pd, dd, ddd) = (c.derivatives(t, 2), d.derivatives(T, 2)) if derivs is None else derivs
     ruling = pd - pc
     normal = np.cross(dc, ruling)
     weak = np.linalg.norm(normal, axis=1) <= 1e-12 * np.linalg.norm(dc, axis=1) * np.linalg.norm(ruling, axis=1)
@@ -533,9 +539,9 @@ def curvature_signs(c: NurbsCurve, d: NurbsCurve, params: np.ndarray):
 
 
 def curvature_mismatches(c: NurbsCurve, d: NurbsCurve, branch: int, params: np.ndarray,
-                         relative: float = 1e-9) -> list[CurvatureMismatch]:
+                         relative: float = 1e-9, derivs=None) -> list[CurvatureMismatch]:
     """Runs of branch points where kc and kd have strictly opposite signs."""
-    kc, kd = curvature_signs(c, d, params)
+    kc, kd = curvature_signs(c, d, params, derivs)
     scale = max(np.abs(kc).max(initial=0.0), np.abs(kd).max(initial=0.0), 1e-300)
     bad = kc * kd < -(relative * scale) ** 2
     out = []

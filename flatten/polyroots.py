@@ -6,15 +6,20 @@ effective degree), then Newton polishing on the real polynomial.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from math import comb
 
 import numpy as np
 
 
+@lru_cache(maxsize=None)
 def bernstein_matrix(degree: int) -> np.ndarray:
-    """(m+1, m+1) matrix taking ascending power coefficients to Bernstein coefficients on [0, 1]."""
-    return np.array([[comb(j, k) / comb(degree, k) if k <= j else 0.0
-                      for k in range(degree + 1)] for j in range(degree + 1)])
+    """(m+1, m+1) matrix taking ascending power coefficients to Bernstein coefficients on
+    [0, 1], read-only (built once per degree)."""
+    out = np.array([[comb(j, k) / comb(degree, k) if k <= j else 0.0
+                     for k in range(degree + 1)] for j in range(degree + 1)])
+    out.setflags(write=False)
+    return out
 
 
 def horner(coefficients: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -61,6 +66,16 @@ def real_roots_unit_interval(coefficients: np.ndarray, zero_relative: float = 1e
     no_root = np.all(bern > margin, axis=1) | np.all(bern < -margin, axis=1)
     degree = np.where(no_root, 0, degree)
     rows_out, roots_out = [], []
+    # Bernstein coefficients all beyond the margin with one sign change: exactly one root
+    # in (0, 1), a simple one (variation diminishing), found by safeguarded Newton without
+    # the companion matrix (the usual case: a branch crossing a seed line once per cell)
+    clear = np.all(np.abs(bern) > margin, axis=1)
+    single = clear & ~vanishing & (degree > 0) & (np.sum(bern[:, 1:] * bern[:, :-1] < 0, axis=1) == 1)
+    if single.any():
+        rows = np.flatnonzero(single)
+        rows_out.append(rows)
+        roots_out.append(_bracketed_root(normed[rows], bern[rows, 0], bern[rows, -1]))
+        degree = np.where(single, 0, degree)
     for m in range(1, width):
         rows = np.flatnonzero((degree == m) & ~vanishing)
         if rows.size == 0:
@@ -106,3 +121,28 @@ def real_roots_unit_interval(coefficients: np.ndarray, zero_relative: float = 1e
     else:
         row, root = np.zeros(0, dtype=int), np.zeros(0)
     return row, root, vanishing
+
+
+def _bracketed_root(poly: np.ndarray, at_0: np.ndarray, at_1: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """The one root in (0, 1) of each polynomial (K, m+1) (ascending coefficients) whose
+    values at 0 and 1 (K,) have opposite signs: Newton kept inside the shrinking bracket,
+    bisection where Newton would leave it; the points still moving are iterated."""
+    lo, hi = np.zeros(len(poly)), np.ones(len(poly))
+    x = at_0 / (at_0 - at_1)  # regula falsi on the end values
+    sign_0 = np.sign(at_0)
+    active = np.arange(len(poly))
+    for _ in range(iterations):
+        if len(active) == 0:
+            break
+        xa, la, ha = x[active], lo[active], hi[active]
+        value, slope = horner(poly[active], xa)
+        below = np.sign(value) == sign_0[active]  # the root lies above xa
+        la, ha = np.where(below, xa, la), np.where(below, ha, xa)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = xa - value / slope
+        inside = np.isfinite(step) & (step >= la) & (step <= ha)
+        new = np.where(value == 0.0, xa, np.where(inside, step, 0.5 * (la + ha)))
+        x[active], lo[active], hi[active] = new, la, ha
+        settled = (value == 0.0) | (np.abs(new - xa) <= 4e-16 * np.maximum(np.abs(xa), 1e-300)) | (ha - la <= 4e-16)
+        active = active[~settled]
+    return x

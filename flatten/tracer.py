@@ -276,12 +276,19 @@ class _Tracer:
         self.visited = np.zeros(len(seeds.points), dtype=bool)
         self.tree = cKDTree(seeds.points.reshape(-1, 2))
         # a root at a grid node is found on both of its lines: marking one marks both
-        self.same = (self.tree.query_ball_point(seeds.points, tol.junction) if len(seeds.points)
-                     else [])
+        # (the few pairs closer than a junction, from the tree; every other seed is alone)
+        self.partners: dict[int, list[int]] = {}
+        for i, j in (self.tree.query_pairs(tol.junction) if len(seeds.points) else ()):
+            self.partners.setdefault(i, []).append(j)
+            self.partners.setdefault(j, []).append(i)
         # seeds per line, for matching crossings
         self.by_line: dict[tuple[int, int], list[int]] = {}
-        for k, (axis, idx) in enumerate(zip(seeds.line_axis.tolist(), seeds.line_index.tolist())):
-            self.by_line.setdefault((axis, idx), []).append(k)
+        for k, key in enumerate(zip(seeds.line_axis.tolist(), seeds.line_index.tolist())):
+            line = self.by_line.get(key)
+            if line is None:
+                self.by_line[key] = [k]
+            else:
+                line.append(k)
         self.lines = (seeds.u_lines.tolist(), seeds.U_lines.tolist())
         kinks = []
         for curve in (field.c, field.d):
@@ -289,9 +296,15 @@ class _Tracer:
             kinks.append(((inner[curve.knot_continuity() <= 1] - curve.domain[0]) / np.ptp(curve.domain)).tolist())
         self.kinks = tuple(kinks)
 
+    def same(self, k: int) -> list[int]:
+        """Seed k and every seed at the same point (within a junction)."""
+        return [k, *self.partners.get(k, ())]
+
     def _mark(self, k: int) -> None:
         """Mark seed k and every seed at the same point."""
-        self.visited[self.same[k]] = True
+        self.visited[k] = True
+        for m in self.partners.get(k, ()):
+            self.visited[m] = True
 
     def _cap(self, x) -> float:
         """Largest step at x near critical points (see :class:`StepCaps`)."""
@@ -473,7 +486,7 @@ class _Tracer:
         (the unit tangents point along the walk; at an exit point or the closing start,
         that of the step's corrected point beside it)."""
         tol = self.tol
-        at_start = set(self.same[start_seed]) if start_seed is not None else set()
+        at_start = set(self.same(start_seed)) if start_seed is not None else set()
         knot_roots: set[int] = set()  # knot-line roots this trace stepped onto
         x = start
         tangent = self._start_tangent(x, direction)
@@ -705,8 +718,8 @@ def near_polyline(points: np.ndarray, poly: np.ndarray, tol: float, tree: cKDTre
     out = np.zeros(len(points), dtype=bool)
     if len(points) == 0 or len(poly) == 0:
         return out
-    if len(poly) == 1:
-        return np.hypot(*(points - poly[0]).T) <= tol
+    if len(poly) == 1 or len(points) * len(poly) <= 1 << 15:  # a small table: all distances
+        return _distance_to_polyline(points, poly) <= tol
     tree = cKDTree(points) if tree is None else tree
     a, r = poly[:-1], np.diff(poly, axis=0)
     length = np.hypot(*r.T)
@@ -792,6 +805,7 @@ def trace_zero_set(field: DevelopabilityField, tol: Tolerances, extra_u=(), extr
             trace = tracer.trace_from(int(k))
             traces.append(trace)
             # a grid line tangent to the branch holds a (double) root the trace touches
-            # without crossing the line
-            tracer.visited |= near_polyline(seeds.points, trace.points, 1e-6, tree)
+            # without crossing the line (only the seeds no trace passed can change)
+            left = np.flatnonzero(~tracer.visited)
+            tracer.visited[left[near_polyline(seeds.points[left], trace.points, 1e-6)]] = True
     return traces, seeds, tracer.visited.copy()
