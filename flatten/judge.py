@@ -591,13 +591,15 @@ def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) 
     bend = -(ftt + 2 * ftT * slope + fTT * slope**2) / safe
     k = len(t)
     s1, s2, c1, c2 = slope[:k], slope[k:], bend[:k], bend[k:]
+    curves = ((field.c, "c", field.c.knot_continuity().tolist(), field.c.breakpoints.tolist()),
+              (field.d, "d", field.d.knot_continuity().tolist(), field.d.breakpoints.tolist()))
+    jump_first = (np.abs(s1 - s2) / (1 + np.abs(s1))).tolist()
+    jump_second = (np.abs(c1 - c2) / (1 + np.abs(c1))).tolist()
     out = []
-    for m in np.flatnonzero(ok[:k] & ok[k:]):
-        curve, name = (field.c, "c") if axis[m] == 0 else (field.d, "d")
-        cls = curve.knot_continuity()[n[m]]
-        out.append(KnotCrossing(branch, name, float(curve.breakpoints[n[m] + 1]), float(t[m]), float(T[m]),
-                                int(cls) - 1, float(abs(s1[m] - s2[m]) / (1 + abs(s1[m]))),
-                                float(abs(c1[m] - c2[m]) / (1 + abs(c1[m])))))
+    for m in np.flatnonzero(ok[:k] & ok[k:]).tolist():
+        _, name, classes, breaks = curves[axis[m]]
+        out.append(KnotCrossing(branch, name, breaks[n[m] + 1], float(t[m]), float(T[m]), classes[n[m]] - 1,
+                                jump_first[m], jump_second[m]))
     return out
 
 
