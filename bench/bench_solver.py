@@ -133,6 +133,7 @@ def main(argv=None) -> int:
     print(f"{'ratio':<44}{(n_all / all_time) / (args.baseline / base_all_time):>14.1f}x")
     certification_share()
     point_evaluation(solution.field)
+    refine_per_call(solution)
     growth_in_spans()
     stage_breakdown()
     return 0
@@ -161,6 +162,22 @@ def point_evaluation(field, n: int = 20000) -> None:
     print()
     print(f"tracer point evaluation (f and gradient at one point): {each * 1e6:.1f} us CPU   "
           "(before: ~26 us, issue 15)")
+
+
+def refine_per_call(solution, repeat: int = 200) -> None:
+    """CPU per call of the path refinement for the few points the pipeline asks at a time
+    (strip sampling, corner rulings, marks: 1 to ~75 points a call), 8 Newton iterations."""
+    path, field = solution.path.points, solution.field
+    row = []
+    for n in (1, 8, 75):
+        t = np.linspace(path[0, 0], path[-1, 0], n)
+        guess = np.interp(t, path[:, 0], path[:, 1])
+        field.refine_T(t, guess, 8)
+        start = time.process_time()
+        for _ in range(repeat):
+            field.refine_T(t, guess, 8)
+        row.append(f"{n} points {(time.process_time() - start) / repeat * 1e6:.0f} us")
+    print(f"path refinement per call (refine_T, 8 iterations, CPU): {', '.join(row)}")
 
 
 # issue 15's before-figures (bench_solver on this 2-core machine, 2026-11-23, before the

@@ -423,6 +423,10 @@ class DevelopabilityField:
         t = np.asarray(t, dtype=np.float64)
         T = np.array(T_guess, dtype=np.float64, copy=True)
         flat_t, flat_T = np.broadcast_to(t, T.shape).ravel(), T.reshape(-1)
+        if flat_T.size <= 4:  # a few points (the pipeline asks one at a time): plain floats
+            for k, (tk, Tk) in enumerate(zip(flat_t.tolist(), flat_T.tolist())):
+                flat_T[k] = self._refine_one(tk, Tk, iterations)
+            return T
         i, s, _ = self._local(self.c, flat_t)
         bd = self.d.breakpoints
         last = len(bd) - 2
@@ -448,6 +452,30 @@ class DevelopabilityField:
                 moved.append(sel[outside])
             todo = np.concatenate(moved) if moved else np.zeros(0, dtype=int)
             if todo.size == 0:
+                break
+        return T
+
+    def _refine_one(self, t: float, T: float, iterations: int) -> float:
+        """:meth:`refine_T` of one point in plain floats (the same steps)."""
+        bc, bd = self._breaks
+        i = min(max(bisect_right(bc, t) - 1, 0), len(bc) - 2)
+        s = (t - bc[i]) / (bc[i + 1] - bc[i])
+        powers = s ** np.arange(self.cells.shape[2])
+        last = len(bd) - 2
+        for _ in range(3):
+            j = min(max(bisect_right(bd, T) - 1, 0), last)
+            coef = (powers @ self.cells[i, j]).tolist()[::-1]  # highest power first
+            left, width = bd[j], bd[j + 1] - bd[j]
+            sig = (T - left) / width
+            for _ in range(iterations):
+                value = slope = 0.0
+                for a in coef:
+                    slope = slope * sig + value
+                    value = value * sig + a
+                if slope != 0.0:
+                    sig -= value / slope
+            T = min(max(left + sig * width, bd[0]), bd[-1])
+            if not ((sig < 0 and j > 0) or (sig > 1 and j < last)):
                 break
         return T
 

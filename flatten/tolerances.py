@@ -26,7 +26,9 @@ class Tolerances:
     min_grid_lines : int
         Seed lines over the whole parameter range, whatever the span count.
     trace_step : float
-        Largest tracer step in the unit parameter square.
+        Spacing of a traced polyline's points in the unit parameter square (at most ~1.25
+        of it; the tracer steps up to 16 of them where the zero set is straight and fills in
+        between).
     trace_min_step : float
         Smallest tracer step before the tracer tries to jump a singular point.
     trace_max_steps : int
