@@ -25,8 +25,6 @@ from .strip import batches
 _NODES = 24  # Chebyshev-Lobatto nodes on a piece; fewer on the short pieces of dense strips
 _NODES_SHORT = 10
 _SHORT_PIECE = 1.0 / 1000.0
-_NODES_TINY = 6  # on the pieces of further rulings (DevelopedStrip.ends) shorter than 1/2000
-_TINY_PIECE = 1.0 / 2000.0
 _MAX_PIECE = 1.0 / 64.0
 _CHUNK_PIECES = 2048  # pieces per batch: N nodes each, so ~2e4 to 5e4 curve evaluations
 
@@ -47,6 +45,23 @@ def _lobatto_integration(n: int) -> tuple[np.ndarray, np.ndarray]:
     x.setflags(write=False)
     q.setflags(write=False)
     return x, q
+
+
+@lru_cache(maxsize=4)
+def _lobatto_antiderivative(n: int) -> np.ndarray:
+    """Matrix A (n + 1, n): for the interpolant p of f at the n Chebyshev-Lobatto nodes,
+    the Chebyshev coefficients of x -> ∫_{-1}^x p are A f (so that chebvander(x, n) A f is
+    that integral at any x in [-1, 1]; at the nodes it is :func:`_lobatto_integration`'s Q f)."""
+    x = -np.cos(np.pi * np.arange(n) / (n - 1))
+    inv = np.linalg.inv(chebyshev.chebvander(x, n - 1))
+    integ = np.zeros((n + 1, n))
+    for k in range(n):
+        coef = np.zeros(n)
+        coef[k] = 1.0
+        integ[:, k] = chebyshev.chebint(coef, lbnd=-1.0)
+    a = integ @ inv
+    a.setflags(write=False)
+    return a
 
 
 @dataclass(frozen=True)
@@ -119,9 +134,9 @@ def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
 
 class DevelopedStrip:
     """One exact development of a strip (:func:`develop`), integrated once along c; the
-    developed ends of further rulings in its t range are then integrated from the nearest
-    break before each (one short piece per ruling), in the same frame, instead of
-    re-integrating the whole strip with them.
+    developed ends of further rulings in its t range are then integrated from the last
+    break before each on that piece's spectral interpolant (its integrands are kept at its
+    nodes), in the same frame, instead of re-integrating the whole strip with them.
 
     rulings : (K, 2) [t, T], t non-decreasing (as for :func:`develop`)
     development : the development of those rulings
@@ -140,13 +155,17 @@ class DevelopedStrip:
         # state at every break: the start node of each piece, plus the end of the last one
         break_theta = np.zeros(n_pieces + 1)
         break_xy = np.zeros((n_pieces + 1, 2))
+        # each piece's integrands at its nodes (turn rate, and the moves in x and y along the
+        # developed c), times its half width: any t in the piece is integrated from them
+        self._integrands = np.zeros((n_pieces, 3, len(x)))
         carry = np.zeros(3)  # theta, x, y at the end of the pieces done so far
         # pieces in batches: the N nodes per piece are the largest temporaries (N curve
         # evaluations per ruling); the running sums carried across batches are summed in the
         # same order as one cumsum over all pieces
         for lo, hi in batches(n_pieces, chunk):
             a, b = breaks[lo:hi], breaks[lo + 1:hi + 1]
-            theta_local, xs, ys, _ = self._pieces(a, b, x, q, carry[0])
+            theta_local, xs, ys, _, rates = self._pieces(a, b, x, q, carry[0])
+            self._integrands[lo:hi] = rates
             theta_start = np.cumsum(np.concatenate([carry[:1], theta_local[:, -1]]))
             x_start = np.cumsum(np.concatenate([carry[1:2], xs[:, -1]]))
             y_start = np.cumsum(np.concatenate([carry[2:], ys[:, -1]]))
@@ -158,6 +177,7 @@ class DevelopedStrip:
             break_theta[hi] = theta[-1, -1]
             break_xy[hi] = x_start[-2] + xs[-1, -1], y_start[-2] + ys[-1, -1]
         self.breaks, self.break_theta, self.break_xy = breaks, break_theta, break_xy
+        self._antiderivative = _lobatto_antiderivative(len(x))
         idx = np.clip(np.searchsorted(breaks, rulings[:, 0]), 0, len(breaks) - 1)
         along_c = break_xy[idx]
         self.development = Development(along_c, self._along_d(rulings, along_c, break_theta[idx]))
@@ -165,7 +185,8 @@ class DevelopedStrip:
     def _pieces(self, a: np.ndarray, b: np.ndarray, x: np.ndarray, q: np.ndarray, theta0):
         """Integrals over pieces [a, b] (P,) at their N nodes: the turn of the developed c
         from a, and (with the turn started at theta0 (P,) or a scalar carried through the
-        pieces in order) its x and y moves from a, (P, N) each; the nodes' T."""
+        pieces in order) its x and y moves from a, (P, N) each; the nodes' T; the three
+        integrands at the nodes times the pieces' half widths, (P, 3, N)."""
         half = 0.5 * (b - a)
         nodes = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]  # (P, N)
         t = nodes.ravel()
@@ -177,16 +198,20 @@ class DevelopedStrip:
         speed2 = np.einsum("ij,ij->i", dc, dc)
         turn_rate = np.einsum("ij,ij->i", ddc, np.cross(normal, dc)) / speed2  # dθ/dt
         shape = nodes.shape
-        theta_local = (turn_rate.reshape(shape) @ q.T) * half[:, None]
+        # products by einsum, not BLAS: these (P, N) x (N, N) products are large enough for
+        # a threaded BLAS to hand them to threads, which on busy cores wait for one another
+        theta_local = np.einsum("pn,mn->pm", turn_rate.reshape(shape), q) * half[:, None]
         if np.ndim(theta0) == 0:  # consecutive pieces: each starts where the previous ends
             theta_start = np.cumsum(np.concatenate([[theta0], theta_local[:, -1]]))[:-1]
         else:
             theta_start = theta0
         theta = theta_local + theta_start[:, None]
         speed = np.sqrt(speed2).reshape(shape)
-        xs = ((speed * np.cos(theta)) @ q.T) * half[:, None]
-        ys = ((speed * np.sin(theta)) @ q.T) * half[:, None]
-        return theta_local, xs, ys, T
+        along_x, along_y = speed * np.cos(theta), speed * np.sin(theta)
+        xs = np.einsum("pn,mn->pm", along_x, q) * half[:, None]
+        ys = np.einsum("pn,mn->pm", along_y, q) * half[:, None]
+        rates = np.stack([turn_rate.reshape(shape), along_x, along_y], axis=1) * half[:, None, None]
+        return theta_local, xs, ys, T, rates
 
     def _along_d(self, rulings: np.ndarray, along_c: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """Developed d ends of rulings (K, 2) from their developed c ends and the turn of the
@@ -205,11 +230,10 @@ class DevelopedStrip:
 
     def ends(self, rulings: np.ndarray) -> Development:
         """Developed ends of further rulings (N, 2) [t, T], any order, each t within the
-        strip's t range (ValueError otherwise). In order of t, each is integrated from the
-        previous one or from the last break before it, whichever is nearer (one spectral
-        piece: 6 nodes when it is shorter than 1/2000 of c's domain, 10 below 1/1000, else
-        24, round-off each way as in :func:`develop`), and the pieces are summed from the
-        break."""
+        strip's t range (ValueError otherwise). The developed c at t is integrated from the
+        last break before it on the spectral interpolant of that piece's integrands (the
+        turn rate, and the moves in x and y, at its nodes): round-off, as the integrals
+        over the pieces are, and no curve evaluation beyond each ruling's own ends."""
         rulings = np.asarray(rulings, dtype=np.float64).reshape(-1, 2)
         t = rulings[:, 0]
         breaks = self.breaks
@@ -218,44 +242,21 @@ class DevelopedStrip:
         if t.min() < breaks[0] or t.max() > breaks[-1]:
             raise ValueError(f"rulings at t in [{t.min():.17g}, {t.max():.17g}] reach beyond the developed "
                              f"strip's [{breaks[0]:.17g}, {breaks[-1]:.17g}]")
-        order = np.argsort(t, kind="stable")
-        ts = t[order]
-        i = np.clip(np.searchsorted(breaks, ts, side="right") - 1, 0, max(len(breaks) - 2, 0))
-        first = np.ones(len(ts), dtype=bool)  # first of its piece
-        first[1:] = i[1:] != i[:-1]
-        start = np.where(first, breaks[i], np.concatenate([ts[:1], ts[:-1]]))
-        h = ts - start
-        # each piece's turn and move from its start, with the turn counted from 0 there
-        turn, move = np.zeros(len(ts)), np.zeros((len(ts), 2))
-        width = max(np.ptp(self.c.domain), 1e-300)
-        short, tiny = h <= _SHORT_PIECE * width, h <= _TINY_PIECE * width
-        for n_nodes, group in ((_NODES_TINY, np.flatnonzero(tiny & (h > 0))),
-                               (_NODES_SHORT, np.flatnonzero(short & ~tiny)), (_NODES, np.flatnonzero(~short))):
-            x, q = _lobatto_integration(n_nodes)
-            for lo, hi in batches(len(group), self.chunk):
-                sel = group[lo:hi]
-                theta_local, xs, ys, _ = self._pieces(start[sel], ts[sel], x, q, np.zeros(len(sel)))
-                turn[sel], move[sel, 0], move[sel, 1] = theta_local[:, -1], xs[:, -1], ys[:, -1]
-        # summed along each run of points in one break interval, from the break's state
-        run = np.cumsum(first) - 1
-        theta_end = self.break_theta[i] + _running_sum(turn, first, run)
-        theta_start = theta_end - turn
-        cos, sin = np.cos(theta_start), np.sin(theta_start)
-        step = np.column_stack([cos * move[:, 0] - sin * move[:, 1], sin * move[:, 0] + cos * move[:, 1]])
-        along_c_sorted = self.break_xy[i] + np.column_stack([_running_sum(step[:, 0], first, run),
-                                                             _running_sum(step[:, 1], first, run)])
-        along_c = np.empty_like(along_c_sorted)
-        theta = np.empty_like(theta_end)
-        along_c[order], theta[order] = along_c_sorted, theta_end
+        along_c, theta = np.empty((len(t), 2)), np.empty(len(t))
+        for lo, hi in batches(len(t), self.chunk * _NODES):
+            tt = t[lo:hi]
+            i = np.clip(np.searchsorted(breaks, tt, side="right") - 1, 0, max(len(breaks) - 2, 0))
+            a, b = breaks[i], breaks[i + 1]
+            x = np.clip((2.0 * tt - (a + b)) / (b - a), -1.0, 1.0)
+            # (M, N): the weights of the piece's node values in the integral from its start to x
+            vander = chebyshev.chebvander(x, self._antiderivative.shape[0] - 1)
+            weights = np.einsum("mj,jn->mn", vander, self._antiderivative)  # not BLAS: as in _pieces
+            moved = np.einsum("mn,mkn->mk", weights, self._integrands[i])  # (M, 3): turn, x, y
+            at_break = tt == a  # the break's own state, exactly
+            moved[at_break] = 0.0
+            theta[lo:hi] = self.break_theta[i] + moved[:, 0]
+            along_c[lo:hi] = self.break_xy[i] + moved[:, 1:]
         return Development(along_c, self._along_d(rulings, along_c, theta))
-
-
-def _running_sum(values: np.ndarray, first: np.ndarray, run: np.ndarray) -> np.ndarray:
-    """Cumulative sums of values (N,) restarting where ``first`` is set; ``run`` (N,) the
-    index of each value's run (cumsum(first) - 1)."""
-    total = np.cumsum(values)
-    before = (total - values)[first]  # the sum before each run starts
-    return total - before[run]
 
 
 def unfold_triangles(vertices_c: np.ndarray, vertices_d: np.ndarray, first: Development) -> Development:

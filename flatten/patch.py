@@ -89,62 +89,53 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     u, v = _uv(long_axis, ss.ravel(), gg.ravel())
     probed = margin(surface(u, v).reshape(rows, probe, 3))
     mask = probed >= 0
-    # each row's longest run of inside samples; its ends that lie on a plane are refined by
-    # bisection between the last sample inside and the first outside, all rows at once
-    rows_in, runs_in = [], []
-    for k in range(rows):
-        m = mask[k]
-        if not m.any():
-            continue
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(int), [0]])))
-        runs = edges.reshape(-1, 2)
-        a, b = runs[np.argmax(runs[:, 1] - runs[:, 0])]
-        rows_in.append(k)
-        runs_in.append((a, b - 1))
-    bounds = np.array([[s[a], s[b]] for a, b in runs_in]).reshape(-1, 2)
+    # each row's longest run of inside samples (the first of equal ones), all rows at once:
+    # run starts and ends in row-major order pair up
+    padded = np.zeros((rows, probe + 2), dtype=np.int8)
+    padded[:, 1:-1] = mask
+    step = np.diff(padded, axis=1)
+    start_row, start = np.nonzero(step == 1)
+    _, stop = np.nonzero(step == -1)
+    order = np.lexsort((start, start - stop, start_row))
+    rows_in, first = np.unique(start_row[order], return_index=True)
+    run = np.column_stack([start[order][first], stop[order][first] - 1])  # (R, 2) first and last inside
+    bounds = s[run]
     flags = np.zeros(bounds.shape, dtype=bool)
-    task_row, task_end, lo_, hi_, f_lo, f_hi = [], [], [], [], [], []  # lo_ outside, hi_ inside
-    for r, (a, b) in enumerate(runs_in):
-        for end, (i_in, i_out) in enumerate(((a, a - 1), (b, b + 1))):
-            if 0 <= i_out < probe:
-                task_row.append(r)
-                task_end.append(end)
-                lo_.append(s[i_out])
-                hi_.append(s[i_in])
-                f_lo.append(probed[rows_in[r], i_out])
-                f_hi.append(probed[rows_in[r], i_in])
-    if task_row:
-        task_row, task_end = np.array(task_row), np.array(task_end)
-        ww = w[np.array(rows_in)[task_row]]
+    # the run's ends that lie on a plane (a sample outside beyond them) are narrowed down
+    # between the last sample inside and the first outside, all rows at once
+    beyond = run + np.array([-1, 1])
+    task_row, task_end = np.nonzero((beyond >= 0) & (beyond < probe))
+    if len(task_row):
+        i_in, i_out = run[task_row, task_end], beyond[task_row, task_end]
+        ww = w[rows_in[task_row]]
 
         def margin_at(ss_, ww_):
             uu, vv = _uv(long_axis, ss_, girth(ss_, ww_))
             return margin(surface(uu, vv))
 
-        bounds[task_row, task_end] = narrow_crossings(margin_at, np.array(lo_), np.array(hi_), np.array(f_lo),
-                                                      np.array(f_hi), ww)
+        bounds[task_row, task_end] = narrow_crossings(margin_at, s[i_out], s[i_in], probed[rows_in[task_row], i_out],
+                                                      probed[rows_in[task_row], i_in], ww)
         flags[task_row, task_end] = True
     keep = bounds[:, 1] > bounds[:, 0]
-    kept = [k for k, good in zip(rows_in, keep) if good]
-    ends_s = bounds[keep].tolist()
-    on_plane = flags[keep].tolist()
+    kept = rows_in[keep]
+    ends_s = bounds[keep]
+    on_plane = flags[keep]
     if len(kept) < 2:
         return None
     t = np.linspace(0.0, 1.0, cols)
-    ends_s = np.array(ends_s)
     S = ends_s[:, :1] + t[None, :] * (ends_s[:, 1:] - ends_s[:, :1])
     W = np.broadcast_to(w[kept][:, None], S.shape)
     G = girth(S.ravel(), W.ravel()).reshape(S.shape)
     u, v = _uv(long_axis, S, G)
     params = np.stack([u, v], axis=-1)
     points = surface(u.ravel(), v.ravel()).reshape(len(kept), cols, 3)
-    return PatchGrid(params, points, w[kept], np.array(on_plane))
+    return PatchGrid(params, points, w[kept], on_plane)
 
 
 # where each step tries points around the secant estimate of a crossing, in fractions of
-# the bracket: once the estimate is good to 1e-4 of the bracket the crossing is pinned to
-# 1e-4, 1e-8 and 1e-12 of it in three steps; the middle bounds the worst case
-_NEAR = np.array([-1e-4, -1e-8, -1e-12, 0.0, 1e-12, 1e-8, 1e-4])
+# the bracket (the estimate's error falls as the square of the bracket, so a good one is
+# caught by a near point and a poor one by a far one)
+_NEAR = np.array([-1e-2, -1e-4, -1e-6, -1e-9, 0.0, 1e-9, 1e-6, 1e-4, 1e-2])
 
 
 def narrow_crossings(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray, data: np.ndarray,
@@ -153,10 +144,11 @@ def narrow_crossings(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: 
     and hi (f >= 0), (N,) each: the hi end of every bracket once it is 2^-bits of its first
     width (what as many bisection steps leave) or two neighbouring floats.
 
-    Each step evaluates, per bracket, the secant estimate, points 1e-4, 1e-8 and 1e-12 of
-    the bracket either side of it and the middle, and keeps the first crossing from the lo
-    end, as bisection would: a smooth crossing takes three or four evaluations of f (of 8
-    points per bracket) where bisection takes ``bits`` (of one point).
+    Each step evaluates, per bracket, the secant estimate, points 1e-2 to 1e-9 of the
+    bracket and two ulps either side of it, and the middle, and keeps the first crossing
+    from the lo end, as bisection would: a smooth crossing takes two to four evaluations of
+    f (of 12 points per bracket) where bisection takes ``bits`` (of one point); where f is
+    round-off noise or kinked at the crossing the middle keeps it within ``bits`` steps.
     """
     lo, hi = np.array(lo, dtype=np.float64), np.array(hi, dtype=np.float64)
     f_lo, f_hi = np.array(f_lo, dtype=np.float64), np.array(f_hi, dtype=np.float64)
@@ -174,7 +166,12 @@ def narrow_crossings(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: 
         with np.errstate(divide="ignore", invalid="ignore"):
             guess = fa / (fa - fb)
         guess = np.where(np.isfinite(guess) & (guess > 0.0) & (guess < 1.0), guess, 0.5)
-        tau = np.hstack([np.clip(guess[:, None] + _NEAR[None, :], 0.0, 1.0), np.full((len(active), 1), 0.5)])
+        # and two ulps of x either side: once the estimate is good to them the bracket
+        # closes, where offsets in fractions of a bracket a few ulps wide fall on the estimate
+        ulps = 2.0 * np.spacing(np.maximum(np.abs(a), np.abs(b))) / np.abs(b - a)
+        tau = np.hstack([np.clip(guess[:, None] + _NEAR[None, :], 0.0, 1.0),
+                         np.clip(guess[:, None] + ulps[:, None] * np.array([-1.0, 1.0]), 0.0, 1.0),
+                         np.full((len(active), 1), 0.5)])
         tau.sort(axis=1)
         x = a[:, None] + tau * (b - a)[:, None]
         fx = f(x.ravel(), np.repeat(data[active], tau.shape[1])).reshape(x.shape)

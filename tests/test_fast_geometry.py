@@ -1,0 +1,116 @@
+"""The batched geometry of hull plates against closed forms and independent evaluations:
+surfaces on cached polynomial patches, crossings narrowed by secant-guided brackets,
+arc length of dense samples in chained pieces, a region grid ending on its butt planes."""
+
+import numpy as np
+import pytest
+
+from flatten.patch import narrow_crossings, region_grid
+from flatten.surface import nurbs_surface
+from tests.oracles import circular_arc
+
+
+def cylinder(radius=2.5, angle=3 * np.pi / 2, n_spans=3, height=4.0):
+    """u: an exact rational quadratic arc about z, v: a straight line up z (z = height v)."""
+    arc = circular_arc(radius, 0.0, angle, n_spans)
+    cp = arc.control_points
+    poles = np.stack([np.column_stack([cp[:, :2], np.full(len(cp), z)]) for z in (0.0, height)], axis=1)
+    weights = np.repeat(arc.weights[:, None], 2, axis=1)
+    return nurbs_surface(2, 1, poles, arc.knots, [0.0, 0.0, 1.0, 1.0], weights, name="cylinder")
+
+
+def test_rational_patches_lie_on_the_cylinder():
+    surface = cylinder()
+    rng = np.random.default_rng(5)
+    u = np.concatenate([rng.uniform(0.0, 1.0, 2000), [0.0, 1 / 3, 2 / 3, 1.0]])
+    v = np.concatenate([rng.uniform(0.0, 1.0, 2000), [0.0, 1.0, 0.5, 1.0]])
+    p = surface(u, v)
+    np.testing.assert_allclose(np.hypot(p[:, 0], p[:, 1]), 2.5, rtol=1e-14)
+    np.testing.assert_allclose(p[:, 2], 4.0 * v, atol=1e-14)
+    # the angle along u is the arc's own (an independent evaluation of the same curve)
+    arc = circular_arc(2.5, 0.0, 3 * np.pi / 2, 3)
+    np.testing.assert_allclose(p[:, :2], arc(u)[:, :2], atol=1e-13)
+
+
+@pytest.mark.parametrize("degrees", [(1, 1), (2, 3), (3, 3), (3, 2), (4, 3)])
+def test_surface_points_match_the_design_matrix_evaluation(degrees):
+    """Patches (up to bicubic) and the basis recurrence (above) against scipy's design
+    matrices (NurbsSurface.grid), rational, with a double knot, outside the domain clipped."""
+    pu, pv = degrees
+    rng = np.random.default_rng(sum(degrees))
+    nu, nv = pu + 5, pv + 4
+    ku = np.concatenate([np.zeros(pu + 1), [0.2, 0.45, 0.45, 0.7, 0.9][:nu - pu - 1], np.ones(pu + 1)]) * 7.0 - 3.0
+    kv = np.concatenate([np.zeros(pv + 1), np.linspace(0, 1, nv - pv + 1)[1:-1], np.ones(pv + 1)])
+    surface = nurbs_surface(pu, pv, rng.normal(size=(nu, nv, 3)) * 1e4, ku, kv, rng.uniform(0.5, 2.0, (nu, nv)))
+    u = np.concatenate([rng.uniform(-3.5, 4.5, 300), np.unique(ku)])
+    v = np.concatenate([rng.uniform(-0.1, 1.1, 300), rng.choice(kv, len(np.unique(ku)))])
+    reference = np.array([surface.grid(a, b)[0, 0] for a, b in zip(u, v)])
+    np.testing.assert_allclose(surface(u, v), reference, rtol=0, atol=1e-10 * 1e4)
+
+
+def bisection(f, lo, hi, data, steps=48):
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        ok = f(mid, data) >= 0
+        hi, lo = np.where(ok, mid, hi), np.where(ok, lo, mid)
+    return hi
+
+
+@pytest.mark.parametrize("kinked", [False, True])
+def test_crossings_are_where_bisection_ends(kinked):
+    """Smooth crossings take a few evaluations; a kink at the crossing (secant estimates
+    all on one side) never takes more than the 48 steps of bisection, and ends where it
+    does."""
+    rng = np.random.default_rng(11)
+    roots = rng.uniform(-5.0, 5.0, 200)
+    width = rng.uniform(1e-3, 0.05, 200)  # brackets of a scan, as region_grid makes them
+    # brackets either way round (lo outside, hi inside), the root anywhere in them
+    side = np.where(rng.random(200) < 0.5, 1.0, -1.0)
+    lo = roots - side * width * rng.uniform(0.01, 0.99, 200)
+    hi = lo + side * width
+    calls = []
+
+    def f(x, k):  # >= 0 past the root on the hi side
+        calls.append(len(x))
+        y = side[k] * (x - roots[k])
+        curved = y * (1.0 + 0.3 * y + 0.1 * np.sin(7.0 * roots[k]) * y * y)
+        return np.minimum(curved, 2.0 * y) if kinked else curved
+
+    index = np.arange(200)
+    f_lo, f_hi = f(lo, index), f(hi, index)
+    calls.clear()
+    got = narrow_crossings(f, lo, hi, f_lo, f_hi, index)
+    assert len(calls) <= (48 if kinked else 8)  # evaluations, each of all the brackets still open
+    assert np.all(f(got, index) >= 0)
+    np.testing.assert_allclose(got, roots, rtol=0, atol=4 * np.spacing(5.0))
+    np.testing.assert_allclose(got, bisection(f, lo, hi, index), rtol=0, atol=4 * np.spacing(5.0))
+
+
+def test_arc_length_of_dense_samples_is_the_exact_arc():
+    radius, angle = 2.5, 3 * np.pi / 2
+    arc = circular_arc(radius, 0.7, angle, n_spans=3)
+    rng = np.random.default_rng(2)
+    for t in (np.linspace(0.0, 1.0, 2049), rng.uniform(0.0, 1.0, 3000), np.sort(rng.uniform(0.0, 1.0, 7))):
+        p = arc(t)
+        exact = radius * np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * np.pi)
+        exact[t == 0.0] = 0.0
+        np.testing.assert_allclose(arc.arc_length_along(t), exact, rtol=0, atol=1e-13 * radius * angle)
+        np.testing.assert_allclose(arc.arc_length_along(t), arc.arc_length_at(t), rtol=0,
+                                   atol=1e-14 * radius * angle)
+
+
+def test_region_grid_ends_on_slanted_butt_planes():
+    """Rows between two girth lines of the cylinder end exactly on two slanted planes."""
+    surface = cylinder()
+    normal = np.array([0.0, 0.3, 1.0]) / np.hypot(0.3, 1.0)
+    planes = [(normal, 1.0), (normal, 2.5)]  # region: 1.0 <= n . p <= 2.5
+    grid = region_grid(surface, 1, lambda s: np.full(np.shape(s), 0.2), lambda s: np.full(np.shape(s), 0.4), planes,
+                       rows=7, cols=11, probe=200)
+    assert grid is not None and grid.shape == (7, 11) and grid.ends.all()
+    np.testing.assert_allclose(grid.points[:, 0] @ normal, 1.0, atol=1e-12)
+    np.testing.assert_allclose(grid.points[:, -1] @ normal, 2.5, atol=1e-12)
+    np.testing.assert_allclose(np.hypot(grid.points[..., 0], grid.points[..., 1]), 2.5, rtol=1e-14)
+    # every grid point inside the region; the rows follow the girth fractions
+    inside = grid.points @ normal
+    assert inside.min() >= 1.0 - 1e-12 and inside.max() <= 2.5 + 1e-12
+    np.testing.assert_allclose(grid.params[..., 0], (0.2 + 0.2 * grid.rows)[:, None] * np.ones(11), atol=1e-15)
