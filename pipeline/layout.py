@@ -418,23 +418,27 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                                              clearance, side=None):
             findings.append(f"edge label {text!r}: no room along its edge")
     for text, line in bend_lines:
-        if not _place_along(placer, layout, "bend", text, line, plate, preferred, smallest, clearance, side=1):
+        if not _place_along(placer, layout, "bend", text, line, plate, preferred, smallest, clearance, side=1,
+                            along=long_side):
             findings.append(f"bending line label {text!r}: no room beside the line")
     for text, line in frame_lines:
-        if not _place_along(placer, layout, "frame", text, line, plate, preferred, smallest, clearance, side=1):
+        if not _place_along(placer, layout, "frame", text, line, plate, preferred, smallest, clearance, side=1,
+                            along=long_side):
             findings.append(f"frame label {text!r}: no room beside the line")
     layout.findings = findings
     return layout
 
 
 def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.ndarray, plate: Polygon,
-                 preferred: float, smallest: float, clearance: float, side) -> bool:
+                 preferred: float, smallest: float, clearance: float, side, along=None) -> bool:
     """Put a text beside a polyline: parallel to it, on the plate side of an edge (side
-    None) or on either side of a mark line, at several places along it."""
+    None) or on either side of a mark line, at several places along it; then running away
+    from it; then (``along``: (2,) the plate's long direction) beside it reading along the
+    plate, where a mark line across a narrow plate leaves room on neither side."""
     points, directions = _along(line, FRACTIONS)
     ahead = _readable(np.degrees(np.arctan2(directions[:, 1], directions[:, 0])))  # (J,)
     left = np.column_stack([-directions[:, 1], directions[:, 0]])
-    for h in heights(0.8 * preferred, smallest):
+    for h in heights(max(0.8 * preferred, smallest), smallest):
         w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
         # a box 2 clearances off a straight edge has its grown side on the room's boundary,
         # where round-off decides whether it fits: 1 % of a clearance more decides it
@@ -449,6 +453,14 @@ def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.
         centres = np.concatenate([beside.reshape(-1, 2), away.reshape(-1, 2)])
         angles = np.concatenate([np.repeat(ahead, beside.shape[1] * 3),
                                  _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0]))).ravel()])
+        if along is not None:
+            u = np.asarray(along, dtype=float) / max(float(np.linalg.norm(along)), 1e-300)
+            toward = np.where((normals @ u)[..., None] >= 0.0, u, -u)  # (J, n, 2): along the plate, to that side
+            shifts = 0.5 * w + np.array([1.0, 2.0, 4.0]) * gap
+            lengthwise = points[:, None, None] + shifts[None, None, :, None] * toward[:, :, None]  # (J, n, 3, 2)
+            centres = np.concatenate([centres, lengthwise.reshape(-1, 2)])
+            angles = np.concatenate([angles, np.full(lengthwise.shape[0] * lengthwise.shape[1] * 3,
+                                                     _readable(np.degrees(np.arctan2(u[1], u[0]))))])
         i = placer.place(centres, w, hh, angles)
         if i is not None:
             layout.texts.append(Text(kind, text, tuple(centres[i]), h, float(angles[i])))

@@ -73,8 +73,7 @@ def test_every_placed_text_inside_the_room_clear_of_lines_and_texts(key, corners
     boxes = [_box(t.text, t.at, t.height, t.angle) for t in layout.texts]
     lines = [shapely.LineString(p) for _, p in layout.lines if len(p) >= 2]
     for t, b in zip(layout.texts, boxes):
-        # labels start at 0.8 of the part data's height, which may be the smallest
-        assert (1.0 if t.kind == "text" else 0.8) * text_height[0] * (1 - 1e-9) <= t.height <= text_height[1], t
+        assert text_height[0] * (1 - 1e-9) <= t.height <= text_height[1], t  # shop.text_height, every text
         assert outline.contains(b), t
         # grown by the clearance inside the outline shrunk by it (its round corners are chords)
         assert b.distance(outline.exterior) >= 2 * clearance * (1 - 2e-3) - 2 * tol, t

@@ -229,6 +229,7 @@ def test_every_text_inside_the_plate_clear_of_texts_and_lines(config, tmp_path):
     out = tmp_path / "o"
     code = main(["run", str(config), "--out", str(out), "--quiet"])
     assert code in (0, 1)
+    smallest = ((yaml.safe_load(config.read_text()).get("shop") or {}).get("text_height") or [5.0])[0]
     dxfs = sorted(out.glob("*.dxf"))
     assert dxfs or code == 1
     for path in dxfs:
@@ -241,6 +242,7 @@ def test_every_text_inside_the_plate_clear_of_texts_and_lines(config, tmp_path):
         assert plate.is_valid
         boxes = []
         for t in msp.query("TEXT"):
+            assert t.dxf.height >= smallest * (1 - 1e-9), (path.name, t.dxf.text)  # shop.text_height's smallest
             size = text_size(t)
             w, h = size.width, size.total_height
             a = np.radians(t.dxf.rotation)
