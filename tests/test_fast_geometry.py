@@ -114,3 +114,44 @@ def test_region_grid_ends_on_slanted_butt_planes():
     inside = grid.points @ normal
     assert inside.min() >= 1.0 - 1e-12 and inside.max() <= 2.5 + 1e-12
     np.testing.assert_allclose(grid.params[..., 0], (0.2 + 0.2 * grid.rows)[:, None] * np.ones(11), atol=1e-15)
+
+
+def test_outline_and_bending_lines_from_the_stages_development_are_the_tracers_own():
+    """The PlateTracer developing from the strip's development (PartResult.developed) and
+    developing the strip again give the same outline and bending lines; both are the
+    frustum's annular sector (ends on two circles about one apex)."""
+    from types import SimpleNamespace
+
+    from flatten import solve
+    from flatten.develop import DevelopedStrip
+    from flatten.strip import build_strip, choose_rulings
+    from pipeline.bending import bending_lines
+    from pipeline.outline import PlateTracer, exact_outline
+    from tests.oracles import frustum_pair
+
+    r1, r2, h = 3.0, 2.0, 1.5
+    c, d = frustum_pair(r1, r2, h, 2 * np.pi / 3, n_spans=3)
+    solution = solve(c, d)
+    rulings = choose_rulings(solution, c, d, n_rulings=40)
+    strip = build_strip(c, d, rulings, 5)
+    developed = DevelopedStrip(c, d, rulings, solution.field)
+    pattern = SimpleNamespace(vertices=developed.development.vertices(strip.samples))
+    part = SimpleNamespace(c=c, d=d)
+    shared = PlateTracer(part, solution, strip, pattern, (), developed)
+    own = PlateTracer(part, solution, strip, pattern)
+    assert shared._strip is developed and own._strip is not developed
+    a, b = exact_outline(shared, 1e-4), exact_outline(own, 1e-4)
+    assert a.edges == b.edges
+    np.testing.assert_allclose(a.points, b.points, rtol=0, atol=1e-11)
+    lines_a, length_a = bending_lines(shared, 0.4)
+    lines_b, length_b = bending_lines(own, 0.4)
+    assert len(lines_a) == len(lines_b) >= 3 and length_a == pytest.approx(length_b, abs=1e-11)
+    for la, lb in zip(lines_a, lines_b):
+        np.testing.assert_allclose([la.a, la.b], [lb.a, lb.b], rtol=0, atol=1e-11)
+    s = np.hypot(r1 - r2, h)
+    rho1, rho2 = r1 * s / (r1 - r2), r2 * s / (r1 - r2)
+    ends_a = np.array([line.a for line in lines_a])
+    ends_b = np.array([line.b for line in lines_a])
+    apex = (ends_a + (ends_b - ends_a) * (rho1 / (rho1 - rho2))).mean(axis=0)
+    np.testing.assert_allclose(np.hypot(*(ends_a - apex).T), rho1, rtol=1e-10)
+    np.testing.assert_allclose(np.hypot(*(ends_b - apex).T), rho2, rtol=1e-10)
