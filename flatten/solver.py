@@ -143,8 +143,9 @@ class _Block:
         # segments' and boxes' centres) stay within a fixed reach
         reach = float(half.max()) + step
         pieces = [_densify(tr.points, 2.0 * reach) for tr in self.traces]
-        start = np.vstack([x[:-1] for x in pieces])
-        seg = np.vstack([np.diff(x, axis=0) for x in pieces])
+        # (a trace of one point, Z touching a side, is a segment of length 0)
+        start = np.vstack([x[:-1] if len(x) > 1 else x for x in pieces])
+        seg = np.vstack([np.diff(x, axis=0) if len(x) > 1 else np.zeros_like(x) for x in pieces])
         if len(seg) == 0:
             return boxes[~met]
         pairs = cKDTree(centre).sparse_distance_matrix(

@@ -325,7 +325,8 @@ class _Tracer:
 
     # -- grid-line crossings -------------------------------------------------
     def _crossings(self, x, y) -> list[tuple[float, int]]:
-        """Seeds on grid lines crossed by the chord x -> y, as (chord fraction, seed)."""
+        """Seeds on grid lines crossed by the chord x -> y, as (place along the chord as a
+        fraction of it, seed), in that order."""
         found = []
         chord = None
         for axis in (0, 1):
@@ -342,7 +343,12 @@ class _Tracer:
                 best = self._nearest_on_line(axis, idx, x[0] + frac * chord[0], x[1] + frac * chord[1],
                                              0.25 * length + 1e-9)
                 if best is not None:
-                    found.append((frac, best))
+                    # ordered by where the seed itself lies along the chord: where Z crosses
+                    # two lines at a shallow angle, the chord's crossings can come in the
+                    # other order
+                    p = self.pts[best]
+                    found.append((((p[0] - x[0]) * chord[0] + (p[1] - x[1]) * chord[1]) / (length * length),
+                                  best))
         found.sort()
         return found
 
@@ -657,14 +663,17 @@ class _Tracer:
                  + (3 * s2 - 2 * s3)[:, None] * b[row] + (s3 - s2)[:, None] * m1[row])
         moved = self.unit.project_on_lines(guess, normal[row])
         ok = np.isfinite(moved).all(axis=1) & (np.hypot(*(moved - guess).T) <= 0.25 * (length / n)[row])
-        # every point of a filled arc, new or a seed met on the way, is ordered by its
-        # place along the chord: key i + (j - i) * place / length lies between i and j
+        # every point is ordered by its place along the walk: the original points by the
+        # walk's length up to them; a filled arc's new points and seeds by their place along
+        # the chord from the arc's start (unclipped: a seed where Z crosses the grid line a
+        # little beyond the step's end, which the chord crossed before it, goes after it)
         walk = np.array([w for w, _, _ in owner])
         first = np.array([i for _, i, _ in owner])
         last = np.array([j for _, _, j in owner])
-        span = (last - first) / length
         arrays = [np.array(points, dtype=np.float64).reshape(-1, 2) for points, _ in walks]
-        keys = [np.arange(len(x), dtype=np.float64) for x in arrays]
+        keys = [np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(x, axis=0).T))]) for x in arrays]
+        start_key = np.array([keys[w][i] for w, i, _ in owner])
+        scale = (np.array([keys[w][j] for w, _, j in owner]) - start_key) / length
         inner = last - first - 1  # seeds met between the ends
         if inner.any():
             arc = np.repeat(np.arange(len(a)), inner)
@@ -672,10 +681,9 @@ class _Tracer:
             for w in range(len(walks)):
                 mine = walk[arc] == w
                 rel = arrays[w][idx[mine]] - a[arc[mine]]
-                place = np.clip(np.einsum("ij,ij->i", rel, along[arc[mine]]), 0.0, length[arc[mine]])
-                keys[w][idx[mine]] = first[arc[mine]] + span[arc[mine]] * place
-        place = np.clip(np.einsum("ij,ij->i", moved - a[row], along[row]), 0.0, length[row])
-        fill_key = first[row] + span[row] * place
+                place = np.einsum("ij,ij->i", rel, along[arc[mine]])
+                keys[w][idx[mine]] = start_key[arc[mine]] + scale[arc[mine]] * place
+        fill_key = start_key[row] + scale[row] * np.einsum("ij,ij->i", moved - a[row], along[row])
         out = []
         for w in range(len(walks)):
             mine = ok & (walk[row] == w)
