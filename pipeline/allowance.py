@@ -16,6 +16,7 @@ import shapely
 from shapely.geometry import LineString, Polygon
 
 MITRE_LIMIT = 10.0  # a corner's mitre reaches at most this many allowances from the net corner
+OVERLAP = 1e-4  # a corner's wedge overlaps its neighbours by this many allowances (far above round-off)
 
 
 def edge_runs(edges: tuple) -> list[tuple[str, np.ndarray]]:
@@ -85,8 +86,14 @@ def cut_outline(points: np.ndarray, edges: tuple, allowance: dict) -> np.ndarray
         s, _ = np.linalg.solve(np.column_stack([t1, t2]), p2 - p1)
         mitre = p1 + s * t1
         limit = MITRE_LIMIT * max(width, w2)
+        # the wedge reaches OVERLAP back into both edges' strips and into the net: pieces
+        # that only abut along a side computed twice (here and by GEOS) leave a crack of
+        # round-off in the union, which then drops the wedge or pinches the cut line
+        reach = min(OVERLAP * max(width, w2), 0.25 * float(np.linalg.norm(line[-1] - line[-2])),
+                    0.25 * float(np.linalg.norm(points[(nxt[0] + 1) % n] - points[nxt[0]])))
+        inner, back, ahead = corner - reach * (n1 + n2), p1 - reach * t1, p2 + reach * t2
         # a needle corner whose mitre would reach farther than the limit is bevelled
-        wedge = [corner, p1, p2] if np.linalg.norm(mitre - corner) > limit else [corner, p1, mitre, p2]
+        wedge = [inner, back, ahead] if np.linalg.norm(mitre - corner) > limit else [inner, back, mitre, ahead]
         pieces.append(Polygon(wedge).buffer(0))
     union = shapely.unary_union([p for p in pieces if not p.is_empty])
     polygons = [g for g in getattr(union, "geoms", [union]) if g.geom_type == "Polygon"]
