@@ -258,6 +258,18 @@ def _separation(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: tuple[f
                                  theirs[:, len(pc):] - (ph + half[0] * uv + half[1] * vv)))
 
 
+def inscribed_radius(plate: Polygon, relative: float = 0.05) -> float:
+    """The radius (mm) of the largest circle inside the plate, to ``relative`` of the
+    plate's mean width 2 area / perimeter, which lies between the radius and twice it on a
+    convex plate (so within 5-10 % of the radius; 0.6 % on the strake bench's plates). It
+    only scales the texts (their fit is tested exactly). GEOS refines its grid down to the
+    tolerance, and along a long strip nearly every cell of the middle stays a candidate: a
+    tolerance tied to the width rather than to the square root of the area keeps a strip's
+    cost down (an 8 m x 0.35 m plate: 17 mm, 1.7 ms, against 1.7 mm, 7 ms)."""
+    width = 2.0 * plate.area / max(plate.length, 1e-300)
+    return shapely.maximum_inscribed_circle(plate, relative * width).length
+
+
 def heights(preferred: float, smallest: float) -> list[float]:
     """Preferred height, then smaller ones down to the smallest."""
     out = [preferred]
@@ -338,7 +350,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
         raise ValueError(f"the cut outline ({len(net)} points) encloses no area")
     findings = []
     smallest, largest = text_height
-    inscribed = shapely.maximum_inscribed_circle(plate, 1e-3 * np.sqrt(plate.area)).length
+    inscribed = inscribed_radius(plate)
     preferred = float(np.clip(2.0 * inscribed / 12.0, smallest, largest))
     clearance = min(0.2 * smallest, 0.05 * inscribed)
     room = _largest(plate.buffer(-clearance)) or plate

@@ -5,11 +5,12 @@ and of the other boxes; the fast tests of the placer decide as the exact ones do
 from unittest import mock
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
-from pipeline.layout import Placer, free_reach, plate_layout
+from pipeline.layout import Placer, free_reach, inscribed_radius, plate_layout
 
 
 def _star(rng: np.random.Generator, n: int, size: float, aspect: float) -> np.ndarray:
@@ -201,3 +202,17 @@ def test_the_reaches_skip_only_what_the_exact_tests_refuse(key, corners, aspect,
     with mock.patch.object(Placer, "reach", lambda self, centres, angle: np.full(len(centres), np.inf)):
         slow = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
     assert fast.texts == slow.texts and fast.findings == slow.findings
+
+
+@pytest.mark.parametrize("length, width", [(8000.0, 350.0), (3000.0, 2000.0), (1000.0, 20.0)])
+def test_inscribed_radius_of_a_rectangle_and_a_regular_polygon(length, width):
+    """Closed forms: a rectangle's largest circle has radius width / 2; a regular n-gon's
+    its apothem. The estimate is within 5 % of the mean width 2 area / perimeter."""
+    rectangle = shapely.Polygon([(0, 0), (length, 0), (length, width), (0, width)])
+    mean_width = 2 * rectangle.area / rectangle.length
+    assert abs(inscribed_radius(rectangle) - width / 2) <= 0.05 * mean_width
+    n, r = 12, 0.5 * length
+    a = 2 * np.pi * np.arange(n) / n
+    polygon = shapely.Polygon(np.column_stack([r * np.cos(a), r * np.sin(a)]))
+    apothem = r * np.cos(np.pi / n)
+    assert abs(inscribed_radius(polygon) - apothem) <= 0.05 * 2 * polygon.area / polygon.length
