@@ -2,19 +2,20 @@
 
 numpy in, numpy out: no files, no YAML, no printing.
 
-The curve, error and tolerance names load with the package; the equation, the solver and
-its result types load on first use (PEP 562), so that reading and checking a config
-(``devflat check``) does not pay for the tracer, the judge and the certification.
+The error and tolerance names load with the package; the curves, the equation, the
+solver and its result types load on first use (PEP 562): checking a config (``devflat
+check``) does not pay for the tracer, the judge and the certification, and a process that
+only reads results (the render process unpickling a solution) not for scipy.
 """
 
 from importlib import import_module
 
 from .errors import DevflatError, InvalidCurveError, InvalidInputError
-from .nurbs import NurbsCurve, clamped_uniform_knots, nurbs_curve
 from .tolerances import DEFAULT_TOLERANCES, Tolerances
 
 # name -> the submodule that defines it, imported when the name is first asked for
 _ON_FIRST_USE = {
+    **dict.fromkeys(("NurbsCurve", "clamped_uniform_knots", "nurbs_curve"), "nurbs"),
     **dict.fromkeys(("DevelopabilityField", "developability_field", "normalized_residual"), "equation"),
     **dict.fromkeys(("Branch", "Coverage", "CurvatureMismatch", "Finding", "KnotCrossing", "Path", "Piece",
                      "SolutionSet", "TurningPoint"), "solution"),

@@ -5,6 +5,7 @@ A part that failed writes its report (and its solution diagram) but no DXF or OB
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -41,9 +42,11 @@ def _previews(result: PartResult, config: RunConfig, out_dir: Path) -> list[tupl
                          (pattern.outline, pattern.bend_lines,
                           f"{name}: flat pattern ({len(pattern.bend_lines)} bending lines)", config.spec.units)))
     if result.solution is not None and result.solution.kind != "coplanar":
+        # without its field (the curves' splines): the drawing needs none of it, and the
+        # render process then unpickles it without importing scipy
         previews.append((out_dir / f"{name}_solutions.png", "pipeline.plots:solution_diagram_png",
-                         (result.solution, result.part.c.domain, result.part.d.domain,
-                          f"{name}: {result.solution.message}")))
+                         (dataclasses.replace(result.solution, field=None), result.part.c.domain,
+                          result.part.d.domain, f"{name}: {result.solution.message}")))
     return previews
 
 
@@ -69,8 +72,6 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 
             texts = steel_texts(result)
             if config.spec.shop.mirror:  # both sides: the modelled plate and its reflection, P/S in the id
-                import dataclasses
-
                 from .shop import mirrored
 
                 v3 = result.strip.vertices if result.strip is not None else result.mesh[0]

@@ -10,6 +10,7 @@ about a tenth of what the pyplot version did (bench/bench_cli.py).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -18,9 +19,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from flatten import SolutionSet
-
 from .atomic import atomic_path
+
+if TYPE_CHECKING:  # a type only: the render process draws without importing scipy (flatten's curves)
+    from flatten import SolutionSet
 
 # zlib level 1: a preview of lines on white compresses nearly as well as at level 6
 # (PIL's default) in a fraction of the time

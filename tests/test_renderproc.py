@@ -138,3 +138,30 @@ def test_the_early_render_process_follows_the_raw_previews_setting(tmp_path, mon
     finally:
         if early is not None:
             early.discard()
+
+
+def test_the_render_process_draws_a_solution_without_importing_scipy(tmp_path):
+    """What a one-shot run sends for its solution diagram (the solution without its field)
+    unpickles, with the plotting module, in a process that never imports scipy: the render
+    process is ready while the run still imports and solves."""
+    import dataclasses
+    import pickle
+
+    from pipeline.plan import load_run
+    from pipeline.plates import evaluate_plate
+    from pipeline.runner import run_parts
+
+    config = load_run(ROOT / "configs" / "plate.yaml", evaluate_plate)
+    result = run_parts(config, None, None)[0]
+    job = pickle.dumps(("pipeline.plots:solution_diagram_png",
+                        (tmp_path / "solutions.png", dataclasses.replace(result.solution, field=None),
+                         result.part.c.domain, result.part.d.domain, "t"), {}))
+    (tmp_path / "job.pickle").write_bytes(job)
+    code = ("import pickle, sys; import pipeline.plots; from pipeline.renderproc import _call; "
+            f"target, args, kwargs = pickle.loads(open({str(tmp_path / 'job.pickle')!r}, 'rb').read()); "
+            "_call(target, args, kwargs); print(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy'))")
+    done = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+    assert (tmp_path / "solutions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
