@@ -65,13 +65,6 @@ def text_box(text: str, at, height: float, angle: float) -> Polygon:
     return shp_rotate(rect, angle, origin=(at[0], at[1]))
 
 
-def block_box(lines: list[str], at, height: float, angle: float) -> Polygon:
-    w = CHAR_WIDTH * height * max(len(t) for t in lines)
-    h = LINE_GAP * height * (len(lines) - 1) + 1.3 * height
-    rect = box(at[0] - w / 2, at[1] - h / 2, at[0] + w / 2, at[1] + h / 2)
-    return shp_rotate(rect, angle, origin=(at[0], at[1]))
-
-
 def block_texts(lines: list[str], at, height: float, angle: float, kind: str = "text") -> list[Text]:
     """A block of lines centred at ``at``, first line on top (as read at ``angle``)."""
     a = np.radians(angle)
@@ -94,18 +87,6 @@ def _readable(angles: np.ndarray) -> np.ndarray:
     """:func:`readable` of every angle (degrees, any shape)."""
     angles = (np.asarray(angles, dtype=float) + 180.0) % 360.0 - 180.0
     return np.where(angles > 90.0 + 1e-9, angles - 180.0, np.where(angles <= -90.0 + 1e-9, angles + 180.0, angles))
-
-
-def rectangles(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
-    """Shapely polygons (N,) of width x height rectangles centred at centres (N, 2), turned
-    by angle degrees."""
-    return shapely.polygons(_box_corners(centres, width, height, angle))
-
-
-def _box_corners(centres: np.ndarray, width: float, height: float, angle: float) -> np.ndarray:
-    """Corners (N, 4, 2) of the rectangles of :func:`rectangles`."""
-    centres = np.asarray(centres, dtype=float)
-    return _corners_on(centres, width, height, *_axes(angle, len(centres)))
 
 
 def _axes(angle, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -300,13 +281,6 @@ def _largest(geometry) -> Polygon | None:
     """The largest polygon of a geometry, None when it is empty."""
     polygons = [g for g in getattr(geometry, "geoms", [geometry]) if g.geom_type == "Polygon" and not g.is_empty]
     return max(polygons, key=lambda g: g.area) if polygons else None
-
-
-def _inward(poly: Polygon, point: np.ndarray, direction: np.ndarray, probe: float) -> np.ndarray:
-    """The unit normal of an edge direction that points into the polygon at ``point``."""
-    d = direction / max(np.linalg.norm(direction), 1e-300)
-    n = np.array([-d[1], d[0]])
-    return n if poly.contains(shapely.Point(point + probe * n)) else -n
 
 
 def _inwards(poly: Polygon, points: np.ndarray, directions: np.ndarray, probe: float) -> np.ndarray:
