@@ -127,7 +127,7 @@ class DevelopabilityField:
     def _local(self, curve: NurbsCurve, x: np.ndarray, forced=None):
         b = curve.breakpoints
         if forced is None:
-            idx = np.minimum(np.maximum(np.searchsorted(b, x, side="right") - 1, 0), len(b) - 2)
+            idx = curve.span_index(x)
         else:
             idx = np.full(x.shape, forced, dtype=int)
         width = b[idx + 1] - b[idx]
@@ -194,8 +194,7 @@ class DevelopabilityField:
         with one cell lookup; ``spans = (i, j)`` forces the cell."""
         bc, bd = self._breaks
         if spans is None:
-            i = min(max(bisect_right(bc, t) - 1, 0), len(bc) - 2)
-            j = min(max(bisect_right(bd, T) - 1, 0), len(bd) - 2)
+            i, j = span_at(bc, t), span_at(bd, T)
         else:
             i, j = int(spans[0]), int(spans[1])
         hc, hd = bc[i + 1] - bc[i], bd[j + 1] - bd[j]
@@ -435,7 +434,7 @@ class DevelopabilityField:
             moved = []
             for lo in range(0, todo.size, chunk):
                 sel = todo[lo:lo + chunk]
-                j = np.clip(np.searchsorted(bd, flat_T[sel], side="right") - 1, 0, last)
+                j = self.d.span_index(flat_T[sel])
                 ps = self._powers(s[sel], self.cells.shape[2], 0)
                 coef = np.einsum("na,nab->nb", ps, self.cells[i[sel], j])  # (n, B), ascending in σ
                 left, width = bd[j], bd[j + 1] - bd[j]
@@ -458,12 +457,12 @@ class DevelopabilityField:
     def _refine_one(self, t: float, T: float, iterations: int) -> float:
         """:meth:`refine_T` of one point in plain floats (the same steps)."""
         bc, bd = self._breaks
-        i = min(max(bisect_right(bc, t) - 1, 0), len(bc) - 2)
+        i = span_at(bc, t)
         s = (t - bc[i]) / (bc[i + 1] - bc[i])
         powers = s ** np.arange(self.cells.shape[2])
         last = len(bd) - 2
         for _ in range(3):
-            j = min(max(bisect_right(bd, T) - 1, 0), last)
+            j = span_at(bd, T)
             coef = (powers @ self.cells[i, j]).tolist()[::-1]  # highest power first
             left, width = bd[j], bd[j + 1] - bd[j]
             sig = (T - left) / width
@@ -482,6 +481,13 @@ class DevelopabilityField:
     @cached_property
     def identically_zero(self) -> bool:
         return bool(np.all(self._magnitude <= 1e-11 * self.scale))
+
+
+def span_at(breaks: list[float], x: float) -> int:
+    """The span of ``x`` among sorted breakpoints (a list of floats), the last span holding
+    the domain end: :meth:`NurbsCurve.span_index` of one point without numpy's per-call
+    cost (the tracer and the point-by-point evaluations ask for millions)."""
+    return min(max(bisect_right(breaks, x) - 1, 0), len(breaks) - 2)
 
 
 def _falling(a: int, order: int) -> float:

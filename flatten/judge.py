@@ -576,8 +576,7 @@ def knot_crossings(field: DevelopabilityField, branch: int, params: np.ndarray) 
     # the cells of the point (the last span holds the domain end); on the knot's own
     # axis the two sides are the spans n and n + 1 beside it (the point may lie a few
     # ulps off the knot, on either side)
-    ic = np.clip(np.searchsorted(field.c.breakpoints, t, side="right") - 1, 0, field.c.n_spans - 1)
-    jd = np.clip(np.searchsorted(field.d.breakpoints, T, side="right") - 1, 0, field.d.n_spans - 1)
+    ic, jd = field.c.span_index(t), field.d.span_index(T)
     on_c = axis == 0
     ic_lo, ic_hi = np.where(on_c, n, ic), np.where(on_c, n + 1, ic)
     jd_lo, jd_hi = np.where(on_c, jd, n), np.where(on_c, jd, n + 1)

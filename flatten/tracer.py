@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import DevelopabilityField
+from .equation import DevelopabilityField, span_at
 from .tolerances import Tolerances
 
 END_LOOP = "loop"
@@ -135,7 +135,7 @@ class _UnitField:
         self.dt = self.t1 - self.t0
         self.dT = self.T1 - self.T0
         self.bc, self.bd = field.c.breakpoints.tolist(), field.d.breakpoints.tolist()
-        self.last_c, self.last_d = len(self.bc) - 2, len(self.bd) - 2
+        self.spans_d = len(self.bd) - 1  # the stride of a cell's key
         self._rows: dict[int, list[list[float]]] = {}  # cell -> Horner rows, filled as cells are visited
 
     def params(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -143,7 +143,7 @@ class _UnitField:
         return self.t0 + x[:, 0] * self.dt, self.T0 + x[:, 1] * self.dT
 
     def _cell_rows(self, i: int, j: int) -> list[list[float]]:
-        key = i * (self.last_d + 1) + j
+        key = i * self.spans_d + j
         rows = self._rows.get(key)
         if rows is None:
             rows = [row[::-1] for row in self.field.cells[i, j].tolist()[::-1]]
@@ -155,24 +155,16 @@ class _UnitField:
         # (the tracer's unit of work, ~850 calls a plate: branches, not min/max calls)
         bc, bd = self.bc, self.bd
         t = self.t0 + u * self.dt
-        i = bisect_right(bc, t) - 1
-        if i < 0:
-            i = 0
-        elif i > self.last_c:
-            i = self.last_c
+        i = span_at(bc, t)
         b0 = bc[i]
         hc = bc[i + 1] - b0
         s = (t - b0) / hc
         T = self.T0 + U * self.dT
-        j = bisect_right(bd, T) - 1
-        if j < 0:
-            j = 0
-        elif j > self.last_d:
-            j = self.last_d
+        j = span_at(bd, T)
         b1 = bd[j]
         hd = bd[j + 1] - b1
         sig = (T - b1) / hd
-        rows = self._rows.get(i * (self.last_d + 1) + j)
+        rows = self._rows.get(i * self.spans_d + j)
         if rows is None:
             rows = self._cell_rows(i, j)
         f = fs = fg = 0.0

@@ -168,14 +168,15 @@ def image_modules(config: RunConfig, warm: bool = False) -> tuple[str, ...]:
     Agg canvas for PNG previews, its PDF backend for shop drawings; () for none. ``warm``:
     a first drawing of each kind too (a render process makes it while it waits)."""
     out = config.spec.output
-    drawings = config.spec.profile == "steel" and out.dxf and (out.png if out.drawing is None else out.drawing)
-    return _image_modules(out.png, drawings, warm)
+    return _image_modules(config.spec.profile, out.png, out.dxf, out.drawing, warm)
 
 
-def _image_modules(previews: bool, drawings: bool, warm: bool) -> tuple[str, ...]:
-    png = "pipeline.plots:warm_up" if warm else "pipeline.plots"
-    pdf = "pipeline.shopdrawing:warm_up" if warm else "pipeline.lazymodules:pdf_backend"
-    return ((png,) if previews else ()) + ((pdf,) if drawings else ())
+def _image_modules(profile: str, png: bool, dxf: bool, drawing: bool | None, warm: bool) -> tuple[str, ...]:
+    """:func:`image_modules` from the output settings (the validated ones, or a raw file's)."""
+    drawings = profile == "steel" and dxf and (png if drawing is None else drawing)
+    previews_need = "pipeline.plots:warm_up" if warm else "pipeline.plots"
+    drawings_need = "pipeline.shopdrawing:warm_up" if warm else "pipeline.lazymodules:pdf_backend"
+    return ((previews_need,) if png else ()) + ((drawings_need,) if drawings else ())
 
 
 def render_process(args, config: RunConfig, early=None):
@@ -216,18 +217,20 @@ def early_renderer(args):
         with open(args.config, encoding="utf-8") as stream:
             raw = yaml.safe_load(stream)
         output = raw.get("output") or {}
+        profile = raw.get("profile", "steel")
         previews = output.get("png", True) is not False  # the defaults of pipeline.config.Output
-        drawings = output.get("dxf", True) is not False and output.get("drawing", previews) is not False
-        steel = raw.get("profile", "steel") == "steel"
+        drawing = output.get("drawing")
+        modules = _image_modules(profile, previews, output.get("dxf", True) is not False,
+                                 None if drawing is None else drawing is not False, warm=True)
     except Exception:  # noqa: BLE001 - anything unexpected is for validation to name
         return None
-    if not (steel and previews):
+    if profile != "steel" or not previews:
         return None
     import numpy  # noqa: F401
 
     from .renderproc import Renderer
 
-    return Renderer(_image_modules(True, drawings, warm=True)).start()
+    return Renderer(modules).start()
 
 
 def spare_core() -> bool:
