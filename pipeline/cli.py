@@ -294,6 +294,9 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
     args.one_shot = one_shot
+    from .lazymodules import defer_unused
+
+    defer_unused()
     # before anything heavy is imported: the render process imports matplotlib meanwhile
     early = early_renderer(args) if args.command == "run" else None
     from flatten.errors import DevflatError

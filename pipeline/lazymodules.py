@@ -11,6 +11,12 @@ code that does use it gets the real module at that moment).
   which matplotlib converts without fontTools.
 - ``scipy.ndimage``: trimesh's voxel module imports it when trimesh is imported (~0.04 s,
   a third of trimesh's import); devflat uses trimesh's meshes, never its voxels.
+- ``numpy.testing`` and ``numpy.f2py``: scipy's bundled ``array_api_compat.numpy`` runs
+  ``from numpy import *``, and numpy 2 lists these lazily loaded submodules in its
+  ``__all__``, so every ``import scipy.interpolate`` loads numpy's test helpers (unittest)
+  and the Fortran wrapper generator (which pulls in charset_normalizer): ~0.06 s of a
+  0.33 s scipy import, for modules nothing in a run calls. Deferred, the star import binds
+  the registered module objects without executing them.
 """
 
 from __future__ import annotations
@@ -34,6 +40,13 @@ def defer(name: str) -> None:
     spec.loader.exec_module(module)
     parent, _, child = name.rpartition(".")
     setattr(sys.modules[parent], child, module)  # as the import statement would
+
+
+def defer_unused() -> None:
+    """Defer, at a process's start (before scipy is imported), the modules above that
+    the scientific stack imports without using them."""
+    for name in ("numpy.testing", "numpy.f2py"):
+        defer(name)
 
 
 def pdf_backend():

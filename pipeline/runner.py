@@ -160,9 +160,14 @@ def _pool_pass(indices: list[int], config, staging, out, workers: int, keep_geom
     """Run ``indices`` in a fresh pool, at most two parts per worker in flight. The parts in
     flight when a worker dies are run again one at a time, so that the part a worker dies
     on fails alone. Returns the parts not yet started."""
+    import gc
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
+    # the workers are forked with this process's objects: frozen, the collector in a
+    # worker never walks them (each walk would touch, and so copy, every page they are on)
+    frozen_before = gc.get_freeze_count()
+    gc.freeze()
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker,
                                initargs=(os.getpid(), config, staging, out, keep_geometry))
     queue = list(indices)
@@ -197,6 +202,9 @@ def _pool_pass(indices: list[int], config, staging, out, workers: int, keep_geom
     except BaseException:
         _shutdown(pool)
         raise
+    finally:
+        if not frozen_before:  # a long-lived caller's objects are collectable again
+            gc.unfreeze()
 
 
 def _one_at_a_time(index: int, config, staging, out, keep_geometry: bool, done) -> None:
