@@ -10,11 +10,12 @@ from .atomic import write_text
 
 
 def obj_text(vertices: np.ndarray, flat: np.ndarray, faces: np.ndarray, name: str) -> str:
-    """One `vt` per `v` (same index), faces as v/vt pairs; 1-based indices."""
+    """One `vt` per `v` (same index), faces as v/vt pairs; 1-based indices. Coordinates in
+    Python's shortest repr, which reads back to the same double (half the time of %.17g)."""
     lines = [f"# devflat strip {name}: vt are the developed coordinates, model units", f"o {name}"]
-    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in vertices]
-    lines += [f"vt {u:.17g} {v:.17g}" for u, v in flat]
-    lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in faces + 1]
+    lines += ["v %r %r %r" % tuple(row) for row in np.asarray(vertices, dtype=float).tolist()]
+    lines += ["vt %r %r" % tuple(row) for row in np.asarray(flat, dtype=float).tolist()]
+    lines += ["f %d/%d %d/%d %d/%d" % (a, a, b, b, c, c) for a, b, c in (np.asarray(faces) + 1).tolist()]
     return "\n".join(lines) + "\n"
 
 
