@@ -12,6 +12,8 @@ The classic shipyard triangle-by-triangle unfolding is kept as the cross-check.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -262,34 +264,37 @@ class DevelopedStrip:
 def unfold_triangles(vertices_c: np.ndarray, vertices_d: np.ndarray, first: Development) -> Development:
     """Classic triangle-by-triangle unfolding of the strip's outer triangles
     (A_k, B_k, A_k+1), (A_k+1, B_k, B_k+1) from their 3D edge lengths, starting from
-    the first ruling of ``first``. Keeps every edge length; drifts by O(h^2)."""
-    n = len(vertices_c)
-    a2 = np.zeros((n, 2))
-    b2 = np.zeros((n, 2))
-    a2[0], b2[0] = first.along_c[0], first.along_d[0]
+    the first ruling of ``first``. Keeps every edge length; drifts by O(h^2).
 
-    def place(p, q, p3, q3, x3, side):
-        """Point at 3D distances from p3, q3, on the given side of p -> q."""
-        base = q - p
-        L = np.hypot(*base)
-        r1 = np.linalg.norm(x3 - p3)
-        r2 = np.linalg.norm(x3 - q3)
-        if L == 0.0:
-            return p.copy()
-        along = (r1**2 - r2**2 + L**2) / (2 * L)
-        h = np.sqrt(max(r1**2 - along**2, 0.0))
-        e = base / L
-        return p + along * e + side * h * np.array([-e[1], e[0]])
+    Each triangle is placed from the one before, so the plane positions are a chain: the
+    3D lengths are taken for all triangles at once and the chain runs on Python floats
+    (a numpy call per scalar would cost ten times the arithmetic)."""
+    a3, b3 = np.asarray(vertices_c, dtype=float), np.asarray(vertices_d, dtype=float)
+    step_a = np.linalg.norm(np.diff(a3, axis=0), axis=1).tolist()  # |A_k+1 - A_k|
+    step_b = np.linalg.norm(np.diff(b3, axis=0), axis=1).tolist()  # |B_k+1 - B_k|
+    to_b = np.linalg.norm(a3[1:] - b3[:-1], axis=1).tolist()  # |A_k+1 - B_k|
+    to_next_a = np.linalg.norm(b3[1:] - a3[1:], axis=1).tolist()  # |B_k+1 - A_k+1|
 
-    for k in range(n - 1):
-        A3, B3, A3n, B3n = vertices_c[k], vertices_d[k], vertices_c[k + 1], vertices_d[k + 1]
-        if np.linalg.norm(A3n - A3) == 0.0:
-            a2[k + 1] = a2[k]
-        else:
-            # A_k+1 lies on the c side of ruling k: to the right of A -> B when seen from n
-            a2[k + 1] = place(a2[k], b2[k], A3, B3, A3n, -1.0)
-        if np.linalg.norm(B3n - B3) == 0.0:
-            b2[k + 1] = b2[k]
-        else:
-            b2[k + 1] = place(a2[k + 1], b2[k], A3n, B3, B3n, -1.0)
-    return Development(a2, b2)
+    def place(p, q, r1, r2):
+        """The point at distances r1 from p and r2 from q, to the right of p -> q."""
+        bx, by = q[0] - p[0], q[1] - p[1]
+        length = math.hypot(bx, by)
+        if length == 0.0:
+            return p
+        along = (r1**2 - r2**2 + length**2) / (2 * length)
+        h = math.sqrt(max(r1**2 - along**2, 0.0))
+        ex, ey = bx / length, by / length
+        return (p[0] + along * ex + h * ey, p[1] + along * ey - h * ex)
+
+    a = tuple(map(float, first.along_c[0]))
+    b = tuple(map(float, first.along_d[0]))
+    a2, b2 = [a], [b]
+    for k in range(len(a3) - 1):
+        # A_k+1 lies on the c side of ruling k: to the right of A -> B when seen from n
+        if step_a[k] != 0.0:
+            a = place(a, b, step_a[k], to_b[k])
+        if step_b[k] != 0.0:
+            b = place(a, b, to_next_a[k], step_b[k])
+        a2.append(a)
+        b2.append(b)
+    return Development(np.array(a2, dtype=float).reshape(-1, 2), np.array(b2, dtype=float).reshape(-1, 2))

@@ -47,15 +47,13 @@ def defect_noise(vertices: np.ndarray, faces: np.ndarray, scale: float | None = 
     f = np.asarray(faces, dtype=np.int64)
     scale = float(np.abs(v).max(initial=0.0)) if scale is None else float(scale)
     position = 8.0 * np.finfo(np.float64).eps * scale
-    noise = np.zeros(len(v))
-    for k in range(3):
-        a, b, c = f[:, k], f[:, (k + 1) % 3], f[:, (k + 2) % 3]
-        l1 = np.linalg.norm(v[b] - v[a], axis=1)
-        l2 = np.linalg.norm(v[c] - v[a], axis=1)
-        with np.errstate(divide="ignore"):
-            corner = 2.0 * position * (1.0 / l1 + 1.0 / l2)
-        np.add.at(noise, a, np.where(np.isfinite(corner), corner, 0.0))
-    return noise
+    # edge k of a face runs from its corner k to corner k + 1; corner k lies between
+    # edges k and k - 1
+    edges = np.stack([np.linalg.norm(v[f[:, (k + 1) % 3]] - v[f[:, k]], axis=1) for k in range(3)])  # (3, F)
+    with np.errstate(divide="ignore"):
+        corner = 2.0 * position * (1.0 / edges + 1.0 / np.roll(edges, 1, axis=0))  # (3, F)
+    corner = np.where(np.isfinite(corner), corner, 0.0)
+    return np.bincount(f.T.ravel(), weights=corner.ravel(), minlength=len(v))
 
 
 def angle_defects(vertices: np.ndarray, faces: np.ndarray, scale: float | None = None) -> CurvatureFigures:

@@ -64,6 +64,34 @@ def test_triangle_unfolding_drifts_quadratically():
     assert drifts[1] / drifts[2] == pytest.approx(4.0, rel=0.15)
 
 
+def test_triangle_unfolding_keeps_every_edge_length_and_the_side_of_each_triangle():
+    """Each outer triangle (A_k, B_k, A_k+1), (A_k+1, B_k, B_k+1) is laid flat with its 3D
+    edge lengths, A_k+1 and B_k+1 to the right of the ruling they are placed from, and a
+    zero step (two rulings through one end) stays put."""
+    from flatten.develop import Development
+
+    rng = np.random.default_rng(15)
+    n = 40
+    t = np.cumsum(rng.random(n))
+    a3 = np.column_stack([t, np.sin(t), 0.1 * t**2]) * 1000.0 + 5e4
+    b3 = a3 + np.column_stack([rng.normal(size=n), np.full(n, 300.0), rng.normal(size=n) + 50.0])
+    a3[7:9] = a3[7]  # a fan at A_7
+    first = Development(np.array([[3.0, -2.0]]), np.array([[3.0 + 301.0, -2.0]]))
+    unf = unfold_triangles(a3, b3, first)
+    a2, b2 = unf.along_c, unf.along_d
+    for x2, y2, x3, y3 in ((a2[1:], a2[:-1], a3[1:], a3[:-1]), (b2[1:], b2[:-1], b3[1:], b3[:-1]),
+                           (a2[1:], b2[:-1], a3[1:], b3[:-1]), (a2[1:], b2[1:], a3[1:], b3[1:])):
+        np.testing.assert_allclose(np.linalg.norm(x2 - y2, axis=1), np.linalg.norm(x3 - y3, axis=1),
+                                   rtol=1e-12, atol=1e-9)
+    assert np.array_equal(a2[8], a2[7])
+
+    def right_of(p, q, x):  # x to the right of p -> q (or on it)
+        return (q[:, 0] - p[:, 0]) * (x[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (x[:, 0] - p[:, 0]) <= 1e-6
+
+    assert right_of(a2[:-1], b2[:-1], a2[1:]).all()
+    assert right_of(a2[1:], b2[:-1], b2[1:]).all()
+
+
 @pytest.mark.parametrize("n_new", [1, 7, 2001])
 def test_further_rulings_developed_from_the_strip_match_one_development_of_them_all(n_new):
     """DevelopedStrip.ends (further rulings integrated from the nearest break or ruling)
