@@ -127,20 +127,30 @@ class UnitMap:
             g = g * self.width
             gg = np.einsum("ij,ij->i", g, g)
             ok = gg > 0
-            step = np.zeros_like(xa)
-            step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
+            # (the masks below are applied only where they select something: the same
+            # values, without the array work for the common case of free points)
+            if ok.all():
+                step = (f / gg)[:, None] * g
+            else:
+                step = np.zeros_like(xa)
+                step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
             # on a line: Newton along the free axis
-            line = (on_side.sum(axis=1) == 1) | one[active]
-            free = np.argmin(on_side, axis=1)
-            g_free = g[np.arange(len(xa)), free]
-            # (not where f is constant along the line: a fan lying on it)
-            along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
-            step[along] = 0.0
-            step[along, free[along]] = f[along] / g_free[along]
+            sided = on_side.any(axis=1)
+            line = (sided & (on_side.sum(axis=1) == 1)) | one[active]
+            if line.any():
+                free = np.argmin(on_side, axis=1)
+                g_free = g[np.arange(len(xa)), free]
+                # (not where f is constant along the line: a fan lying on it)
+                along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
+                step[along] = 0.0
+                step[along, free[along]] = f[along] / g_free[along]
             # near a singular point (branch crossing) the gradient vanishes with f:
             # a long step would throw the point onto another branch
-            step[np.hypot(*step.T) > 1e-4] = 0.0
-            step[on_side] = 0.0
+            long = np.hypot(step[:, 0], step[:, 1]) > 1e-4
+            if long.any():
+                step[long] = 0.0
+            if sided.any():
+                step[on_side] = 0.0
             moved = np.clip(xa - step, 0.0, 1.0)
             x[active] = moved
             # a step below a few ulps of the unit square leaves the point where the
