@@ -35,8 +35,6 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_cli import child_env  # noqa: E402 - runs the children as an installed devflat
-
 
 def config(seams: int, butts: int) -> dict:
     return {"name": "bench", "units": "mm",
@@ -49,14 +47,11 @@ def config(seams: int, butts: int) -> dict:
 
 def one(args) -> int:
     """One run in this fresh process, as the ``devflat`` program runs it
-    (:func:`pipeline.cli.entry_point`: the collector paused for the imports, ``one_shot``)."""
-    import gc
+    (:func:`pipeline.cli.run_program`: one BLAS thread, the collector paused for the
+    imports, ``one_shot``)."""
+    from pipeline.cli import run_program
 
-    gc.disable()
-    from pipeline.cli import main as devflat
-
-    code = devflat(["run", args.config, "--out", args.out, "--quiet", "--jobs", str(args.jobs)], one_shot=True)
-    gc.freeze()
+    code = run_program(["run", args.config, "--out", args.out, "--quiet", "--jobs", str(args.jobs)])
     self_use, child_use = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = self_use.ru_utime + self_use.ru_stime + child_use.ru_utime + child_use.ru_stime
     print(json.dumps({"code": code, "peak_mb": self_use.ru_maxrss / 1024,
@@ -145,6 +140,8 @@ def main(argv=None) -> int:
     if args.stages:
         return stages(args)
     import platform
+
+    from bench_cli import child_env  # the children run as an installed devflat (bytecode cached)
     plates = (args.seams - 1) * (args.butts - 1)
     print(f"machine: {platform.machine()}, python {platform.python_version()}; {plates} plates "
           f"({args.seams - 1} strakes x {args.butts - 1} butt intervals) of the 160 m hull")

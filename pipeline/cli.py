@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
 import signal
 import sys
 import traceback
@@ -239,8 +240,6 @@ def spare_core() -> bool:
     costs 0.1-0.2 s CPU (pages the fork shares and either process then writes are copied;
     the images' arguments are pickled), and on a machine whose cores are all busy it
     measured slower in wall time too (bench/bench_cli.py)."""
-    import os
-
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
@@ -354,7 +353,21 @@ def entry_point() -> None:
     the operating system takes back anyway (about 0.1 s for ``check``, 0.3 s for a ``run``
     with previews, measured by bench/bench_cli.py). Files are closed and the atexit
     handlers run as usual."""
+    sys.exit(run_program())
+
+
+def run_program(argv: list[str] | None = None) -> int:
+    """:func:`entry_point` without the exit: the program's process settings, then
+    :func:`main` as a one-shot process.
+
+    BLAS runs on one thread unless the environment says otherwise
+    (``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS``, read when numpy loads, which is
+    later): devflat's matrices are small, and OpenBLAS's threads only spin beside the
+    work (they busy-wait after each call), which on a machine whose cores are all busy
+    (``--jobs``, the render process) takes CPU from the processes that do it."""
+    if "OPENBLAS_NUM_THREADS" not in os.environ and "OMP_NUM_THREADS" not in os.environ:
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
     gc.disable()
-    code = main(one_shot=True)
+    code = main(argv, one_shot=True)
     gc.freeze()
-    sys.exit(code)
+    return code
