@@ -158,18 +158,22 @@ class Placer:
         self.placed = np.zeros((0, 8))  # the placed boxes, as self.boxes: centre, unit axes, half sides
         self._radius = np.zeros(0)
 
-    def reach(self, centres: np.ndarray, angle: float) -> np.ndarray:
-        """Free half-lengths (P,), P = len(centres), along the direction angle (degrees) at
-        centres: a box whose grown middle line along it is longer than twice this crosses
-        the room's edge or a line (:func:`free_reach`); what was placed is not counted.
-        Kept per direction for the last centres asked."""
+    def reach(self, centres: np.ndarray, angle: float, count: int | None = None) -> np.ndarray:
+        """Free half-lengths (count,) along the direction angle (degrees) at the first count
+        centres (all by default): a box whose grown middle line along it is longer than twice
+        this crosses the room's edge or a line (:func:`free_reach`); what was placed is not
+        counted. Kept per direction for the last centres asked, and only as far as asked:
+        each centre's reach is its own, so a longer prefix only adds the new ones."""
+        count = len(centres) if count is None else count
         if centres is not self._reach_of:
             self._reach_of, self._reach = centres, {}
         key = round(angle % 180.0, 9) % 180.0
-        if key not in self._reach:
+        known = self._reach.get(key, np.zeros(0))
+        if len(known) < count:
             a = np.radians(angle)
-            self._reach[key] = free_reach(centres, np.array([np.cos(a), np.sin(a)]), self.segments)
-        return self._reach[key]
+            more = free_reach(centres[len(known):count], np.array([np.cos(a), np.sin(a)]), self.segments)
+            known = self._reach[key] = np.concatenate([known, more])
+        return known[:count]
 
     def place(self, centres: np.ndarray, width: float, height: float, angle) -> int | None:
         """Index of the first centre whose box (grown by the clearance) is free; the box is
@@ -188,38 +192,110 @@ class Placer:
             chunk, u, v = centres[start:stop], u_all[start:stop], v_all[start:stop]
             corners = _corners_on(chunk, wide, high, u, v)
             idx = np.flatnonzero(shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1))
-            near = None  # (len(idx), M): placed boxes only round-off decides about
-            if len(self.placed) and idx.size:
-                # only boxes whose circumcircles meet can meet: most are far apart
-                d = chunk[idx, None] - self.placed[None, :, :2]  # (N, M, 2)
-                gap = np.hypot(d[..., 0], d[..., 1]) - self._radius - 0.5 * np.hypot(wide, high)
-                rows = np.flatnonzero((gap <= 1e-6 * (wide + high)).any(axis=1))
-                if rows.size:
-                    sep = np.full(gap.shape, np.inf)
-                    sep[rows] = _separation(chunk[idx[rows]], u[idx[rows]], v[idx[rows]], (0.5 * wide, 0.5 * high),
-                                            self.placed)
-                    eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
-                    keep = ~(sep < -eps).any(axis=1)
-                    idx, near = idx[keep], np.abs(sep[keep]) <= eps
+            idx, near = self._apart(chunk, u, v, wide, high, idx)
             if idx.size:
                 grown = shapely.polygons(corners[idx])
-                fits = shapely.contains(self.room, grown)
-                if self.obstacles is not None:  # the prepared geometry first: only then is it used
-                    fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
-                if near is not None and near.any():  # shapely decides the nearly touching pairs
-                    rows, cols = np.nonzero(near & fits[:, None])
-                    hit = shapely.intersects(grown[rows], np.array(self.boxes)[cols])
-                    fits[rows[hit]] = False
+                fits = self._static(grown)
+                fits = self._settle(grown, fits, near)
                 if fits.any():
                     i = start + int(idx[np.argmax(fits)])
-                    self.boxes.append(Polygon(_corners_on(centres[i:i + 1], width, height, u_all[i:i + 1],
-                                                          v_all[i:i + 1])[0]))
-                    taken = [*centres[i], *u_all[i], *v_all[i], 0.5 * width, 0.5 * height]
-                    self.placed = np.vstack([self.placed, taken])
-                    self._radius = np.hypot(self.placed[:, 6], self.placed[:, 7])  # circumradii (M,)
+                    self._take(centres[i], u_all[i], v_all[i], width, height)
                     return i
             start, size = stop, 4 * size
         return None
+
+    def place_each(self, jobs: list, head: int = 1000, first: int = 2):
+        """:meth:`place` of every job (centres (N, 2), width, height, angles (N,)) in turn,
+        yielding what it returns: the same indices, and the same boxes taken. The tests that
+        do not depend on the boxes placed before (corners in the room for the first head
+        centres of each job, the exact room and line tests for the first few whose corners
+        are in) run for all jobs at once; the rest when the job's turn comes (a generator:
+        the caller may place more boxes between two jobs). A job none of those fit goes on
+        with :meth:`place` on its centres after them."""
+        if not jobs:
+            return
+        c = self.clearance
+        heads = np.array([min(head, len(job[0])) for job in jobs])
+        ends = np.cumsum(heads)
+        centres = np.concatenate([job[0][:k] for job, k in zip(jobs, heads)])
+        angles = np.concatenate([np.broadcast_to(np.asarray(job[3], dtype=float), (len(job[0]),))[:k]
+                                 for job, k in zip(jobs, heads)])
+        half = np.repeat([[0.5 * (job[1] + 2 * c), 0.5 * (job[2] + 2 * c)] for job in jobs], heads, axis=0)  # (N, 2)
+        u, v = _axes(angles, len(centres))
+        signs = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], dtype=float)
+        offsets = signs[None] * half[:, None]  # (N, 4, 2): as _corners_on's, row by row
+        corners = centres[:, None, :] + (offsets[..., :1] * u[:, None, :] + offsets[..., 1:] * v[:, None, :])
+        inside = shapely.contains_xy(self.room, corners[..., 0], corners[..., 1]).all(axis=1)
+        # the first few centres of each job with their corners in, and the exact tests on them
+        job_of = np.repeat(np.arange(len(jobs)), heads)
+        passed = np.cumsum(inside)
+        rank = passed - np.concatenate([[0], passed[ends - 1]])[job_of]  # of a passer within its job, from 1
+        tried = np.flatnonzero(inside & (rank <= first))
+        grown = shapely.polygons(corners[tried])
+        static = self._static(grown)
+        for j, (job, k) in enumerate(zip(jobs, heads)):
+            lo = ends[j] - k
+            mine = np.flatnonzero((tried >= lo) & (tried < ends[j]))  # positions in tried
+            found = None
+            for t in mine[static[mine]]:
+                i = tried[t]
+                wide, high = 2 * half[i]
+                idx, near = self._apart(centres[i:i + 1], u[i:i + 1], v[i:i + 1], wide, high, np.zeros(1, int))
+                if idx.size and self._settle(grown[t:t + 1], np.ones(1, bool), near)[0]:
+                    found = int(i - lo)
+                    self._take(centres[i], u[i], v[i], job[1], job[2])
+                    break
+            # none of those: the job goes on after the last one tried
+            rest = int(tried[mine[-1]] - lo + 1) if len(mine) == first else int(k)
+            if found is None and rest < len(job[0]):
+                angle = np.broadcast_to(np.asarray(job[3], dtype=float), (len(job[0]),))
+                r = self.place(job[0][rest:], job[1], job[2], angle[rest:])
+                found = None if r is None else rest + r
+            yield found
+
+    def _apart(self, chunk: np.ndarray, u: np.ndarray, v: np.ndarray, wide: float, high: float,
+               idx: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Of the boxes wide x high at chunk[idx] (axes u, v), those numpy does not find
+        overlapping a placed one, and (len(kept), M) the placed ones only round-off decides
+        about (None: none)."""
+        near = None
+        if len(self.placed) and idx.size:
+            # only boxes whose circumcircles meet can meet: most are far apart
+            d = chunk[idx, None] - self.placed[None, :, :2]  # (N, M, 2)
+            gap = np.hypot(d[..., 0], d[..., 1]) - self._radius - 0.5 * np.hypot(wide, high)
+            rows = np.flatnonzero((gap <= 1e-6 * (wide + high)).any(axis=1))
+            if rows.size:
+                sep = np.full(gap.shape, np.inf)
+                sep[rows] = _separation(chunk[idx[rows]], u[idx[rows]], v[idx[rows]], (0.5 * wide, 0.5 * high),
+                                        self.placed)
+                eps = 1e-9 * (np.abs(chunk).max() + np.abs(self.placed[:, :2]).max() + wide + high)
+                keep = ~(sep < -eps).any(axis=1)
+                idx, near = idx[keep], np.abs(sep[keep]) <= eps
+        return idx, near
+
+    def _static(self, grown: np.ndarray) -> np.ndarray:
+        """Whether each grown box (polygons) lies in the room and meets no line (shapely)."""
+        fits = shapely.contains(self.room, grown)
+        if self.obstacles is not None:  # the prepared geometry first: only then is it used
+            fits[fits] = ~shapely.intersects(self.obstacles, grown[fits])
+        return fits
+
+    def _settle(self, grown: np.ndarray, fits: np.ndarray, near: np.ndarray | None) -> np.ndarray:
+        """fits, less the grown boxes shapely finds meeting a placed box of the nearly
+        touching pairs near."""
+        if near is not None and near.any():
+            rows, cols = np.nonzero(near & fits[:, None])
+            hit = shapely.intersects(grown[rows], np.array(self.boxes)[cols])
+            fits = fits.copy()
+            fits[rows[hit]] = False
+        return fits
+
+    def _take(self, centre: np.ndarray, u: np.ndarray, v: np.ndarray, width: float, height: float) -> None:
+        """Place the box width x height at centre (2,) with axes u, v (2,)."""
+        self.boxes.append(Polygon(_corners_on(centre[None], width, height, u[None], v[None])[0]))
+        taken = [*centre, *u, *v, 0.5 * width, 0.5 * height]
+        self.placed = np.vstack([self.placed, taken])
+        self._radius = np.hypot(self.placed[:, 6], self.placed[:, 7])  # circumradii (M,)
 
 
 def _separation(centres: np.ndarray, u: np.ndarray, v: np.ndarray, half: tuple[float, float],
@@ -263,18 +339,102 @@ def heights(preferred: float, smallest: float) -> list[float]:
 
 def grid_points(room: Polygon, obstacles=None, n: int = 60) -> tuple[np.ndarray, np.ndarray]:
     """Points (P, 2) of a grid over the room, inside it, the most clear (far from its edge
-    and from the obstacles: the middle of the largest free area) first, and that clearance
-    (P,), descending."""
+    and from the obstacles, lines: the middle of the largest free area) first, and that
+    clearance (P,), descending (the same floats as shapely.distance)."""
     x0, y0, x1, y1 = room.bounds
     xs, ys = np.linspace(x0, x1, n + 2)[1:-1], np.linspace(y0, y1, n + 2)[1:-1]
     pts = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
     pts = pts[shapely.contains_xy(room, pts[:, 0], pts[:, 1])]  # points only for those inside
-    geoms = shapely.points(pts)
-    depth = shapely.distance(geoms, room.exterior)
-    if obstacles is not None:
-        depth = np.minimum(depth, shapely.distance(geoms, obstacles))
+    lines = [np.asarray(room.exterior.coords)]
+    lines += [np.asarray(g.coords) for g in getattr(obstacles, "geoms", [obstacles]) if obstacles is not None]
+    # no point is farther from the edge than the largest inscribed circle's radius, which
+    # is at most the mean width 2 area / perimeter on a convex room (a guess: a point
+    # with nothing that near is measured against every segment)
+    depth = line_distance(pts, lines, 0.25 * room.area / max(room.exterior.length, 1e-300))
     order = np.argsort(-depth, kind="stable")
     return pts[order], depth[order]
+
+
+def _to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances (...) from points p to segments a-b (all (..., 2)), by GEOS's formula
+    (Distance::pointToSegment) step by step: the same floats as shapely.distance."""
+    dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
+    ax, ay = p[..., 0] - a[..., 0], p[..., 1] - a[..., 1]
+    bx, by = p[..., 0] - b[..., 0], p[..., 1] - b[..., 1]
+    length2 = dx * dx + dy * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = (ax * dx + ay * dy) / length2
+        out = np.abs(((a[..., 1] - p[..., 1]) * dx - (a[..., 0] - p[..., 0]) * dy) / length2) * np.sqrt(length2)
+    out = np.where(r >= 1.0, np.sqrt(bx * bx + by * by), out)
+    return np.where((r <= 0.0) | (length2 == 0.0), np.sqrt(ax * ax + ay * ay), out)
+
+
+def line_distance(points: np.ndarray, lines: list[np.ndarray], reach: float) -> np.ndarray:
+    """Distance (P,) from each of points (P, 2) to the nearest of the polylines (K, 2) (inf
+    when there is none), the same floats as shapely.distance.
+
+    reach (mm, > 0) only steers the work: square cells of that side sort the points, and
+    each segment is measured from the points of the cells within reach of its bounding
+    box (a sweep like :func:`free_reach`'s); the points with none of them within reach
+    try again with twice the reach, until most segments would be measured from each
+    point: then GEOS measures them all (its loop is quicker than numpy's per pair)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    lines = [np.asarray(line, dtype=float) for line in lines if len(line) >= 2]
+    segments = _segments(lines)
+    out = np.full(len(points), np.inf)
+    if not len(points) or not len(segments):
+        return out
+    todo = np.arange(len(points))
+    bottom, top = segments.min(axis=1), segments.max(axis=1)  # the segments' boxes (S, 2)
+    side = max(float(reach), 1e-9 * (float(np.abs(points).max()) + float(np.abs(segments).max())))
+    while todo.size:
+        # pairs: beyond len(todo) S / 8, GEOS measures them all quicker (and one cell holds
+        # all when side is large: at most S (segment, cell) pairs)
+        limit = max(len(todo) * len(segments) // 8, len(segments))
+        pairs = _pairs(points[todo], bottom, top, side, limit)
+        if pairs is None:  # cells far smaller than the segments: larger ones
+            side *= 2.0
+            continue
+        p, seg = pairs
+        if len(p) > len(todo) * len(segments) // 8:
+            everything = shapely.multilinestrings([LineString(line) for line in lines])
+            out[todo] = shapely.distance(shapely.points(points[todo]), everything)
+            break
+        near = np.full(len(todo), np.inf)
+        np.minimum.at(near, p, _to_segment(points[todo[p]], segments[seg, 0], segments[seg, 1]))
+        done = near <= side  # the segments left out are farther than that
+        out[todo[done]] = near[done]
+        todo, side = todo[~done], 2.0 * side
+    return out
+
+
+def _pairs(points: np.ndarray, bottom: np.ndarray, top: np.ndarray, side: float,
+           limit: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """(point, segment) index pairs (K,), (K,): each point (P, 2) with every segment whose
+    box (bottom, top (S, 2)) grown by a little more than side meets the point's cell
+    (side x side cells from the points' lower left corner): all within side of it. None
+    when more than limit (segment, cell) pairs would be listed."""
+    lo = points.min(axis=0)
+    cell = np.floor((points - lo) / side).astype(np.int64)  # (P, 2)
+    last_cell = cell.max(axis=0)
+    key = cell[:, 0] * (last_cell[1] + 1) + cell[:, 1]
+    order = np.argsort(key, kind="stable")
+    keys = key[order]
+    grow = side * (1.0 + 1e-9)
+    first = np.maximum(np.floor((bottom - grow - lo) / side), 0).astype(np.int64)
+    last = np.minimum(np.floor((top + grow - lo) / side), last_cell).astype(np.int64)
+    span = np.maximum(last - first + 1, 0)  # (S, 2): the cells each grown box meets
+    if float((span[:, 0].astype(float) * span[:, 1]).sum()) > limit:  # (in floats: no overflow)
+        return None
+    count = span[:, 0] * span[:, 1]
+    seg = np.repeat(np.arange(len(bottom)), count)
+    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    cells = (first[seg, 0] + k // span[seg, 1]) * (last_cell[1] + 1) + first[seg, 1] + k % span[seg, 1]
+    # each (segment, cell) with the run of the cell's points
+    start = np.searchsorted(keys, cells, "left")
+    runs = np.searchsorted(keys, cells, "right") - start
+    p = order[np.arange(runs.sum()) - np.repeat(np.cumsum(runs) - runs - start, runs)]
+    return p, np.repeat(seg, runs)
 
 
 def _largest(geometry) -> Polygon | None:
@@ -384,7 +544,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                     # nor one whose grown box's long middle line crosses the room's edge or a
                     # line (the short one is clear: the centre is that deep): most tries fail
                     # everywhere, and this decides most of their centres
-                    free = placer.reach(centres, angle if w >= hh else angle + 90.0)[:reach]
+                    free = placer.reach(centres, angle if w >= hh else angle + 90.0, reach)
                     idx = np.flatnonzero(free >= (0.5 * max(w, hh) + placer.clearance) * (1 - 1e-6))
                     i = placer.place(centres[idx], w, hh, angle) if len(idx) else None
                     if i is not None:
@@ -398,57 +558,60 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
                 break
         if not placed:
             findings.append("part data block: no room inside the plate at the smallest text height")
-    # edge names (and bevels) inside the plate along their edge
-    for text, line in edges.items():
-        if len(line) < 2 or not _place_along(placer, layout, "edge", text, line, plate, preferred, smallest,
-                                             clearance, side=None):
-            findings.append(f"edge label {text!r}: no room along its edge")
-    for text, line in bend_lines:
-        if not _place_along(placer, layout, "bend", text, line, plate, preferred, smallest, clearance, side=1,
-                            along=long_side):
-            findings.append(f"bending line label {text!r}: no room beside the line")
-    for text, line in frame_lines:
-        if not _place_along(placer, layout, "frame", text, line, plate, preferred, smallest, clearance, side=1,
-                            along=long_side):
-            findings.append(f"frame label {text!r}: no room beside the line")
+    # edge names (and bevels) inside the plate along their edge, then the marks' labels beside
+    # them: every label's tests at the first height at once, the lower heights one by one
+    labels = [("edge", text, line, None, None) for text, line in edges.items()]
+    labels += [(kind, text, line, 1, long_side) for kind, marks in (("bend", bend_lines), ("frame", frame_lines))
+               for text, line in marks]
+    tall = heights(max(0.8 * preferred, smallest), smallest)
+    jobs = [_candidates(line, text, tall[0], plate, clearance, side, along) if len(line) >= 2 else
+            (np.zeros((0, 2)), 1.0, 1.0, np.zeros(0)) for _, text, line, side, along in labels]
+    for (kind, text, line, side, along), job, i in zip(labels, jobs, placer.place_each(jobs)):
+        h = tall[0]
+        for h in tall[1:] if i is None and len(line) >= 2 else ():
+            job = _candidates(line, text, h, plate, clearance, side, along)
+            i = placer.place(*job)
+            if i is not None:
+                break
+        if i is not None:
+            layout.texts.append(Text(kind, text, tuple(job[0][i]), h, float(job[3][i])))
+        else:
+            findings.append(f"edge label {text!r}: no room along its edge" if kind == "edge" else
+                            f"{'bending line' if kind == 'bend' else 'frame'} label {text!r}: no room beside the line")
     layout.findings = findings
     return layout
 
 
-def _place_along(placer: Placer, layout: Layout, kind: str, text: str, line: np.ndarray, plate: Polygon,
-                 preferred: float, smallest: float, clearance: float, side, along=None) -> bool:
-    """Put a text beside a polyline: parallel to it, on the plate side of an edge (side
-    None) or on either side of a mark line, at several places along it; then running away
-    from it; then (``along``: (2,) the plate's long direction) beside it reading along the
-    plate, where a mark line across a narrow plate leaves room on neither side."""
+def _candidates(line: np.ndarray, text: str, h: float, plate: Polygon, clearance: float, side,
+                along=None) -> tuple[np.ndarray, float, float, np.ndarray]:
+    """Where to try a text of height h beside a polyline (K, 2), in order: parallel to it,
+    on the plate side of an edge (side None) or on either side of a mark line, at several
+    places along it; then running away from it; then (``along``: (2,) the plate's long
+    direction) beside it reading along the plate, where a mark line across a narrow plate
+    leaves room on neither side. Centres (N, 2), the box's width and height, angles (N,)."""
     points, directions = _along(line, FRACTIONS)
     ahead = _readable(np.degrees(np.arctan2(directions[:, 1], directions[:, 0])))  # (J,)
     left = np.column_stack([-directions[:, 1], directions[:, 0]])
-    for h in heights(max(0.8 * preferred, smallest), smallest):
-        w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
-        # a box 2 clearances off a straight edge has its grown side on the room's boundary,
-        # where round-off decides whether it fits: 1 % of a clearance more decides it
-        gap = 0.5 * hh + 2.01 * clearance
-        # (J, 1 or 2, 2): the inward normal of an edge, either normal of a mark line
-        normals = _inwards(plate, points, directions, gap)[:, None] if side is None else \
-            np.stack([left, np.column_stack([directions[:, 1], -directions[:, 0]])], axis=1)
-        steps = np.array([1.0, 2.0, 3.5]) * gap
-        beside = points[:, None, None] + steps[None, None, :, None] * normals[:, :, None]  # (J, n, 3, 2)
-        # a short edge or a line across a narrow plate: the text runs away from it
-        away = points[:, None] + (0.5 * w + 0.5 * hh + 3.0 * clearance) * normals  # (J, n, 2)
-        centres = np.concatenate([beside.reshape(-1, 2), away.reshape(-1, 2)])
-        angles = np.concatenate([np.repeat(ahead, beside.shape[1] * 3),
-                                 _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0]))).ravel()])
-        if along is not None:
-            u = np.asarray(along, dtype=float) / max(float(np.linalg.norm(along)), 1e-300)
-            toward = np.where((normals @ u)[..., None] >= 0.0, u, -u)  # (J, n, 2): along the plate, to that side
-            shifts = 0.5 * w + np.array([1.0, 2.0, 4.0]) * gap
-            lengthwise = points[:, None, None] + shifts[None, None, :, None] * toward[:, :, None]  # (J, n, 3, 2)
-            centres = np.concatenate([centres, lengthwise.reshape(-1, 2)])
-            angles = np.concatenate([angles, np.full(lengthwise.shape[0] * lengthwise.shape[1] * 3,
-                                                     _readable(np.degrees(np.arctan2(u[1], u[0]))))])
-        i = placer.place(centres, w, hh, angles)
-        if i is not None:
-            layout.texts.append(Text(kind, text, tuple(centres[i]), h, float(angles[i])))
-            return True
-    return False
+    w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
+    # a box 2 clearances off a straight edge has its grown side on the room's boundary,
+    # where round-off decides whether it fits: 1 % of a clearance more decides it
+    gap = 0.5 * hh + 2.01 * clearance
+    # (J, 1 or 2, 2): the inward normal of an edge, either normal of a mark line
+    normals = _inwards(plate, points, directions, gap)[:, None] if side is None else \
+        np.stack([left, np.column_stack([directions[:, 1], -directions[:, 0]])], axis=1)
+    steps = np.array([1.0, 2.0, 3.5]) * gap
+    beside = points[:, None, None] + steps[None, None, :, None] * normals[:, :, None]  # (J, n, 3, 2)
+    # a short edge or a line across a narrow plate: the text runs away from it
+    away = points[:, None] + (0.5 * w + 0.5 * hh + 3.0 * clearance) * normals  # (J, n, 2)
+    centres = np.concatenate([beside.reshape(-1, 2), away.reshape(-1, 2)])
+    angles = np.concatenate([np.repeat(ahead, beside.shape[1] * 3),
+                             _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0]))).ravel()])
+    if along is not None:
+        u = np.asarray(along, dtype=float) / max(float(np.linalg.norm(along)), 1e-300)
+        toward = np.where((normals @ u)[..., None] >= 0.0, u, -u)  # (J, n, 2): along the plate, to that side
+        shifts = 0.5 * w + np.array([1.0, 2.0, 4.0]) * gap
+        lengthwise = points[:, None, None] + shifts[None, None, :, None] * toward[:, :, None]  # (J, n, 3, 2)
+        centres = np.concatenate([centres, lengthwise.reshape(-1, 2)])
+        angles = np.concatenate([angles, np.full(lengthwise.shape[0] * lengthwise.shape[1] * 3,
+                                                 _readable(np.degrees(np.arctan2(u[1], u[0]))))])
+    return centres, w, hh, angles

@@ -199,7 +199,11 @@ def test_the_reaches_skip_only_what_the_exact_tests_refuse(key, corners, aspect,
     """The same layout without the reaches (every centre tried by the placer's own tests)."""
     args = _random_plate(key, corners, aspect, bends, 1, data_lines)
     fast = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
-    with mock.patch.object(Placer, "reach", lambda self, centres, angle: np.full(len(centres), np.inf)):
+
+    def everywhere(self, centres, angle, count=None):
+        return np.full(len(centres) if count is None else count, np.inf)
+
+    with mock.patch.object(Placer, "reach", everywhere):
         slow = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
     assert fast.texts == slow.texts and fast.findings == slow.findings
 
