@@ -114,14 +114,15 @@ class UnitMap:
             if len(lines):
                 fixed[np.any(x[:, axis:axis + 1] == lines[None, :], axis=1)] = True
         one = fixed.sum(axis=1) == 1
+        any_fixed = bool(fixed.any())
         # only the points still moving are iterated: a point the step no longer moves
         # (or moves by round-off) stays (each point's iterations depend on it alone)
         active = np.arange(len(x))
+        company = -1  # a settled point computed along with a last moving one
         for _ in range(iterations):
             if len(active) == 0:
                 break
             xa = x[active]
-            on_side = fixed[active] | (xa <= 0.0) | (xa >= 1.0)
             p = self.to_params(xa)
             f, g = self.field.value_gradient(p[:, 0], p[:, 1])
             g = g * self.width
@@ -134,32 +135,45 @@ class UnitMap:
             else:
                 step = np.zeros_like(xa)
                 step[ok] = (f[ok] / gg[ok])[:, None] * g[ok]
-            # on a line: Newton along the free axis
-            sided = on_side.any(axis=1)
-            line = (sided & (on_side.sum(axis=1) == 1)) | one[active]
-            if line.any():
-                free = np.argmin(on_side, axis=1)
-                g_free = g[np.arange(len(xa)), free]
-                # (not where f is constant along the line: a fan lying on it)
-                along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
-                step[along] = 0.0
-                step[along, free[along]] = f[along] / g_free[along]
+            # a point fixed on a line or lying on a side of the square (none, mostly: two
+            # reductions tell) moves along its free axis only, or not at all
+            on_side = None
+            if any_fixed or not (xa.min() > 0.0 and xa.max() < 1.0):
+                on_side = fixed[active] | (xa <= 0.0) | (xa >= 1.0)
+                sided = on_side.any(axis=1)
+                # on a line: Newton along the free axis
+                line = (sided & (on_side.sum(axis=1) == 1)) | one[active]
+                if line.any():
+                    free = np.argmin(on_side, axis=1)
+                    g_free = g[np.arange(len(xa)), free]
+                    # (not where f is constant along the line: a fan lying on it)
+                    along = line & (np.abs(g_free) > 1e-6 * np.sqrt(gg))
+                    step[along] = 0.0
+                    step[along, free[along]] = f[along] / g_free[along]
             # near a singular point (branch crossing) the gradient vanishes with f:
             # a long step would throw the point onto another branch
             long = np.hypot(step[:, 0], step[:, 1]) > 1e-4
             if long.any():
                 step[long] = 0.0
-            if sided.any():
+            if on_side is not None and sided.any():
                 step[on_side] = 0.0
-            moved = np.clip(xa - step, 0.0, 1.0)
-            x[active] = moved
+            moved = np.minimum(np.maximum(xa - step, 0.0), 1.0)  # (np.clip's values, less overhead)
             # a step below a few ulps of the unit square leaves the point where the
             # next steps would (round-off): it is settled
-            active = active[np.any(moved != xa, axis=1) & (np.abs(step).max(axis=1) > 1e-15)]
+            going = np.any(moved != xa, axis=1) & (np.abs(step).max(axis=1) > 1e-15)
+            if company >= 0:  # the company stays where it is: every point's result is its own
+                mine = active != company
+                x[active[mine]] = moved[mine]
+                going &= mine
+            else:
+                x[active] = moved
+            active = active[going]
+            company = -1
             if len(active) == 1 < len(x):
                 # one point alone would take the field's one-point path (other round-off):
-                # a settled point keeps it company (it stays where it is)
-                active = np.append(active, 1 if active[0] == 0 else 0)
+                # a settled point keeps it company (computed along, not moved)
+                company = 1 if active[0] == 0 else 0
+                active = np.append(active, company)
         x[np.abs(x) <= 1e-14] = 0.0
         x[np.abs(x - 1.0) <= 1e-14] = 1.0
         return x

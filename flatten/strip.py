@@ -80,24 +80,48 @@ def grid_faces(n_rulings: int, m: int) -> np.ndarray:
     return faces
 
 
+class PathSampler:
+    """:func:`sample_path` of one solution, its set-up (the unit map with its knot lines,
+    the path's fractions of length) done once for the many calls of a stage: the same
+    values as :func:`sample_path`, call by call."""
+
+    def __init__(self, solution: SolutionSet):
+        self.solution = solution
+        path = solution.path.points
+        if solution.field is None:  # flat plate: the path is an arc-length correspondence
+            self.unit, self.x = None, path
+            self.lam = np.linspace(0.0, 1.0, len(path))
+            return
+        self.unit = UnitMap(solution.field)
+        self.x = self.unit.to_unit(path)
+        steps = np.hypot(*np.diff(self.x, axis=0).T)
+        lam = np.concatenate([[0.0], np.cumsum(steps)])
+        lam /= lam[-1]
+        self.lam = lam
+
+    def vertices(self) -> tuple[np.ndarray, np.ndarray]:
+        """The path's own vertices: their fractions (M,) and [t, T] (M, 2), as they are
+        (no polish: the path's points lie on the solution already, and the polish of one
+        would move it by round-off only)."""
+        return self.lam, (self.x if self.unit is None else self.unit.to_params(self.x))
+
+    def __call__(self, fractions: np.ndarray) -> np.ndarray:
+        """Points [t, T] (N, 2) of the path at fractions (N,) of its length, polished."""
+        lam, x = self.lam, self.x
+        if self.unit is None:
+            return np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
+        fractions = np.asarray(fractions, dtype=np.float64)
+        out = np.empty((len(fractions), 2))
+        for lo, hi in batches(len(fractions)):  # the polish is pointwise: batches change nothing
+            f = fractions[lo:hi]
+            pts = np.column_stack([np.interp(f, lam, x[:, 0]), np.interp(f, lam, x[:, 1])])
+            out[lo:hi] = self.unit.to_params(self.unit.polish(pts, iterations=6))
+        return out
+
+
 def sample_path(solution: SolutionSet, fractions: np.ndarray) -> np.ndarray:
     """Points of the chosen path at fractions of its length in the unit square, polished, (N, 2)."""
-    path = solution.path.points
-    if solution.field is None:  # flat plate: the path is an arc-length correspondence
-        lam = np.linspace(0.0, 1.0, len(path))
-        return np.column_stack([np.interp(fractions, lam, path[:, 0]), np.interp(fractions, lam, path[:, 1])])
-    unit = UnitMap(solution.field)
-    x = unit.to_unit(path)
-    steps = np.hypot(*np.diff(x, axis=0).T)
-    lam = np.concatenate([[0.0], np.cumsum(steps)])
-    lam /= lam[-1]
-    fractions = np.asarray(fractions, dtype=np.float64)
-    out = np.empty((len(fractions), 2))
-    for lo, hi in batches(len(fractions)):  # the polish is pointwise: batches change nothing
-        f = fractions[lo:hi]
-        pts = np.column_stack([np.interp(f, lam, x[:, 0]), np.interp(f, lam, x[:, 1])])
-        out[lo:hi] = unit.to_params(unit.polish(pts, iterations=6))
-    return out
+    return PathSampler(solution)(fractions)
 
 
 def chord_errors(curve: NurbsCurve, params: np.ndarray) -> float:
@@ -131,10 +155,11 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     units): spaced so that both boundaries' chord errors stay below it, using the
     sagitta κ Δs² / 8 and doubling where a check finds it exceeded.
     """
+    sample = PathSampler(solution)
     if n_rulings is not None:
-        return sample_path(solution, np.linspace(0.0, 1.0, max(int(n_rulings), 2)))
+        return sample(np.linspace(0.0, 1.0, max(int(n_rulings), 2)))
     dense = np.linspace(0.0, 1.0, 2049)
-    pts = sample_path(solution, dense)
+    pts = sample(dense)
     curves = (c, d)
     density = np.zeros(len(dense))
     for axis, curve in enumerate(curves):
@@ -152,7 +177,7 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
             fractions = np.interp(np.linspace(0, cumulative[-1], count), cumulative, dense)
         else:
             fractions = np.linspace(0.0, 1.0, count)
-        rulings = sample_path(solution, fractions)
+        rulings = sample(fractions)
         worst = max(chord_errors(curve, rulings[:, axis]) for axis, curve in enumerate(curves))
         if worst <= chord_tolerance or count >= max_rulings:
             return rulings

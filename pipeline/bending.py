@@ -57,8 +57,7 @@ def _curvature(tracer: PlateTracer, lam: np.ndarray, step: float) -> tuple[np.nd
     between neighbouring rulings at their middles), > 0 where the plate is convex on the
     side its normal points to."""
     lo_lam, hi_lam = np.clip(lam - step, 0, 1), np.clip(lam + step, 0, 1)
-    tracer.rulings(np.concatenate([lo_lam, hi_lam]))  # both sides in one evaluation of the path
-    n0, n1 = tracer.normals(lo_lam), tracer.normals(hi_lam)
+    n0, n1 = np.split(tracer.normals(np.concatenate([lo_lam, hi_lam])), 2)  # both sides in one evaluation
     m0, pc0, pd0 = _middle(tracer, lo_lam)
     m1, pc1, pd1 = _middle(tracer, hi_lam)
     move = m1 - m0
@@ -92,8 +91,11 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     exact_s = s[index] + np.linalg.norm(m_at - mid2[index], axis=1)
     slope = (s[index + 1] - s[index]) / np.maximum(lam[index + 1] - lam[index], 1e-300)
     at = np.clip(at - (exact_s - stations) / slope, first, last)
+    step = 1e-5 * (last - first)
+    # the lines and their neighbours for the curvature in one evaluation of the path
+    tracer.rulings(np.concatenate([at, np.clip(at - step, 0, 1), np.clip(at + step, 0, 1)]))
     a, b, *_ = _centre_line(tracer, at)
-    kappa, sign = _curvature(tracer, at, 1e-5 * (last - first))
+    kappa, sign = _curvature(tracer, at, step)
     return _numbered(a, b, stations, kappa, sign, min_length), length
 
 

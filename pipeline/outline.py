@@ -1,7 +1,7 @@
 """The exact cut outline of a plate: its developed boundary curves, sampled to a tolerance.
 
 The plate's boundary is traced along the solved strip by one parameter, the fraction
-lam in [0, 1] of the chosen path (``flatten.strip.sample_path``): the ruling at lam is
+lam in [0, 1] of the chosen path (``flatten.strip.sample_path``, with its set-up done once: ``PathSampler``): the ruling at lam is
 polished onto the solution curve, developed exactly (``flatten.develop``) and, for hull
 plates, cut by the butt planes. Its lower end runs along c (or a butt), its upper end
 along d (or a butt). Each smooth piece (between plate corners) is sampled adaptively
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flatten.develop import DevelopedStrip
-from flatten.strip import sample_path
+from flatten.strip import PathSampler
 
 CHECKS = np.array([0.25, 0.5, 0.75])  # where each segment is checked against the exact curve
 
@@ -129,7 +129,8 @@ class PlateTracer:
         # anchored at the path's start, which precedes every ruling asked for later (the
         # development's frame is fixed by its first ruling); the path's end is developed
         # too, so that every ruling of the path lies within the development
-        ends = sample_path(solution, np.array([0.0, 1.0]))
+        self.path_sampler = PathSampler(solution)
+        ends = self.path_sampler(np.array([0.0, 1.0]))
         same = developed is not None and developed.c is part.c and developed.d is part.d and \
             developed.field is solution.field
         if same and developed.breaks[0] <= ends[:, 0].min() and ends[:, 0].max() <= developed.breaks[-1] and \
@@ -164,7 +165,7 @@ class PlateTracer:
         return self._end_rows.at(lam, lambda new: self.developed(self._ruled(new)[0]))
 
     def _compute_ruled(self, lam: np.ndarray):
-        r = sample_path(self.solution, lam)
+        r = self.path_sampler(lam)
         pc, pd = self.part.c(r[:, 0]), self.part.d(r[:, 1])
         if not self.planes:
             n = len(pc)
@@ -329,14 +330,15 @@ def _sample(tracer: PlateTracer, pieces: list[tuple[int, float, float]], toleran
 
 def _corners(tracer: PlateTracer) -> list[float]:
     """Path fractions where a butt plane crosses c or d (the plate corners): bracketed on
-    a scan, then narrowed, all brackets at once, to the last bit of lam. Each step (one
-    evaluation of the path, the costly part) tries 31 even points of each bracket (1/32
-    per step at worst) and, around the secant estimate of the crossing, points 1e-2, 1e-3,
-    1e-4, 1e-6, ..., 1e-14 of the bracket away (the estimate's error falls as the square of
-    the bracket; the points cost little beside the evaluation itself): a smooth crossing is
-    pinned in three steps, rarely four or five."""
-    grid = np.linspace(0.0, 1.0, 513)
-    r = tracer.rulings(grid)
+    the path's own vertices (on the solution already: no polish needed), then narrowed,
+    all brackets at once, to the last bit of lam. Each step (one evaluation of the path,
+    the costly part) tries 31 even points of each bracket (1/32 per step at worst) and,
+    around the secant estimate of the crossing, points 1e-2, 1e-3, 1e-4, 1e-6, ..., 1e-14
+    of the bracket away (the estimate's error falls as the square of the bracket; the
+    points cost little beside the evaluation itself): a smooth crossing is pinned in three
+    steps, rarely four or five. The steps' rulings are not asked for again: they are
+    sampled without the tracer's store."""
+    grid, r = tracer.path_sampler.vertices()
     ends = (tracer.part.c(r[:, 0]), tracer.part.d(r[:, 1]))
     found = []  # (plane, axis, a, b, sign at a)
     for plane in tracer.planes:
@@ -348,6 +350,7 @@ def _corners(tracer: PlateTracer) -> list[float]:
     if not found:
         return []
     a, b, sa, sb = (np.array([f[k] for f in found], dtype=float) for k in (2, 3, 4, 5))
+    axes = np.array([f[1] for f in found])
     steps = np.linspace(0.0, 1.0, 33)[1:-1]
     near = np.array([-1e-2, -1e-3, -1e-4, -1e-6, -1e-8, -1e-10, -1e-12, -1e-14, 0.0, 1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4, 1e-3, 1e-2])
     for _ in range(12):
@@ -361,10 +364,16 @@ def _corners(tracer: PlateTracer) -> list[float]:
         lam = np.hstack([a[:, None] + width[:, None] * steps[None, :],
                          np.clip(guess[:, None] + width[:, None] * near[None, :], a[:, None], b[:, None])])
         lam.sort(axis=1)
-        r = tracer.rulings(lam.ravel()).reshape(*lam.shape, 2)
+        # (the near points clipped to a bracket's ends repeat: each distinct lam once)
+        distinct, back = np.unique(lam, return_inverse=True)
+        r = tracer.path_sampler(distinct)[back.ravel()].reshape(*lam.shape, 2)
+        # each curve evaluated once for the brackets on it
+        on_curve = np.empty(lam.shape + (3,))
+        for axis, curve in enumerate((tracer.part.c, tracer.part.d)):
+            if np.any(axes == axis):
+                on_curve[axes == axis] = curve(r[axes == axis, :, axis].ravel()).reshape(-1, lam.shape[1], 3)
         for k, (plane, axis, *_) in enumerate(found):
-            curve = (tracer.part.c, tracer.part.d)[axis]
-            s = plane.signed(curve(r[k, :, axis]))
+            s = plane.signed(on_curve[k])
             same = (np.sign(s) == np.sign(sa[k])) & (s != 0)
             j = int(np.argmin(same)) if not same.all() else lam.shape[1]  # the first point past the crossing
             if j > 0:

@@ -10,7 +10,8 @@ from flatten import solve
 from flatten.develop import _interval_breaks, develop
 from flatten.meshcheck import angle_defects, strip_angle_defects
 from flatten.metrics import distortion, edge_lengths, triangle_areas, unique_edges
-from flatten.strip import batches, build_strip, choose_rulings, grid_faces, sample_path
+from flatten.judge import UnitMap
+from flatten.strip import PathSampler, batches, build_strip, choose_rulings, grid_faces, sample_path
 from tests import oracles
 
 
@@ -140,3 +141,39 @@ def test_distortion_of_a_strip_whose_seams_meet_is_finite_and_warns_nothing(frus
         warnings.simplefilter("error")
         got = distortion(vertices, flat, m, c, d, rulings, chunk=7)
     assert np.isfinite(got["chord_discrepancy_rms_relative"]) and got["chord_discrepancy_max_relative"] < 1.0
+
+
+def test_polish_of_a_point_does_not_depend_on_its_batch(frustum):
+    """Each point's polish is its own: polished alone with a few others, or among many that
+    settle earlier or later (a last moving point computed along with a settled one), it
+    ends on the same bits. Also the polished points lie on f = 0 to round-off."""
+    c, d, solution = frustum
+    unit = UnitMap(solution.field)
+    x = unit.to_unit(sample_path(solution, np.linspace(0.02, 0.98, 41)))  # inside the square
+    rng = np.random.default_rng(7)
+    # off the curve by 0 to 1e-5: they settle after different numbers of steps
+    starts = x + rng.normal(scale=1e-5, size=x.shape) * rng.uniform(0, 1, (len(x), 1)) ** 4
+    every = unit.polish(starts, iterations=6)
+    picks = [np.array([i, j]) for i in range(0, 41, 2) for j in range(1, 41, 2)]  # pairs: one settles first
+    for pick in picks + [np.arange(5, 12), rng.permutation(41)[:9]]:
+        assert np.array_equal(unit.polish(starts[pick], iterations=6), every[pick])
+    p = unit.to_params(every)
+    assert np.abs(solution.field(p[:, 0], p[:, 1])).max() <= 1e-9 * np.abs(solution.field(*unit.to_params(starts).T)).max()
+
+
+def test_path_sampler_is_sample_path(frustum):
+    """The sampler of one solution, called many times, gives sample_path's rows; its
+    vertices are the path's own points at their fractions of its length in the unit square."""
+    c, d, solution = frustum
+    sample = PathSampler(solution)
+    for fractions in (np.array([0.0, 1.0]), np.linspace(0.2, 0.7, 33), np.array([0.5, 0.25, 0.75])):
+        assert np.array_equal(sample(fractions), sample_path(solution, fractions))
+    lam, points = sample.vertices()
+    assert np.allclose(points, solution.path.points, rtol=0, atol=1e-12)
+    unit = np.column_stack([(points[:, k] - dom[0]) / (dom[1] - dom[0]) for k, dom in enumerate((c.domain, d.domain))])
+    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(unit, axis=0), axis=1))])
+    assert np.allclose(lam, length / length[-1], rtol=0, atol=1e-14)
+    assert lam[0] == 0.0 and lam[-1] == 1.0 and np.all(np.diff(lam) >= 0)
+    # a vertex sampled at its own fraction comes back (the polish moves it by round-off only)
+    mid = len(lam) // 2
+    assert np.allclose(sample(lam[[mid]]), points[[mid]], rtol=0, atol=1e-12)
