@@ -153,10 +153,17 @@ class Placer:
         # what a box may not cross: the room's edges and the lines, (S, 2, 2)
         rings = [room.exterior.coords, *(r.coords for r in room.interiors)]
         self.segments = _segments([np.asarray(r) for r in rings] + [line for line in lines if len(line) >= 2])
-        self.boxes: list[Polygon] = []
+        self._corners: list[np.ndarray] = []  # the placed boxes' corners (4, 2): polygons only when asked
+        self._boxes: list[Polygon] = []
         self._reach_of, self._reach = None, {}
         self.placed = np.zeros((0, 8))  # the placed boxes, as self.boxes: centre, unit axes, half sides
         self._radius = np.zeros(0)
+
+    @property
+    def boxes(self) -> list[Polygon]:
+        """The placed boxes (not grown), in the order placed."""
+        self._boxes += [Polygon(c) for c in self._corners[len(self._boxes):]]
+        return self._boxes
 
     def reach(self, centres: np.ndarray, angle: float, count: int | None = None) -> np.ndarray:
         """Free half-lengths (count,) along the direction angle (degrees) at the first count
@@ -204,7 +211,7 @@ class Placer:
             start, size = stop, 4 * size
         return None
 
-    def place_each(self, jobs: list, head: int = 1000, first: int = 2):
+    def place_each(self, jobs: list, head: int = 256, first: int = 2):
         """:meth:`place` of every job (centres (N, 2), width, height, angles (N,)) in turn,
         yielding what it returns: the same indices, and the same boxes taken. The tests that
         do not depend on the boxes placed before (corners in the room for the first head
@@ -292,7 +299,7 @@ class Placer:
 
     def _take(self, centre: np.ndarray, u: np.ndarray, v: np.ndarray, width: float, height: float) -> None:
         """Place the box width x height at centre (2,) with axes u, v (2,)."""
-        self.boxes.append(Polygon(_corners_on(centre[None], width, height, u[None], v[None])[0]))
+        self._corners.append(_corners_on(centre[None], width, height, u[None], v[None])[0])
         taken = [*centre, *u, *v, 0.5 * width, 0.5 * height]
         self.placed = np.vstack([self.placed, taken])
         self._radius = np.hypot(self.placed[:, 6], self.placed[:, 7])  # circumradii (M,)
