@@ -88,13 +88,18 @@ class UnitMap:
         ends = np.cumsum([len(a) for a in arrays])[:-1]
         return np.split(self.polish(np.concatenate(arrays)), ends)
 
-    def polish(self, x: np.ndarray, iterations: int = 4) -> np.ndarray:
+    def polish(self, x: np.ndarray, iterations: int = 4, settled: float = 1e-15) -> np.ndarray:
         """Newton along the gradient onto f = 0, batched, staying in the unit square.
 
         A point on a side stays on it (ends of branches, fans on the boundary) and so
         does a point on a knot line where f is only C0 (its gradient is one-sided
         there): it moves along the line only, by Newton on f restricted to the line. A
         point on a corner line does not move: any ruling through a corner is a fan ruling.
+
+        A point whose step is at most ``settled`` (unit square) stops after it. The default
+        waits for a step of round-off; a larger one (1e-9, say) stops one step earlier,
+        after the step whose square is round-off (Newton's error after a step of h is
+        about K h^2, K the curvature of the zero set against the gradient's length).
         """
         x = np.array(x, dtype=np.float64, copy=True)
         # a point within round-off of a side is on it (where a curve has zero speed at
@@ -160,7 +165,7 @@ class UnitMap:
             moved = np.minimum(np.maximum(xa - step, 0.0), 1.0)  # (np.clip's values, less overhead)
             # a step below a few ulps of the unit square leaves the point where the
             # next steps would (round-off): it is settled
-            going = np.any(moved != xa, axis=1) & (np.abs(step).max(axis=1) > 1e-15)
+            going = np.any(moved != xa, axis=1) & (np.abs(step).max(axis=1) > settled)
             if company >= 0:  # the company stays where it is: every point's result is its own
                 mine = active != company
                 x[active[mine]] = moved[mine]

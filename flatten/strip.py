@@ -15,6 +15,12 @@ from .solution import SolutionSet
 # temporaries of one batch are a few MB) while every batch is still one vectorised call.
 CHUNK_RULINGS = 8192
 
+# A path point's polish stops after a Newton step this short (unit square): its error is
+# then about K * 1e-20 (K the zero set's curvature against the gradient's length), round-off,
+# and the step that would confirm it is saved (a third of the polish on the strake's plates;
+# the points agree with the polish to a step of round-off to 2e-15).
+SETTLED_STEP = 1e-10
+
 
 def batches(n: int, size: int = CHUNK_RULINGS):
     """Consecutive (start, stop) ranges covering range(n), each at most ``size`` long."""
@@ -115,7 +121,7 @@ class PathSampler:
         for lo, hi in batches(len(fractions)):  # the polish is pointwise: batches change nothing
             f = fractions[lo:hi]
             pts = np.column_stack([np.interp(f, lam, x[:, 0]), np.interp(f, lam, x[:, 1])])
-            out[lo:hi] = self.unit.to_params(self.unit.polish(pts, iterations=6))
+            out[lo:hi] = self.unit.to_params(self.unit.polish(pts, iterations=6, settled=SETTLED_STEP))
         return out
 
 
@@ -135,8 +141,10 @@ def _chord_errors(curve: NurbsCurve, params: np.ndarray) -> float:
     s = np.linspace(0.0, 1.0, 9)[1:-1]
     a, b = params[:-1], params[1:]
     mids = a[:, None] + s[None, :] * (b - a)[:, None]
-    pa, pb = curve(a), curve(b)
-    on_curve = curve(mids.ravel()).reshape(len(a), len(s), 3)
+    # one evaluation of the curve (pointwise): the chords' ends and the points between
+    points = curve(np.concatenate([params, mids.ravel()]))
+    pa, pb = points[:len(a)], points[1:len(params)]
+    on_curve = points[len(params):].reshape(len(a), len(s), 3)
     # distance to the chord, measured perpendicular to it
     seg = pb - pa
     length2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-300)

@@ -19,6 +19,7 @@ from flatten.develop import DevelopedStrip
 from flatten.strip import PathSampler
 
 CHECKS = np.array([0.25, 0.5, 0.75])  # where each segment is checked against the exact curve
+FLOATS = 128  # a corner's bracket this many floats wide is finished by trying each
 
 
 @dataclass(frozen=True)
@@ -335,9 +336,9 @@ def _corners(tracer: PlateTracer) -> list[float]:
     the costly part) tries 31 even points of each bracket (1/32 per step at worst) and,
     around the secant estimate of the crossing, points 1e-2, 1e-3, 1e-4, 1e-6, ..., 1e-14
     of the bracket away (the estimate's error falls as the square of the bracket; the
-    points cost little beside the evaluation itself): a smooth crossing is pinned in three
-    steps, rarely four or five. The steps' rulings are not asked for again: they are
-    sampled without the tracer's store."""
+    points cost little beside the evaluation itself); a bracket of at most FLOATS floats
+    tries every one of them: a smooth crossing is pinned in three steps, rarely four. The
+    steps' rulings are not asked for again: they are sampled without the tracer's store."""
     grid, r = tracer.path_sampler.vertices()
     ends = (tracer.part.c(r[:, 0]), tracer.part.d(r[:, 1]))
     found = []  # (plane, axis, a, b, sign at a)
@@ -361,8 +362,13 @@ def _corners(tracer: PlateTracer) -> list[float]:
         with np.errstate(divide="ignore", invalid="ignore"):
             guess = a - sa * width / (sb - sa)
         guess = np.where(np.isfinite(guess) & (guess > a) & (guess < b), guess, 0.5 * (a + b))
-        lam = np.hstack([a[:, None] + width[:, None] * steps[None, :],
-                         np.clip(guess[:, None] + width[:, None] * near[None, :], a[:, None], b[:, None])])
+        ulp = np.spacing(np.maximum(np.abs(a), np.abs(b)))
+        if np.all(width <= FLOATS * ulp):
+            # a few floats left in each bracket: try every one (the last step)
+            lam = np.minimum(a[:, None] + ulp[:, None] * np.arange(FLOATS + 1)[None, :], b[:, None])
+        else:
+            lam = np.hstack([a[:, None] + width[:, None] * steps[None, :],
+                             np.clip(guess[:, None] + width[:, None] * near[None, :], a[:, None], b[:, None])])
         lam.sort(axis=1)
         # (the near points clipped to a bracket's ends repeat: each distinct lam once)
         distinct, back = np.unique(lam, return_inverse=True)
@@ -401,9 +407,11 @@ def exact_outline(tracer: "PlateTracer", tolerance: float = 0.05) -> Outline:
     (lam_lo, lower), (lam_hi, upper) = sides
     # which edge each segment lies on: the curve or the plane that sets its end
     names = []
-    tracer.rulings(np.concatenate([0.5 * (lam[:-1] + lam[1:]) for lam in (lam_lo, lam_hi)]))  # one path evaluation
-    for lam, side in ((lam_lo, 0), (lam_hi, 1)):
-        mid = 0.5 * (lam[:-1] + lam[1:])
+    # at the segments' middles as the samples' checks placed them (CHECKS[1] = 0.5): the
+    # tracer knows them already, but for pieces that stopped refining at max_points
+    middles = [lam[:-1] + CHECKS[1] * (lam[1:] - lam[:-1]) for lam in (lam_lo, lam_hi)]
+    tracer.rulings(np.concatenate(middles))  # one path evaluation
+    for (lam, side), mid in zip(((lam_lo, 0), (lam_hi, 1)), middles):
         lo, hi, lo_by, hi_by, _, _ = tracer.interval(mid)
         by = lo_by if side == 0 else hi_by
         names.append(np.where(by < 0, "c" if side == 0 else "d", np.where(by == 0, "start", "end")))

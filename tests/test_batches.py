@@ -177,3 +177,24 @@ def test_path_sampler_is_sample_path(frustum):
     # a vertex sampled at its own fraction comes back (the polish moves it by round-off only)
     mid = len(lam) // 2
     assert np.allclose(sample(lam[[mid]]), points[[mid]], rtol=0, atol=1e-12)
+
+
+def test_polish_settled_early_is_the_polish_to_round_off(frustum):
+    """Stopping after a Newton step of 1e-10 (the sampler's setting) leaves each point
+    where the full polish puts it, to round-off of the unit square, and on f = 0 as
+    closely (measured as the distance f / |grad f|); far starts still take their steps."""
+    c, d, solution = frustum
+    unit = UnitMap(solution.field)
+    x = unit.to_unit(sample_path(solution, np.linspace(0.02, 0.98, 201)))
+    rng = np.random.default_rng(11)
+    starts = x + rng.normal(scale=3e-5, size=x.shape)
+    full = unit.polish(starts, iterations=6)
+    early = unit.polish(starts, iterations=6, settled=1e-10)
+    assert np.abs(early - full).max() <= 1e-14
+    assert np.abs(early - starts).max() > 1e-6  # they moved
+
+    def distance(y):
+        p = unit.to_params(y)
+        return np.abs(solution.field(p[:, 0], p[:, 1])) / np.linalg.norm(unit.gradient(y), axis=1)
+
+    assert distance(early).max() <= max(4 * distance(full).max(), 1e-15)
