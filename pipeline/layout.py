@@ -571,8 +571,12 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     labels += [(kind, text, line, 1, long_side) for kind, marks in (("bend", bend_lines), ("frame", frame_lines))
                for text, line in marks]
     tall = heights(max(0.8 * preferred, smallest), smallest)
-    jobs = [_candidates(line, text, tall[0], plate, clearance, side, along) if len(line) >= 2 else
-            (np.zeros((0, 2)), 1.0, 1.0, np.zeros(0)) for _, text, line, side, along in labels]
+    jobs = [(np.zeros((0, 2)), 1.0, 1.0, np.zeros(0))] * len(labels)  # a line of one point: no room
+    for side, along in ((None, None), (1, long_side)):
+        mine = [k for k, label in enumerate(labels) if label[3] == side and len(label[2]) >= 2]
+        for k, job in zip(mine, _candidates_of([labels[k][2] for k in mine], [labels[k][1] for k in mine], tall[0],
+                                               plate, clearance, side, along)):
+            jobs[k] = job
     for (kind, text, line, side, along), job, i in zip(labels, jobs, placer.place_each(jobs)):
         h = tall[0]
         for h in tall[1:] if i is None and len(line) >= 2 else ():
@@ -591,34 +595,48 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
 
 def _candidates(line: np.ndarray, text: str, h: float, plate: Polygon, clearance: float, side,
                 along=None) -> tuple[np.ndarray, float, float, np.ndarray]:
-    """Where to try a text of height h beside a polyline (K, 2), in order: parallel to it,
-    on the plate side of an edge (side None) or on either side of a mark line, at several
-    places along it; then running away from it; then (``along``: (2,) the plate's long
-    direction) beside it reading along the plate, where a mark line across a narrow plate
-    leaves room on neither side. Centres (N, 2), the box's width and height, angles (N,)."""
-    points, directions = _along(line, FRACTIONS)
-    ahead = _readable(np.degrees(np.arctan2(directions[:, 1], directions[:, 0])))  # (J,)
-    left = np.column_stack([-directions[:, 1], directions[:, 0]])
-    w, hh = CHAR_WIDTH * h * len(text), 1.3 * h
+    """:func:`_candidates_of` one polyline."""
+    return _candidates_of([line], [text], h, plate, clearance, side, along)[0]
+
+
+def _candidates_of(lines: list[np.ndarray], texts: list[str], h: float, plate: Polygon, clearance: float, side,
+                   along=None) -> list[tuple[np.ndarray, float, float, np.ndarray]]:
+    """Where to try a text of height h beside each polyline (K, 2) (at least 2 points), in
+    order: parallel to it, on the plate side of an edge (side None) or on either side of a
+    mark line, at several places along it; then running away from it; then (``along``: (2,)
+    the plate's long direction) beside it reading along the plate, where a mark line across
+    a narrow plate leaves room on neither side. Per line: centres (N, 2), the box's width
+    and height, angles (N,). All lines at once (L of them), each line's floats as alone."""
+    if not lines:
+        return []
+    found = [_along(line, FRACTIONS) for line in lines]
+    points, directions = np.stack([f[0] for f in found]), np.stack([f[1] for f in found])  # (L, J, 2)
+    ahead = _readable(np.degrees(np.arctan2(directions[..., 1], directions[..., 0])))  # (L, J)
+    left = np.stack([-directions[..., 1], directions[..., 0]], axis=-1)
+    w, hh = CHAR_WIDTH * h * np.array([len(t) for t in texts], dtype=float), 1.3 * h  # (L,), one
     # a box 2 clearances off a straight edge has its grown side on the room's boundary,
     # where round-off decides whether it fits: 1 % of a clearance more decides it
     gap = 0.5 * hh + 2.01 * clearance
-    # (J, 1 or 2, 2): the inward normal of an edge, either normal of a mark line
-    normals = _inwards(plate, points, directions, gap)[:, None] if side is None else \
-        np.stack([left, np.column_stack([directions[:, 1], -directions[:, 0]])], axis=1)
+    # (L, J, 1 or 2, 2): the inward normal of an edge, either normal of a mark line
+    normals = _inwards(plate, points.reshape(-1, 2), directions.reshape(-1, 2), gap).reshape(points.shape)[:, :, None] \
+        if side is None else np.stack([left, np.stack([directions[..., 1], -directions[..., 0]], axis=-1)], axis=2)
     steps = np.array([1.0, 2.0, 3.5]) * gap
-    beside = points[:, None, None] + steps[None, None, :, None] * normals[:, :, None]  # (J, n, 3, 2)
+    beside = points[:, :, None, None] + steps[None, None, None, :, None] * normals[:, :, :, None]  # (L, J, n, 3, 2)
     # a short edge or a line across a narrow plate: the text runs away from it
-    away = points[:, None] + (0.5 * w + 0.5 * hh + 3.0 * clearance) * normals  # (J, n, 2)
-    centres = np.concatenate([beside.reshape(-1, 2), away.reshape(-1, 2)])
-    angles = np.concatenate([np.repeat(ahead, beside.shape[1] * 3),
-                             _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0]))).ravel()])
-    if along is not None:
-        u = np.asarray(along, dtype=float) / max(float(np.linalg.norm(along)), 1e-300)
-        toward = np.where((normals @ u)[..., None] >= 0.0, u, -u)  # (J, n, 2): along the plate, to that side
-        shifts = 0.5 * w + np.array([1.0, 2.0, 4.0]) * gap
-        lengthwise = points[:, None, None] + shifts[None, None, :, None] * toward[:, :, None]  # (J, n, 3, 2)
-        centres = np.concatenate([centres, lengthwise.reshape(-1, 2)])
-        angles = np.concatenate([angles, np.full(lengthwise.shape[0] * lengthwise.shape[1] * 3,
-                                                 _readable(np.degrees(np.arctan2(u[1], u[0]))))])
-    return centres, w, hh, angles
+    away = points[:, :, None] + (0.5 * w + 0.5 * hh + 3.0 * clearance)[:, None, None, None] * normals  # (L, J, n, 2)
+    outward = _readable(np.degrees(np.arctan2(normals[..., 1], normals[..., 0])))  # (L, J, n)
+    n = normals.shape[2]
+    out = []
+    for k in range(len(lines)):
+        centres = np.concatenate([beside[k].reshape(-1, 2), away[k].reshape(-1, 2)])
+        angles = np.concatenate([np.repeat(ahead[k], n * 3), outward[k].ravel()])
+        if along is not None:
+            u = np.asarray(along, dtype=float) / max(float(np.linalg.norm(along)), 1e-300)
+            toward = np.where((normals[k] @ u)[..., None] >= 0.0, u, -u)  # (J, n, 2): along the plate, to that side
+            shifts = 0.5 * w[k] + np.array([1.0, 2.0, 4.0]) * gap
+            lengthwise = points[k][:, None, None] + shifts[None, None, :, None] * toward[:, :, None]  # (J, n, 3, 2)
+            centres = np.concatenate([centres, lengthwise.reshape(-1, 2)])
+            angles = np.concatenate([angles, np.full(lengthwise.shape[0] * n * 3,
+                                                     _readable(np.degrees(np.arctan2(u[1], u[0]))))])
+        out.append((centres, float(w[k]), hh, angles))
+    return out
