@@ -360,13 +360,16 @@ def run_program(argv: list[str] | None = None) -> int:
     """:func:`entry_point` without the exit: the program's process settings, then
     :func:`main` as a one-shot process.
 
-    BLAS runs on one thread unless the environment says otherwise
-    (``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS``, read when numpy loads, which is
-    later): devflat's matrices are small, and OpenBLAS's threads only spin beside the
-    work (they busy-wait after each call), which on a machine whose cores are all busy
-    (``--jobs``, the render process) takes CPU from the processes that do it."""
+    BLAS and libigl run on one thread unless the environment says otherwise
+    (``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS``, read when numpy loads, and
+    ``IGL_NUM_THREADS``, read at libigl's first parallel loop; both later): devflat's
+    matrices and meshes are small, and parallelism comes from ``--jobs``. On a machine
+    whose cores are all busy (``--jobs``, the render process) OpenBLAS's threads spin
+    beside the work (they busy-wait after each call), and libigl's loops wait for threads
+    that wait for a core: a strake worker spent 15 % of its plates' time off the CPU."""
     if "OPENBLAS_NUM_THREADS" not in os.environ and "OMP_NUM_THREADS" not in os.environ:
         os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    os.environ.setdefault("IGL_NUM_THREADS", "1")
     gc.disable()
     code = main(argv, one_shot=True)
     gc.freeze()

@@ -40,17 +40,18 @@ PROGRAM_START = """
 import os, sys
 import pipeline.cli as cli
 cli.main = lambda argv, one_shot: print(os.environ.get("OPENBLAS_NUM_THREADS"), os.environ.get("OMP_NUM_THREADS"),
-                                        "numpy" in sys.modules, one_shot) or 0
+                                        os.environ.get("IGL_NUM_THREADS"), "numpy" in sys.modules or "igl" in sys.modules,
+                                        one_shot) or 0
 sys.exit(cli.run_program(["check", "x.yaml"]))
 """
 
 
-def test_the_program_runs_blas_on_one_thread_unless_the_environment_says_otherwise():
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+def test_the_program_runs_blas_and_libigl_on_one_thread_unless_the_environment_says_otherwise():
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "IGL_NUM_THREADS")}
     env["PYTHONPATH"] = str(ROOT)
     done = subprocess.run([sys.executable, "-c", PROGRAM_START], env=env, capture_output=True, text=True, timeout=60)
-    # set before numpy is loaded (OpenBLAS reads it then)
-    assert done.returncode == 0 and done.stdout.split() == ["1", "None", "False", "True"], done.stderr
-    done = subprocess.run([sys.executable, "-c", PROGRAM_START], env=dict(env, OMP_NUM_THREADS="3"),
+    # set before numpy and libigl are loaded (they read it then or later)
+    assert done.returncode == 0 and done.stdout.split() == ["1", "None", "1", "False", "True"], done.stderr
+    done = subprocess.run([sys.executable, "-c", PROGRAM_START], env=dict(env, OMP_NUM_THREADS="3", IGL_NUM_THREADS="2"),
                           capture_output=True, text=True, timeout=60)
-    assert done.stdout.split() == ["None", "3", "False", "True"], done.stderr
+    assert done.stdout.split() == ["None", "3", "2", "False", "True"], done.stderr
