@@ -84,6 +84,9 @@ STAGES = [
 
 def stages(args) -> int:
     """CPU time per plate of each stage, every ``args.every``-th plate, in this process."""
+    from pipeline.cli import library_threads
+
+    library_threads()  # as the program runs (before numpy loads)
     import functools
     import importlib
 

@@ -357,11 +357,18 @@ def entry_point() -> None:
 
 
 def run_program(argv: list[str] | None = None) -> int:
-    """:func:`entry_point` without the exit: the program's process settings, then
-    :func:`main` as a one-shot process.
+    """:func:`entry_point` without the exit: the program's process settings
+    (:func:`library_threads`), then :func:`main` as a one-shot process."""
+    library_threads()
+    gc.disable()
+    code = main(argv, one_shot=True)
+    gc.freeze()
+    return code
 
-    BLAS and libigl run on one thread unless the environment says otherwise
-    (``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS``, read when numpy loads, and
+
+def library_threads() -> None:
+    """Set before numpy and libigl load: BLAS and libigl run on one thread unless the
+    environment says otherwise (``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS``, read when numpy loads, and
     ``IGL_NUM_THREADS``, read at libigl's first parallel loop; both later): devflat's
     matrices and meshes are small, and parallelism comes from ``--jobs``. On a machine
     whose cores are all busy (``--jobs``, the render process) OpenBLAS's threads spin
@@ -370,7 +377,3 @@ def run_program(argv: list[str] | None = None) -> int:
     if "OPENBLAS_NUM_THREADS" not in os.environ and "OMP_NUM_THREADS" not in os.environ:
         os.environ["OPENBLAS_NUM_THREADS"] = "1"
     os.environ.setdefault("IGL_NUM_THREADS", "1")
-    gc.disable()
-    code = main(argv, one_shot=True)
-    gc.freeze()
-    return code
