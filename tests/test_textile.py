@@ -47,13 +47,28 @@ def test_multi_piece_file_has_one_block_per_piece_with_the_layers(lampshade):
     inserts = doc.modelspace().query("INSERT")
     assert len(inserts) == 3 and all(tuple(i.dxf.insert) == (0, 0, 0) for i in inserts)
     assert read.insert_layers == ("1", "1", "1") and {p.flags for p in read.pieces} == {64}
-    assert read.header["style name"] == "lampshade" and re.fullmatch(r"[ \d]\d:\d\d", read.header["creation time"])
+    assert read.header["style name"] == "lampshade" and re.fullmatch(r"\d{1,2}:\d\d", read.header["creation time"])
+    # as the real AAMA files write it: the hour padded with a space ("Creation Time:  9:34")
+    texts = [t.dxf.text for t in doc.modelspace().query("TEXT") if t.dxf.text.startswith("Creation Time:")]
+    assert len(texts) == 1 and re.fullmatch(r"Creation Time: [ \d]\d:\d\d", texts[0])
     # the layers are declared in a LAYER table (FreeCAD's importer needs one)
     text = (out / "lampshade.dxf").read_text()
     table = re.search(r"\n  2\nLAYER\n(.*?)\n  0\nENDTAB", text, re.S).group(1)
     declared = set(re.findall(r"\n  0\nLAYER\n  2\n(\w+)\n", "\n" + table))
     used = set(re.findall(r"\n  8\n(\w+)\n", text))
     assert used <= declared and {"1", "2", "3", "4", "7", "8"} <= declared
+
+
+def test_the_creation_time_pads_a_morning_hour_with_a_space_as_real_files_do(monkeypatch):
+    """Whatever the hour the suite runs at (it read "0:06" back once past midnight)."""
+    import datetime
+
+    from pipeline.aama import build_document
+
+    morning = datetime.datetime(2026, 11, 24, 7, 5, tzinfo=datetime.timezone.utc)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", str(int(morning.timestamp())))
+    texts = [t.dxf.text for t in build_document([], "style", 1.0).modelspace().query("TEXT")]
+    assert "Creation Time:  7:05" in texts and "Creation Date: 24-11-2026" in texts
 
 
 def test_aama_uses_the_entities_and_layers_of_the_real_files(lampshade):
