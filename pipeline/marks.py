@@ -67,7 +67,7 @@ def frame_polylines(result, frames, lo, hi, keep, n_v: int = 41):
         np.maximum.at(worst, owner[sel], np.abs(g))
         moving &= ~(worst <= 1e-9 * (1 + np.abs(target)))
     _, T = x_at(t, everything)
-    strip_dev = getattr(result, "developed", None)  # the strip's development (stage_unroll), if of these rulings
+    strip_dev = result.developed  # the strip's development (stage_unroll), if of these rulings
     if strip_dev is None or not np.array_equal(strip_dev.rulings, rulings):
         strip_dev = DevelopedStrip(part.c, part.d, rulings[np.lexsort((rulings[:, 1] * solution.path.orientation,
                                                                         rulings[:, 0]))], field_)

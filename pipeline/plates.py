@@ -381,7 +381,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     bends = np.array([[b.a, b.b] for b in lines]).reshape(-1, 2, 2)
-    result.strip, result.solution, result.development = None, None, None
+    result.strip, result.solution, result.development, result.developed = None, None, None, None
     result.mesh = (trim.grid_3d, grid.faces())
     result.pattern = Pattern(outline, bends, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
     attempt = trim.attempt
