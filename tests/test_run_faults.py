@@ -198,23 +198,39 @@ def strake_config(tmp_path: Path, thickness: float = 12.0, butts=(56000, 64000, 
     return path
 
 
-def wait_for(predicate, timeout: float = 120.0) -> None:
+def wait_for(predicate, timeout: float = 120.0, poll: float = 0.05) -> None:
     end = time.monotonic() + timeout
     while not predicate():
         assert time.monotonic() < end, "timed out"
-        time.sleep(0.05)
+        time.sleep(poll)
+
+
+def lock_holder(out: Path) -> str | None:
+    try:
+        return (out / LOCK_NAME).read_text().strip()
+    except OSError:
+        return None
 
 
 def test_concurrent_runs_on_one_folder_never_mix_their_files(tmp_path):
     out = tmp_path / "out"
     first = devflat("run", str(strake_config(tmp_path, 12.0)), "--out", str(out), "--quiet")
-    wait_for(lambda: (out / LOCK_NAME).exists() or first.poll() is not None)
-    second = devflat("run", str(strake_config(tmp_path, 30.0)), "--out", str(out), "--quiet")
-    _, err2 = second.communicate(timeout=300)
+    wait_for(lambda: lock_holder(out) == str(first.pid) or first.poll() is not None, poll=0.002)
+    # The first run is held still while it has the lock: a 12-plate strake is done in about a
+    # second, sooner than a second interpreter starts, and the test must not depend on which wins.
+    os.kill(first.pid, signal.SIGSTOP)
+    try:
+        assert first.poll() is None and lock_holder(out) == str(first.pid), "the first run ended too soon"
+        second = devflat("run", str(strake_config(tmp_path, 30.0)), "--out", str(out), "--quiet")
+        _, err2 = second.communicate(timeout=300)
+    finally:
+        os.kill(first.pid, signal.SIGCONT)
     _, err1 = first.communicate(timeout=300)
     assert first.returncode == 0, err1
     assert second.returncode == 2 and "another devflat run" in err2 and str(out) in err2
+    assert f"pid {first.pid}" in err2
     files = consistent(out)
+    assert any(name.endswith(".dxf") for name in files), files
     for name in files:
         if name.endswith(".json") and "_summary" not in name:
             assert json.loads((out / name).read_text())["steel"]["thickness_mm"] == 12.0
