@@ -92,9 +92,21 @@ _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 def _check_events(text: str) -> None:
     """Depth and expanded node count from the event stream (libyaml's parser keeps its own
     stack, so this pass is safe on any input; composing is not)."""
+    try:
+        _check_event_stream(yaml.parse(text, Loader=_Loader))
+    except yaml.MarkedYAMLError as exc:
+        # libyaml 0.2.6 (PyYAML 6.0.4) scans flow collections ahead and stops itself at 1000 levels, before
+        # the events reach the count below: the same limit, met earlier
+        if "maximum nesting depth" not in str(exc.problem):
+            raise
+        line = exc.problem_mark.line + 1 if exc.problem_mark is not None else None
+        raise YamlLimitError(f"nesting deeper than {MAX_YAML_DEPTH} levels", line) from None
+
+
+def _check_event_stream(events) -> None:
     anchors: dict[str, int] = {}  # expanded size of each complete anchored node
     open_nodes: list[list] = []  # [anchor, expanded size so far] per open collection
-    for event in yaml.parse(text, Loader=_Loader):
+    for event in events:
         line = event.start_mark.line + 1
         if isinstance(event, yaml.AliasEvent):
             if event.anchor not in anchors:

@@ -121,6 +121,8 @@ CASES = [
     ("alias bomb", ALIAS_BOMB, 2, ["expands to more than"]),
     ("recursive alias", "name: &a [*a]\n", 2, ["alias *a"]),
     ("nesting 10000 deep", "name: " + "[" * 10000 + "]" * 10000 + "\n", 2, ["nesting deeper than 64", ":1"]),
+    # under libyaml's own limit of 1000 levels (0.2.6): the count of events finds it
+    ("nesting 200 deep", "name: " + "[" * 200 + "]" * 200 + "\n", 2, ["nesting deeper than 64", ":1"]),
     ("nesting 100 deep block", "name: p\nx:\n" + "".join("  " * k + "- \n" for k in range(1, 100)), 2,
      ["nesting deeper than 64"]),
     ("duplicate top key", "name: p\nname: q\n", 2, ["duplicate key 'name'", ":2", "line 1"]),
