@@ -8,12 +8,12 @@ and named in the findings, never drawn across an edge.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from shapely.affinity import rotate as shp_rotate
-from shapely.geometry import LineString, MultiLineString, Polygon, box
+from shapely.geometry import LineString, MultiLineString, Polygon
 
 CHAR_WIDTH = 1.0  # box width per character, in text heights (conservative for TXT / monospace fonts)
 LINE_GAP = 1.5  # baseline to baseline, in text heights
@@ -31,7 +31,7 @@ class Text:
     angle: float
 
     def box(self) -> Polygon:
-        return text_box(self.text, self.at, self.height, self.angle)
+        return Polygon(text_corners([self])[0])
 
 
 @dataclass
@@ -52,17 +52,29 @@ class Layout:
 
     def extents(self) -> tuple[np.ndarray, np.ndarray]:
         pts = [self.cut] + [line for _, line in self.lines]
-        pts += [np.asarray(t.box().exterior.coords) for t in self.texts]
-        allp = np.vstack(pts)
+        allp = np.vstack(pts + [text_corners(self.texts).reshape(-1, 2)])
         return allp.min(axis=0), allp.max(axis=0)
 
 
-def text_box(text: str, at, height: float, angle: float) -> Polygon:
-    """The rectangle a one-line text occupies (centre-aligned)."""
-    w = CHAR_WIDTH * height * max(len(text), 1)
-    h = 1.3 * height
-    rect = box(at[0] - w / 2, at[1] - h / 2, at[0] + w / 2, at[1] + h / 2)
-    return shp_rotate(rect, angle, origin=(at[0], at[1]))
+def text_corners(texts: list[Text]) -> np.ndarray:
+    """Corners (T, 4, 2) of the rectangles the one-line texts occupy (centre-aligned, CHAR_WIDTH
+    heights a character, 1.3 heights tall, turned by each text's angle about its centre), mm.
+    The floats of a shapely box turned by shapely.affinity.rotate, for all texts at once."""
+    at = np.array([t.at for t in texts], dtype=float).reshape(-1, 2)
+    height = np.array([t.height for t in texts], dtype=float)
+    half_w = CHAR_WIDTH * height * np.array([max(len(t.text), 1) for t in texts], dtype=float) / 2
+    half_h = 1.3 * height / 2
+    x = np.stack([at[:, 0] + half_w, at[:, 0] + half_w, at[:, 0] - half_w, at[:, 0] - half_w], axis=1)
+    y = np.stack([at[:, 1] - half_h, at[:, 1] + half_h, at[:, 1] + half_h, at[:, 1] - half_h], axis=1)
+    # math's cos and sin, as shapely takes them (numpy's vector kernels may differ by an ulp)
+    cos_sin = np.array([(math.cos(t.angle * math.pi / 180.0), math.sin(t.angle * math.pi / 180.0)) for t in texts],
+                       dtype=float).reshape(-1, 2)
+    cos_sin[np.abs(cos_sin) < 2.5e-16] = 0.0
+    c, s = cos_sin[:, :1], cos_sin[:, 1:]
+    x0, y0 = at[:, :1], at[:, 1:]
+    x_off = x0 - x0 * c + y0 * s
+    y_off = y0 - x0 * s - y0 * c
+    return np.stack([c * x + -s * y + x_off, s * x + c * y + y_off], axis=-1)
 
 
 def block_texts(lines: list[str], at, height: float, angle: float, kind: str = "text") -> list[Text]:

@@ -130,3 +130,30 @@ def test_layout_with_place_each_is_the_layout_with_place(key, corners, aspect, b
     with mock.patch.object(Placer, "place_each", one_by_one):
         plain = plate_layout(args[0], args[0], *args[1:], (5.0, 40.0))
     assert fast.texts == plain.texts and fast.findings == plain.findings
+
+
+@seed(20261201)
+@settings(max_examples=60, deadline=None)
+@given(key=st.integers(0, 2**32 - 1), count=st.integers(1, 40))
+def test_text_corners_are_shapelys_turned_boxes_to_the_float(key, count):
+    """The layout's extents take every text's corners at once: the same floats as a shapely
+    box turned by shapely.affinity.rotate about its centre, text by text (right angles,
+    whose cosines shapely rounds to 0, among the angles)."""
+    from shapely.affinity import rotate
+
+    from pipeline.layout import CHAR_WIDTH, Text, text_corners
+
+    rng = np.random.default_rng(key)
+    angles = np.where(rng.uniform(size=count) < 0.3, rng.choice([-90.0, 0.0, 90.0, 180.0], size=count),
+                      rng.uniform(-180, 180, size=count))
+    texts = [Text("text", "X" * int(rng.integers(0, 12)), tuple(rng.uniform(-5e3, 5e3, 2)),
+                  float(rng.uniform(1, 60)), float(a)) for a in angles]
+    corners = text_corners(texts)
+    assert corners.shape == (count, 4, 2)
+    for text, mine in zip(texts, corners):
+        w, h = CHAR_WIDTH * text.height * max(len(text.text), 1), 1.3 * text.height
+        x, y = text.at
+        box = shapely.box(x - w / 2, y - h / 2, x + w / 2, y + h / 2)
+        theirs = np.asarray(rotate(box, text.angle, origin=(x, y)).exterior.coords)[:4]
+        assert np.array_equal(mine, theirs)
+        assert np.array_equal(np.asarray(text.box().exterior.coords)[:4], theirs)
