@@ -1,30 +1,30 @@
 """Files written whole or not at all: a temp file in the target folder, then a rename.
 
-The temp file gets the mode an ordinary ``open()`` would have given (0666 less the
-umask): ``mkstemp`` creates it 0600, and the rename would keep that.
+The temp file is created as an ordinary ``open()`` creates a file (mode 0666, which the
+kernel reduces by the umask or the folder's default ACL), so that the rename gives the
+target the mode a plain write would have (``mkstemp`` creates it 0600).
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+_TRIES = 100  # names tried before giving up (each a fresh 48-bit random name)
 
-def current_umask() -> int:
-    """The process umask, read without changing it where Linux allows (/proc), else by
-    setting and restoring it."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+
+def _new_temp(target: Path) -> Path:
+    """A new empty file ``.NAME.XXXXXXXXXXXX.tmp`` beside target (O_EXCL: never one that exists)."""
+    for _ in range(_TRIES):
+        tmp = target.parent / f".{target.name}.{os.urandom(6).hex()}.tmp"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(f"{target.parent}: no free temporary name for {target.name} in {_TRIES} tries")
 
 
 @contextmanager
@@ -32,16 +32,12 @@ def atomic_path(target: str | Path):
     """Yield a temporary path next to ``target``; on success rename it onto ``target``,
     on any exception remove it and leave ``target`` untouched."""
     target = Path(target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    tmp = _new_temp(target)
     try:
-        os.fchmod(fd, 0o666 & ~current_umask())
-    finally:
-        os.close(fd)
-    try:
-        yield Path(tmp)
+        yield tmp
         os.replace(tmp, target)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
 
 
