@@ -13,8 +13,8 @@ its check and run are measured in the same rounds:
   plate.yaml: DXF, OBJ, JSON, two PNG previews, summary CSV/JSON);
 - the same run with ``output.png: false`` (a copy of the config beside it, removed after);
 - the run with its images drawn in place ("in place") and by the render process ("2
-  procs") whatever the load (by default the run uses the render process only when the
-  last minute's load average leaves a core free: pipeline.cli.spare_core).
+  procs") whatever the load (by default the run uses the render process only when no
+  other task is runnable on the second core at its start: pipeline.cli.spare_core).
 
 The children run as an installed devflat would: bytecode compiled once (an untimed first
 round) into a cache in a temporary folder, even where PYTHONDONTWRITEBYTECODE is set.

@@ -234,17 +234,43 @@ def early_renderer(args):
     return Renderer(modules).start()
 
 
-def spare_core() -> bool:
-    """Whether a core is free for the render process: the last minute's load average
-    leaves one beside the run's own. The second process pays for itself only there: it
-    costs 0.1-0.2 s CPU (pages the fork shares and either process then writes are copied;
-    the images' arguments are pickled), and on a machine whose cores are all busy it
-    measured slower in wall time too (bench/bench_cli.py)."""
+def spare_core(loadavg: str = "/proc/loadavg") -> bool:
+    """Whether a core is free for the render process now: besides this process, fewer tasks
+    are runnable than there are cores less one. On Linux the count is the kernel's number of
+    tasks runnable at this instant (``loadavg``'s fourth field, this process included), the
+    least of three readings a millisecond apart: a CPU-bound task is runnable at each, one
+    passing by is not counted. Elsewhere the last minute's load average decides; it is not
+    used on Linux because it remembers the minute: a run started within a minute of another
+    on a 2-core machine found the average above 1 and drew its images in place
+    (bench/bench_cli.py's own rounds: 1.3-1.5 s against 0.9 s). The second process pays for
+    itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork shares and either
+    process then writes are copied; the images' arguments are pickled), and on a machine
+    whose cores are all busy it measured slower in wall time too."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
         cores = os.cpu_count() or 1
-    return os.getloadavg()[0] <= cores - 1
+    runnable = runnable_now(loadavg)
+    if runnable is None:
+        return os.getloadavg()[0] <= cores - 1
+    return runnable - 1 <= cores - 2
+
+
+def runnable_now(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
+    """Tasks runnable now, the reader included (the least of ``readings`` a millisecond
+    apart); None where the file cannot be read or parsed."""
+    import time
+
+    counts = []
+    for k in range(readings):
+        if k:
+            time.sleep(0.001)
+        try:
+            with open(loadavg, encoding="ascii") as stream:
+                counts.append(int(stream.read().split()[3].split("/")[0]))
+        except (OSError, ValueError, IndexError):
+            return None
+    return min(counts)
 
 
 def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:

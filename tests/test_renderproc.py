@@ -165,3 +165,39 @@ def test_the_render_process_draws_a_solution_without_importing_scipy(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
     assert (tmp_path / "solutions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("line, average, spare", [
+    ("3.50 2.10 1.00 1/78 4242", 3.5, True),  # a busy last minute, nothing else runnable now
+    ("0.10 0.10 0.10 2/78 4242", 0.1, False),  # a quiet minute, a task running beside us now
+    ("0.10 0.10 0.10 3/78 4242", 0.1, False),
+    ("not a loadavg", 0.5, True),  # unreadable: the last minute's average decides
+    ("not a loadavg", 1.5, False),
+])
+def test_spare_core_counts_the_tasks_runnable_now(tmp_path, monkeypatch, line, average, spare):
+    import pipeline.cli as cli
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(os, "getloadavg", lambda: (average, average, average))
+    loadavg = tmp_path / "loadavg"
+    loadavg.write_text(line + "\n")
+    assert cli.spare_core(str(loadavg)) is spare
+
+
+def test_spare_core_sees_a_cpu_bound_task_on_every_other_core():
+    import time
+
+    import pipeline.cli as cli
+
+    cores = len(os.sched_getaffinity(0))
+    if cores > 8:
+        pytest.skip(f"{cores} cores: too many busy loops to start")
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(cores - 1)]
+    try:
+        time.sleep(0.3)  # each has started its loop
+        assert cli.runnable_now() >= cores
+        assert not cli.spare_core()
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
