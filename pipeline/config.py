@@ -409,11 +409,21 @@ class Shop(_Strict):
 class Output(_Strict):
     dxf: bool = True
     obj: bool = True
-    png: bool = True
+    png: bool = True  # images: false for none at all
+    # each part's PNG previews (flat pattern, solution diagram); default: on for the parts a
+    # config lists, off for the plates of a strake or hull (two images a plate cost more than
+    # the plate: opt in with true); the run's own images (sheet, hull, classes) follow png
+    part_previews: bool | None = None
     # one-page PDF shop drawing per steel plate (NAME_drawing.pdf); default: as png (the
     # previews), so a single part gets it and a hull run without previews does not pay for it
     drawing: bool | None = None
     layers: Layers = Layers()
+
+    @model_validator(mode="after")
+    def _previews_need_images(self):
+        if self.part_previews and not self.png:
+            raise ValueError("part_previews: true needs png: true (png: false writes no image)")
+        return self
 
 
 class StockSize(_Strict):
@@ -666,6 +676,15 @@ class RunConfig:
     @property
     def mm_per_unit(self) -> float:
         return UNIT_TO_MM[self.spec.units]
+
+    @property
+    def part_previews(self) -> bool:
+        """Whether each part gets its PNG previews (``output.part_previews``; by default the
+        listed parts do and the plates of a strake or hull do not)."""
+        out = self.spec.output
+        if not out.png:
+            return False
+        return out.part_previews if out.part_previews is not None else self.spec.strake is None
 
 
 def _line_index(node, path=()) -> dict[tuple, int]:

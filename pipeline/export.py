@@ -32,8 +32,8 @@ def steel_texts(result: PartResult) -> list[str]:
 def _previews(result: PartResult, config: RunConfig, out_dir: Path) -> list[tuple[Path, str, tuple]]:
     """The part's PNG previews drawn by :mod:`pipeline.plots` (matplotlib: imported only by
     the process that draws them): [(path, "module:function", its other arguments)]."""
-    out, name = config.spec.output, result.name
-    if not out.png:
+    name = result.name
+    if not config.part_previews:
         return []
     previews = []
     if result.ok and result.figures.get("textile_piece") is None:
@@ -104,7 +104,7 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh
             write_obj(path, v3, pattern.vertices, faces, name)
             written.append(path)
-        if out.png and result.figures.get("textile_piece") is not None:
+        if config.part_previews and result.figures.get("textile_piece") is not None:
             from .textile_preview import textile_preview_png
 
             path = out_dir / f"{name}_flat.png"

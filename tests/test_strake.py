@@ -94,6 +94,34 @@ def test_run_summary_csv_json_and_pictures(strake):
     assert (out / "hullmod_hull.png").stat().st_size > 0 and (out / "hullmod_sheet.png").stat().st_size > 0
 
 
+def test_plate_previews_are_opt_in_for_a_strake(strake, tmp_path, capsys):
+    """By default a strake's plates get no PNG previews (the run's sheet and hull pictures and
+    each plate's shop drawing stay); ``output.part_previews: true`` draws them."""
+    out, spec = strake
+    names = plate_names(spec)
+    assert not list(out.glob("*_flat.png")) and not list(out.glob("*_solutions.png"))
+    assert all((out / f"{name}_drawing.pdf").exists() for name in names)
+    assert not [f for name in names for f in json.loads((out / f"{name}.json").read_text())["files"]
+                if f.endswith(".png")]
+    data = yaml.safe_load(CONFIG.read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data["strake"]["butts"] = data["strake"]["butts"][:2]  # two plates
+    data["output"] = {"part_previews": True}
+    config = tmp_path / "previews.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    for name in ("hullmod_S1_B1", "hullmod_S2_B1"):
+        report = json.loads((tmp_path / "o" / f"{name}.json").read_text())
+        for image in (f"{name}_flat.png", f"{name}_solutions.png"):
+            assert image in report["files"] and (tmp_path / "o" / image).read_bytes()[:4] == b"\x89PNG"
+    data["output"] = {"part_previews": True, "png": False}
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "p"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "output" in err and "part_previews: true needs png: true" in err and str(config) in err
+    assert not (tmp_path / "p").exists()
+
+
 def test_parallel_run_gives_the_same_plates(strake, tmp_path):
     out, spec = strake
     assert main(["run", str(CONFIG), "--out", str(tmp_path), "--quiet", "--jobs", "2"]) == 0
