@@ -53,8 +53,8 @@ import yaml  # noqa: E402
 BARE = "import numpy, scipy.interpolate, scipy.optimize"
 # the one-shot run with its images drawn in place / by the render process whatever the load
 # (pipeline.cli.spare_core decides otherwise), started as devflat starts (entry_point)
-FORCED = ("import gc, sys; gc.disable(); import pipeline.cli as cli; cli.spare_core = lambda: {}; "
-          "code = cli.main(sys.argv[1:], one_shot=True); gc.freeze(); sys.exit(code)")
+FORCED = ("import sys; import pipeline.cli as cli; cli.spare_core = lambda: {}; "
+          "sys.exit(cli.run_program(sys.argv[1:]))")
 # measured on this 2-core machine before the CLI start-up work: issue 15's own runs, then
 # this bench near idle on main 1960379 (wall)
 BEFORE = {"run": "4x; 1.851 s, 4.33x", "check": "2.1x; 0.650 s, 1.52x", "warm": "0.57 s; 0.339 s",

@@ -235,30 +235,31 @@ def early_renderer(args):
 
 
 def spare_core(loadavg: str = "/proc/loadavg") -> bool:
-    """Whether a core is free for the render process now: besides this process, fewer tasks
-    are runnable than there are cores less one. On Linux the count is the kernel's number of
-    tasks runnable at this instant (``loadavg``'s fourth field, this process included), the
-    least of three readings a millisecond apart: a CPU-bound task is runnable at each, one
-    passing by is not counted. Elsewhere the last minute's load average decides; it is not
-    used on Linux because it remembers the minute: a run started within a minute of another
-    on a 2-core machine found the average above 1 and drew its images in place
-    (bench/bench_cli.py's own rounds: 1.3-1.5 s against 0.9 s). The second process pays for
-    itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork shares and either
-    process then writes are copied; the images' arguments are pickled), and on a machine
-    whose cores are all busy it measured slower in wall time too."""
+    """Whether a core is free for the render process now: fewer tasks of other processes are
+    runnable than there are cores less one. On Linux the count is the kernel's number of
+    tasks runnable at this instant (``loadavg``'s fourth field) less this process's own
+    running threads (a library's worker threads spin at its start: OpenBLAS's unless told
+    one thread), the least of three readings a millisecond apart: a CPU-bound task is
+    runnable at each, one passing by is not counted. Elsewhere the last minute's load
+    average decides; it is not used on Linux because it remembers the minute: a run started
+    within a minute of another on a 2-core machine found the average above 1 and drew its
+    images in place (bench/bench_cli.py's own rounds: 1.3-1.5 s against 0.9 s). The second
+    process pays for itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork
+    shares and either process then writes are copied; the images' arguments are pickled),
+    and on a machine whose cores are all busy it measured slower in wall time too."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
         cores = os.cpu_count() or 1
-    runnable = runnable_now(loadavg)
-    if runnable is None:
+    others = others_runnable(loadavg)
+    if others is None:
         return os.getloadavg()[0] <= cores - 1
-    return runnable - 1 <= cores - 2
+    return others <= cores - 2
 
 
-def runnable_now(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
-    """Tasks runnable now, the reader included (the least of ``readings`` a millisecond
-    apart); None where the file cannot be read or parsed."""
+def others_runnable(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
+    """Tasks of other processes runnable now (the least of ``readings`` a millisecond
+    apart); None where the counts cannot be read."""
     import time
 
     counts = []
@@ -267,10 +268,27 @@ def runnable_now(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | Non
             time.sleep(0.001)
         try:
             with open(loadavg, encoding="ascii") as stream:
-                counts.append(int(stream.read().split()[3].split("/")[0]))
+                runnable = int(stream.read().split()[3].split("/")[0])
         except (OSError, ValueError, IndexError):
             return None
+        counts.append(max(runnable - _own_running_threads(), 0))
     return min(counts)
+
+
+def _own_running_threads() -> int:
+    """This process's threads that are running or runnable (state R; at least the caller)."""
+    running = 0
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return 1
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/stat", encoding="ascii", errors="replace") as stream:
+                running += stream.read().rsplit(")", 1)[1].split()[0] == "R"
+        except (OSError, IndexError):
+            continue
+    return max(running, 1)
 
 
 def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:
