@@ -33,7 +33,27 @@ def test_readme_main_job_runs_as_written(tmp_path):
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert re.search(r"bilge_plate\s+ok", done.stdout)
-    assert {"bilge_plate.dxf", "bilge_plate.obj", "bilge_plate.json"} <= {p.name for p in out.iterdir()}
+    written = {p.name for p in out.iterdir()}
+    assert {"bilge_plate.dxf", "bilge_plate.obj", "bilge_plate.json"} <= written
+    # the files the README lists after the command, and the last line it shows, are the run's
+    assert readme_listed_files() == written
+    shown = re.search(r"`(wrote \d+ files to out/ \(summary: out/bilge_plate_summary.json\))`", README)
+    assert shown and done.stdout.splitlines()[-1] == shown[1].replace("out/", f"{out}/")
+
+
+def readme_listed_files() -> set[str]:
+    """The file names of the README's list after the main job: each entry's backticked names
+    before its colon (``a.csv` / `.json``: a second suffix of the same name)."""
+    names = set()
+    for line in README.splitlines():
+        if not line.startswith("- `bilge_plate"):
+            continue
+        previous = None
+        for token in re.findall(r"`([^`]+)`", line.split(":", 1)[0]):
+            name = previous.rsplit(".", 1)[0] + token if token.startswith(".") else token
+            names.add(name)
+            previous = name
+    return names
 
 
 def test_python_dash_m_pipeline_is_the_same_program(tmp_path):
