@@ -224,7 +224,8 @@ def test_spare_core_does_not_count_this_processs_own_threads(tmp_path, monkeypat
     worker.start()
     try:
         time.sleep(0.05)
-        assert cli._own_running_threads() == 2
+        # the busy thread waits for the GIL between two calls (a few ms in ~100): read a few times
+        assert max(cli._own_running_threads() for _ in range(5)) == 2
         assert cli.others_runnable(str(loadavg)) == 0 and cli.spare_core(str(loadavg))
     finally:
         stop.set()
