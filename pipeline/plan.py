@@ -174,16 +174,21 @@ def long_axis_of(surface: NurbsSurface) -> int:
     return 0 if along_u >= along_v else 1
 
 
-def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: float, name: str) -> NurbsCurve:
+def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: float, name: str,
+                     crossings: dict | None = None) -> NurbsCurve:
     """The seam between the butts, extended past each by ``margin`` times the plate length
-    (or to the seam's end where it ends first)."""
+    (or to the seam's end where it ends first). ``crossings``: a dict kept by the caller
+    for the seams' crossings with the butt planes (a strake's plates share each seam with
+    a neighbouring strake and each butt with a neighbouring plate: four plates ask for
+    every crossing); the caller keeps the seams alive while it keeps the dict."""
     lo, hi = seam.domain
-    cross_lo, cross_hi = plane_crossings(seam, planes[0]), plane_crossings(seam, planes[1])
+    cross_lo, cross_hi = (_known_crossings(seam, plane, crossings) for plane in planes)
     if len(cross_lo) != 1 or len(cross_hi) != 1:
         raise SourceError(f"seam {name} crosses the butt planes {planes[0].describe()} and {planes[1].describe()} "
                           f"{len(cross_lo)} and {len(cross_hi)} times (once each expected)")
     t1, t2 = cross_lo[0], cross_hi[0]
-    extra = margin * float(np.linalg.norm(seam([t2])[0] - seam([t1])[0]))
+    p1, p2 = seam(np.array([t1, t2]))
+    extra = margin * float(np.linalg.norm(p2 - p1))
     ext1 = plane_crossings(seam, planes[0].shifted(-extra))
     ext2 = plane_crossings(seam, planes[1].shifted(extra))
     e1 = ext1[0] if len(ext1) == 1 else _usable_end(seam, lo if t1 < t2 else hi, t1)
@@ -191,6 +196,17 @@ def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: floa
     a, b = sorted((e1, e2))
     seg = seam.segment(a, b)
     return NurbsCurve(seg.degree, seg.control_points, seg.weights, seg.knots, name)
+
+
+def _known_crossings(curve: NurbsCurve, plane: Plane, crossings: dict | None) -> np.ndarray:
+    """:func:`plane_crossings`, looked up in ``crossings`` first (keyed by the curve's
+    identity and the plane) and stored there."""
+    if crossings is None:
+        return plane_crossings(curve, plane)
+    key = (id(curve), plane.normal, plane.offset)
+    if key not in crossings:
+        crossings[key] = plane_crossings(curve, plane)
+    return crossings[key]
 
 
 def _usable_end(seam: NurbsCurve, end: float, inner: float) -> float:
@@ -230,14 +246,15 @@ def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -
 
 
 def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
-           resolution, surface_note="") -> Part:
-    """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate."""
+           resolution, surface_note="", crossings: dict | None = None) -> Part:
+    """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate;
+    ``crossings``: see :func:`extended_segment`."""
     developable, note = all(p is not None for p in planes), ""
     c = d = None
     if developable:
         try:
-            c = extended_segment(curves[0], planes, strake.margin, f"{name}.{seam_names[0]}")
-            d = extended_segment(curves[1], planes, strake.margin, f"{name}.{seam_names[1]}")
+            c = extended_segment(curves[0], planes, strake.margin, f"{name}.{seam_names[0]}", crossings)
+            d = extended_segment(curves[1], planes, strake.margin, f"{name}.{seam_names[1]}", crossings)
         except SourceError as exc:
             developable, note = False, str(exc)
     else:
@@ -281,12 +298,13 @@ def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> lis
     planes = [butt_plane(b) for b in strake.butts]
     resolution = float(getattr(strake, "patch_spacing", None) or 200.0 / mm_per_unit)
     parts = []
+    crossings = {}  # (seam, plane) -> parameters: asked for by up to four plates
     for i in range(len(curves) - 1):
         for j in range(len(planes) - 1):
             name = f"{spec.name}_S{i + 1}_B{j + 1}"
             parts.append(_plate(name, surface, axis, girths[i:i + 2], curves[i:i + 2], planes[j:j + 2], spec.steel,
                                 strake, distance, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
-                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution, trim_note))
+                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution, trim_note, crossings))
             if not parts[-1].hull.developable and all(p is not None for p in planes[j:j + 2]):
                 # a hand-laid seam that misses a butt plane is a layout error, as before
                 raise SourceError(parts[-1].hull.note)
