@@ -122,7 +122,7 @@ def naive_rulings(c: NurbsCurve, d: NurbsCurve, n_rulings: int) -> np.ndarray:
 
 
 def naive_reference(c: NurbsCurve, d: NurbsCurve, n_rulings: int, samples_per_ruling: int) -> CurvatureFigures:
-    strip = build_strip(c, d, naive_rulings(c, d, n_rulings), samples_per_ruling)
+    strip = build_strip(c, d, naive_rulings(c, d, n_rulings), samples_per_ruling, chords=False)
     return strip_angle_defects(strip)
 
 

@@ -36,7 +36,8 @@ class Strip:
     samples : (m,) ruling parameters v in [0, 1] of the vertices on each ruling (m >= 3)
     vertices : (K * m, 3) model units; vertex k * m + j lies at v = samples[j] on ruling k
     faces : (2 (K-1) (m-1), 3) int, counter-clockwise seen from c' x (d - c)
-    max_chord_error : (2,) largest distance between the boundary chords and c, d
+    max_chord_error : (2,) largest distance between the boundary chords and c, d (NaN
+        where not measured: :func:`build_strip`'s ``chords``)
     trim : (K, 2) or None, the interval of v each ruling keeps when the strip is trimmed
         (by butt planes); vertex k * m + j then lies at v = trim[k, 0] + (trim[k, 1] -
         trim[k, 0]) samples[j]
@@ -167,16 +168,18 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     if n_rulings is not None:
         return sample(np.linspace(0.0, 1.0, max(int(n_rulings), 2)))
     dense = np.linspace(0.0, 1.0, 2049)
-    pts = sample(dense)
+    pts = _unpolished(sample, dense)
     curves = (c, d)
     density = np.zeros(len(dense))
     for axis, curve in enumerate(curves):
-        s = curve.arc_length_along(pts[:, axis])
-        # a seam end with zero speed (a doubled end pole) has no curvature (0/0): it moves
-        # nowhere there (ds = 0), so it asks for no rulings
+        # |ds/dlam| = |c'(t)| |dt/dlam|, from the same derivatives as the curvature; a seam
+        # end with zero speed (a doubled end pole) has no curvature (0/0): it moves nowhere
+        # there (ds = 0), so it asks for no rulings
+        _, d1, d2 = curve.derivatives(pts[:, axis], 2)
+        speed = np.linalg.norm(d1, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            kappa = np.nan_to_num(curve.curvature(pts[:, axis]), nan=0.0, posinf=0.0)
-        ds = np.abs(np.gradient(s, dense))
+            kappa = np.nan_to_num(np.linalg.norm(np.cross(d1, d2), axis=1) / speed**3, nan=0.0, posinf=0.0)
+        ds = speed * np.abs(np.gradient(pts[:, axis], dense))
         density = np.maximum(density, np.sqrt(np.maximum(kappa, 0.0) / (8.0 * chord_tolerance)) * ds)
     cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(dense))])
     count = int(np.clip(np.ceil(cumulative[-1] * 1.2) + 1, 2, max_rulings))
@@ -193,9 +196,22 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     return rulings
 
 
-def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_ruling: int = 5) -> Strip:
+def _unpolished(sample: PathSampler, fractions: np.ndarray) -> np.ndarray:
+    """Points [t, T] (N, 2) of the path at fractions of its length, interpolated between
+    its vertices without the polish: where only the rulings' density is estimated from
+    them (curvature and speed of c at t, of d at T) a point a trace tolerance off the
+    solution changes nothing that matters; the rulings themselves are polished, and their
+    chord errors checked."""
+    lam, x = sample.vertices()
+    return np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
+
+
+def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_ruling: int = 5,
+                chords: bool = True) -> Strip:
     """Mesh of the ruled surface along the given rulings, vertices on each ruling at
-    evenly spaced v (>= 3 per ruling so that interior vertices exist)."""
+    evenly spaced v (>= 3 per ruling so that interior vertices exist). ``chords`` False:
+    the boundary chord errors are not measured (NaN), for meshes only the curvature check
+    reads."""
     m = max(int(samples_per_ruling), 3)
     v = np.linspace(0.0, 1.0, m)
     vertices = np.empty((len(rulings), m, 3))
@@ -205,5 +221,6 @@ def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_r
         vertices[lo:hi] = pc[:, None, :] * (1 - v)[None, :, None] + pd[:, None, :] * v[None, :, None]
     vertices = vertices.reshape(-1, 3)
     faces = grid_faces(len(rulings), m)
-    errors = np.array([chord_errors(c, rulings[:, 0]), chord_errors(d, rulings[:, 1])])
+    errors = (np.array([chord_errors(c, rulings[:, 0]), chord_errors(d, rulings[:, 1])]) if chords
+              else np.full(2, np.nan))
     return Strip(rulings, v, vertices, faces, errors)

@@ -113,7 +113,8 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
     # CHECK_RULINGS rulings (the naive surface T = t gets the same mesh density)
     n_check = max(strip.n_rulings, CHECK_RULINGS)
     dense = strip if n_check == strip.n_rulings else build_strip(
-        part.c, part.d, choose_rulings(result.solution, part.c, part.d, n_rulings=n_check), len(strip.samples))
+        part.c, part.d, choose_rulings(result.solution, part.c, part.d, n_rulings=n_check), len(strip.samples),
+        chords=False)
     mesh = strip_angle_defects(dense)
     naive = naive_reference(part.c, part.d, n_check, len(strip.samples))
     flat_plate = result.solution.kind == "coplanar"
