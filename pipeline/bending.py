@@ -14,7 +14,7 @@ import numpy as np
 
 from .outline import PlateTracer
 
-DENSE = 2001  # samples of the centre line for its arc length
+DENSE = 513  # samples of the centre line for its arc length (the plate's corners besides)
 
 
 @dataclass(frozen=True)
@@ -76,8 +76,12 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     its rulings between the butts), centred so the margins at both ends are equal; lines
     shorter than ``min_length`` times the longest (corner slivers) are left out. Returns
     (lines, length of the centre line)."""
-    first, last, _ = tracer.plate_range()
-    lam = np.linspace(first, last, DENSE)
+    first, last, corners = tracer.plate_range()
+    # the centre line turns sharply where a corner cuts the rulings (their kept middles
+    # then follow the butt plane): a sample at each corner keeps the chords' error second
+    # order on the smooth pieces between (without them a strake plate's centre line came
+    # out up to 2.2 mm short at 2001 samples; with them 2e-5 mm at 513)
+    lam = np.union1d(np.linspace(first, last, DENSE), corners)
     *_, mid2, _, _, _ = _centre_line(tracer, lam)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
     length = float(s[-1])
