@@ -166,6 +166,8 @@ class NurbsCurve:
         """
         hom = self.homogeneous_derivatives(t, order)
         a, w = hom[..., :3], hom[..., 3]
+        if not self.is_rational:  # w constant: its derivatives vanish and the sum with them
+            return a / w[0][None, :, None]
         out = np.empty_like(a)
         for k in range(order + 1):
             acc = a[k].copy()
