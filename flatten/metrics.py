@@ -7,6 +7,13 @@ import numpy as np
 from .nurbs import NurbsCurve
 from .strip import CHUNK_RULINGS, grid_faces
 
+# Ruling edges shorter than this share of the coordinates' magnitude are left out of the
+# relative ruling error: a hull plate's corner ruling, trimmed to a point by a butt plane,
+# keeps edges of ~1e-12 mm whose lengths are round-off of coordinates of ~1e5 mm, so their
+# relative error reads 0.1-1.4 and says nothing of the development. Such edges are still in
+# the absolute figure.
+RULING_EDGE_FLOOR = 1e-9
+
 
 def edge_lengths(vertices: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1)
@@ -42,6 +49,9 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
     the chord discrepancy of the other edges (along the strip and the quad diagonals,
     each edge once: O(h^2), not an error), the area ratio, and the flat boundary length
     against the 3D arc length of c and d over the covered parameters, in mm per metre.
+    The relative ruling error leaves out edges shorter than ``RULING_EDGE_FLOOR`` times
+    the largest coordinate (corner slivers of a trimmed plate: their relative error is
+    round-off over round-off); the absolute one (model units) takes every ruling edge.
     Computed in windows of ``chunk`` rulings (bounded temporaries); the edges are those
     of the grid, so no edge list of the whole mesh is built.
     """
@@ -49,7 +59,8 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
     grid2 = flat.reshape(-1, m, 2)
     n = len(grid3)
     faces = grid_faces(min(n, chunk + 1), m)
-    rule_err = other_max = other_sq = area3 = area2 = 0.0
+    size = max(float(grid3.max(initial=0.0)), -float(grid3.min(initial=0.0)))  # no temporary of the grid
+    rule_err = rule_abs = other_max = other_sq = area3 = area2 = 0.0
     n_other = 0
     for lo in range(0, n, chunk):
         hi = min(lo + chunk, n)
@@ -57,8 +68,10 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
         a3, a2 = grid3[lo:hi + 1], grid2[lo:hi + 1]
         r3 = np.linalg.norm(np.diff(a3[:hi - lo], axis=1), axis=2).ravel()
         r2 = np.linalg.norm(np.diff(a2[:hi - lo], axis=1), axis=2).ravel()
-        positive = r3 > 0
-        rule_err = max(rule_err, float(np.max(np.abs(r2[positive] - r3[positive]) / r3[positive], initial=0.0)))
+        gap = np.abs(r2 - r3)
+        rule_abs = max(rule_abs, float(np.max(gap, initial=0.0)))
+        measurable = r3 > RULING_EDGE_FLOOR * size
+        rule_err = max(rule_err, float(np.max(gap[measurable] / r3[measurable], initial=0.0)))
         if len(a3) < 2:
             continue
         l3 = np.concatenate([np.linalg.norm(a3[1:] - a3[:-1], axis=2).ravel(),  # along the strip
@@ -85,6 +98,7 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
 
     return {
         "ruling_edge_max_relative_error": rule_err,
+        "ruling_edge_max_abs_error": rule_abs,
         "chord_discrepancy_max_relative": other_max,
         "chord_discrepancy_rms_relative": float(np.sqrt(other_sq / n_other)) if n_other else 0.0,
         "area_3d": area3,

@@ -121,6 +121,7 @@ def test_distortion_in_windows_equals_the_edge_list_computation(frustum):
         assert got["area_3d"] == pytest.approx(triangle_areas(strip.vertices, strip.faces).sum(), rel=1e-13)
         assert got["area_flat"] == pytest.approx(triangle_areas(flat, strip.faces).sum(), rel=1e-13)
         assert got["ruling_edge_max_relative_error"] > 1e-4  # the stretch is seen on the rulings
+        assert got["ruling_edge_max_abs_error"] == pytest.approx(np.abs(r2 - r3).max(), rel=1e-12)
 
 
 def test_distortion_of_a_strip_whose_seams_meet_is_finite_and_warns_nothing(frustum):
@@ -141,6 +142,27 @@ def test_distortion_of_a_strip_whose_seams_meet_is_finite_and_warns_nothing(frus
         warnings.simplefilter("error")
         got = distortion(vertices, flat, m, c, d, rulings, chunk=7)
     assert np.isfinite(got["chord_discrepancy_rms_relative"]) and got["chord_discrepancy_max_relative"] < 1.0
+
+
+def test_a_corner_ruling_trimmed_to_a_point_leaves_the_ruling_error_at_round_off(frustum):
+    """A hull plate's corner ruling, cut by a butt plane down to a point, keeps edges of
+    ~1e-12 mm whose 3D and flat lengths are round-off of the coordinates: their ratio read
+    as a relative ruling error of 0.1-1.4 in the plate reports. The relative figure leaves
+    such slivers out (the others stay exact to round-off); the absolute one keeps them."""
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=30)
+    m = 5
+    strip = build_strip(c, d, rulings, m)
+    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    vertices, flat = strip.vertices.copy(), flat.copy()
+    # the last ruling trimmed to its first point: its edges are round-off in 3D and flat
+    vertices[-m:] = vertices[-m] + 1e-13 * np.arange(m)[:, None] * np.array([1.0, 0.0, 0.0])
+    flat[-m:] = flat[-m] + 3e-13 * np.arange(m)[:, None] * np.array([0.0, 1.0])
+    exact = distortion(strip.vertices[:-m], flat[:-m], m, c, d, rulings[:-1])
+    for chunk in (1, 7, 1000):
+        got = distortion(vertices, flat, m, c, d, rulings, chunk=chunk)
+        assert got["ruling_edge_max_relative_error"] == exact["ruling_edge_max_relative_error"] <= 1e-12
+        assert got["ruling_edge_max_abs_error"] == pytest.approx(2e-13, rel=1e-2)  # the sliver's 3e-13 - 1e-13
 
 
 def test_polish_of_a_point_does_not_depend_on_its_batch(frustum):

@@ -54,6 +54,10 @@ def test_every_plate_fits_the_hull_and_stays_between_its_butts(strake):
         l3 = np.linalg.norm(v[m - 1::m] - v[0::m], axis=1)
         l2 = np.linalg.norm(vt[m - 1::m] - vt[0::m], axis=1)
         assert np.abs(l3 - l2).max() <= 1e-9 * l3.max()
+        # and the report says so (round-off of coordinates of ~1e5 mm): corner rulings cut
+        # to a point are no relative error (they read 0.1-1.4)
+        assert rep["unroll"]["ruling_edge_max_relative_error"] <= 1e-10
+        assert rep["unroll"]["ruling_edge_max_abs_error"] <= 1e-9 * l3.max()
 
 
 def test_neighbouring_plates_meet_at_their_butt(strake):
