@@ -1,7 +1,7 @@
 """A whole strake of >= 100 hull plates in one run: plates per second and peak memory,
 single process and with --jobs 2, side by side.
 
-    python bench/bench_strake.py [--seams 13] [--butts 11]
+    python bench/bench_strake.py [--seams 13] [--butts 11] [--repeat 3] [--before DIR]
 
 The 160 m hull of tests/data/ship (hullmod): seams are iso-curves v = 4.0, 4.05, ... of its
 surface, butts every 8 m from x = 56 m; (seams - 1) x (butts - 1) plates, each solved,
@@ -11,7 +11,14 @@ the interpreter's start and the imports), with its bytecode compiled once, by an
 one-plate run, as an installed devflat has it.
 Besides wall time it prints the CPU time of the run (parent and workers): on a machine
 shared with other jobs wall time measures them too, so the last line gives the plates per
-second the CPU time allows on idle cores.
+second the CPU time allows on idle cores. The runs are repeated ``--repeat`` times,
+single process and ``--jobs 2`` interleaved, and the median run of each is printed with
+every round's plates per second (this machine's speed moves by half within an hour).
+
+    python bench/bench_strake.py --before DIR
+
+runs an earlier checkout (``git worktree add DIR REV``) in the same rounds, interleaved
+with this one, and prints the ratios: the comparison that a noisy machine still allows.
 
     python bench/bench_strake.py --stages [--every 4]
 
@@ -24,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -49,6 +57,8 @@ def one(args) -> int:
     """One run in this fresh process, as the ``devflat`` program runs it
     (:func:`pipeline.cli.run_program`: one BLAS thread, the collector paused for the
     imports, ``one_shot``)."""
+    if args.root:  # the code of another checkout (--before): first on the path
+        sys.path.insert(0, args.root)
     from pipeline.cli import run_program
 
     code = run_program(["run", args.config, "--out", args.out, "--quiet", "--jobs", str(args.jobs)])
@@ -137,56 +147,85 @@ def main(argv=None) -> int:
     parser.add_argument("--config", help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--jobs", type=int, default=1, help=argparse.SUPPRESS)
+    parser.add_argument("--root", help=argparse.SUPPRESS)
+    parser.add_argument("--repeat", type=int, default=3, help="rounds (the median run is printed)")
+    parser.add_argument("--before", type=Path, help="an earlier checkout run in the same rounds "
+                        "(git worktree add DIR REV)")
     args = parser.parse_args(argv)
     if args.one:
         return one(args)
     if args.stages:
         return stages(args)
     import platform
+    import statistics
 
     from bench_cli import child_env  # the children run as an installed devflat (bytecode cached)
     plates = (args.seams - 1) * (args.butts - 1)
     print(f"machine: {platform.machine()}, python {platform.python_version()}; {plates} plates "
-          f"({args.seams - 1} strakes x {args.butts - 1} butt intervals) of the 160 m hull")
-    rows = []
+          f"({args.seams - 1} strakes x {args.butts - 1} butt intervals) of the 160 m hull; "
+          f"{args.repeat} rounds, interleaved")
+    trees = [("this", ROOT)] + ([("before", args.before.resolve())] if args.before is not None else [])
+    runs: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "strake.yaml"
         path.write_text(yaml.safe_dump(config(args.seams, args.butts)))
-        env = child_env(Path(tmp) / "pycache")
         one_plate = Path(tmp) / "one_plate.yaml"
         one_plate.write_text(yaml.safe_dump(config(2, 2)))
-        for label, config_path in (("warm-up", one_plate), (1, path), (2, path)):
-            jobs = 1 if label == "warm-up" else label  # the warm-up (untimed) fills the bytecode cache
+        envs = {label: child_env(Path(tmp) / f"pycache-{label}", root) for label, root in trees}
+
+        def run(label: str, config_path: Path, jobs: int) -> dict:
+            out = Path(tmp) / f"out-{label}-{jobs}"
+            shutil.rmtree(out, ignore_errors=True)
             start = time.perf_counter()
-            done = subprocess.run([sys.executable, __file__, "--one", "--config", str(config_path), "--out",
-                                   str(Path(tmp) / f"out{label}"), "--jobs", str(jobs)],
-                                  capture_output=True, text=True, timeout=7200, env=env)
+            done = subprocess.run([sys.executable, __file__, "--one", "--config", str(config_path), "--out", str(out),
+                                   "--jobs", str(jobs), "--root", str(dict(trees)[label])],
+                                  capture_output=True, text=True, timeout=7200, env=envs[label])
             elapsed = time.perf_counter() - start
             if done.returncode:
-                sys.exit(f"bench_strake: the run failed:\n{done.stderr}")
-            if label == "warm-up":
-                continue
-            out = dict(json.loads(done.stdout.strip().splitlines()[-1]), seconds=elapsed)
-            summary = json.loads((Path(tmp) / f"out{jobs}" / "bench_summary.json").read_text())
+                sys.exit(f"bench_strake: the run of {label} failed:\n{done.stderr}")
+            summary = json.loads((out / "bench_summary.json").read_text())
             ok = sum(r["status"] == "ok" for r in summary["parts"])
-            rows.append((jobs, out, ok))
-    header = (f"{'run':<16}{'seconds':>9}{'plates/s':>10}{'ok':>5}{'CPU s':>8}{'parent CPU s':>14}"
+            return dict(json.loads(done.stdout.strip().splitlines()[-1]), seconds=elapsed, ok=ok)
+
+        for label, _ in trees:  # untimed: fills each tree's bytecode cache
+            run(label, one_plate, 1)
+        for _ in range(args.repeat):
+            for label, _ in trees:
+                for jobs in (1, 2):
+                    runs.setdefault((label, jobs), []).append(run(label, path, jobs))
+    header = (f"{'run':<24}{'seconds':>9}{'plates/s':>10}{'ok':>5}{'CPU s':>8}{'parent CPU s':>14}"
               f"{'peak MB':>9}{'worker MB':>11}{'speed-up':>10}")
-    print(header)
-    print("-" * len(header))
-    base = rows[0][1]["seconds"]
-    for jobs, out, ok in rows:
-        label = "single process" if jobs == 1 else f"--jobs {jobs}"
-        worker = f"{out['worker_peak_mb']:.0f}" if jobs > 1 else "-"
-        print(f"{label:<16}{out['seconds']:>9.2f}{plates / out['seconds']:>10.2f}{ok:>5}{out['cpu_seconds']:>8.1f}"
-              f"{out['parent_cpu_seconds']:>14.1f}{out['peak_mb']:>9.0f}{worker:>11}{base / out['seconds']:>10.2f}")
-    # on a shared machine wall time measures the neighbours too: what the CPU time allows
-    # on `jobs` idle cores (the parent's serial part, then the plates spread over the workers)
-    for jobs, out, _ in rows[1:]:
+    median = {key: sorted(rows, key=lambda r: r["seconds"])[(len(rows) - 1) // 2] for key, rows in runs.items()}
+    for label, _ in trees:
+        print(f"{label}:" if len(trees) > 1 else "")
+        print(header)
+        print("-" * len(header))
+        base = median[(label, 1)]["seconds"]
+        for jobs in (1, 2):
+            out = median[(label, jobs)]
+            name = ("single process" if jobs == 1 else f"--jobs {jobs}") + f" (median of {args.repeat})"
+            worker = f"{out['worker_peak_mb']:.0f}" if jobs > 1 else "-"
+            print(f"{name:<24}{out['seconds']:>9.2f}{plates / out['seconds']:>10.2f}{out['ok']:>5}"
+                  f"{out['cpu_seconds']:>8.1f}{out['parent_cpu_seconds']:>14.1f}{out['peak_mb']:>9.0f}{worker:>11}"
+                  f"{base / out['seconds']:>10.2f}")
+        for jobs in (1, 2):
+            rounds = " ".join(f"{plates / r['seconds']:.1f}" for r in runs[(label, jobs)])
+            print(f"  plates/s in each round, {'single process' if jobs == 1 else f'--jobs {jobs}'}: {rounds}")
+        # on a shared machine wall time measures the neighbours too: what the CPU time allows
+        # on 2 idle cores (the parent's serial part, then the plates spread over the workers)
+        out = median[(label, 2)]
         serial = out["parent_cpu_seconds"]
-        spread = (out["cpu_seconds"] - serial) / jobs
-        print(f"--jobs {jobs} on {jobs} idle cores (from CPU time): {plates / (serial + spread):.1f} plates/s "
+        spread = (out["cpu_seconds"] - serial) / 2
+        print(f"  --jobs 2 on 2 idle cores (from CPU time): {plates / (serial + spread):.1f} plates/s "
               f"(parent {serial:.1f} s serial, workers {out['cpu_seconds'] - serial:.1f} CPU s)")
+    if len(trees) > 1:
+        print("this / before, round by round (wall time ratio < 1: this is faster):")
+        for jobs in (1, 2):
+            ratios = [a["seconds"] / b["seconds"] for a, b in zip(runs[("this", jobs)], runs[("before", jobs)])]
+            cpu = [a["cpu_seconds"] / b["cpu_seconds"] for a, b in zip(runs[("this", jobs)], runs[("before", jobs)])]
+            print(f"  {'single process' if jobs == 1 else f'--jobs {jobs}':<16} wall "
+                  + " ".join(f"{r:.3f}" for r in ratios) + f"  (median {statistics.median(ratios):.3f});"
+                  f" CPU median {statistics.median(cpu):.3f}")
     return 0
 
 
