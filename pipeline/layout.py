@@ -341,9 +341,12 @@ def inscribed_radius(plate: Polygon, relative: float = 0.05) -> float:
     only scales the texts (their fit is tested exactly). GEOS refines its grid down to the
     tolerance, and along a long strip nearly every cell of the middle stays a candidate: a
     tolerance tied to the width rather than to the square root of the area keeps a strip's
-    cost down (an 8 m x 0.35 m plate: 17 mm, 1.7 ms, against 1.7 mm, 7 ms)."""
+    cost down (an 8 m x 0.35 m plate: 17 mm, 1.7 ms, against 1.7 mm, 7 ms). The outline is
+    simplified first to a tenth of that tolerance (it lies within that of the outline, so
+    the radius moves by no more; the traced outline's hundreds of vertices, 0.05 mm apart
+    from its chords, cost GEOS half the time)."""
     width = 2.0 * plate.area / max(plate.length, 1e-300)
-    return shapely.maximum_inscribed_circle(plate, relative * width).length
+    return shapely.maximum_inscribed_circle(plate.simplify(0.1 * relative * width), relative * width).length
 
 
 def heights(preferred: float, smallest: float) -> list[float]:
