@@ -131,7 +131,7 @@ def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
     flat plate, whose T(t) is then interpolated between rulings. The integration pieces
     are processed ``chunk`` at a time (memory; the result does not depend on it beyond
     round-off)."""
-    return DevelopedStrip(c, d, rulings, field, chunk).development
+    return DevelopedStrip(c, d, rulings, field, chunk, interpolant=False).development
 
 
 class DevelopedStrip:
@@ -142,10 +142,12 @@ class DevelopedStrip:
 
     rulings : (K, 2) [t, T], t non-decreasing (as for :func:`develop`)
     development : the development of those rulings
+    interpolant : keep the pieces' integrands for :meth:`ends` (3 N floats a piece, N = 10
+        nodes: 240 bytes a ruling of a dense strip, which :func:`develop` does not keep)
     """
 
     def __init__(self, c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,
-                 field: DevelopabilityField | None, chunk: int = _CHUNK_PIECES):
+                 field: DevelopabilityField | None, chunk: int = _CHUNK_PIECES, interpolant: bool = True):
         rulings = np.asarray(rulings, dtype=np.float64)
         self.c, self.d, self.field, self.rulings, self.chunk = c, d, field, rulings, chunk
         breaks = _interval_breaks(c, d, field, rulings)
@@ -159,7 +161,7 @@ class DevelopedStrip:
         break_xy = np.zeros((n_pieces + 1, 2))
         # each piece's integrands at its nodes (turn rate, and the moves in x and y along the
         # developed c), times its half width: any t in the piece is integrated from them
-        self._integrands = np.zeros((n_pieces, 3, len(x)))
+        self._integrands = np.zeros((n_pieces, 3, len(x))) if interpolant else None
         carry = np.zeros(3)  # theta, x, y at the end of the pieces done so far
         # pieces in batches: the N nodes per piece are the largest temporaries (N curve
         # evaluations per ruling); the running sums carried across batches are summed in the
@@ -167,7 +169,8 @@ class DevelopedStrip:
         for lo, hi in batches(n_pieces, chunk):
             a, b = breaks[lo:hi], breaks[lo + 1:hi + 1]
             theta_local, xs, ys, _, rates = self._pieces(a, b, x, q, carry[0])
-            self._integrands[lo:hi] = rates
+            if interpolant:
+                self._integrands[lo:hi] = rates
             theta_start = np.cumsum(np.concatenate([carry[:1], theta_local[:, -1]]))
             x_start = np.cumsum(np.concatenate([carry[1:2], xs[:, -1]]))
             y_start = np.cumsum(np.concatenate([carry[2:], ys[:, -1]]))
@@ -236,6 +239,8 @@ class DevelopedStrip:
         last break before it on the spectral interpolant of that piece's integrands (the
         turn rate, and the moves in x and y, at its nodes): round-off, as the integrals
         over the pieces are, and no curve evaluation beyond each ruling's own ends."""
+        if self._integrands is None:
+            raise ValueError("this development kept no interpolant (DevelopedStrip(interpolant=False))")
         rulings = np.asarray(rulings, dtype=np.float64).reshape(-1, 2)
         t = rulings[:, 0]
         breaks = self.breaks

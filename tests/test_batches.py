@@ -7,7 +7,7 @@ import pytest
 
 import flatten.develop as develop_module
 from flatten import solve
-from flatten.develop import _interval_breaks, develop
+from flatten.develop import DevelopedStrip, _interval_breaks, develop
 from flatten.meshcheck import angle_defects, strip_angle_defects
 from flatten.metrics import distortion, edge_lengths, triangle_areas, unique_edges
 from flatten.judge import UnitMap
@@ -163,6 +163,31 @@ def test_a_corner_ruling_trimmed_to_a_point_leaves_the_ruling_error_at_round_off
         got = distortion(vertices, flat, m, c, d, rulings, chunk=chunk)
         assert got["ruling_edge_max_relative_error"] == exact["ruling_edge_max_relative_error"] <= 1e-12
         assert got["ruling_edge_max_abs_error"] == pytest.approx(2e-13, rel=1e-2)  # the sliver's 3e-13 - 1e-13
+
+
+def test_develop_keeps_no_interpolant_and_bounded_temporaries(frustum):
+    """develop() returns the development alone: the pieces' spectral interpolant that
+    DevelopedStrip keeps for later rulings (3 x 10 floats a piece, 240 bytes a ruling of a
+    dense strip) is not built, so 1e6 rulings stay under issue 15's 600 bytes a ruling
+    (bench_growth measured 667 while it was). Traced by tracemalloc at 1e5 rulings: the
+    result is 32 bytes a ruling, the batches' temporaries a few MB whatever the count."""
+    import tracemalloc
+
+    c, d, solution = frustum
+    n = 100_000
+    rulings = choose_rulings(solution, c, d, n_rulings=n)
+    tracemalloc.start()
+    try:
+        dev = develop(c, d, rulings, solution.field)
+        kept, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert kept <= 40 * n  # along_c and along_d
+    assert peak <= 350 * n  # with the interpolant: 466
+    again = DevelopedStrip(c, d, rulings, solution.field, interpolant=False)
+    assert np.array_equal(again.development.along_c, dev.along_c)
+    with pytest.raises(ValueError, match="no interpolant"):
+        again.ends(rulings[:3])
 
 
 def test_polish_of_a_point_does_not_depend_on_its_batch(frustum):
