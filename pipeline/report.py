@@ -135,7 +135,7 @@ def summary_rows(results: list[PartResult]) -> list[dict]:
 
 def summary_table(results: list[PartResult]) -> str:
     header = (f"{'part':<22}{'status':<8}{'cover c/d %':>14}{'rulings':>9}{'area m2':>10}{'dist mm/m':>11}"
-              f"{'hull dev':>10}  reason")
+              f"{'hull dev':>10}  reason (failed) / warnings (ok)")
     lines = [header, "-" * len(header)]
     for row in summary_rows(results):
         cover = (f"{100 * row['coverage_c']:.1f}/{100 * row['coverage_d']:.1f}"
