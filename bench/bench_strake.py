@@ -137,6 +137,13 @@ def stages(args) -> int:
     return 0
 
 
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value}: give 1 or more rounds")
+    return value
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seams", type=int, default=13)
@@ -148,7 +155,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--jobs", type=int, default=1, help=argparse.SUPPRESS)
     parser.add_argument("--root", help=argparse.SUPPRESS)
-    parser.add_argument("--repeat", type=int, default=3, help="rounds (the median run is printed)")
+    parser.add_argument("--repeat", type=_positive, default=3, help="rounds (the median run is printed)")
     parser.add_argument("--before", type=Path, help="an earlier checkout run in the same rounds "
                         "(git worktree add DIR REV)")
     args = parser.parse_args(argv)
@@ -183,9 +190,12 @@ def main(argv=None) -> int:
             elapsed = time.perf_counter() - start
             if done.returncode:
                 sys.exit(f"bench_strake: the run of {label} failed:\n{done.stderr}")
+            measured = json.loads(done.stdout.strip().splitlines()[-1])
+            if measured["code"] not in (0, 1):  # 2: that checkout refused the config (no files)
+                sys.exit(f"bench_strake: devflat exited {measured['code']} in the run of {label}:\n{done.stderr}")
             summary = json.loads((out / "bench_summary.json").read_text())
             ok = sum(r["status"] == "ok" for r in summary["parts"])
-            return dict(json.loads(done.stdout.strip().splitlines()[-1]), seconds=elapsed, ok=ok)
+            return dict(measured, seconds=elapsed, ok=ok)
 
         for label, _ in trees:  # untimed: fills each tree's bytecode cache
             run(label, one_plate, 1)
@@ -193,7 +203,7 @@ def main(argv=None) -> int:
             for label, _ in trees:
                 for jobs in (1, 2):
                     runs.setdefault((label, jobs), []).append(run(label, path, jobs))
-    header = (f"{'run':<24}{'seconds':>9}{'plates/s':>10}{'ok':>5}{'CPU s':>8}{'parent CPU s':>14}"
+    header = (f"{'run':<30}{'seconds':>9}{'plates/s':>10}{'ok':>5}{'CPU s':>8}{'parent CPU s':>14}"
               f"{'peak MB':>9}{'worker MB':>11}{'speed-up':>10}")
     median = {key: sorted(rows, key=lambda r: r["seconds"])[(len(rows) - 1) // 2] for key, rows in runs.items()}
     for label, _ in trees:
@@ -205,7 +215,7 @@ def main(argv=None) -> int:
             out = median[(label, jobs)]
             name = ("single process" if jobs == 1 else f"--jobs {jobs}") + f" (median of {args.repeat})"
             worker = f"{out['worker_peak_mb']:.0f}" if jobs > 1 else "-"
-            print(f"{name:<24}{out['seconds']:>9.2f}{plates / out['seconds']:>10.2f}{out['ok']:>5}"
+            print(f"{name:<30}{out['seconds']:>9.2f}{plates / out['seconds']:>10.2f}{out['ok']:>5}"
                   f"{out['cpu_seconds']:>8.1f}{out['parent_cpu_seconds']:>14.1f}{out['peak_mb']:>9.0f}{worker:>11}"
                   f"{base / out['seconds']:>10.2f}")
         for jobs in (1, 2):

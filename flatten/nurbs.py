@@ -110,6 +110,12 @@ class NurbsCurve:
         return bool(np.ptp(self.weights) > 1e-14 * np.max(self.weights))
 
     @cached_property
+    def _constant_weight(self) -> bool:
+        """Every weight the same float (not merely within :attr:`is_rational`'s 1e-14: a
+        weight's derivative of 1e-14 times a coordinate of 1e6 is no round-off)."""
+        return bool(np.all(self.weights == self.weights[0]))
+
+    @cached_property
     def breakpoints(self) -> np.ndarray:
         """Distinct knots inside the domain, ends included, shape (n_spans + 1,)."""
         lo, hi = self.domain
@@ -166,7 +172,7 @@ class NurbsCurve:
         """
         hom = self.homogeneous_derivatives(t, order)
         a, w = hom[..., :3], hom[..., 3]
-        if not self.is_rational:  # w constant: its derivatives vanish and the sum with them
+        if self._constant_weight:  # its derivatives vanish, and the sum with them
             return a / w[0][None, :, None]
         out = np.empty_like(a)
         for k in range(order + 1):

@@ -180,7 +180,7 @@ def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: floa
     (or to the seam's end where it ends first). ``crossings``: a dict kept by the caller
     for the seams' crossings with the butt planes (a strake's plates share each seam with
     a neighbouring strake and each butt with a neighbouring plate: four plates ask for
-    every crossing); the caller keeps the seams alive while it keeps the dict."""
+    every crossing)."""
     lo, hi = seam.domain
     cross_lo, cross_hi = (_known_crossings(seam, plane, crossings) for plane in planes)
     if len(cross_lo) != 1 or len(cross_hi) != 1:
@@ -199,11 +199,11 @@ def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: floa
 
 
 def _known_crossings(curve: NurbsCurve, plane: Plane, crossings: dict | None) -> np.ndarray:
-    """:func:`plane_crossings`, looked up in ``crossings`` first (keyed by the curve's
-    identity and the plane) and stored there."""
+    """:func:`plane_crossings`, looked up in ``crossings`` first (keyed by the curve, which
+    hashes by identity and is kept alive by the key, and the plane) and stored there."""
     if crossings is None:
         return plane_crossings(curve, plane)
-    key = (id(curve), plane.normal, plane.offset)
+    key = (curve, plane.normal, plane.offset)
     if key not in crossings:
         crossings[key] = plane_crossings(curve, plane)
     return crossings[key]

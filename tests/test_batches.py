@@ -165,6 +165,22 @@ def test_a_corner_ruling_trimmed_to_a_point_leaves_the_ruling_error_at_round_off
         assert got["ruling_edge_max_abs_error"] == pytest.approx(2e-13, rel=1e-2)  # the sliver's 3e-13 - 1e-13
 
 
+def test_a_strip_far_from_the_origin_reports_no_relative_ruling_error_rather_than_zero(frustum):
+    """A strip 1e-9 of its distance from the origin: every ruling edge lies below the floor,
+    so the relative figure is not measured (NaN, null in a report), never a 0 that would
+    claim an exact development; the absolute figure still shows a 1 % stretch."""
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=30)
+    m = 5
+    strip = build_strip(c, d, rulings, m)
+    flat = develop(c, d, rulings, solution.field).vertices(strip.samples) * 1.01
+    near = distortion(strip.vertices, flat, m, c, d, rulings)
+    far = distortion(strip.vertices + 8e8, flat, m, c, d, rulings)
+    assert near["ruling_edge_max_relative_error"] == pytest.approx(0.01, rel=1e-6)
+    assert np.isnan(far["ruling_edge_max_relative_error"])
+    assert far["ruling_edge_max_abs_error"] == pytest.approx(near["ruling_edge_max_abs_error"], rel=1e-3)
+
+
 def test_develop_keeps_no_interpolant_and_bounded_temporaries(frustum):
     """develop() returns the development alone: the pieces' spectral interpolant that
     DevelopedStrip keeps for later rulings (3 x 10 floats a piece, 240 bytes a ruling of a

@@ -142,3 +142,22 @@ def test_piecewise_polynomial_of_high_degree_splines_without_fitpack(degree):
     spline = BSpline(t, np.random.default_rng(degree).normal(size=len(t) - degree - 1), degree)
     x = np.linspace(0, 1, 41)
     assert np.allclose(ppoly_from_spline(spline)(x), spline(x), atol=1e-12)
+
+
+def test_weights_equal_but_for_round_off_keep_the_quotient_rule():
+    """Derivatives of a polynomial curve skip the weight's derivatives (all zero), but only
+    when the weights are the same float: weights 1e-14 apart (is_rational's tolerance calls
+    them equal) have a derivative that, times coordinates of 1e6, is no round-off (the
+    shortcut was off by 1e-8 there). c' against the quotient rule (A' w - A w') / w^2."""
+    from flatten.nurbs import nurbs_curve
+
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 0.5], [3.0, 1.0, -1.0], [4.0, 3.0, 0.0]]) + 1e6
+    for weights, rational in (([1.0, 1.0, 1.0, 1.0], False), ([1.0, 1.0 + 0.99e-14, 1.0, 1.0], False)):
+        curve = nurbs_curve(points, degree=3, weights=weights)
+        assert curve.is_rational is rational
+        t = np.linspace(*curve.domain, 9)
+        hom = curve.homogeneous_derivatives(t, 1)
+        a, w = hom[..., :3], hom[..., 3:]
+        quotient = (a[1] * w[0] - a[0] * w[1]) / w[0] ** 2
+        got = curve.derivatives(t, 1)[1]
+        assert np.abs(got - quotient).max() <= 1e-12 * np.abs(quotient).max()
