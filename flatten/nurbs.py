@@ -298,8 +298,14 @@ class NurbsCurve:
     # --------------------------------------------------------------- curvature
     def curvature(self, t: np.ndarray) -> np.ndarray:
         """Curvature |c' x c''| / |c'|^3, shape (N,), 1/model units."""
+        return self.speed_and_curvature(t)[1]
+
+    def speed_and_curvature(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Speed |c'| (N,), model units per parameter, and :meth:`curvature` (N,), from one
+        evaluation of the derivatives."""
         _, d1, d2 = self.derivatives(t, 2)
-        return np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        speed = np.linalg.norm(d1, axis=1)
+        return speed, np.linalg.norm(np.cross(d1, d2), axis=1) / speed**3
 
     def normal_curvature(self, t: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """Normal curvature c'' . n / |c'|^2 against unit surface normals n (N, 3), shape (N,)."""

@@ -112,18 +112,28 @@ class PathSampler:
         would move it by round-off only)."""
         return self.lam, (self.x if self.unit is None else self.unit.to_params(self.x))
 
+    def unpolished(self, fractions: np.ndarray) -> np.ndarray:
+        """Points [t, T] (N, 2) of the path at fractions of its length, interpolated between
+        its vertices without the polish: where only the rulings' density is estimated from
+        them (curvature and speed of c at t, of d at T) a point a trace tolerance off the
+        solution changes nothing that matters."""
+        return _interpolated(fractions, *self.vertices())
+
     def __call__(self, fractions: np.ndarray) -> np.ndarray:
         """Points [t, T] (N, 2) of the path at fractions (N,) of its length, polished."""
-        lam, x = self.lam, self.x
         if self.unit is None:
-            return np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
+            return _interpolated(fractions, self.lam, self.x)
         fractions = np.asarray(fractions, dtype=np.float64)
         out = np.empty((len(fractions), 2))
         for lo, hi in batches(len(fractions)):  # the polish is pointwise: batches change nothing
-            f = fractions[lo:hi]
-            pts = np.column_stack([np.interp(f, lam, x[:, 0]), np.interp(f, lam, x[:, 1])])
+            pts = _interpolated(fractions[lo:hi], self.lam, self.x)
             out[lo:hi] = self.unit.to_params(self.unit.polish(pts, iterations=6, settled=SETTLED_STEP))
         return out
+
+
+def _interpolated(fractions: np.ndarray, lam: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The polyline x (M, 2) at fractions lam (M,), linearly between its points, (N, 2)."""
+    return np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
 
 
 def sample_path(solution: SolutionSet, fractions: np.ndarray) -> np.ndarray:
@@ -168,17 +178,16 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
     if n_rulings is not None:
         return sample(np.linspace(0.0, 1.0, max(int(n_rulings), 2)))
     dense = np.linspace(0.0, 1.0, 2049)
-    pts = _unpolished(sample, dense)
+    pts = sample.unpolished(dense)  # the rulings themselves are polished, their chord errors checked
     curves = (c, d)
     density = np.zeros(len(dense))
     for axis, curve in enumerate(curves):
         # |ds/dlam| = |c'(t)| |dt/dlam|, from the same derivatives as the curvature; a seam
         # end with zero speed (a doubled end pole) has no curvature (0/0): it moves nowhere
         # there (ds = 0), so it asks for no rulings
-        _, d1, d2 = curve.derivatives(pts[:, axis], 2)
-        speed = np.linalg.norm(d1, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            kappa = np.nan_to_num(np.linalg.norm(np.cross(d1, d2), axis=1) / speed**3, nan=0.0, posinf=0.0)
+            speed, kappa = curve.speed_and_curvature(pts[:, axis])
+        kappa = np.nan_to_num(kappa, nan=0.0, posinf=0.0)
         ds = speed * np.abs(np.gradient(pts[:, axis], dense))
         density = np.maximum(density, np.sqrt(np.maximum(kappa, 0.0) / (8.0 * chord_tolerance)) * ds)
     cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(dense))])
@@ -194,16 +203,6 @@ def choose_rulings(solution: SolutionSet, c: NurbsCurve, d: NurbsCurve,
             return rulings
         count = min(2 * count, max_rulings)
     return rulings
-
-
-def _unpolished(sample: PathSampler, fractions: np.ndarray) -> np.ndarray:
-    """Points [t, T] (N, 2) of the path at fractions of its length, interpolated between
-    its vertices without the polish: where only the rulings' density is estimated from
-    them (curvature and speed of c at t, of d at T) a point a trace tolerance off the
-    solution changes nothing that matters; the rulings themselves are polished, and their
-    chord errors checked."""
-    lam, x = sample.vertices()
-    return np.column_stack([np.interp(fractions, lam, x[:, 0]), np.interp(fractions, lam, x[:, 1])])
 
 
 def build_strip(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray, samples_per_ruling: int = 5,

@@ -99,11 +99,8 @@ def test_angle_defects_in_windows_equal_the_whole_mesh(frustum):
 def test_distortion_in_windows_equals_the_edge_list_computation(frustum):
     """The grid's edges (along the strip, diagonals, rulings) against the edge list of the
     whole triangle mesh, de-duplicated, on a flat layout that is not isometric."""
-    c, d, solution = frustum
-    rulings = choose_rulings(solution, c, d, n_rulings=30)
     m = 4
-    strip = build_strip(c, d, rulings, m)
-    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    c, d, rulings, strip, flat = _strip_and_flat(frustum, m)
     flat = flat * np.array([1.0, 1.01])  # a stretched pattern: every figure non-trivial
     edges = unique_edges(strip.faces)
     ruling = np.column_stack([np.arange(len(strip.vertices)), np.arange(len(strip.vertices)) + 1])
@@ -124,17 +121,23 @@ def test_distortion_in_windows_equals_the_edge_list_computation(frustum):
         assert got["ruling_edge_max_abs_error"] == pytest.approx(np.abs(r2 - r3).max(), rel=1e-12)
 
 
+def _strip_and_flat(frustum, m: int):
+    """The frustum's strip on 30 rulings, m samples a ruling, and its exact development:
+    (c, d, rulings, strip, flat vertices (K m, 2))."""
+    c, d, solution = frustum
+    rulings = choose_rulings(solution, c, d, n_rulings=30)
+    strip = build_strip(c, d, rulings, m)
+    return c, d, rulings, strip, develop(c, d, rulings, solution.field).vertices(strip.samples)
+
+
 def test_distortion_of_a_strip_whose_seams_meet_is_finite_and_warns_nothing(frustum):
     """Seams meeting at an end collapse the edges along that ruling to zero length in 3D;
     their round-off length in the plane over zero read as 1e+288 and overflowed the RMS (a
     DTMB 5415 plate). Collapsed edges carry no relative error; the others keep theirs."""
     import warnings
 
-    c, d, solution = frustum
-    rulings = choose_rulings(solution, c, d, n_rulings=30)
     m = 4
-    strip = build_strip(c, d, rulings, m)
-    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    c, d, rulings, strip, flat = _strip_and_flat(frustum, m)
     vertices, flat = strip.vertices.copy(), flat.copy()
     vertices[m] = vertices[0]  # the first two rulings start at one point in 3D (a seam with zero speed) ...
     flat[m] = flat[0] + 1e-13  # ... and within round-off of one point in the plane
@@ -149,11 +152,8 @@ def test_a_corner_ruling_trimmed_to_a_point_leaves_the_ruling_error_at_round_off
     ~1e-12 mm whose 3D and flat lengths are round-off of the coordinates: their ratio read
     as a relative ruling error of 0.1-1.4 in the plate reports. The relative figure leaves
     such slivers out (the others stay exact to round-off); the absolute one keeps them."""
-    c, d, solution = frustum
-    rulings = choose_rulings(solution, c, d, n_rulings=30)
     m = 5
-    strip = build_strip(c, d, rulings, m)
-    flat = develop(c, d, rulings, solution.field).vertices(strip.samples)
+    c, d, rulings, strip, flat = _strip_and_flat(frustum, m)
     vertices, flat = strip.vertices.copy(), flat.copy()
     # the last ruling trimmed to its first point: its edges are round-off in 3D and flat
     vertices[-m:] = vertices[-m] + 1e-13 * np.arange(m)[:, None] * np.array([1.0, 0.0, 0.0])
@@ -169,11 +169,9 @@ def test_a_strip_far_from_the_origin_reports_no_relative_ruling_error_rather_tha
     """A strip 1e-9 of its distance from the origin: every ruling edge lies below the floor,
     so the relative figure is not measured (NaN, null in a report), never a 0 that would
     claim an exact development; the absolute figure still shows a 1 % stretch."""
-    c, d, solution = frustum
-    rulings = choose_rulings(solution, c, d, n_rulings=30)
     m = 5
-    strip = build_strip(c, d, rulings, m)
-    flat = develop(c, d, rulings, solution.field).vertices(strip.samples) * 1.01
+    c, d, rulings, strip, flat = _strip_and_flat(frustum, m)
+    flat = flat * 1.01
     near = distortion(strip.vertices, flat, m, c, d, rulings)
     far = distortion(strip.vertices + 8e8, flat, m, c, d, rulings)
     assert near["ruling_edge_max_relative_error"] == pytest.approx(0.01, rel=1e-6)
