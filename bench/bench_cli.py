@@ -179,7 +179,7 @@ def main(argv=None) -> int:
 
             sys.path.insert(0, str(ROOT))
             from flatten import solve
-            from pipeline.cli import validate
+            from pipeline.validate import validate
 
             part = validate(config).parts[0]
             solve(part.c, part.d)

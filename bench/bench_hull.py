@@ -36,10 +36,10 @@ HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kv
 
 
 def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
-    from pipeline.hullplots import class_hull_png, display_class, shell_area
-    from pipeline.plan import load_run
-    from pipeline.planout import write_plan_dxf
-    from pipeline.plates import evaluate_plate, run_part
+    from pipeline.hull.hullplots import class_hull_png, display_class, shell_area
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.planout import write_plan_dxf
+    from pipeline.hull.plates import evaluate_plate, run_part
 
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data = copy.deepcopy(data)

@@ -33,10 +33,10 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from pipeline.config import NestingSpec  # noqa: E402
-from pipeline.nesting import nest_marker, nest_stock  # noqa: E402
-from pipeline.nesting_io import build_job  # noqa: E402
-from pipeline.plan import load_run  # noqa: E402
-from pipeline.plates import run_part  # noqa: E402
+from pipeline.nest.engine import nest_marker, nest_stock  # noqa: E402
+from pipeline.nest.command import build_job  # noqa: E402
+from pipeline.hull.plan import load_run  # noqa: E402
+from pipeline.hull.plates import run_part  # noqa: E402
 
 ALGORITHMS = ("MaxRectsBl", "MaxRectsBssf", "MaxRectsBaf", "MaxRectsBlsf", "SkylineBl", "SkylineMwf",
               "SkylineMwfl", "GuillotineBssfSas", "GuillotineBafSas", "GuillotineBlsfSas")

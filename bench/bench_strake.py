@@ -72,22 +72,22 @@ def one(args) -> int:
 
 # (module, function, what it is): the stages timed by --stages, in the order printed
 STAGES = [
-    ("pipeline.plates", "run_part", "the plate: class, strip, shop data (no files)"),
-    ("pipeline.plates", "_grid", "  region grid of the plate on the hull (two region_grid)"),
+    ("pipeline.hull.plates", "run_part", "the plate: class, strip, shop data (no files)"),
+    ("pipeline.hull.plates", "_grid", "  region grid of the plate on the hull (two region_grid)"),
     ("pipeline.stages", "develop_part", "  solve, strip, unroll, check (both families)"),
     ("flatten.solver", "solve", "    solve"),
     ("pipeline.stages", "stage_strip", "    rulings and strip mesh"),
-    ("pipeline.platestrip", "butt_family", "  butt-to-butt family (sections, solve, trim)"),
-    ("pipeline.platestrip", "section_curves", "    butt sections"),
-    ("pipeline.strake", "stage_trim", "  trim by the butt planes, hull distance"),
-    ("pipeline.marks", "frame_polylines", "    frame lines"),
-    ("pipeline.shop", "stage_shop", "  shop data"),
-    ("pipeline.outline", "exact_outline", "    exact outline"),
-    ("pipeline.outline", "_corners", "      plate corners"),
-    ("pipeline.bending", "bending_lines", "    bending lines"),
+    ("pipeline.hull.platestrip", "butt_family", "  butt-to-butt family (sections, solve, trim)"),
+    ("pipeline.hull.platestrip", "section_curves", "    butt sections"),
+    ("pipeline.hull.strake", "stage_trim", "  trim by the butt planes, hull distance"),
+    ("pipeline.shop.marks", "frame_polylines", "    frame lines"),
+    ("pipeline.shop.plate", "stage_shop", "  shop data"),
+    ("pipeline.shop.outline", "exact_outline", "    exact outline"),
+    ("pipeline.shop.outline", "_corners", "      plate corners"),
+    ("pipeline.shop.bending", "bending_lines", "    bending lines"),
     ("pipeline.export", "export_part", "the plate's files"),
-    ("pipeline.layout", "plate_layout", "  text layout"),
-    ("pipeline.dxf_steel", "write_steel_dxf", "  DXF"),
+    ("pipeline.shop.layout", "plate_layout", "  text layout"),
+    ("pipeline.shop.dxf", "write_steel_dxf", "  DXF"),
     ("pipeline.export", "write_obj", "  OBJ"),
 ]
 
@@ -101,8 +101,8 @@ def stages(args) -> int:
     import importlib
 
     import pipeline.export
-    import pipeline.plates
-    from pipeline.plan import load_run
+    import pipeline.hull.plates
+    from pipeline.hull.plan import load_run
 
     spent = {name: 0.0 for _, name, _ in STAGES}
     for module, name, _ in STAGES:
@@ -128,7 +128,7 @@ def stages(args) -> int:
         for k, part in enumerate(parts):
             folder = Path(tmp) / f"part{k}"
             folder.mkdir()
-            pipeline.export.export_part(pipeline.plates.run_part(part, plan), plan, folder)
+            pipeline.export.export_part(pipeline.hull.plates.run_part(part, plan), plan, folder)
         total = time.process_time() - start
     print(f"{len(parts)} plates (every {args.every}th of {len(plan.parts)}), {1000 * total / len(parts):.0f} ms CPU "
           f"per plate in all")

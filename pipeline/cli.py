@@ -19,6 +19,8 @@ import traceback
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .validate import check_jobs, validate
+
 if TYPE_CHECKING:
     from .config import RunConfig
 
@@ -35,10 +37,28 @@ def _terminated(signum, frame):
     raise Terminated()
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed distribution's version, looked up only when asked for
+    (importlib.metadata is not free at start-up)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            number = version("devflat")
+        except PackageNotFoundError:  # run from a source tree that was never installed
+            number = "unknown (not installed)"
+        parser.exit(message=f"devflat {number}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="devflat", description="Developable strips from two NURBS curves, "
                                      "unrolled into DXF cutting patterns.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    parser.add_argument("--version", action=_Version, help="print devflat's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run every part of a configuration and write the files")
     run.add_argument("config", type=Path)
@@ -62,44 +82,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def validate(path: Path, evaluate=None) -> RunConfig:
-    """Load the config, plan its plates and check each part's curve pair (coincident curves
-    are bad input)."""
-    from flatten.errors import DevflatError
-    from flatten.pair import check_pair
-    from flatten.tolerances import DEFAULT_TOLERANCES
-
-    from .config import ConfigError
-    from .plan import load_run
-
-    try:
-        config = load_run(path, evaluate)
-        for part in config.parts:
-            if part.hull is not None and not part.hull.developable:
-                continue  # no strip is tried between these seams (e.g. an end plate)
-            try:
-                check_pair(part.c, part.d, DEFAULT_TOLERANCES)
-            except DevflatError as exc:
-                raise ConfigError(f"{path}: part {part.name}: {exc}") from None
-    except (DevflatError, KeyboardInterrupt):
-        raise
-    except (MemoryError, RecursionError) as exc:  # the input exhausted a resource: out of range
-        raise ConfigError(f"{path}: the input is too large to process ({type(exc).__name__})") from exc
-    except Exception as exc:  # noqa: BLE001 - an input no check foresaw is still bad input, named
-        raise ConfigError(f"{path}: cannot process the configuration: {type(exc).__name__}: {exc}") from exc
-    return config
-
-
-MAX_JOBS = 64
-
-
-def check_jobs(jobs: int) -> None:
-    from .config import ConfigError
-
-    if not 1 <= jobs <= MAX_JOBS:
-        raise ConfigError(f"--jobs {jobs}: give a number of processes from 1 to {MAX_JOBS}")
-
-
 def command_run(args, early=None) -> int:
     """``devflat run``; ``early``: the render process :func:`early_renderer` started."""
     try:
@@ -114,7 +96,7 @@ def _run(args, early) -> int:
     from .export import export_summary, export_textile, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
-    from .plates import evaluate_plate
+    from .hull.plates import evaluate_plate
     from .runner import guarded_export, run_parts
 
     check_jobs(args.jobs)
@@ -176,7 +158,7 @@ def _image_modules(profile: str, png: bool, dxf: bool, drawing: bool | None, war
     """:func:`image_modules` from the output settings (the validated ones, or a raw file's)."""
     drawings = profile == "steel" and dxf and (png if drawing is None else drawing)
     previews_need = "pipeline.plots:warm_up" if warm else "pipeline.plots"
-    drawings_need = "pipeline.shopdrawing:warm_up" if warm else "pipeline.lazymodules:pdf_backend"
+    drawings_need = "pipeline.shop.drawing:warm_up" if warm else "pipeline.lazymodules:pdf_backend"
     return ((previews_need,) if png else ()) + ((drawings_need,) if drawings else ())
 
 
@@ -307,7 +289,7 @@ def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:
 
     out = config.spec.output
     if config.spec.profile == "steel" and out.dxf and dxf:
-        from . import dxf_steel, shop  # noqa: F401
+        from .shop import dxf, plate  # noqa: F401
     for name in image_modules(config) if images else ():
         module, _, function = name.partition(":")
         loaded = importlib.import_module(module)
@@ -351,11 +333,11 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
         if args.command == "run":
             return command_run(args, early)
         if args.command == "nest":
-            from .nesting_io import command_nest
+            from .nest.command import command_nest
 
             if one_shot:
                 imports_done()
-            return command_nest(args, validate)
+            return command_nest(args)
         return command_check(args)
     except (ConfigError, DevflatError) as exc:
         if args.debug:

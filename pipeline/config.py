@@ -736,7 +736,7 @@ def _line_of(lines: dict, loc) -> int | None:
 
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a run configuration; raise ConfigError on the first problem."""
-    from .inputs import InputFileError, YamlLimitError, load_yaml, read_input_file
+    from .io.inputs import InputFileError, YamlLimitError, load_yaml, read_input_file
 
     path = Path(path)
     try:
@@ -801,7 +801,7 @@ def _check_notch_curves(spec: RunSpec, parts: list[Part], path: Path, lines: dic
 
 def _curve(cs, loc: tuple, path: Path, lines: dict, mm_per_unit: float, fits: dict) -> NurbsCurve:
     """Build a curve from any source; errors name the config file and line as well."""
-    from .sources import SourceError, dxf_source, fit_points, iges_source
+    from .io.sources import SourceError, dxf_source, fit_points, iges_source
 
     name = _format_path(loc)
     line = _line_of(lines, loc)

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text
+from .io.atomic import write_text
 from .config import RunConfig
-from .meshio import write_obj
+from .io.meshio import write_obj
 from .renderproc import render
 from .renderproc import wait as wait_for_images
 from .report import report_json
@@ -64,15 +64,15 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
         scale = config.mm_per_unit
         pattern = result.pattern
         if out.dxf and config.spec.profile == "steel":
-            from .dxf_steel import write_steel_dxf  # ezdxf: imported only when a steel DXF is written
+            from .shop.dxf import write_steel_dxf  # ezdxf: imported only when a steel DXF is written
 
-            from .shop import shop_drawing, shop_layout
+            from .shop.plate import shop_drawing, shop_layout
 
             drawing = out.png if out.drawing is None else out.drawing  # the PDF follows the previews
 
             texts = steel_texts(result)
             if config.spec.shop.mirror:  # both sides: the modelled plate and its reflection, P/S in the id
-                from .shop import mirrored
+                from .shop.plate import mirrored
 
                 v3 = result.strip.vertices if result.strip is not None else result.mesh[0]
                 model = "P" if float(np.mean(v3[:, 1])) >= 0.0 else "S"
@@ -105,7 +105,7 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
             write_obj(path, v3, pattern.vertices, faces, name)
             written.append(path)
         if config.part_previews and result.figures.get("textile_piece") is not None:
-            from .textile_preview import textile_preview_png
+            from .textile.preview import textile_preview_png
 
             path = out_dir / f"{name}_flat.png"
             textile_preview_png(path, result.figures["textile_piece"], config.spec.units)
@@ -122,8 +122,8 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
 def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     """Build every successful part's textile piece, side by side; raises ConfigError for
     textile options that do not fit a piece (before anything is written)."""
-    from .seams import match_seams
-    from .textile import build_piece
+    from .textile.seams import match_seams
+    from .textile.pieces import build_piece
 
     match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
     for result in results:
@@ -158,7 +158,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     options = config.spec.textile.printout_options()
     if pieces and options is not None:
         from .config import ConfigError
-        from .printout import MAX_PAGES, count_pages
+        from .textile.printout import MAX_PAGES, count_pages
 
         pages = count_pages(pieces, config.mm_per_unit, options)
         if pages > MAX_PAGES:
@@ -170,8 +170,8 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
 
 def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -> list[Path]:
     """All pieces into one AAMA DXF, and the 1:1 printout."""
-    from .aama import write_aama
-    from .printout import write_sheet_svg, write_tiled_pdf
+    from .textile.aama import write_aama
+    from .textile.printout import write_sheet_svg, write_tiled_pdf
 
     written = []
     if not pieces:
@@ -202,7 +202,7 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
     classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
     planned = config.spec.strake is not None and config.spec.strake.plan is not None
     if classed and planned and config.spec.output.dxf:  # the plan: every plate's outline on the hull, by class
-        from .planout import write_plan_dxf
+        from .hull.planout import write_plan_dxf
 
         written.append(out_dir / f"{style}_plan.dxf")
         write_plan_dxf(written[-1], classed, config.mm_per_unit)
@@ -215,7 +215,7 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
             written.append(path)
         classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
         if classed:
-            from .hullplots import class_hull_png
+            from .hull.hullplots import class_hull_png
 
             path = out_dir / f"{style}_classes.png"
             class_hull_png(path, classed, config.spec.units, config.mm_per_unit)

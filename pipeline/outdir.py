@@ -60,7 +60,7 @@ def run_files(name: str, profile: str) -> list[str]:
 
 def input_files(config: RunConfig) -> list[Path]:
     """The configuration and every file it reads (IGES, DXF), as given."""
-    from .sources import source_path
+    from .io.sources import source_path
 
     found = [config.source]
 

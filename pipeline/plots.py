@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from .atomic import atomic_path
+from .io.atomic import atomic_path
 
 if TYPE_CHECKING:  # a type only: the render process draws without importing scipy (flatten's curves)
     from flatten import SolutionSet

@@ -37,7 +37,7 @@ def failed_result(part, exc: BaseException, stage: str) -> PartResult:
 
 
 def guarded_run(part, config: RunConfig) -> PartResult:
-    from .plates import run_part
+    from .hull.plates import run_part
 
     try:
         return run_part(part, config)

@@ -215,7 +215,7 @@ def finish_part(result: PartResult, config: RunConfig) -> None:
     """Area and steel figures of a developed part; marks it ok."""
     part = result.part
     if config.spec.profile == "steel" and result.strip is not None and result.solution is not None:
-        from .shop import stage_shop
+        from .shop.plate import stage_shop
 
         stage_shop(result, config)
         area_m2 = result.figures["outline"]["area_m2"]  # the exact outline, not the ruling polygon

@@ -1,4 +1,4 @@
-"""The cut line of an allowance (pipeline.allowance.cut_outline) on developed plates whose
+"""The cut line of an allowance (pipeline.shop.allowance.cut_outline) on developed plates whose
 edges are arcs: the same outline whatever the round-off of the net outline, which a plate's
 rulings change from one solver version or machine to the next."""
 
@@ -9,7 +9,7 @@ import shapely
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
-from pipeline.allowance import cut_outline, edge_runs
+from pipeline.shop.allowance import cut_outline, edge_runs
 
 
 def sector(r_c: float, r_d: float, a0: float, a1: float, n: int, shift) -> tuple[np.ndarray, tuple]:

@@ -1,4 +1,4 @@
-"""Best-fit strips (pipeline/bestfit.py): a strip moved off the hull so that the hull lies on
+"""Best-fit strips (pipeline/hull/bestfit.py): a strip moved off the hull so that the hull lies on
 both sides of it meets a bow of sagitta s within s / 2, the least any straight ruling can."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import yaml
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
-from pipeline.bestfit import end_offsets
+from pipeline.hull.bestfit import end_offsets
 from pipeline.cli import main
 from tests.hull_shapes import bowed_bilge_iges
 
@@ -73,11 +73,11 @@ def test_a_seam_strip_whose_rulings_lean_is_solved_between_seams_reaching_far_pa
     on the other, past the 0.2 x 6 m the plain seam strip extends beyond each butt, so it
     stops short of two corners. Between the seams extended half the plate length past both
     butts and trimmed by the region, it covers the plate and lies on the hull."""
-    from pipeline.bestfit import seam_family_far
-    from pipeline.plan import load_run
-    from pipeline.plates import _grid, completeness
+    from pipeline.hull.bestfit import seam_family_far
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import _grid, completeness
     from pipeline.stages import PartResult, develop_part
-    from pipeline.strake import corner_rulings, stage_trim
+    from pipeline.hull.strake import corner_rulings, stage_trim
     from tests.hull_shapes import leaning_cylinder_iges
 
     iges = leaning_cylinder_iges(tmp_path / "lean.igs")

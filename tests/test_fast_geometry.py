@@ -125,8 +125,8 @@ def test_outline_and_bending_lines_from_the_stages_development_are_the_tracers_o
     from flatten import solve
     from flatten.develop import DevelopedStrip
     from flatten.strip import build_strip, choose_rulings
-    from pipeline.bending import bending_lines
-    from pipeline.outline import PlateTracer, exact_outline
+    from pipeline.shop.bending import bending_lines
+    from pipeline.shop.outline import PlateTracer, exact_outline
     from tests.oracles import frustum_pair
 
     r1, r2, h = 3.0, 2.0, 1.5

@@ -12,7 +12,7 @@ import yaml
 
 from flatten.patchflat import arap_development, triangle_stretches
 from pipeline.cli import main
-from pipeline.meshio import read_obj
+from pipeline.io.meshio import read_obj
 from tests.hull_shapes import cylinder_iges, plane_iges
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,7 +99,7 @@ def test_a_spherical_cap_flattens_with_the_strain_its_curvature_forces(a):
 def test_a_zero_speed_seam_end_never_stops_the_strake(tmp_path):
     """The keel seam v = 0 of the 160 m hull stands still at its aft end (u = 0): a plate whose
     seams are extended there used to raise NaN in choose_rulings and write nothing."""
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
 
     strake = {"surface": {"iges": str(SHIP / "test_1_hull_exported.igs")},
               "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 0.6337}}, {"iso": {"v": 1.2}}],
@@ -154,7 +154,7 @@ def test_a_uniform_plan_covers_the_shell_with_classed_plates(tmp_path):
     """A coarse plan of the whole DTMB 5415 main-hull surface (model scale): every plate of
     the plan is delivered with a class, and the plates' regions add up to the surface's area."""
     from flatten.surface import NurbsSurface  # noqa: F401  (the type the plan works on)
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
 
     strake = {"surface": {"iges": str(SHIP / "ship_5415.igs"), "directory": 5},
               "plan": {"method": "uniform", "stock": {"max_length": 2000.0, "max_width": 300.0,

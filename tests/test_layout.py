@@ -1,4 +1,4 @@
-"""The steel plate text layout (pipeline.layout), checked independently with shapely:
+"""The steel plate text layout (pipeline.shop.layout), checked independently with shapely:
 random plates, mark lines and texts; every placed box inside the room, clear of the lines
 and of the other boxes; the fast tests of the placer decide as the exact ones do."""
 
@@ -10,7 +10,7 @@ import shapely
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
-from pipeline.layout import Placer, free_reach, inscribed_radius, plate_layout
+from pipeline.shop.layout import Placer, free_reach, inscribed_radius, plate_layout
 
 
 def _star(rng: np.random.Generator, n: int, size: float, aspect: float) -> np.ndarray:

@@ -9,7 +9,7 @@ import shapely
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
-from pipeline.layout import Placer, grid_points, line_distance, plate_layout
+from pipeline.shop.layout import Placer, grid_points, line_distance, plate_layout
 from tests.test_layout import _random_plate
 
 
@@ -141,7 +141,7 @@ def test_text_corners_are_shapelys_turned_boxes_to_the_float(key, count):
     whose cosines shapely rounds to 0, among the angles)."""
     from shapely.affinity import rotate
 
-    from pipeline.layout import CHAR_WIDTH, Text, text_corners
+    from pipeline.shop.layout import CHAR_WIDTH, Text, text_corners
 
     rng = np.random.default_rng(key)
     angles = np.where(rng.uniform(size=count) < 0.3, rng.choice([-90.0, 0.0, 90.0, 180.0], size=count),

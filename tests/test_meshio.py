@@ -7,7 +7,7 @@ from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from pipeline.meshio import obj_text, read_obj
+from pipeline.io.meshio import obj_text, read_obj
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 

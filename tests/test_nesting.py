@@ -1,5 +1,5 @@
 """Nesting: markers and stock plates checked independently of the engine and of
-pipeline.nesting's own checks (shapely on the placed outlines, closed-form areas, the DXF
+pipeline.nest.engine's own checks (shapely on the placed outlines, closed-form areas, the DXF
 read back), quantities honoured, bad input exit 2, unplaceable parts reported."""
 
 import csv
@@ -20,7 +20,7 @@ from shapely.geometry import Polygon, box
 
 from pipeline.cli import main
 from pipeline.config import ConfigError, load_config
-from pipeline.nesting import NestingError, NestItem, NestResult, Placement, Sheet, check_layout, nest_marker, nest_stock
+from pipeline.nest.engine import NestingError, NestItem, NestResult, Placement, Sheet, check_layout, nest_marker, nest_stock
 
 ROOT = Path(__file__).resolve().parents[1]
 LAMPSHADE = ROOT / "configs" / "lampshade.yaml"

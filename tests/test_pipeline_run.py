@@ -10,7 +10,7 @@ import yaml
 from scipy.integrate import quad
 
 from pipeline.cli import main
-from pipeline.meshio import read_obj
+from pipeline.io.meshio import read_obj
 from tests import oracles
 
 ROOT = Path(__file__).resolve().parents[1]

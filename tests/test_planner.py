@@ -10,11 +10,11 @@ import yaml
 from scipy.interpolate import make_interp_spline
 
 from flatten.surface import nurbs_surface
-from pipeline.iges import iges_curve, read_iges, iges_surface
-from pipeline.planner import honest_class
-from pipeline.seamlines import least_curvature_seams
-from pipeline.splitting import choose_split, estimate, sample_region
-from pipeline.trims import read_trim, trimmed_area
+from pipeline.io.iges import iges_curve, read_iges, iges_surface
+from pipeline.hull.planner import honest_class
+from pipeline.hull.seamlines import least_curvature_seams
+from pipeline.hull.splitting import choose_split, estimate, sample_region
+from pipeline.hull.trims import read_trim, trimmed_area
 from tests.hull_shapes import cylinder_sphere_iges
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,8 +39,8 @@ def test_the_split_of_a_cylinder_joined_to_a_sphere_cap_falls_on_the_junction(tm
     cylinder (girth fraction < 0.3), half sphere. Its split is a seam at the junction
     (y = 1500 mm), not at mid girth; the plan then delivers the cylinder half as devflat's
     strip (exact) and the sphere half as not developable by a strip."""
-    from pipeline.plan import load_run
-    from pipeline.plates import evaluate_plate
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import evaluate_plate
 
     config = load_run(_cs_config(tmp_path, 1), evaluate_plate)
     by_name = {p.name: p for p in config.parts}
@@ -66,7 +66,8 @@ def test_the_split_chooser_prefers_the_junction_over_mid_girth():
         path = cylinder_sphere_iges(Path(tmp) / "cs.igs", RADIUS, 60.0, CYLINDER, CAP, JUNCTION)
         iges = read_iges(path)
         surface = iges_surface(iges, iges.of_type(128)[0], 1.0, "cs")
-    from pipeline.plan import Girth, Plane
+    from flatten.plane import Plane
+    from pipeline.hull.region import Girth
 
     pair = (Plane((1.0, 0.0, 0.0), -1667.0), Plane((1.0, 0.0, 0.0), 1667.0))
     cyl = sample_region(surface, 0, (Girth.iso(0.0), Girth.iso(0.25)), pair)
@@ -168,7 +169,7 @@ def test_a_plan_of_kcs_flat_bottom_covers_its_trimmed_area_not_its_rectangle(tmp
     trim are not planned, and the plates' regions weighted by their share inside the trim
     add up to the trimmed area (1128 m2, against 2622 m2 for the rectangle)."""
     from flatten.patch import region_grid
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
 
     data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
             "strake": {"surface": {"iges": str(SHIP / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,

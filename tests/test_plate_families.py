@@ -52,7 +52,7 @@ def test_a_bilge_cylinder_with_seams_along_its_generators_is_developed_butt_to_b
     assert rep["outline"]["area_m2"] == pytest.approx((x2 - x1) * arc / 1e6, rel=1e-8)
     # (to 1e-8: the closest points are as exact as the solver's polished rulings, ~1e-9 relative)
     # the developed plate is that rectangle: its bounding box, placed along its seam
-    from pipeline.meshio import read_obj
+    from pipeline.io.meshio import read_obj
 
     _, vt, _ = read_obj(out / "t_S1_B1.obj")
     assert np.sort(np.ptp(vt, axis=0)) == pytest.approx(sorted([x2 - x1, arc]), rel=1e-8)

@@ -148,8 +148,8 @@ def test_the_render_process_draws_a_solution_without_importing_scipy(tmp_path):
     import dataclasses
     import pickle
 
-    from pipeline.plan import load_run
-    from pipeline.plates import evaluate_plate
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import evaluate_plate
     from pipeline.runner import run_parts
 
     config = load_run(ROOT / "configs" / "plate.yaml", evaluate_plate)

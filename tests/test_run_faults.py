@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 import pipeline.export
-import pipeline.plates
+import pipeline.hull.plates
 from pipeline.cli import main
 from pipeline.outdir import LOCK_NAME, STAGING_PREFIX, OutputError, OutputFolder
 
@@ -52,7 +52,7 @@ def consistent(out: Path) -> set[str]:
 
 
 def boom_for(name):
-    real = pipeline.plates.run_part
+    real = pipeline.hull.plates.run_part
 
     def run_part(part, config):
         if part.name == name:
@@ -65,7 +65,7 @@ def boom_for(name):
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_an_exception_in_one_part_fails_that_part_only(tmp_path, monkeypatch, capsys, jobs):
     config = parts_config(tmp_path / "run.yaml", ["a", "b", "c"])
-    monkeypatch.setattr(pipeline.plates, "run_part", boom_for("b"))  # forked workers inherit it
+    monkeypatch.setattr(pipeline.hull.plates, "run_part", boom_for("b"))  # forked workers inherit it
     out = tmp_path / "out"
     assert main(["run", str(config), "--out", str(out), "--quiet", "--jobs", jobs]) == 1
     assert "Traceback" not in capsys.readouterr().err
@@ -101,7 +101,7 @@ def test_a_failed_rerun_removes_the_old_cutting_pattern(tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
     assert {"a.dxf", "b.dxf"} <= consistent(out)
-    monkeypatch.setattr(pipeline.plates, "run_part", boom_for("b"))
+    monkeypatch.setattr(pipeline.hull.plates, "run_part", boom_for("b"))
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 1
     files = consistent(out)
     assert "b.dxf" not in files and "b.obj" not in files and "b.json" in files
@@ -371,7 +371,7 @@ def test_a_pickled_hull_evaluates_bit_identically(tmp_path):
 
     import numpy as np
 
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
 
     config = load_run(strake_config(tmp_path))
     surface = config.parts[0].hull.surface

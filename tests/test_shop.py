@@ -15,7 +15,7 @@ import yaml
 from scipy.spatial import cKDTree
 
 from pipeline.cli import main
-from pipeline.meshio import read_obj
+from pipeline.io.meshio import read_obj
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIP = ROOT / "tests" / "data" / "ship"
@@ -362,9 +362,9 @@ def test_hull_plate_bending_lines_do_not_depend_on_the_centre_line_sampling(tmp_
     their ends must be those of a sampling 30 times denser, to 1e-3 mm (a chord sum that
     stepped over the corners' turns came out 2.2 mm short on such plates, moving the lines
     by up to 1.1 mm)."""
-    import pipeline.bending
-    from pipeline.plan import load_run
-    from pipeline.plates import run_part
+    import pipeline.shop.bending
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import run_part
 
     config = _strake_config(tmp_path, "corner", {"iges": str(SHIP / "test_1_hull_exported.igs")},
                             [{"iso": {"v": 4.05}}, {"iso": {"v": 4.1}}], [96000, 104000])
@@ -376,7 +376,7 @@ def test_hull_plate_bending_lines_do_not_depend_on_the_centre_line_sampling(tmp_
         return result.figures["bending"]
 
     ours = bending()
-    monkeypatch.setattr(pipeline.bending, "DENSE", 30 * pipeline.bending.DENSE)
+    monkeypatch.setattr(pipeline.shop.bending, "DENSE", 30 * pipeline.shop.bending.DENSE)
     dense = bending()
     assert ours["count"] == dense["count"] >= 10
     assert ours["centre_line_length"] == pytest.approx(dense["centre_line_length"], abs=1e-3)

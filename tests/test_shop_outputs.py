@@ -10,7 +10,7 @@ import pytest
 import shapely
 import yaml
 
-from pipeline.allowance import cut_outline
+from pipeline.shop.allowance import cut_outline
 from pipeline.cli import main
 from pipeline.config import load_config
 
@@ -121,7 +121,7 @@ def test_allowance_on_a_real_plate_is_the_net_outline_buffered(tmp_path):
     cut, [net_line], rep = outlines["edges"]
     ring = shapely.LinearRing(cut)
     widths = rep["outline"]["allowance"]["total"]
-    from pipeline.allowance import edge_runs
+    from pipeline.shop.allowance import edge_runs
 
     # the per-segment edge names of the net line (the exact outline of the run without allowance)
     edges = _edge_names_of(tmp_path / "none" / "bilge_plate.json", len(net_line))
@@ -258,7 +258,7 @@ def hull_end_plates(tmp_path_factory):
     stern: its rulings run parallel to the butt planes, the plate ends are rulings lying
     in them). The uniform plan lays the same plates as the adaptive one, in seconds."""
     from pipeline.export import export_part
-    from pipeline.plates import run_plate
+    from pipeline.hull.plates import run_plate
 
     tmp = tmp_path_factory.mktemp("hull")
     config = hull160_uniform(tmp)
@@ -330,7 +330,7 @@ def test_formed_plate_draws_its_shrink_and_stretch_areas(tmp_path):
     """hull160 S01_B01 (formed at the bow): each shrink / stretch region of its strain map
     is a closed outline on MARK_SHRINK / MARK_STRETCH whose area is the region's."""
     from pipeline.export import export_part
-    from pipeline.plates import run_plate
+    from pipeline.hull.plates import run_plate
 
     config = hull160_uniform(tmp_path)
     part = next(p for p in config.parts if p.name == "hull160_S01_B01")
@@ -357,7 +357,7 @@ def test_strake_plate_figures_describe_the_trimmed_plate(hull_end_plates):
     """mesh / unroll of a hull plate: the trimmed plate of the OBJ and DXF (the extended
     strip's figures kept beside): the mesh's 3D area is the plate's, the flat c and d
     edges as long as the seams between the butts."""
-    from pipeline.meshio import read_obj
+    from pipeline.io.meshio import read_obj
 
     for name, (folder, result) in hull_end_plates.items():
         rep = json.loads((folder / f"{name}.json").read_text())
@@ -376,7 +376,7 @@ def test_strake_plate_figures_describe_the_trimmed_plate(hull_end_plates):
 
 def hull160_uniform(folder: Path):
     """The 160 m hull's shell config with the uniform layout, planned (no plate run)."""
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
 
     data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
     data["strake"]["plan"]["method"] = "uniform"

@@ -10,9 +10,9 @@ import yaml
 
 from flatten import nurbs_curve
 from pipeline.cli import main
-from pipeline.iges import read_iges
-from pipeline.meshio import read_obj
-from pipeline.sources import fit_points
+from pipeline.io.iges import read_iges
+from pipeline.io.meshio import read_obj
+from pipeline.io.sources import fit_points
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIP = ROOT / "tests" / "data" / "ship"
@@ -128,7 +128,7 @@ def test_bad_sources_exit_2_naming_file_and_entity(tmp_path, capsys, source, exp
 
 def test_plane_section_of_a_hull_surface_is_fitted_within_tolerance(tmp_path):
     from pipeline.config import load_config
-    from pipeline.iges import iges_surface
+    from pipeline.io.iges import iges_surface
     data = {"name": "p", "units": "mm",
             "curves": {"c": {"iges": str(SHIP / "test_1_hull_exported.igs"), "section":
                              {"point": [0, 0, 2000], "normal": [0, 0, 1]}, "tolerance": 1.0},

@@ -38,9 +38,9 @@ def test_the_curvature_check_ignores_round_off_on_the_160m_hull_keel_plate(tmp_p
     the 1e-6 limit. Only the defect above the round-off floor of the vertex positions counts."""
     import yaml
 
-    from pipeline.plan import load_run
+    from pipeline.hull.plan import load_run
     from pipeline.stages import PartResult, develop_part
-    from pipeline.strake import corner_rulings
+    from pipeline.hull.strake import corner_rulings
 
     strake = {"surface": {"iges": str(SHIP / "test_1_hull_exported.igs")}, "margin": 0.2,
               "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 0.6337212004946158}}],

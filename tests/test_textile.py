@@ -11,9 +11,9 @@ import yaml
 import shapely
 from shapely.geometry import LinearRing, LineString, Point, Polygon
 
-from pipeline.aama import read_aama
+from pipeline.textile.aama import read_aama
 from pipeline.cli import main
-from pipeline.meshio import read_obj
+from pipeline.io.meshio import read_obj
 
 from .astm_parser import parser_or_reason
 
@@ -63,7 +63,7 @@ def test_the_creation_time_pads_a_morning_hour_with_a_space_as_real_files_do(mon
     """Whatever the hour the suite runs at (it read "0:06" back once past midnight)."""
     import datetime
 
-    from pipeline.aama import build_document
+    from pipeline.textile.aama import build_document
 
     morning = datetime.datetime(2026, 11, 24, 7, 5, tzinfo=datetime.timezone.utc)
     monkeypatch.setenv("SOURCE_DATE_EPOCH", str(int(morning.timestamp())))
@@ -557,7 +557,7 @@ def test_a_printout_of_too_many_pages_is_bad_input(tmp_path, capsys):
 
 
 def test_tiles_cover_the_box_and_overlap_by_the_configured_amount():
-    from pipeline.printout import tile_sheet
+    from pipeline.textile.printout import tile_sheet
 
     for window, overlap in (((194.0, 281.0), 10.0), ((404.0, 281.0), 25.0), ((199.9, 263.4), 0.0)):
         lo, hi = np.array([-3.0, 7.0]), np.array([1785.0, 346.0])
@@ -581,7 +581,7 @@ def test_textile_preview_speaks_the_sewing_rooms_language():
     from pipeline.config import load_config
     from pipeline.export import textile_pieces
     from pipeline.stages import run_part
-    from pipeline.textile_preview import LEGEND, textile_preview_figure
+    from pipeline.textile.preview import LEGEND, textile_preview_figure
 
     config = load_config(LAMPSHADE)
     results = [run_part(part, config) for part in config.parts[:2]]

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
-from .renderproc import render
+from ..io.atomic import atomic_path
+from ..renderproc import render
 
 PAPERS = (("A4", 297.0, 210.0), ("A3", 420.0, 297.0))  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 5000)
@@ -62,7 +62,7 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     lo, hi = cut.min(axis=0), cut.max(axis=0)
     span = hi - lo
     paper, pw, ph, scale = choose_sheet(span)
-    render("pipeline.shopdrawing:draw_sheet", target, layout, title, part_data, bends, spacing, notes, edges,
+    render("pipeline.shop.drawing:draw_sheet", target, layout, title, part_data, bends, spacing, notes, edges,
            (paper, pw, ph, scale))
     return {"file": Path(target).name, "paper": f"{paper} landscape", "scale": f"1:{scale}",
             "plate_extent_mm": span.tolist()}
@@ -89,7 +89,7 @@ def _draw(target, layout, title, part_data, bends, spacing, notes, edges, paper,
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.figure import Figure
 
-    from .lazymodules import pdf_backend
+    from ..lazymodules import pdf_backend
 
     cut = layout.cut
     lo, hi = cut.min(axis=0), cut.max(axis=0)

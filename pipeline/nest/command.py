@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path, write_text
-from .config import ConfigError, RunConfig
-from .nesting import (NestingError, NestItem, NestResult, Placement, Sheet, marker_result, nest_marker,
+from ..io.atomic import atomic_path, write_text
+from ..config import ConfigError, RunConfig
+from .engine import (NestingError, NestItem, NestResult, Placement, Sheet, marker_result, nest_marker,
                       nest_stock, stock_result)
-from .report import SCHEMA_VERSION, sanitize
+from ..report import SCHEMA_VERSION, sanitize
 
 TEXTILE_ORIENTATIONS = (0.0, 180.0)  # the grain stays along the roll
 STEEL_ORIENTATIONS = (0.0, 90.0, 180.0, 270.0)
@@ -71,7 +71,7 @@ def build_job(results, config: RunConfig) -> NestJob:
     job = NestJob("marker" if config.spec.profile == "textile" else "stock")
     job.failed = [{"part": r.name, "reason": r.reason} for r in results if not r.ok]
     if job.kind == "marker":
-        from .export import textile_pieces
+        from ..export import textile_pieces
 
         items = []
         orients = _orientations(spec, TEXTILE_ORIENTATIONS)
@@ -187,7 +187,7 @@ def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale
     per placed copy (insertion point and rotation), the roll edges and marker figures."""
     from ezdxf.addons import gerber_D6673
 
-    from .aama import block_name, build_document
+    from ..textile.aama import block_name, build_document
 
     sheet = result.sheets[0]
     pieces = [job.pieces[name] for name in result.items]
@@ -304,7 +304,7 @@ def nesting_report(results: dict[str, NestResult], job: NestJob, config: RunConf
 
 
 def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfig, out_dir: Path) -> list[Path]:
-    from .plots import layout_png
+    from ..plots import layout_png
 
     style = config.spec.name or config.source.stem
     scale = config.mm_per_unit
@@ -399,12 +399,12 @@ def _previous_files(out: Path, config: RunConfig) -> list[str]:
     return [f for f in files if isinstance(f, str) and f.startswith(style)] if isinstance(files, list) else []
 
 
-def command_nest(args, validate) -> int:
+def command_nest(args) -> int:
     """Run the parts, nest them, write the nesting files. Exit 0 all placed and checked,
     1 a part failed or could not be placed or a check failed, 2 bad input (nothing written)."""
-    from .cli import check_jobs
-    from .outdir import OutputFolder
-    from .plates import evaluate_plate, run_part
+    from ..hull.plates import evaluate_plate, run_part
+    from ..outdir import OutputFolder
+    from ..validate import check_jobs, validate
 
     check_jobs(args.jobs)
     config = validate(args.config, evaluate_plate)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
+from ..io.atomic import atomic_path
 
 # "developable" is devflat's strip; "patch" a hull patch developed within the tolerance
 # (rolled, no strip between those seams): the shares keep them apart
@@ -66,7 +66,7 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
     formed / failed; returns the shell area of each (m^2, regions on the hull inside trims).
     The picture is drawn by :func:`draw_class_hull` through :func:`pipeline.renderproc.render`
     (in the render process of a one-shot run: only the rings and colours are sent)."""
-    from .renderproc import render
+    from ..renderproc import render
 
     rings, colours = [], []
     for r in results:
@@ -77,7 +77,7 @@ def class_hull_png(target: str | Path, results, units: str, mm_per_unit: float, 
     areas = {k: 0.0 for k in CLASS_COLOURS}
     for r in results:
         areas[display_class(r)] += shell_area(r)
-    render("pipeline.hullplots:draw_class_hull", target, rings, colours, areas, units, title)
+    render("pipeline.hull.hullplots:draw_class_hull", target, rings, colours, areas, units, title)
     return areas
 
 

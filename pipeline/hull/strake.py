@@ -14,7 +14,9 @@ from flatten import NurbsCurve
 from flatten.closest import SurfaceDistance
 from flatten.surface import NurbsSurface
 
-from .plan import HullPlate, Plane, plane_crossings
+from flatten.plane import Plane, plane_crossings
+
+from .region import HullPlate
 
 
 # ------------------------------------------------------------ trimming
@@ -94,8 +96,8 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     hull and map the frame lines; False (with the reason) when the plate misses the hull."""
     from flatten.strip import Strip, grid_faces
 
-    from .marks import edge_labels, frame_polylines
-    from .stages import Pattern, place_flat
+    from ..shop.marks import edge_labels, frame_polylines
+    from ..stages import Pattern, place_flat
 
     hull: HullPlate = result.part.hull
     strip, dev = result.strip, result.development

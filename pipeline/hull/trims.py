@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .iges import IgesError, IgesFile, iges_curve
+from ..io.iges import IgesError, IgesFile, iges_curve
 
 SAMPLES_PER_CURVE = 200
 

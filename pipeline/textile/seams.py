@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import RunConfig
-from .stages import PartResult, finish_part, stage_check, stage_strip, stage_unroll
+from ..config import RunConfig
+from ..stages import PartResult, finish_part, stage_check, stage_strip, stage_unroll
 
 MAX_ROUNDS = 20
 

@@ -12,8 +12,8 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
 
-from .plots import _fitted_axes, _save
-from .textile import TextilePiece, label_anchor
+from ..plots import _fitted_axes, _save
+from .pieces import TextilePiece, label_anchor
 
 LEGEND = ("cut line", "sew line", "seam allowance", "notches", "grain line")
 

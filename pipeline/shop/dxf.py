@@ -17,7 +17,7 @@ import ezdxf
 from ezdxf import units
 from ezdxf.enums import TextEntityAlignment
 
-from .atomic import atomic_path
+from ..io.atomic import atomic_path
 
 # red, blue, green, magenta, cyan, yellow, orange, blue-green
 LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6, "edge": 4, "net": 2, "shrink": 30, "stretch": 140}

@@ -24,9 +24,9 @@ from flatten.closest import SurfaceDistance
 from flatten.patch import PatchGrid, region_grid
 from flatten.trim import StripMap, ruling_intervals
 
-from .config import Part, RunConfig
-from .sources import SourceError, fit_points
-from .stages import PartResult, develop_part
+from ..config import Part, RunConfig
+from ..io.sources import SourceError, fit_points
+from ..stages import PartResult, develop_part
 
 SEAM_TO_SEAM = "rulings seam to seam"
 BUTT_TO_BUTT = "rulings butt to butt"
@@ -313,7 +313,9 @@ def end_plate_seams(part: Part, margin: float) -> tuple:
     """The seams of an end plate (one butt is the hull's end) as the curve pair of its strip:
     from the hull's end (a little short of a seam end that stands still) to past the butt
     plane by ``margin`` times the plate's length along the seam."""
-    from .plan import _usable_end, plane_crossings
+    from flatten.plane import plane_crossings
+
+    from .region import usable_end
 
     hull = part.hull
     index = 0 if hull.butts[0] is not None else 1
@@ -335,7 +337,7 @@ def end_plate_seams(part: Part, margin: float) -> tuple:
         length = float(curve.arc_length_at(np.array([min(t, end), max(t, end)])) @ np.array([-1.0, 1.0]))
         past = plane_crossings(curve, plane.shifted(-sign * margin * length))
         beyond = float(past[0]) if len(past) == 1 else float(ends[~inside][0])
-        a, b = sorted((_usable_end(curve, end, t), beyond))
+        a, b = sorted((usable_end(curve, end, t), beyond))
         out.append(curve.segment(a, b))
     return tuple(out)
 

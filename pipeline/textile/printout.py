@@ -36,10 +36,10 @@ from matplotlib.text import Text
 from matplotlib.transforms import Affine2D, Bbox, TransformedBbox
 from shapely.geometry import LineString, box
 
-from .atomic import atomic_path
-from .config import Printout
-from .lazymodules import pdf_backend
-from .textile import TextilePiece, label_anchor
+from ..io.atomic import atomic_path
+from ..config import Printout
+from ..lazymodules import pdf_backend
+from .pieces import TextilePiece, label_anchor
 
 PdfPages = pdf_backend().PdfPages  # without fontTools' subsetter: Type 3 fonts do not need it
 

@@ -30,11 +30,11 @@ import numpy as np
 
 from flatten.trim import StripMap
 
-from .config import Part, RunConfig
-from .plan import extended_segment, seam_curve
+from ..config import Part, RunConfig
+from .region import extended_segment, seam_curve
 from .platestrip import (BOUNDARY_MM, BUTT_TO_BUTT, MAP_RULINGS, SEAM_TO_SEAM, Trim, butt_family, _solved_and_trimmed,
                          _strip_normals, region_boundary)
-from .sources import SourceError
+from ..io.sources import SourceError
 
 ROUNDS = 3  # re-solves of a best-fit strip at most
 WORTH = 3.0  # a strip further off than this many tolerances is not worth moving
@@ -143,7 +143,7 @@ def moved_curve(curve, params: np.ndarray, offsets: np.ndarray, normals: np.ndar
 def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
     """The trim's strip moved off the hull to fit it best, re-solved up to ROUNDS times;
     the best trim found (the input when no round does better)."""
-    from .sources import fit_points
+    from ..io.sources import fit_points
 
     tol = part.hull.fit_tolerance
     best = trim

@@ -96,7 +96,7 @@ def trimmed_figures(result, outline: Outline) -> None:
     from flatten.metrics import distortion, polyline_length
     from trimesh.grouping import group_rows
 
-    from .plan import plane_crossings
+    from flatten.plane import plane_crossings
 
     strip, part = result.strip, result.part
     mesh = strip.mesh()
@@ -274,7 +274,7 @@ def mirrored(layout, side_of_model: str):
 
 def shop_drawing(result, config, layout, target):
     """Write the plate's one-page shop drawing (PDF); its paper and scale go to the report."""
-    from .shopdrawing import write_shop_drawing
+    from .drawing import write_shop_drawing
 
     plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
     bends = [(b.number, bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]

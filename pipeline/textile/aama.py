@@ -29,8 +29,8 @@ import ezdxf
 import numpy as np
 from ezdxf.lldxf.tagwriter import TagWriter
 
-from .atomic import atomic_path
-from .textile import TextilePiece, label_anchor
+from ..io.atomic import atomic_path
+from .pieces import TextilePiece, label_anchor
 
 LAYER_BOUNDARY, LAYER_TURN, LAYER_CURVE, LAYER_NOTCH = "1", "2", "3", "4"
 LAYER_GRAIN, LAYER_INTERNAL, LAYER_SEW = "7", "8", "14"

@@ -32,13 +32,13 @@ from flatten.patchflat import (arap_development, fit_plane, planar_development, 
                                triangle_stretches)
 from flatten.trim import barycentric
 
-from .config import Part, RunConfig
-from .outline import Outline
+from ..config import Part, RunConfig
+from ..shop.outline import Outline
 from .bestfit import best_fit, seam_family_far, worth_moving
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
-from .shop import bend_text
-from .stages import Pattern, PartResult, develop_part, finish_part, place_flat
-from .stages import run_part as run_curve_part
+from ..shop.plate import bend_text
+from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
+from ..stages import run_part as run_curve_part
 
 # a principal strain beyond 1 mm/m marks an area to shrink or stretch when forming (the
 # order of the 0.3-1 mm/m a shell expansion program prompts for)
@@ -362,8 +362,8 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     """A plate delivered as a strip trimmed by its region (:mod:`pipeline.platestrip`): its
     3D shape is the strip at the closest points of the hull's patch grid, its cut outline
     the developed region boundary, its bending lines the strip's own rulings."""
-    from .bending import lines_on_rulings
-    from .shop import ShopPlate, _scaled
+    from ..shop.bending import lines_on_rulings
+    from ..shop.plate import ShopPlate, _scaled
 
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit

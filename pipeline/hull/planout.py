@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
+from ..io.atomic import atomic_path
 from .hullplots import plate_ring
 
 LAYER_COLOURS = {"flat": 5, "developable": 3, "formed": 30, "failed": 1}

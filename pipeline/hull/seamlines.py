@@ -22,7 +22,7 @@ import numpy as np
 
 from flatten.patch import principal_frame
 
-from .plan import Girth
+from .region import Girth
 
 MAX_ANGLE = np.radians(30.0)  # largest angle of a seam to the hull's length
 MAX_SHIFT = 0.25  # largest departure from the iso seam, as a share of the iso seams' spacing

@@ -6,7 +6,7 @@ uniform : girth seams (iso-parameter curves along the hull) at equal girth spaci
           the plates at either end are closed by the hull's end (stem, stern).
 adaptive : the uniform layout, then every plate that is neither flat nor devflat's strip
           (fitting the hull within the tolerance and covering its region) is split in two
-          where and across the way the misfit is (pipeline/splitting.py: a butt plane x = X
+          where and across the way the misfit is (pipeline/hull/splitting.py: a butt plane x = X
           or a new seam at a girth fraction, chosen so that the largest share of the plate is
           expected to fit), as long as both halves stay above ``stock.min_length`` x
           ``stock.min_width``, up to ``max_splits`` times; a plate stops splitting as soon as
@@ -24,7 +24,9 @@ import numpy as np
 from flatten.closest import SurfaceDistance
 from flatten.patch import region_grid
 
-from .plan import Girth, Plane, _plate, load_surface_trimmed, long_axis_of, seam_curve
+from flatten.plane import Plane
+
+from .region import Girth, load_surface_trimmed, long_axis_of, plate_part, seam_curve
 from .seamlines import least_curvature_seams
 from .splitting import choose_split, sample_region
 
@@ -154,7 +156,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             inside = 1.0 if loaded[k][1] is None else inside_share(surface, axis, girths, pair, loaded[k][1])
             if inside <= 0.0:
                 continue  # wholly outside the surface's trim: not shell (another surface covers it)
-            part = _plate(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
+            part = plate_part(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
                           butt_names, resolution, loaded[k][2])
             part.hull.inside_trim = inside
             if plan.method == "uniform" or evaluate is None:

@@ -1,13 +1,9 @@
-"""Planning layer: a strake or hull configuration becomes plates (seams, butts, region).
+"""A plate's region on the hull, the building blocks of every plan (hand-laid strake or
+adaptive): seams as curves in the surface's parameters (:class:`Girth`), butt planes, the
+hull surface as the file gives it, and the plate record (:class:`HullPlate`) with the curve
+pair a strip is solved between (the seams, extended past the butts).
 
-Data flows one way: config (validated YAML) -> plan (this module: plates with their seams,
-butts and region on the hull) -> stages (develop each plate) -> export. This module knows
-nothing of the stages: an adaptive plan receives its plate evaluator from the caller.
-
-A plate's region is bounded along the girth by two seams (iso-parameter curves of the hull
-surface, or given curves projected onto it) and along the length by two butt planes or the
-hull's end (stem, stern). Its two seams, extended past the butts, are the curve pair the
-developable strip is computed on.
+The strake planner (:mod:`.plan`) and the adaptive planner (:mod:`.planner`) both build on it.
 """
 
 from __future__ import annotations
@@ -16,40 +12,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import PPoly
 
 from flatten import NurbsCurve
 from flatten.closest import SurfaceDistance
+from flatten.plane import Plane, plane_crossings
 from flatten.surface import NurbsSurface
 
-from .config import ConfigError, Part, RunConfig, _curve, _line_of, load_config
-from .iges import IgesError, iges_surface, read_iges
-from .sources import SourceError, pick_entity, source_path
+from ..config import Part
+from ..io.iges import IgesError, iges_surface, read_iges
+from ..io.sources import SourceError, pick_entity, source_path
 
 MAX_FRAMES_PER_PLATE = 1000
-
-
-@dataclass(frozen=True)
-class Plane:
-    """The plane n . p = offset, n a unit normal pointing towards the plate's far butt."""
-
-    normal: tuple[float, float, float]
-    offset: float
-
-    def signed(self, points: np.ndarray) -> np.ndarray:
-        return np.asarray(points) @ np.asarray(self.normal) - self.offset
-
-    def shifted(self, distance: float) -> "Plane":
-        return Plane(self.normal, self.offset + distance)
-
-    def describe(self) -> str:
-        n = self.normal
-        if abs(n[0] - 1.0) < 1e-12:
-            return f"x = {self.offset:g}"
-        return f"{n[0]:.4g} x + {n[1]:.4g} y + {n[2]:.4g} z = {self.offset:g}"
-
-    def as_tuple(self):
-        return (np.asarray(self.normal), self.offset)
 
 
 def butt_plane(spec) -> Plane:
@@ -108,21 +81,6 @@ class HullPlate:
     result: object = None  # filled by an adaptive plan that evaluated the plate already
     surface_note: str = ""  # e.g. a trim of the surface that is not honoured
     inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
-
-
-def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
-    """Parameters where the curve meets the plane (exact roots of the homogeneous
-    polynomial n . A - offset w on every span), sorted. The span polynomials are the
-    curve's (computed once per curve, whatever the number of planes)."""
-    spans = curve.power_coefficients  # (n_spans, degree + 1, 4) in s = (t - b_i) / w_i
-    coef = spans[:, :, :3] @ np.asarray(plane.normal, dtype=float) - plane.offset * spans[:, :, 3]
-    breaks = curve.breakpoints
-    widths = np.diff(breaks)
-    # PPoly wants powers of (t - b_i), highest first: (degree + 1, n_spans)
-    taylor = (coef / widths[:, None] ** np.arange(curve.degree + 1)).T[::-1]
-    roots = PPoly(taylor, breaks, extrapolate=False).roots(extrapolate=False)
-    lo, hi = curve.domain
-    return np.unique(roots[(roots >= lo) & (roots <= hi)])
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
@@ -191,8 +149,8 @@ def extended_segment(seam: NurbsCurve, planes: tuple[Plane, Plane], margin: floa
     extra = margin * float(np.linalg.norm(p2 - p1))
     ext1 = plane_crossings(seam, planes[0].shifted(-extra))
     ext2 = plane_crossings(seam, planes[1].shifted(extra))
-    e1 = ext1[0] if len(ext1) == 1 else _usable_end(seam, lo if t1 < t2 else hi, t1)
-    e2 = ext2[0] if len(ext2) == 1 else _usable_end(seam, hi if t2 > t1 else lo, t2)
+    e1 = ext1[0] if len(ext1) == 1 else usable_end(seam, lo if t1 < t2 else hi, t1)
+    e2 = ext2[0] if len(ext2) == 1 else usable_end(seam, hi if t2 > t1 else lo, t2)
     a, b = sorted((e1, e2))
     seg = seam.segment(a, b)
     return NurbsCurve(seg.degree, seg.control_points, seg.weights, seg.knots, name)
@@ -209,7 +167,7 @@ def _known_crossings(curve: NurbsCurve, plane: Plane, crossings: dict | None) ->
     return crossings[key]
 
 
-def _usable_end(seam: NurbsCurve, end: float, inner: float) -> float:
+def usable_end(seam: NurbsCurve, end: float, inner: float) -> float:
     """The seam's end, or a little short of it when the seam stands still there (a doubled
     end pole, a collapsed keel end): a strip cannot start on a zero-speed end, and the plate
     itself never needs it (it lies between ``inner`` and the other butt)."""
@@ -235,7 +193,7 @@ def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -
     """The seam as a NURBS curve on the surface: exact for an iso seam, else a cubic fit."""
     if girth.is_iso():
         return surface.iso_v(girth.g[0], name) if long_axis == 0 else surface.iso_u(girth.g[0], name)
-    from .sources import fit_points
+    from ..io.sources import fit_points
 
     dom = surface.domain_u if long_axis == 0 else surface.domain_v
     s = np.linspace(*dom, 200)
@@ -245,7 +203,7 @@ def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -
     return curve
 
 
-def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
+def plate_part(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
            resolution, surface_note="", crossings: dict | None = None) -> Part:
     """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate;
     ``crossings``: see :func:`extended_segment`."""
@@ -266,69 +224,3 @@ def _plate(name, surface, axis, girths, curves, planes, spec_steel, strake, dist
     hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
                      tuple(girths), distance, developable, note, resolution, None, surface_note)
     return Part(name, c, d, spec_steel, ("c", "d"), {}, hull)
-
-
-def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> list[Part]:
-    """The plates of a hand-laid strake: between consecutive seams and consecutive butts."""
-    strake = spec.strake
-    surface, trim_note = load_surface_noted(strake.surface, config_path.parent, mm_per_unit, strake.scale)
-    axis = long_axis_of(surface)
-    distance = SurfaceDistance(surface)
-    curves, girths = [], []
-    for k, seam in enumerate(strake.seams):
-        if seam.curve is not None:
-            curve = _curve(seam.curve, ("strake", "seams", k, "curve"), config_path, lines, mm_per_unit, {})
-            params, _ = distance.closest(curve(np.linspace(*curve.domain, 200)))
-            s, g = params[:, axis], params[:, 1 - axis]
-            order = np.argsort(s)
-            curves.append(curve)
-            girths.append(Girth(tuple(s[order]), tuple(g[order])))
-            continue
-        iso = seam.iso
-        if (iso.u is not None) == (axis == 0):
-            raise SourceError(f"seams[{k}].iso: the seam runs across the hull ({'u' if iso.u is not None else 'v'} "
-                              f"is the girth parameter here): give iso {'v' if axis == 0 else 'u'}")
-        value = iso.u if iso.u is not None else iso.v
-        dom = surface.domain_u if iso.u is not None else surface.domain_v
-        if not dom[0] <= value <= dom[1]:
-            raise SourceError(f"seams[{k}].iso.{'u' if iso.u is not None else 'v'} = {value} lies outside the "
-                              f"surface's domain {dom}")
-        girths.append(Girth.iso(value))
-        curves.append(seam_curve(surface, axis, girths[-1], f"seam{k + 1}"))
-    planes = [butt_plane(b) for b in strake.butts]
-    resolution = float(getattr(strake, "patch_spacing", None) or 200.0 / mm_per_unit)
-    parts = []
-    crossings = {}  # (seam, plane) -> parameters: asked for by up to four plates
-    for i in range(len(curves) - 1):
-        for j in range(len(planes) - 1):
-            name = f"{spec.name}_S{i + 1}_B{j + 1}"
-            parts.append(_plate(name, surface, axis, girths[i:i + 2], curves[i:i + 2], planes[j:j + 2], spec.steel,
-                                strake, distance, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
-                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution, trim_note, crossings))
-            if not parts[-1].hull.developable and all(p is not None for p in planes[j:j + 2]):
-                # a hand-laid seam that misses a butt plane is a layout error, as before
-                raise SourceError(parts[-1].hull.note)
-    return parts
-
-
-def load_run(path: str | Path, evaluate=None) -> RunConfig:
-    """Load a configuration and plan its plates. ``evaluate(part) -> result`` lets an
-    adaptive plan judge candidate plates (given by the caller: the plan does not import
-    the stages)."""
-    config = load_config(path)
-    spec = config.spec
-    if spec.strake is None:
-        return config
-    path = Path(path)
-    try:
-        if spec.strake.plan is not None:
-            from .planner import plan_hull
-
-            judge = None if evaluate is None else (lambda part: evaluate(part, config))
-            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge)
-        else:
-            parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
-    except SourceError as exc:
-        line = _line_of(config.lines, ("strake",))
-        raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
-    return RunConfig(spec, parts, path, config.lines)

@@ -5,7 +5,7 @@ strip's rulings follow the hull's direction of least normal curvature. Through a
 the region, a ruling in that direction crosses the plate over about
 l = min(L / |cos a|, W / |sin a|) (L, W the plate's length and girth there, a the angle of the
 direction to the length), and the hull bends away from it by the sagitta of that chord,
-kappa l^2 / 8; the best-fit strip (pipeline/bestfit.py) centres its rulings in that bow and
+kappa l^2 / 8; the best-fit strip (pipeline/hull/bestfit.py) centres its rulings in that bow and
 meets it within half of it:
 
     misfit(p) = |kappa_min(p)| l(p)^2 / 16        (model units)

@@ -16,9 +16,9 @@ from shapely.ops import polylabel, substring, unary_union
 
 from flatten.develop import develop
 
-from .config import ConfigError, Part, Textile
+from ..config import ConfigError, Part, Textile
 from .seams import ruling_through
-from .stages import PartResult
+from ..stages import PartResult
 
 @dataclass(frozen=True)
 class Notch:

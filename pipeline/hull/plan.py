@@ -1,0 +1,89 @@
+"""Planning layer: a strake or hull configuration becomes plates (seams, butts, region).
+
+Data flows one way: config (validated YAML) -> plan (this module: plates with their seams,
+butts and region on the hull) -> stages (develop each plate) -> export. This module knows
+nothing of the stages: an adaptive plan receives its plate evaluator from the caller.
+
+A plate's region (:mod:`.region`) is bounded along the girth by two seams (iso-parameter curves of the hull
+surface, or given curves projected onto it) and along the length by two butt planes or the
+hull's end (stem, stern). Its two seams, extended past the butts, are the curve pair the
+developable strip is computed on.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from flatten.closest import SurfaceDistance
+
+from ..config import ConfigError, Part, RunConfig, _curve, _line_of, load_config
+from ..io.sources import SourceError
+from .region import Girth, butt_plane, load_surface_noted, long_axis_of, plate_part, seam_curve
+
+
+def plan_strake(spec, config_path: Path, mm_per_unit: float, lines: dict) -> list[Part]:
+    """The plates of a hand-laid strake: between consecutive seams and consecutive butts."""
+    strake = spec.strake
+    surface, trim_note = load_surface_noted(strake.surface, config_path.parent, mm_per_unit, strake.scale)
+    axis = long_axis_of(surface)
+    distance = SurfaceDistance(surface)
+    curves, girths = [], []
+    for k, seam in enumerate(strake.seams):
+        if seam.curve is not None:
+            curve = _curve(seam.curve, ("strake", "seams", k, "curve"), config_path, lines, mm_per_unit, {})
+            params, _ = distance.closest(curve(np.linspace(*curve.domain, 200)))
+            s, g = params[:, axis], params[:, 1 - axis]
+            order = np.argsort(s)
+            curves.append(curve)
+            girths.append(Girth(tuple(s[order]), tuple(g[order])))
+            continue
+        iso = seam.iso
+        if (iso.u is not None) == (axis == 0):
+            raise SourceError(f"seams[{k}].iso: the seam runs across the hull ({'u' if iso.u is not None else 'v'} "
+                              f"is the girth parameter here): give iso {'v' if axis == 0 else 'u'}")
+        value = iso.u if iso.u is not None else iso.v
+        dom = surface.domain_u if iso.u is not None else surface.domain_v
+        if not dom[0] <= value <= dom[1]:
+            raise SourceError(f"seams[{k}].iso.{'u' if iso.u is not None else 'v'} = {value} lies outside the "
+                              f"surface's domain {dom}")
+        girths.append(Girth.iso(value))
+        curves.append(seam_curve(surface, axis, girths[-1], f"seam{k + 1}"))
+    planes = [butt_plane(b) for b in strake.butts]
+    resolution = float(getattr(strake, "patch_spacing", None) or 200.0 / mm_per_unit)
+    parts = []
+    crossings = {}  # (seam, plane) -> parameters: asked for by up to four plates
+    for i in range(len(curves) - 1):
+        for j in range(len(planes) - 1):
+            name = f"{spec.name}_S{i + 1}_B{j + 1}"
+            parts.append(plate_part(name, surface, axis, girths[i:i + 2], curves[i:i + 2], planes[j:j + 2], spec.steel,
+                                strake, distance, (f"SEAM {i + 1}", f"SEAM {i + 2}"),
+                                (f"BUTT {j + 1}", f"BUTT {j + 2}"), resolution, trim_note, crossings))
+            if not parts[-1].hull.developable and all(p is not None for p in planes[j:j + 2]):
+                # a hand-laid seam that misses a butt plane is a layout error, as before
+                raise SourceError(parts[-1].hull.note)
+    return parts
+
+
+def load_run(path: str | Path, evaluate=None) -> RunConfig:
+    """Load a configuration and plan its plates. ``evaluate(part) -> result`` lets an
+    adaptive plan judge candidate plates (given by the caller: the plan does not import
+    the stages)."""
+    config = load_config(path)
+    spec = config.spec
+    if spec.strake is None:
+        return config
+    path = Path(path)
+    try:
+        if spec.strake.plan is not None:
+            from .planner import plan_hull
+
+            judge = None if evaluate is None else (lambda part: evaluate(part, config))
+            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge)
+        else:
+            parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
+    except SourceError as exc:
+        line = _line_of(config.lines, ("strake",))
+        raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
+    return RunConfig(spec, parts, path, config.lines)
