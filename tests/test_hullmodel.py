@@ -1,0 +1,214 @@
+"""Hull models through OpenCascade (IGES, STEP) and rhino3dm (.3dm): the same surfaces as our
+IGES reader, STEP and .3dm files written from a hull's surface plan the same plates, and the
+sewing report finds DTMB 5415's overlapping bow and main-hull faces."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.cli import main
+from pipeline.io.hullmodel import read_hull_model, rhino_surface, ocp_surface
+from pipeline.io.iges import iges_surface, read_iges
+
+DATA = Path(__file__).parent / "data" / "ship"
+HULLMOD = DATA / "test_1_hull_exported.igs"
+
+
+def grid_points(surface, n: int = 23) -> np.ndarray:
+    return surface.grid(np.linspace(*surface.domain_u, n), np.linspace(*surface.domain_v, n))
+
+
+@pytest.mark.parametrize("name", ["ship_5415.igs", "ship_kcs.igs", "ship_kvlcc2.igs", "test_1_hull_exported.igs"])
+def test_opencascade_and_our_iges_reader_give_the_same_surfaces(name):
+    model = read_hull_model(DATA / name)
+    iges = read_iges(DATA / name)
+    entities = iges.of_type(128)
+    assert len(model.faces) == len(entities)
+    for face, entity in zip(model.faces, entities):
+        ours = iges_surface(iges, entity, iges.unit_mm, "ours")
+        a, b = grid_points(face.surface), grid_points(ours)
+        size = float(np.ptp(b.reshape(-1, 3), axis=0).max())
+        assert np.abs(a - b).max() <= 1e-6 * max(size, 1.0), (name, entity.directory)
+
+
+def test_kcs_flat_bottom_keeps_its_trim_and_area():
+    """KCS's flat bottom (D3) is 2622 m2 untrimmed at ship scale, 1128 m2 inside its trim."""
+    model = read_hull_model(DATA / "ship_kcs.igs")
+    bottom = model.faces[0]
+    assert bottom.trimmed and bottom.outer is not None
+    ship_m2 = bottom.area_mm2 * 31.6 ** 2 * 1e-6
+    assert ship_m2 == pytest.approx(1128, rel=0.01)
+    # the trim loop's area in 3D (the surface is a plane: bilinear, 2 x 2 poles) against OCP's area
+    from matplotlib.path import Path as MplPath
+
+    s = bottom.surface
+    u = np.linspace(*s.domain_u, 301)
+    v = np.linspace(*s.domain_v, 301)
+    uu, vv = np.meshgrid(0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1]), indexing="ij")
+    inside = MplPath(bottom.outer).contains_points(np.column_stack([uu.ravel(), vv.ravel()]))
+    p = s.grid(u, v)
+    cells = np.linalg.norm(np.cross(p[1:, :-1] - p[:-1, :-1], p[:-1, 1:] - p[:-1, :-1]), axis=-1).ravel()
+    assert cells[inside].sum() == pytest.approx(bottom.area_mm2, rel=0.01)
+
+
+def write_step(surface, path: Path) -> None:
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    writer = STEPControl_Writer()
+    writer.Transfer(BRepBuilderAPI_MakeFace(ocp_surface(surface), 1e-6).Face(), STEPControl_AsIs)
+    assert int(writer.Write(str(path))) == 1  # IFSelect_RetDone
+
+
+def write_3dm(surface, path: Path, unit: str = "Millimeters") -> None:
+    import rhino3dm
+
+    model = rhino3dm.File3dm()
+    model.Settings.ModelUnitSystem = getattr(rhino3dm.UnitSystem, unit)
+    model.Objects.AddSurface(rhino_surface(surface))
+    assert model.Write(str(path), 7)
+
+
+@pytest.fixture(scope="module")
+def hull_files(tmp_path_factory):
+    """The 160 m hull's surface (mm) written as STEP and as .3dm (in metres)."""
+    folder = tmp_path_factory.mktemp("hullmodel")
+    surface = read_hull_model(HULLMOD).faces[0].surface
+    write_step(surface, folder / "hull.step")
+    metres = type(surface)(surface.degree_u, surface.degree_v, surface.poles / 1000.0, surface.weights,
+                           surface.knots_u, surface.knots_v)
+    write_3dm(metres, folder / "hull.3dm", "Meters")
+    return folder, surface
+
+
+@pytest.mark.parametrize("name", ["hull.step", "hull.3dm"])
+def test_step_and_3dm_round_trips_give_the_surface_back(hull_files, name):
+    folder, surface = hull_files
+    back = read_hull_model(folder / name).faces[0].surface
+    assert np.abs(grid_points(back) - grid_points(surface)).max() <= 1e-6 * 160000
+
+
+def strake_config(folder: Path, surface_source: dict) -> Path:
+    config = {"name": "hm", "units": "mm",
+              "strake": {"surface": surface_source, "seams": [{"iso": {"v": 4.0}}, {"iso": {"v": 4.3}}],
+                         "butts": [72000, 88000, 104000], "frames": {"spacing": 2500}, "margin": 0.2,
+                         "fit_tolerance": 5.0},
+              "resolution": {"chord_tolerance": 1.0}, "steel": {"thickness": 14, "material": "AH36"},
+              "output": {"png": False}}
+    path = folder / f"{abs(hash(json.dumps(surface_source, sort_keys=True)))}.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def plate_figures(out: Path) -> dict:
+    reports = {}
+    for path in sorted(out.glob("hm_S*.json")):
+        report = json.loads(path.read_text())
+        reports[path.stem] = (report["status"], report.get("hull_plate", {}).get("class"),
+                              report["outline"]["area_m2"], report["rulings"])
+    return reports
+
+
+def test_plans_from_iges_step_and_3dm_agree(hull_files, tmp_path):
+    """The same two plates from our IGES reader, OpenCascade's STEP and rhino3dm's .3dm (the
+    .3dm in metres): same classes, outline areas to 1e-9 relative, rulings to 1e-7."""
+    folder, _ = hull_files
+    sources = {"iges": {"iges": str(HULLMOD), "entity": 0}, "step": {"model": str(folder / "hull.step")},
+               "3dm": {"model": str(folder / "hull.3dm"), "face": 0}}
+    figures = {}
+    for kind, source in sources.items():
+        out = tmp_path / kind
+        assert main(["run", str(strake_config(tmp_path, source)), "--out", str(out), "--quiet"]) == 0
+        figures[kind] = plate_figures(out)
+    assert len(figures["iges"]) == 2
+    for kind in ("step", "3dm"):
+        assert figures[kind].keys() == figures["iges"].keys()
+        for name, (status, cls, area, rulings) in figures["iges"].items():
+            other = figures[kind][name]
+            assert other[:2] == (status, cls)
+            assert other[2] == pytest.approx(area, rel=1e-9)
+            assert np.allclose(np.asarray(other[3]), np.asarray(rulings), atol=1e-7)
+
+
+def test_inspect_finds_dtmb5415s_overlapping_bow_and_main_hull(capsys):
+    """The bow (face 0) and main-hull (face 1) surfaces lie on each other over x 16.2-20.5 m at
+    ship scale (DESIGN §8), i.e. 654-824 mm at the file's model scale: sewing alone finds no
+    shared edge there."""
+    assert main(["hull", "inspect", str(DATA / "ship_5415.igs"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["schema"] == "hull-model/1" and len(report["faces"]) == 3
+    assert [o["faces"] for o in report["overlaps"]] == [[0, 1]]
+    overlap = report["overlaps"][0]
+    lo, hi = overlap["x_range_mm"]
+    assert 640 <= lo <= 670 and 800 <= hi <= 830
+    assert overlap["max_distance_mm"] <= 1.0
+    assert lo < overlap["cut_x_mm"] < hi
+    # an independent check of the overlap: points of the bow inside that x range lie on the main hull
+    from flatten.closest import SurfaceDistance
+
+    model = read_hull_model(DATA / "ship_5415.igs")
+    bow, main_hull = model.faces[0].surface, model.faces[1].surface
+    pts = grid_points(bow, 41).reshape(-1, 3)
+    inside = pts[(pts[:, 0] > lo + 20) & (pts[:, 0] < hi - 20)]
+    _, dist = SurfaceDistance(main_hull).closest(inside)
+    assert len(inside) > 20 and np.median(dist) < 1.0
+    assert report["free_edges"] >= 9 and report["contiguous_edges"] <= 1
+
+
+def test_a_single_untrimmed_face_is_one_open_sheet(capsys):
+    assert main(["hull", "inspect", str(HULLMOD)]) == 0
+    out = capsys.readouterr().out
+    assert "1 faces" in out and "4 free" in out and "overlaps: none" in out and "gaps: none" in out
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["hull", "inspect", "missing.step"], "missing.step: no such file"),
+    (["hull", "inspect", "README.md"], "got the suffix '.md'"),
+    (["hull", "inspect", str(HULLMOD), "--tolerance", "0"], "--tolerance 0.0: must be > 0"),
+])
+def test_bad_hull_model_input_exits_2_naming_it(args, needle, capsys):
+    assert main(args) == 2
+    assert needle in capsys.readouterr().err
+
+
+def test_a_face_the_model_does_not_have_is_bad_input(hull_files, tmp_path, capsys):
+    folder, _ = hull_files
+    config = strake_config(tmp_path, {"model": str(folder / "hull.step"), "face": 3})
+    assert main(["run", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    assert "face 3 asked for; the model has 1 faces" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_rational_surface_written_to_3dm_is_the_surface_rhino_evaluates():
+    """OpenNURBS keeps homogeneous control points: rhino3dm's own evaluation of the written
+    surface must be ours (a weight handled as a Euclidean point moves it by ~0.6 here)."""
+    import rhino3dm  # noqa: F401
+
+    from flatten.surface import nurbs_surface
+    from pipeline.io.hullmodel import surface_from_rhino
+
+    rng = np.random.default_rng(7)
+    surface = nurbs_surface(2, 3, rng.normal(size=(4, 5, 3)), [0, 0, 0, 0.4, 1, 1, 1],
+                            [0, 0, 0, 0, 0.5, 1, 1, 1, 1], rng.uniform(0.5, 2.0, size=(4, 5)))
+    rhino = rhino_surface(surface)
+    for u, v in ((0.3, 0.7), (0.05, 0.5), (0.9, 0.2)):
+        p = rhino.PointAt(u, v)
+        assert np.allclose([p.X, p.Y, p.Z], surface(np.array([u]), np.array([v]))[0], atol=1e-12)
+    back = surface_from_rhino(rhino, 1.0, "back")
+    assert np.abs(grid_points(back) - grid_points(surface)).max() <= 1e-12
+
+
+def test_the_run_summary_carries_the_hull_models_sewing_report(hull_files, tmp_path):
+    folder, _ = hull_files
+    config = strake_config(tmp_path, {"model": str(folder / "hull.step")})
+    assert main(["run", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    summary = json.loads((tmp_path / "out" / "hm_summary.json").read_text())
+    (model,) = summary["hull_models"]
+    assert model["file"].endswith("hull.step") and len(model["faces"]) == 1
+    assert model["faces"][0]["area_m2"] == pytest.approx(3816.4, rel=1e-3)  # OpenCascade's area of the hull side
+    assert model["free_edges"] == 4 and model["overlaps"] == []
