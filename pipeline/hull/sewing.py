@@ -34,11 +34,15 @@ SCHEMA = "hull-model/1"
 
 @dataclass(frozen=True)
 class Overlap:
+    """Two faces lying on each other (mm, m2)."""
+
     faces: tuple[int, int]
-    area_m2: float  # of the first face's area that lies on the second
+    area_m2: float  # of one face's area that lies on the other
     x_range_mm: tuple[float, float]
     max_distance_mm: float  # between the faces over the overlap
-    cut_x_mm: float  # a transverse plane through the overlap's middle
+    median_distance_mm: float
+    cut_x_mm: float  # the transverse plane where the faces' sections are closest
+    step_at_cut_mm: float  # the largest distance between them there: the step a cut leaves
 
 
 @dataclass(frozen=True)
@@ -81,8 +85,10 @@ class SewingReport:
             out.append("gaps: none")
         for o in self.overlaps:
             out.append(f"overlap: faces {o.faces[0]} and {o.faces[1]} lie on each other over {o.area_m2:.4g} m2, "
-                       f"x {o.x_range_mm[0]:.1f}..{o.x_range_mm[1]:.1f} mm, within {o.max_distance_mm:.3g} mm: no "
-                       f"intersection curve; cut plane x = {o.cut_x_mm:.1f} mm")
+                       f"x {o.x_range_mm[0]:.1f}..{o.x_range_mm[1]:.1f} mm, {o.median_distance_mm:.3g} mm apart "
+                       f"(median; up to {o.max_distance_mm:.3g}): nearly parallel, their intersection is no "
+                       f"well-placed cut; cut at x = {o.cut_x_mm:.1f} mm, where the sections are closest "
+                       f"(step {o.step_at_cut_mm:.3g} mm)")
         if not self.overlaps:
             out.append("overlaps: none")
         out.extend(f"note: {n}" for n in self.notes)
@@ -177,36 +183,66 @@ def _box(surface) -> tuple[np.ndarray, np.ndarray]:
     return poles.min(axis=0), poles.max(axis=0)
 
 
-def overlaps_of(model: HullModel, tolerance: float, distances: list | None = None) -> list[Overlap]:
-    """Pairs of faces that lie on each other (points of one within ``tolerance`` of the
-    other, inside both trims) over an area, not along a shared edge; each pair once, as
-    seen from the face that shows more of it."""
+def overlaps_of(model: HullModel, tolerance: float, distances: list | None = None,
+                reach: float | None = None) -> list[Overlap]:
+    """Pairs of faces that lie on each other: points of one whose closest point on the other
+    is inside that face (not on its edge, where faces that merely meet at an angle have
+    theirs) and within ``reach`` (default 10 tolerances), over an area wider than 10
+    tolerances; each pair once, as seen from the face that shows more of it."""
     faces = model.faces
+    reach = 10.0 * tolerance if reach is None else reach
     distances = distances or [SurfaceDistance(f.surface, grid=DISTANCE_GRID) for f in faces]
     samples = [_samples(f) for f in faces]
     boxes = [_box(f.surface) for f in faces]
     best: dict[tuple[int, int], Overlap] = {}
     for a in range(len(faces)):
         for b in range(len(faces)):
-            lo, hi = boxes[b][0] - tolerance, boxes[b][1] + tolerance
+            lo, hi = boxes[b][0] - reach, boxes[b][1] + reach
             if a == b or np.any(boxes[a][1] < lo) or np.any(hi < boxes[a][0]):
                 continue
             points, weights = samples[a]
             params, dist = distances[b].closest(points)
-            on = (dist <= tolerance) & _inside(faces[b], params)
+            on = (dist <= reach) & _interior(faces[b].surface, params) & _inside(faces[b], params)
             if on.sum() < 4:
                 continue
-            share = float(weights[on].sum() / weights.sum())
-            area = share * (faces[a].area_mm2 if np.isfinite(faces[a].area_mm2) else _sampled_area(faces[a].surface))
-            x = points[on, 0]
+            area = float(weights[on].sum())
             if area <= 10 * tolerance * max(float(np.ptp(points[on], axis=0).max()), 10 * tolerance):
-                continue  # narrower than 10 tolerances: faces meeting at a shallow angle, not lying on each other
+                continue  # a sliver: faces meeting at a shallow angle, not lying on each other
+            x = points[on, 0]
+            cut, step = _cut_plane(faces[a].surface, distances[b], float(x.min()), float(x.max()))
             pair = (min(a, b), max(a, b))
             found = Overlap(pair, area * 1e-6, (float(x.min()), float(x.max())), float(dist[on].max()),
-                            float(0.5 * (x.min() + x.max())))
+                            float(np.median(dist[on])), cut, step)
             if pair not in best or found.area_m2 > best[pair].area_m2:
                 best[pair] = found
     return [best[pair] for pair in sorted(best)]
+
+
+def _interior(surface, params: np.ndarray, margin: float = 1e-6) -> np.ndarray:
+    """(u, v) strictly inside the surface's parameter rectangle (a closest-point search that
+    ends clamped on the edge found the edge, not a foot point)."""
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    du, dv = margin * (u1 - u0), margin * (v1 - v0)
+    u, v = params[:, 0], params[:, 1]
+    return (u > u0 + du) & (u < u1 - du) & (v > v0 + dv) & (v < v1 - dv)
+
+
+def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: int = 17) -> tuple[float, float]:
+    """The transverse plane x = X in [x0, x1] where the face's section lies closest to the
+    other face (least largest distance): where cutting the two leaves the smallest step."""
+    best = (0.5 * (x0 + x1), np.inf)
+    for x in np.linspace(x0, x1, stations):
+        section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), 60)
+        if len(section) == 0:
+            continue
+        params, dist = other.closest(section)
+        inside = _interior(other.surfaces[0], params)
+        if inside.sum() < 2:
+            continue
+        step = float(dist[inside].max())
+        if step < best[1]:
+            best = (float(x), step)
+    return best
 
 
 def _samples(face: HullFace) -> tuple[np.ndarray, np.ndarray]:
@@ -249,3 +285,24 @@ def model_reports(sources, base: Path, tolerance: float = 1.0) -> list[dict]:
 
     paths = dict.fromkeys(source_path(base, s.model) for s in sources)
     return [sew_report(read_hull_model(path), tolerance).as_dict() for path in paths]
+
+
+def overlap_cuts(surfaces: list, trims: list, tolerance: float) -> tuple[list[tuple], list[Overlap]]:
+    """Where a plan cuts faces that lie on each other: for each face the x range it keeps,
+    (lo, hi) with None for no cut, and the overlaps found. Of two overlapping faces, the one
+    whose middle lies aft of the cut plane keeps the part aft of it, the other the part fore
+    of it, so that the shell is covered once (their plates meet at the plane)."""
+    faces = tuple(HullFace(k, s, None if t is None else t.outer, () if t is None else tuple(t.inner), float("nan"))
+                  for k, (s, t) in enumerate(zip(surfaces, trims)))
+    model = HullModel(Path("plan"), "plan", faces)
+    overlaps = overlaps_of(model, tolerance) if len(faces) > 1 else []
+    limits = [[None, None] for _ in faces]
+    for overlap in overlaps:
+        for k in overlap.faces:
+            x = faces[k].surface.grid(np.linspace(*faces[k].surface.domain_u, 9),
+                                      np.linspace(*faces[k].surface.domain_v, 9))[..., 0]
+            if 0.5 * (x.min() + x.max()) < overlap.cut_x_mm:
+                limits[k][1] = overlap.cut_x_mm if limits[k][1] is None else min(limits[k][1], overlap.cut_x_mm)
+            else:
+                limits[k][0] = overlap.cut_x_mm if limits[k][0] is None else max(limits[k][0], overlap.cut_x_mm)
+    return [tuple(lim) for lim in limits], overlaps
