@@ -262,3 +262,72 @@ def test_a_plan_of_two_overlapping_faces_covers_the_shell_once(tmp_path):
         {p.hull.butts[0].offset for p in parts if "_P2_" in p.name and p.hull.butts[0] is not None}
     assert len(cuts) == 1 and 8000.0 <= cuts.pop() <= 12000.0
     assert all("overlap" in p.hull.surface_note for p in parts)
+
+
+def kcs_bottom_plan(tmp_path):
+    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "strake": {"surface": {"iges": str(DATA / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,
+                       "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "stock": {"max_length": 16000, "max_width": 4000,
+                                                               "min_length": 3000, "min_width": 1000}}}}
+    path = tmp_path / "de3.yaml"
+    path.write_text(yaml.safe_dump(data))
+    from pipeline.hull.plan import load_run
+
+    return load_run(path)
+
+
+def test_kcs_flat_bottom_plates_are_cut_at_its_trim_and_cover_it_once(tmp_path):
+    """KCS's flat bottom (a horizontal plane, 2622 m2 untrimmed, 1128 m2 inside its trim, at
+    ship scale): the plates' regions cut at the trim, measured in the plane itself (x, y), add
+    up to the trimmed area (our own trim reader's, on a 401 x 401 grid); the plates that reach
+    past the trim are cut, the others are whole."""
+    from flatten.patch import region_grid
+    from pipeline.hull.trimcut import cut_at_trim, polygon_area
+    from pipeline.hull.trims import read_trim, trimmed_area
+
+    config = kcs_bottom_plan(tmp_path)
+    iges = read_iges(DATA / "ship_kcs.igs")
+    surface = iges_surface(iges, next(e for e in iges.of_type(128) if e.directory == 3), 31.6, "de3")
+    full, inside = trimmed_area(surface, read_trim(iges, 3), 401)
+    total, cut_plates = 0.0, 0
+    for part in config.parts:
+        h = part.hull
+        grid = region_grid(h.surface, h.long_axis, h.girths[0], h.girths[1],
+                           [None if p is None else p.as_tuple() for p in h.butts], 41, 161)
+        assert np.ptp(grid.points[..., 2]) < 1e-6  # the plane is horizontal: (x, y) is its development
+        xy = grid.points[..., :2].reshape(-1, 2)
+        cut = None if h.trim is None else cut_at_trim(h.trim, grid.params, xy, grid.faces())
+        if cut is None:
+            ring = np.vstack([grid.points[0, :, :2], grid.points[1:, -1, :2], grid.points[-1, -2::-1, :2],
+                              grid.points[-2:0:-1, 0, :2]])
+            total += polygon_area(ring)
+        else:
+            cut_plates += 1
+            total += polygon_area(cut.outline)
+    assert cut_plates >= 10
+    assert total == pytest.approx(inside, rel=3e-3) and total < 0.5 * full
+
+
+def test_a_plate_cut_at_the_trim_reports_and_cuts_the_part_inside(tmp_path):
+    """One KCS bottom plate that reaches past the trim: its area, steel weight and DXF cut
+    outline are the part inside the trim, not its rectangle."""
+    import ezdxf
+
+    from pipeline.export import export_part
+    from pipeline.hull.plates import run_part
+
+    config = kcs_bottom_plan(tmp_path)
+    part = next(p for p in config.parts if p.hull.trim is not None and 0.2 < p.hull.inside_trim < 0.8)
+    result = run_part(part, config)
+    assert result.ok and result.figures["plate_class"]["class"] == "flat"
+    cut = result.figures["trim_cut"]
+    assert cut["area_m2"] == pytest.approx(result.figures["area_m2"]) == pytest.approx(result.figures["steel"]["area_m2"])
+    assert cut["area_m2"] < 0.9 * cut["region_area_m2"]
+    assert cut["share"] == pytest.approx(part.hull.inside_trim, abs=0.05)  # the planner's 17 x 49 estimate
+    export_part(result, config, tmp_path)
+    doc = ezdxf.readfile(tmp_path / f"{part.name}.dxf")
+    (outline,) = [e for e in doc.modelspace().query("LWPOLYLINE") if e.dxf.layer == "CUT_OUTER"]
+    from pipeline.hull.trimcut import polygon_area
+
+    assert polygon_area(np.array(outline.get_points("xy"))) / 1e6 == pytest.approx(cut["area_m2"], rel=1e-6)

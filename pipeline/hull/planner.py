@@ -171,6 +171,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             part = plate_part(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
                           butt_names, resolution, "; ".join(n for n in (loaded[k][2], cut_note) if n))
             part.hull.inside_trim = inside
+            part.hull.trim = loaded[k][1] if inside < 1.0 else None
             if plan.method == "uniform" or evaluate is None:
                 parts.append(part)
                 continue

@@ -81,6 +81,7 @@ class HullPlate:
     result: object = None  # filled by an adaptive plan that evaluated the plate already
     surface_note: str = ""  # e.g. a trim of the surface that is not honoured
     inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
+    trim: object = None  # the face's trim (pipeline.hull.trims.Trim) when the region reaches past it
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
