@@ -36,7 +36,7 @@ from ..config import Part, RunConfig
 from ..shop.outline import Outline
 from .bestfit import best_fit, seam_family_far, worth_moving
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
-from .trimcut import cut_at_trim, polygon_area
+from .trimcut import cut_at_trim, grid_ring, polygon_area
 from ..shop.plate import bend_text
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from ..stages import run_part as run_curve_part
@@ -536,9 +536,7 @@ def _cut_figures(result, cut, placed, grid, config) -> None:
     its whole triangles inside the trim, the outline cuts through them)."""
     mm = config.mm_per_unit
     area_m2 = polygon_area(cut.outline) * (mm / 1e3) ** 2
-    whole = polygon_area(np.vstack([placed.reshape(*grid.shape, 2)[0, :], placed.reshape(*grid.shape, 2)[1:, -1],
-                                    placed.reshape(*grid.shape, 2)[-1, -2::-1],
-                                    placed.reshape(*grid.shape, 2)[-2:0:-1, 0]])) * (mm / 1e3) ** 2
+    whole = polygon_area(grid_ring(placed.reshape(*grid.shape, 2))) * (mm / 1e3) ** 2
     result.figures["trim_cut"] = {"area_m2": area_m2, "region_area_m2": whole, "share": area_m2 / whole if whole else 0.0,
                                   "outline_vertices": len(cut.outline),
                                   "method": "the region cut by the face's trim in (u, v), mapped to the development "

@@ -19,12 +19,17 @@ import numpy as np
 class TrimCut:
     """outline: (N, 2) the cut plate's flat outline (placed coordinates, model units);
     outline_uv: (N, 2) the same in the surface's parameters; inside_faces: (F,) which grid
-    triangles have their centroid inside the trim; share: the cut area over the region's."""
+    triangles have their centroid inside the trim."""
 
     outline: np.ndarray
     outline_uv: np.ndarray
     inside_faces: np.ndarray
-    share: float
+
+
+def grid_ring(values: np.ndarray) -> np.ndarray:
+    """The boundary of a grid (R, C, k) as one closed ring (2 (R + C) - 4, k): first row,
+    last column, last row back, first column back."""
+    return np.vstack([values[0, :], values[1:, -1], values[-1, -2::-1], values[-2:0:-1, 0]])
 
 
 def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray) -> TrimCut | None:
@@ -34,8 +39,7 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    ring = np.vstack([params[0, :], params[1:, -1], params[-1, -2::-1], params[-2:0:-1, 0]])
-    region = Polygon(ring).buffer(0)
+    region = Polygon(grid_ring(params)).buffer(0)
     kept = region if trim.outer is None else region.intersection(Polygon(trim.outer).buffer(0))
     if trim.inner:
         kept = kept.difference(unary_union([Polygon(loop).buffer(0) for loop in trim.inner]))
@@ -45,12 +49,12 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
     centroids = flat_params[faces].mean(axis=1)
     inside = trim.inside(centroids[:, 0], centroids[:, 1])
     if kept.is_empty:
-        return TrimCut(np.zeros((0, 2)), np.zeros((0, 2)), inside, 0.0)
+        return TrimCut(np.zeros((0, 2)), np.zeros((0, 2)), inside)
     if kept.geom_type != "Polygon":  # the trim leaves pieces: the plate is the largest
         kept = max(getattr(kept, "geoms", [kept]), key=lambda g: g.area)
     uv = np.asarray(kept.exterior.coords)[:-1]
     flat = grid_map(flat_params, faces, placed, uv)
-    return TrimCut(flat, uv, inside, float(kept.area / region.area))
+    return TrimCut(flat, uv, inside)
 
 
 def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
