@@ -77,7 +77,16 @@ def build_parser() -> argparse.ArgumentParser:
     nest.add_argument("--seed", type=int, help="nesting seed (overrides nesting.seed)")
     nest.add_argument("--workers", type=int, help="engine threads (overrides nesting.workers)")
     nest.add_argument("--replay", type=Path, help="reproduce the layout stored in a NAME_nesting.json (checked again)")
-    for sub_parser in (run, check, nest):
+    hull = sub.add_parser("hull", help="hull models of many faces (IGES, STEP, Rhino .3dm)")
+    hull_sub = hull.add_subparsers(dest="hull_command", required=True)
+    inspect = hull_sub.add_parser("inspect", help="sew a hull model's faces and report the shell: faces, areas, "
+                                  "free edges, gaps, overlaps")
+    inspect.add_argument("model", type=Path, help="IGES (.igs), STEP (.stp) or Rhino (.3dm) file")
+    inspect.add_argument("--tolerance", type=float, default=1.0, help="sewing tolerance, mm (default 1)")
+    inspect.add_argument("--gap-limit", type=float, default=50.0,
+                         help="free edges within this distance of another face are gaps, mm (default 50)")
+    inspect.add_argument("--json", action="store_true", help="print the report as JSON")
+    for sub_parser in (run, check, nest, inspect):
         sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
     return parser
 
@@ -309,6 +318,22 @@ def command_check(args) -> int:
     return EXIT_OK
 
 
+def command_hull_inspect(args) -> int:
+    """``devflat hull inspect MODEL``: the shell the model's faces make when sewn."""
+    import json
+
+    from .config import ConfigError
+    from .hull.sewing import sew_report
+    from .io.hullmodel import read_hull_model
+
+    for name, value, least in (("--tolerance", args.tolerance, 0.0), ("--gap-limit", args.gap_limit, args.tolerance)):
+        if not value > least:
+            raise ConfigError(f"{name} {value}: must be > {least:g} mm")
+    report = sew_report(read_hull_model(args.model), args.tolerance, args.gap_limit)
+    print(json.dumps(report.as_dict(), indent=1) if args.json else "\n".join(report.lines()))
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     """Run one command; returns the exit code. ``one_shot``: this process runs nothing else
     and :func:`entry_point` paused the garbage collector for the imports; the commands
@@ -338,6 +363,8 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
             if one_shot:
                 imports_done()
             return command_nest(args)
+        if args.command == "hull":
+            return command_hull_inspect(args)
         return command_check(args)
     except (ConfigError, DevflatError) as exc:
         if args.debug:

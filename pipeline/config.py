@@ -125,6 +125,25 @@ class SurfaceSource(_Strict):
         return self
 
 
+class ModelSurfaceSource(_Strict):
+    """A face of a hull model read through OpenCascade (IGES, STEP) or rhino3dm (Rhino .3dm),
+    by its index in the file (``devflat hull inspect FILE`` lists the faces); the path is
+    relative to the config file. The face's trim comes with it."""
+
+    model: str
+    face: StrictInt = Field(0, ge=0)
+
+
+def _surface_kind(value) -> str:
+    if isinstance(value, dict):
+        return "Model" if "model" in value else "Iges"
+    return "Model" if isinstance(value, ModelSurfaceSource) else "Iges"
+
+
+HullSurfaceSource = Annotated[Union[Annotated[SurfaceSource, Tag("Iges")], Annotated[ModelSurfaceSource, Tag("Model")]],
+                              Discriminator(_surface_kind)]
+
+
 class IgesCurveSource(SurfaceSource):
     """Entity 126 of an IGES file, or an iso-curve (iso) or a plane section (section, fitted
     within tolerance) of an entity 128 surface, picked as in :class:`SurfaceSource`."""
@@ -531,7 +550,7 @@ class PlanSpec(_Strict):
 
     method: Literal["uniform", "adaptive"] = "adaptive"
     stock: StockSpec = StockSpec()
-    surfaces: list[SurfaceSource] = Field(default_factory=list, max_length=64)
+    surfaces: list[HullSurfaceSource] = Field(default_factory=list, max_length=64)
     max_splits: int = Field(3, ge=0, le=6, description="depth of the adaptive splitting")
     seams: Literal["iso", "least_curvature"] = Field("iso", description="seams along iso-parameter lines, or "
                                                      "traced along the hull's direction of least curvature")
@@ -544,7 +563,7 @@ class StrakeSpec(_Strict):
     past the butts by ``margin`` times the plate length and trimmed by the butt planes.
     With ``plan``, devflat lays the seams and butts over the whole surface instead."""
 
-    surface: SurfaceSource
+    surface: HullSurfaceSource
     seams: list[SeamSpec] | None = Field(None, min_length=2)
     butts: list[float | PlaneSpec] | None = Field(None, min_length=2)
     plan: PlanSpec | None = None

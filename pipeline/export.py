@@ -190,6 +190,15 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
     return written
 
 
+def model_sources(config: RunConfig) -> list:
+    """The strake's hull surfaces given as faces of a model file (IGES, STEP, .3dm)."""
+    strake = config.spec.strake
+    if strake is None:
+        return []
+    surfaces = [strake.surface] + (list(strake.plan.surfaces) if strake.plan is not None else [])
+    return [s for s in surfaces if getattr(s, "model", None) is not None]
+
+
 def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:
     """The run summary: summary.csv and summary.json of every part; for hull strakes also a
     PNG of the hull with the plates coloured by their deviation and a sheet of all patterns."""
@@ -198,7 +207,12 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
     style = config.spec.name or config.source.stem
     written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
     write_text(written[0], summary_csv(results))
-    write_text(written[1], summary_json(results))
+    extra = {}
+    if model_sources(config):  # a hull read as a model of faces: what its faces make as a shell
+        from .hull.sewing import model_reports
+
+        extra["hull_models"] = model_reports(model_sources(config), config.source.parent)
+    write_text(written[1], summary_json(results, extra))
     classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
     planned = config.spec.strake is not None and config.spec.strake.plan is not None
     if classed and planned and config.spec.output.dxf:  # the plan: every plate's outline on the hull, by class

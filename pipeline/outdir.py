@@ -69,7 +69,7 @@ def input_files(config: RunConfig) -> list[Path]:
             for item in value:
                 walk(item)
         elif isinstance(value, BaseModel):
-            for key in ("iges", "dxf"):
+            for key in ("iges", "dxf", "model"):
                 name = getattr(value, key, None)
                 if isinstance(name, str):
                     found.append(source_path(config.source.parent, name))

@@ -28,6 +28,7 @@ from flatten.plane import Plane
 
 from .region import Girth, load_surface_trimmed, long_axis_of, plate_part, seam_curve
 from .seamlines import least_curvature_seams
+from .sewing import overlap_cuts
 from .splitting import choose_split, sample_region
 
 
@@ -40,8 +41,9 @@ def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tup
     return np.concatenate([np.zeros((len(s_values), 1)), np.cumsum(seg, axis=1)], axis=1), g
 
 
-def uniform_layout(surface, axis: int, stock) -> tuple[list[float], list[float], float]:
-    """Girth seam values (iso-g), interior butt positions x, and the widest section's s."""
+def uniform_layout(surface, axis: int, stock, x_limits: tuple = (None, None)) -> tuple[list[float], list[float], float]:
+    """Girth seam values (iso-g), interior butt positions x, and the widest section's s;
+    ``x_limits``: (lo, hi) where the face is cut (None: its own end), butts lie between."""
     sdom = surface.domain_u if axis == 0 else surface.domain_v
     s = np.linspace(*sdom, 41)
     cum, g = girth_lengths(surface, axis, s)
@@ -54,6 +56,8 @@ def uniform_layout(surface, axis: int, stock) -> tuple[list[float], list[float],
     gdom = surface.domain_v if axis == 0 else surface.domain_u
     pts = surface.grid(np.linspace(*surface.domain_u, 65), np.linspace(*surface.domain_v, 65))
     x0, x1 = float(pts[..., 0].min()), float(pts[..., 0].max())
+    x0 = x0 if x_limits[0] is None else max(x0, x_limits[0])
+    x1 = x1 if x_limits[1] is None else min(x1, x_limits[1])
     n_butts = max(1, int(np.ceil((x1 - x0) / stock.max_length - 1e-9)))
     butts = list(np.linspace(x0, x1, n_butts + 1)[1:-1])
     del gdom
@@ -131,15 +135,23 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
     resolution = float(strake.patch_spacing or 200.0 / mm_per_unit)
     stock = plan.stock
     multi = len(surfaces) > 1
+    tolerance = float(strake.fit_tolerance or 5.0 / mm_per_unit)
+    # faces that lie on each other are cut at a transverse plane, each keeping one side
+    limits, overlaps = overlap_cuts(surfaces, [trim for _, trim, _ in loaded], tolerance) if multi else \
+        ([(None, None)], [])
     parts = []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)
-        seams, butts, s_widest = uniform_layout(surface, axis, stock)
+        seams, butts, s_widest = uniform_layout(surface, axis, stock, limits[k])
         if plan.seams == "least_curvature":
             seam_lines = least_curvature_seams(surface, axis, seams, s_widest)
         else:
             seam_lines = [Girth.iso(g) for g in seams]
-        planes = [None] + [Plane((1.0, 0.0, 0.0), x) for x in butts] + [None]
+        ends = [None if x is None else Plane((1.0, 0.0, 0.0), x) for x in limits[k]]
+        planes = [ends[0]] + [Plane((1.0, 0.0, 0.0), x) for x in butts] + [ends[1]]
+        cut_note = "; ".join(f"faces {o.faces[0] + 1} and {o.faces[1] + 1} overlap over x {o.x_range_mm[0]:.0f}.."
+                             f"{o.x_range_mm[1]:.0f} ({o.median_distance_mm:.3g} apart, median): cut at x = "
+                             f"{o.cut_x_mm:.0f}, step {o.step_at_cut_mm:.3g} there" for o in overlaps if k in o.faces)
         prefix = f"{spec.name}_P{k + 1}" if multi else spec.name
         queue = []
         for i in range(len(seams) - 1):
@@ -157,8 +169,9 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             if inside <= 0.0:
                 continue  # wholly outside the surface's trim: not shell (another surface covers it)
             part = plate_part(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
-                          butt_names, resolution, loaded[k][2])
+                          butt_names, resolution, "; ".join(n for n in (loaded[k][2], cut_note) if n))
             part.hull.inside_trim = inside
+            part.hull.trim = loaded[k][1] if inside < 1.0 else None
             if plan.method == "uniform" or evaluate is None:
                 parts.append(part)
                 continue

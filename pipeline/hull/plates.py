@@ -36,6 +36,7 @@ from ..config import Part, RunConfig
 from ..shop.outline import Outline
 from .bestfit import best_fit, seam_family_far, worth_moving
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
+from .trimcut import cut_at_trim, grid_ring, polygon_area
 from ..shop.plate import bend_text
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from ..stages import run_part as run_curve_part
@@ -474,6 +475,15 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     if not len(rolls) and kind != "flat":
         rolls, roll_method = least_bending_lines(hull.surface, grid, placed, f_grid, outline, spacing)
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
+    labels = _labels(sides, hull, grid.points)
+    cut = None if hull.trim is None else cut_at_trim(hull.trim, grid.params, placed, f_grid)
+    if cut is not None:  # the plate reaches past its face's trim: the shop cuts the part inside it
+        if not len(cut.outline):
+            result.reason = "plate region wholly outside its face's trim"
+            result.figures["plate_class"] = {"class": "failed"}
+            return
+        outline, f_grid = cut.outline, f_grid[cut.inside_faces]
+        rolls, frames, labels = _clipped(rolls, frames, labels, outline)
     check = completeness(v3, f3, grid, tol, min(tol, 1e-6 * max(size) + 1e-9))
     if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
         fit = info["plane_max_distance"]
@@ -481,7 +491,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         check["passed"] = bool(fit <= tol)
     result.strip = None
     result.mesh = (v_grid, f_grid)
-    result.pattern = Pattern(outline, rolls, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
+    result.pattern = Pattern(outline, rolls, placed, (rot, shift), tuple(frames), labels)
     result.figures["strain"] = strains
     result.figures["completeness"] = check
     result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
@@ -499,6 +509,44 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
         return
     finish_part(result, config)
+    if cut is not None:
+        _cut_figures(result, cut, placed, grid, config)
+
+
+def _clipped(rolls, frames, labels, outline):
+    """Roll lines, frame lines and edge names of a plate cut at its trim: the parts inside
+    the cut outline (a label whose place is outside it is dropped)."""
+    from shapely.geometry import LineString, Point, Polygon
+
+    plate = Polygon(outline).buffer(1e-9 * float(np.ptp(outline, axis=0).max()))
+
+    def inside(line):
+        piece = plate.intersection(LineString(line))
+        pieces = [g for g in getattr(piece, "geoms", [piece]) if g.geom_type == "LineString" and not g.is_empty]
+        return [np.asarray(g.coords) for g in pieces]
+
+    rolls = np.array([pts[[0, -1]] for a, b in rolls for pts in inside([a, b])]).reshape(-1, 2, 2)
+    frames = [(x, pts) for x, line in frames for pts in inside(line)]
+    labels = tuple(label for label in labels if plate.contains(Point(label[1])))
+    return rolls, frames, labels
+
+
+def _cut_figures(result, cut, placed, grid, config) -> None:
+    """Area and steel figures of a plate cut at its trim: the cut outline's (the mesh keeps
+    its whole triangles inside the trim, the outline cuts through them)."""
+    mm = config.mm_per_unit
+    area_m2 = polygon_area(cut.outline) * (mm / 1e3) ** 2
+    whole = polygon_area(grid_ring(placed.reshape(*grid.shape, 2))) * (mm / 1e3) ** 2
+    result.figures["trim_cut"] = {"area_m2": area_m2, "region_area_m2": whole, "share": area_m2 / whole if whole else 0.0,
+                                  "outline_vertices": len(cut.outline),
+                                  "method": "the region cut by the face's trim in (u, v), mapped to the development "
+                                            "through the grid (piecewise linear)"}
+    result.figures["area_m2"] = area_m2
+    steel = result.figures.get("steel")
+    if steel is not None:
+        outline = np.vstack([cut.outline, cut.outline[:1]])
+        steel.update(area_m2=area_m2, weight_kg=area_m2 * steel["thickness_mm"] / 1000.0 * steel["density_kg_m3"],
+                     outline_length=float(np.linalg.norm(np.diff(outline, axis=0), axis=1).sum()))
 
 
 def least_bending_lines(surface, grid, placed, faces, outline, spacing):

@@ -81,6 +81,7 @@ class HullPlate:
     result: object = None  # filled by an adaptive plan that evaluated the plate already
     surface_note: str = ""  # e.g. a trim of the surface that is not honoured
     inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
+    trim: object = None  # the face's trim (pipeline.hull.trims.Trim) when the region reaches past it
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
@@ -103,6 +104,8 @@ def load_surface_trimmed(spec, base: Path, mm_per_unit: float, scale: float = 1.
     trim; a trim whose loops cannot be read is ignored, and the note says so."""
     from .trims import read_trim
 
+    if getattr(spec, "model", None) is not None:
+        return _model_face(spec, base, mm_per_unit, scale)
     path = source_path(base, spec.iges)
     try:
         iges = read_iges(path)
@@ -120,6 +123,35 @@ def load_surface_trimmed(spec, base: Path, mm_per_unit: float, scale: float = 1.
     return surface, trim, (f"{path.name}: surface D{entity.directory} is trimmed (entity {trim.entity}); the trim is "
                            f"honoured by area: plates wholly outside it are not planned, a plate partly outside keeps "
                            f"its untrimmed region and reports the share inside (inside_trim)")
+
+
+def _model_face(spec, base: Path, mm_per_unit: float, scale: float):
+    """(surface, trim or None, note) of a hull model's face (IGES, STEP, .3dm), read through
+    OpenCascade or rhino3dm: the model is in mm, the surface in config units times ``scale``."""
+    from flatten.surface import nurbs_surface
+
+    from ..io.hullmodel import HullModelError, read_hull_model
+    from .trims import Trim
+
+    path = source_path(base, spec.model)
+    try:
+        model = read_hull_model(path)
+    except HullModelError as exc:
+        raise SourceError(str(exc)) from None
+    if not spec.face < len(model.faces):
+        raise SourceError(f"{path}: face {spec.face} asked for; the model has {len(model.faces)} faces (0 to "
+                          f"{len(model.faces) - 1})")
+    face = model.faces[spec.face]
+    s = face.surface
+    factor = scale / mm_per_unit
+    surface = nurbs_surface(s.degree_u, s.degree_v, s.poles * factor, s.knots_u, s.knots_v, s.weights,
+                            name=f"hull {path.name} face {spec.face}")
+    if not face.trimmed:
+        return surface, None, (f"{path.name}: face {spec.face}: {face.trim_note}" if face.trim_note else "")
+    trim = Trim(spec.face, face.outer, face.inner, 0)
+    return surface, trim, (f"{path.name}: face {spec.face} is trimmed; the trim is honoured by area: plates wholly "
+                           f"outside it are not planned, a plate partly outside keeps its untrimmed region and reports "
+                           f"the share inside (inside_trim)")
 
 
 def long_axis_of(surface: NurbsSurface) -> int:

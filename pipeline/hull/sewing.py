@@ -1,0 +1,308 @@
+"""What a hull model is as a shell: its faces sewn by OpenCascade within a tolerance, the
+edges sewing leaves free, the gaps between faces and the faces that overlap.
+
+Sewing (``BRepBuilderAPI_Sewing``) joins edges of neighbouring faces that lie within the
+tolerance; what it leaves free is either the shell's own boundary (deck edge, centreline,
+transom, stem) or a defect: a *gap* when another face runs within ``gap_limit`` of the free
+edge, an unsewn contact when one is within the tolerance. Sewing cannot see faces that lie
+on top of each other (the same shell given twice over a stretch, as DTMB 5415's bow and
+main-hull surfaces over about 4 m): each face is sampled inside its trim and the points
+within the tolerance of another face, inside that face's trim, are the overlap.
+
+Overlapping faces that coincide within the tolerance have no intersection curve to cut them
+at (the surfaces touch along a whole area, not along a line): the report gives the stretch in
+x where they overlap and a transverse plane through its middle where a cut would lose no
+shell (every point there lies on both faces within the stated distance).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from flatten.closest import SurfaceDistance
+
+from ..io.hullmodel import HullFace, HullModel, ocp_faces
+
+SAMPLES = 48  # per parameter direction of each face, for overlaps
+EDGE_SAMPLES = 16  # points of a free edge measured against the faces
+DISTANCE_GRID = 64  # seeds per direction of the closest-point search
+SCHEMA = "hull-model/1"
+
+
+@dataclass(frozen=True)
+class Overlap:
+    """Two faces lying on each other (mm, m2)."""
+
+    faces: tuple[int, int]
+    area_m2: float  # of one face's area that lies on the other
+    x_range_mm: tuple[float, float]
+    max_distance_mm: float  # between the faces over the overlap
+    median_distance_mm: float
+    cut_x_mm: float  # the transverse plane where the faces' sections are closest
+    step_at_cut_mm: float  # the largest distance between them there: the step a cut leaves
+
+
+@dataclass(frozen=True)
+class SewingReport:
+    """The shell a hull model makes (lengths mm, areas m2)."""
+
+    file: str
+    format: str
+    tolerance_mm: float
+    faces: list[dict]
+    shell_area_m2: float
+    free_edges: int
+    contiguous_edges: int
+    multiple_edges: int  # non-manifold: shared by more than two faces
+    degenerated: int
+    gaps: list[dict] = field(default_factory=list)  # free edges within gap_limit of another face
+    overlaps: list[Overlap] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        out = asdict(self)
+        out["schema"] = SCHEMA
+        return out
+
+    def lines(self) -> list[str]:
+        """The report as a console reads it."""
+        out = [f"{self.file} ({self.format.upper()}): {len(self.faces)} faces, "
+               f"{self.shell_area_m2:.4g} m2 inside their trims",
+               f"sewn at {self.tolerance_mm:g} mm: {self.contiguous_edges} shared edges, {self.free_edges} free, "
+               f"{self.multiple_edges} non-manifold, {self.degenerated} degenerated"]
+        for face in self.faces:
+            out.append(f"  face {face['index']}: {face['area_m2']:.4g} m2, {face['poles'][0]}x{face['poles'][1]} poles "
+                       f"degree {face['degree'][0]}x{face['degree'][1]}, x {face['x_mm'][0]:.1f}..{face['x_mm'][1]:.1f}"
+                       f"{', trimmed' if face['trimmed'] else ''}")
+        if self.gaps:
+            worst = max(self.gaps, key=lambda g: g["gap_mm"])
+            out.append(f"gaps: {len(self.gaps)} free edges run beside another face, widest {worst['gap_mm']:.3g} mm "
+                       f"(face {worst['face']} to face {worst['other']})")
+        else:
+            out.append("gaps: none")
+        for o in self.overlaps:
+            out.append(f"overlap: faces {o.faces[0]} and {o.faces[1]} lie on each other over {o.area_m2:.4g} m2, "
+                       f"x {o.x_range_mm[0]:.1f}..{o.x_range_mm[1]:.1f} mm, {o.median_distance_mm:.3g} mm apart "
+                       f"(median; up to {o.max_distance_mm:.3g}): nearly parallel, their intersection is no "
+                       f"well-placed cut; cut at x = {o.cut_x_mm:.1f} mm, where the sections are closest "
+                       f"(step {o.step_at_cut_mm:.3g} mm)")
+        if not self.overlaps:
+            out.append("overlaps: none")
+        out.extend(f"note: {n}" for n in self.notes)
+        return out
+
+
+def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0) -> SewingReport:
+    """Sew the model's faces at ``tolerance`` (mm) and report the shell; free edges within
+    ``gap_limit`` (mm) of another face are gaps."""
+    if not tolerance > 0:
+        raise ValueError(f"tolerance must be > 0 mm, got {tolerance}")
+    if not gap_limit >= tolerance:
+        raise ValueError(f"gap_limit must be >= the tolerance {tolerance}, got {gap_limit}")
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+
+    shapes = _shapes(model)
+    sewing = BRepBuilderAPI_Sewing(tolerance)
+    for face in shapes:
+        sewing.Add(face)
+    sewing.Perform()
+    faces = [_face_summary(f) for f in model.faces]
+    notes = [f"face {f.index}: {f.trim_note}" for f in model.faces if f.trim_note]
+    distances = [SurfaceDistance(f.surface, grid=DISTANCE_GRID) for f in model.faces]
+    gaps = _gaps(sewing, model, distances, tolerance, gap_limit)
+    overlaps = overlaps_of(model, tolerance, distances)
+    area = sum(f["area_m2"] for f in faces)
+    return SewingReport(str(model.path), model.format, float(tolerance), faces, float(area), sewing.NbFreeEdges(),
+                        sewing.NbContigousEdges(), sewing.NbMultipleEdges(), sewing.NbDegeneratedShapes(), gaps,
+                        overlaps, notes)
+
+
+def _shapes(model: HullModel) -> list:
+    """The model's OpenCascade faces; a .3dm model's are built from its surfaces."""
+    if model.shape is not None:
+        return ocp_faces(model.shape)
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+
+    from ..io.hullmodel import ocp_surface
+
+    return [BRepBuilderAPI_MakeFace(ocp_surface(f.surface), 1e-6).Face() for f in model.faces]
+
+
+def _face_summary(face: HullFace) -> dict:
+    s = face.surface
+    u = np.linspace(*s.domain_u, 17)
+    v = np.linspace(*s.domain_v, 17)
+    x = s.grid(u, v)[..., 0]
+    area = face.area_mm2 if np.isfinite(face.area_mm2) else _sampled_area(s)
+    return {"index": face.index, "area_m2": float(area) * 1e-6, "poles": list(s.poles.shape[:2]),
+            "degree": [s.degree_u, s.degree_v], "x_mm": [float(x.min()), float(x.max())], "trimmed": face.trimmed}
+
+
+def _sampled_area(surface, n: int = 65) -> float:
+    u = np.linspace(*surface.domain_u, n)
+    v = np.linspace(*surface.domain_v, n)
+    p = surface.grid(u, v)
+    a, b, c = p[:-1, :-1], p[1:, :-1], p[:-1, 1:]
+    d = p[1:, 1:]
+    return float(0.5 * (np.linalg.norm(np.cross(b - a, c - a), axis=-1)
+                        + np.linalg.norm(np.cross(b - d, c - d), axis=-1)).sum())
+
+
+def _gaps(sewing, model: HullModel, distances: list, tolerance: float, gap_limit: float) -> list[dict]:
+    """Free edges that run beside a face other than their own: their points' largest distance
+    to that face (the own face is the one the edge lies on; a second face within the
+    tolerance is a contact that sewing did not join)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+
+    boxes = [_box(f.surface) for f in model.faces]
+    found = []
+    for i in range(1, sewing.NbFreeEdges() + 1):
+        curve = BRepAdaptor_Curve(sewing.FreeEdge(i))
+        t = np.linspace(curve.FirstParameter(), curve.LastParameter(), EDGE_SAMPLES)
+        points = np.array([(p.X(), p.Y(), p.Z()) for p in (curve.Value(float(s)) for s in t)])
+        lo, hi = points.min(axis=0) - gap_limit, points.max(axis=0) + gap_limit
+        near = []
+        for k, (blo, bhi) in enumerate(boxes):
+            if np.any(hi < blo) or np.any(bhi < lo):
+                continue
+            params, dist = distances[k].closest(points)
+            near.append((float(np.max(np.where(_inside(model.faces[k], params), dist, np.inf))), k))
+        near.sort()
+        if len(near) >= 2 and near[1][0] <= gap_limit:
+            found.append({"face": near[0][1], "other": near[1][1], "gap_mm": near[1][0],
+                          "within_tolerance": bool(near[1][0] <= tolerance)})
+    return found
+
+
+def _box(surface) -> tuple[np.ndarray, np.ndarray]:
+    # the poles' box holds the surface (convex hull property)
+    poles = surface.poles.reshape(-1, 3)
+    return poles.min(axis=0), poles.max(axis=0)
+
+
+def overlaps_of(model: HullModel, tolerance: float, distances: list | None = None,
+                reach: float | None = None) -> list[Overlap]:
+    """Pairs of faces that lie on each other: points of one whose closest point on the other
+    is inside that face (not on its edge, where faces that merely meet at an angle have
+    theirs) and within ``reach`` (default 10 tolerances), over an area wider than 10
+    tolerances; each pair once, as seen from the face that shows more of it."""
+    faces = model.faces
+    reach = 10.0 * tolerance if reach is None else reach
+    distances = distances or [SurfaceDistance(f.surface, grid=DISTANCE_GRID) for f in faces]
+    samples = [_samples(f) for f in faces]
+    boxes = [_box(f.surface) for f in faces]
+    best: dict[tuple[int, int], Overlap] = {}
+    for a in range(len(faces)):
+        for b in range(len(faces)):
+            lo, hi = boxes[b][0] - reach, boxes[b][1] + reach
+            if a == b or np.any(boxes[a][1] < lo) or np.any(hi < boxes[a][0]):
+                continue
+            points, weights = samples[a]
+            params, dist = distances[b].closest(points)
+            on = (dist <= reach) & _interior(faces[b].surface, params) & _inside(faces[b], params)
+            if on.sum() < 4:
+                continue
+            area = float(weights[on].sum())
+            if area <= 10 * tolerance * max(float(np.ptp(points[on], axis=0).max()), 10 * tolerance):
+                continue  # a sliver: faces meeting at a shallow angle, not lying on each other
+            x = points[on, 0]
+            cut, step = _cut_plane(faces[a].surface, distances[b], float(x.min()), float(x.max()))
+            pair = (min(a, b), max(a, b))
+            found = Overlap(pair, area * 1e-6, (float(x.min()), float(x.max())), float(dist[on].max()),
+                            float(np.median(dist[on])), cut, step)
+            if pair not in best or found.area_m2 > best[pair].area_m2:
+                best[pair] = found
+    return [best[pair] for pair in sorted(best)]
+
+
+def _interior(surface, params: np.ndarray, margin: float = 1e-6) -> np.ndarray:
+    """(u, v) strictly inside the surface's parameter rectangle (a closest-point search that
+    ends clamped on the edge found the edge, not a foot point)."""
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    du, dv = margin * (u1 - u0), margin * (v1 - v0)
+    u, v = params[:, 0], params[:, 1]
+    return (u > u0 + du) & (u < u1 - du) & (v > v0 + dv) & (v < v1 - dv)
+
+
+def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: int = 17) -> tuple[float, float]:
+    """The transverse plane x = X in [x0, x1] where the face's section lies closest to the
+    other face (least largest distance): where cutting the two leaves the smallest step."""
+    best = (0.5 * (x0 + x1), np.inf)
+    for x in np.linspace(x0, x1, stations):
+        section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), 60)
+        if len(section) == 0:
+            continue
+        params, dist = other.closest(section)
+        inside = _interior(other.surfaces[0], params)
+        if inside.sum() < 2:
+            continue
+        step = float(dist[inside].max())
+        if step < best[1]:
+            best = (float(x), step)
+    return best
+
+
+def _samples(face: HullFace) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the face inside its trim on a SAMPLES x SAMPLES grid (cell centres) and
+    their cells' areas."""
+    s = face.surface
+    u_edges = np.linspace(*s.domain_u, SAMPLES + 1)
+    v_edges = np.linspace(*s.domain_v, SAMPLES + 1)
+    grid = s.grid(u_edges, v_edges)
+    a, b, c, d = grid[:-1, :-1], grid[1:, :-1], grid[:-1, 1:], grid[1:, 1:]
+    cell = 0.5 * (np.linalg.norm(np.cross(b - a, c - a), axis=-1) + np.linalg.norm(np.cross(b - d, c - d), axis=-1))
+    uc = 0.5 * (u_edges[:-1] + u_edges[1:])
+    vc = 0.5 * (v_edges[:-1] + v_edges[1:])
+    uu, vv = np.meshgrid(uc, vc, indexing="ij")
+    keep = _inside(face, np.column_stack([uu.ravel(), vv.ravel()]))
+    points = s.grid(uc, vc).reshape(-1, 3)
+    return points[keep], cell.ravel()[keep]
+
+
+def _inside(face: HullFace, params: np.ndarray) -> np.ndarray:
+    """Which (u, v) lie inside the face's trim (all of them for an untrimmed face)."""
+    if not face.trimmed:
+        return np.ones(len(params), dtype=bool)
+    from matplotlib.path import Path as MplPath
+
+    keep = np.ones(len(params), dtype=bool)
+    if face.outer is not None:
+        keep &= MplPath(face.outer).contains_points(params)
+    for loop in face.inner:
+        keep &= ~MplPath(loop).contains_points(params)
+    return keep
+
+
+
+def model_reports(sources, base: Path, tolerance: float = 1.0) -> list[dict]:
+    """The sewing report of every model file that ``sources`` (surface sources with a
+    ``model`` path, relative to ``base``) read faces from, each file once."""
+    from ..io.hullmodel import read_hull_model
+    from ..io.sources import source_path
+
+    paths = dict.fromkeys(source_path(base, s.model) for s in sources)
+    return [sew_report(read_hull_model(path), tolerance).as_dict() for path in paths]
+
+
+def overlap_cuts(surfaces: list, trims: list, tolerance: float) -> tuple[list[tuple], list[Overlap]]:
+    """Where a plan cuts faces that lie on each other: for each face the x range it keeps,
+    (lo, hi) with None for no cut, and the overlaps found. Of two overlapping faces, the one
+    whose middle lies aft of the cut plane keeps the part aft of it, the other the part fore
+    of it, so that the shell is covered once (their plates meet at the plane)."""
+    faces = tuple(HullFace(k, s, None if t is None else t.outer, () if t is None else tuple(t.inner), float("nan"))
+                  for k, (s, t) in enumerate(zip(surfaces, trims)))
+    model = HullModel(Path("plan"), "plan", faces)
+    overlaps = overlaps_of(model, tolerance) if len(faces) > 1 else []
+    limits = [[None, None] for _ in faces]
+    for overlap in overlaps:
+        for k in overlap.faces:
+            x = faces[k].surface.grid(np.linspace(*faces[k].surface.domain_u, 9),
+                                      np.linspace(*faces[k].surface.domain_v, 9))[..., 0]
+            if 0.5 * (x.min() + x.max()) < overlap.cut_x_mm:
+                limits[k][1] = overlap.cut_x_mm if limits[k][1] is None else min(limits[k][1], overlap.cut_x_mm)
+            else:
+                limits[k][0] = overlap.cut_x_mm if limits[k][0] is None else max(limits[k][0], overlap.cut_x_mm)
+    return [tuple(lim) for lim in limits], overlaps

@@ -1,0 +1,81 @@
+"""A plate cut at its face's trim line: the part of its region inside the trim, developed.
+
+A plate planned on a trimmed face (KCS's flat bottom keeps 1128 of its 2622 m2) may reach
+past the trim, where another face carries the shell. Its hull patch is developed whole
+(the grid of its region); the cut is made in the surface's parameters, where region and
+trim are both polygons: their intersection, mapped to the development through the grid
+(piecewise linear over its cells: exact where the development is affine in (u, v), as on a
+plane, within the grid's second-order error elsewhere), is the plate the shop cuts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TrimCut:
+    """outline: (N, 2) the cut plate's flat outline (placed coordinates, model units);
+    outline_uv: (N, 2) the same in the surface's parameters; inside_faces: (F,) which grid
+    triangles have their centroid inside the trim."""
+
+    outline: np.ndarray
+    outline_uv: np.ndarray
+    inside_faces: np.ndarray
+
+
+def grid_ring(values: np.ndarray) -> np.ndarray:
+    """The boundary of a grid (R, C, k) as one closed ring (2 (R + C) - 4, k): first row,
+    last column, last row back, first column back."""
+    return np.vstack([values[0, :], values[1:, -1], values[-1, -2::-1], values[-2:0:-1, 0]])
+
+
+def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray) -> TrimCut | None:
+    """The region of a plate's grid (params (R, C, 2), its developed points ``placed``
+    (R C, 2), triangles ``faces`` (F, 3)) cut by ``trim`` (outer loop, holes; (u, v)).
+    None when the region lies inside the trim; a TrimCut with an empty outline when outside."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    region = Polygon(grid_ring(params)).buffer(0)
+    kept = region if trim.outer is None else region.intersection(Polygon(trim.outer).buffer(0))
+    if trim.inner:
+        kept = kept.difference(unary_union([Polygon(loop).buffer(0) for loop in trim.inner]))
+    if kept.area >= region.area * (1.0 - 1e-9):
+        return None
+    flat_params = params.reshape(-1, 2)
+    centroids = flat_params[faces].mean(axis=1)
+    inside = trim.inside(centroids[:, 0], centroids[:, 1])
+    if kept.is_empty:
+        return TrimCut(np.zeros((0, 2)), np.zeros((0, 2)), inside)
+    if kept.geom_type != "Polygon":  # the trim leaves pieces: the plate is the largest
+        kept = max(getattr(kept, "geoms", [kept]), key=lambda g: g.area)
+    uv = np.asarray(kept.exterior.coords)[:-1]
+    flat = grid_map(flat_params, faces, placed, uv)
+    return TrimCut(flat, uv, inside)
+
+
+def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """``values`` (N, k) given at the grid's points ``params`` (N, 2), interpolated linearly
+    over the grid's own triangles ``faces`` at ``query`` (M, 2); a query just outside the
+    grid (round-off on its edge) takes its nearest point's value."""
+    from matplotlib.tri import LinearTriInterpolator, Triangulation
+    from scipy.spatial import cKDTree
+
+    a, b, c = (params[faces[:, k]] for k in range(3))
+    doubled = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    mesh = Triangulation(params[:, 0], params[:, 1], faces, mask=np.abs(doubled) <= 1e-300)
+    out = np.column_stack([np.ma.filled(LinearTriInterpolator(mesh, values[:, k])(query[:, 0], query[:, 1]), np.nan)
+                           for k in range(values.shape[1])])
+    missing = ~np.all(np.isfinite(out), axis=1)
+    if missing.any():
+        out[missing] = values[cKDTree(params).query(query[missing])[1]]
+    return out
+
+
+def polygon_area(points: np.ndarray) -> float:
+    """Area of a closed polygon (N, 2), shoelace."""
+    x, y = points[:, 0], points[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))

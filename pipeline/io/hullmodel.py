@@ -1,0 +1,290 @@
+"""A hull model of many (trimmed) NURBS faces, read through the field's libraries: IGES and
+STEP through OpenCascade (OCP), Rhino .3dm through rhino3dm (OpenNURBS).
+
+Every face becomes a :class:`HullFace`: its underlying surface as a
+:class:`flatten.surface.NurbsSurface` in millimetres, its trim as loops in the surface's
+parameters, and its area inside the trim. OpenCascade gives IGES and STEP geometry in
+millimetres whatever the file's unit; a .3dm file's model unit is read from its settings.
+
+OCP is ~150 MB and takes a second or more to import: it is imported only here, only when a
+model file is read. Our own IGES reader (:mod:`.iges`) stays for picking single entities
+(curves and surfaces by directory number or label) in the configs that name them; the tests
+show both readers give the same surfaces.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from flatten.errors import DevflatError
+from flatten.surface import NurbsSurface, nurbs_surface
+
+SUFFIXES = {".igs": "iges", ".iges": "iges", ".stp": "step", ".step": "step", ".3dm": "3dm"}
+LOOP_SAMPLES_PER_EDGE = 64
+# Rhino's model units (rhino3dm.UnitSystem names) in millimetres
+RHINO_UNIT_MM = {"Millimeters": 1.0, "Centimeters": 10.0, "Meters": 1000.0, "Inches": 25.4, "Feet": 304.8,
+                 "None": 1.0, "Microns": 1e-3, "Kilometers": 1e6}
+
+
+class HullModelError(DevflatError, ValueError):
+    """A hull model file cannot be read (message names the file and what is wrong)."""
+
+
+@dataclass(frozen=True, eq=False)
+class HullFace:
+    """One face of a hull model.
+
+    surface : the face's underlying NURBS surface, mm
+    outer : (N, 2) the trim's outer loop in (u, v), or None when it is the whole rectangle
+    inner : holes, each (M, 2) in (u, v)
+    area_mm2 : the face's area inside its trim (OpenCascade's, or the surface's for .3dm)
+    """
+
+    index: int
+    surface: NurbsSurface
+    outer: np.ndarray | None
+    inner: tuple
+    area_mm2: float
+    trim_note: str = ""
+
+    @property
+    def trimmed(self) -> bool:
+        return self.outer is not None or bool(self.inner)
+
+
+@dataclass(frozen=True, eq=False)
+class HullModel:
+    """The faces of a hull file, in mm. ``shape``: the OpenCascade shape (IGES, STEP) the
+    sewing report works on, None for a .3dm file (its faces are rebuilt for sewing)."""
+
+    path: Path
+    format: str
+    faces: tuple[HullFace, ...]
+    shape: object = None
+
+
+def model_format(path: Path) -> str:
+    fmt = SUFFIXES.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise HullModelError(f"{path}: a hull model is read from {', '.join(sorted(SUFFIXES))}; "
+                             f"got the suffix {Path(path).suffix!r}")
+    return fmt
+
+
+def read_hull_model(path: str | Path) -> HullModel:
+    """Every face of an IGES, STEP or .3dm file (errors name the file)."""
+    path = Path(path)
+    fmt = model_format(path)
+    if not path.is_file():
+        raise HullModelError(f"{path}: no such file")
+    if fmt == "3dm":
+        return _read_3dm(path)
+    shape = _read_ocp_shape(path, fmt)
+    faces = tuple(_ocp_face(k, face, path) for k, face in enumerate(ocp_faces(shape)))
+    if not faces:
+        raise HullModelError(f"{path}: the file holds no surface (face) that OpenCascade can read")
+    return HullModel(path, fmt, faces, shape)
+
+
+def _read_ocp_shape(path: Path, fmt: str):
+    from OCP.IFSelect import IFSelect_ReturnStatus
+    from OCP.Message import Message, Message_Gravity
+
+    if fmt == "iges":
+        from OCP.IGESControl import IGESControl_Reader as Reader
+    else:
+        from OCP.STEPControl import STEPControl_Reader as Reader
+    # OpenCascade prints its transfer statistics on stdout: a run's console is ours
+    printers = Message.DefaultMessenger_s().Printers()
+    for k in range(1, printers.Length() + 1):
+        printers.Value(k).SetTraceLevel(Message_Gravity.Message_Fail)
+    reader = Reader()
+    status = reader.ReadFile(os.fspath(path))
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise HullModelError(f"{path}: OpenCascade cannot read it as {fmt.upper()} ({status.name})")
+    reader.TransferRoots()
+    return reader.OneShape()
+
+
+def ocp_faces(shape) -> list:
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    found, explorer = [], TopExp_Explorer(shape, TopAbs_FACE)
+    while explorer.More():
+        found.append(TopoDS.Face(explorer.Current()))
+        explorer.Next()
+    return found
+
+
+def surface_from_ocp(geom, name: str) -> NurbsSurface:
+    """A Geom_Surface (any kind OpenCascade can convert) as our NURBS surface."""
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.GeomConvert import GeomConvert
+
+    bspline = geom if isinstance(geom, Geom_BSplineSurface) else GeomConvert.SurfaceToBSplineSurface_s(geom)
+    nu, nv = bspline.NbUPoles(), bspline.NbVPoles()
+    poles = np.array([[_xyz(bspline.Pole(i, j)) for j in range(1, nv + 1)] for i in range(1, nu + 1)])
+    weights = np.array([[bspline.Weight(i, j) for j in range(1, nv + 1)] for i in range(1, nu + 1)])
+    knots_u = np.repeat([bspline.UKnot(k) for k in range(1, bspline.NbUKnots() + 1)],
+                        [bspline.UMultiplicity(k) for k in range(1, bspline.NbUKnots() + 1)])
+    knots_v = np.repeat([bspline.VKnot(k) for k in range(1, bspline.NbVKnots() + 1)],
+                        [bspline.VMultiplicity(k) for k in range(1, bspline.NbVKnots() + 1)])
+    if bspline.IsUPeriodic() or bspline.IsVPeriodic():
+        raise HullModelError(f"{name}: a periodic surface (a closed hull form) is not read; split it in the CAD")
+    return nurbs_surface(bspline.UDegree(), bspline.VDegree(), poles, knots_u, knots_v, weights, name=name)
+
+
+def ocp_surface(surface: NurbsSurface):
+    """Our NURBS surface as an OpenCascade Geom_BSplineSurface (for writing STEP)."""
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
+    from OCP.gp import gp_Pnt
+
+    nu, nv, _ = surface.poles.shape
+    poles, weights = Array2_gp_Pnt(1, nu, 1, nv), Array2_double(1, nu, 1, nv)
+    for i in range(nu):
+        for j in range(nv):
+            poles.SetValue(i + 1, j + 1, gp_Pnt(*(float(x) for x in surface.poles[i, j])))
+            weights.SetValue(i + 1, j + 1, float(surface.weights[i, j]))
+
+    def knot_arrays(knots):
+        values, counts = np.unique(knots, return_counts=True)
+        kk, mm = Array1_double(1, len(values)), Array1_int(1, len(values))
+        for k, (value, count) in enumerate(zip(values, counts)):
+            kk.SetValue(k + 1, float(value))
+            mm.SetValue(k + 1, int(count))
+        return kk, mm
+
+    ku, mu = knot_arrays(surface.knots_u)
+    kv, mv = knot_arrays(surface.knots_v)
+    return Geom_BSplineSurface(poles, weights, ku, kv, mu, mv, surface.degree_u, surface.degree_v)
+
+
+def _xyz(point) -> tuple[float, float, float]:
+    return point.X(), point.Y(), point.Z()
+
+
+def _ocp_face(index: int, face, path: Path) -> HullFace:
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    name = f"{path.name} face {index}"
+    surface = surface_from_ocp(BRep_Tool.Surface_s(face), name)
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    outer, inner = face_loops(face)
+    if outer is not None and _is_rectangle(outer, surface):
+        outer = None
+    return HullFace(index, surface, outer, tuple(inner), float(props.Mass()))
+
+
+def face_loops(face) -> tuple[np.ndarray | None, list[np.ndarray]]:
+    """The face's wires as closed loops in (u, v): the outer one and the holes."""
+    from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
+    from OCP.TopAbs import TopAbs_REVERSED, TopAbs_WIRE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+
+    outer_wire = BRepTools.OuterWire_s(face)
+    outer, inner = None, []
+    explorer = TopExp_Explorer(face, TopAbs_WIRE)
+    while explorer.More():
+        wire = TopoDS.Wire(explorer.Current())
+        points = []
+        edges = BRepTools_WireExplorer(wire, face)
+        while edges.More():
+            edge = edges.Current()
+            curve = BRepAdaptor_Curve2d(edge, face)
+            t = np.linspace(curve.FirstParameter(), curve.LastParameter(), LOOP_SAMPLES_PER_EDGE)
+            uv = np.array([(p.X(), p.Y()) for p in (curve.Value(float(s)) for s in t)])
+            points.append(uv[::-1] if edge.Orientation() == TopAbs_REVERSED else uv)
+            edges.Next()
+        if points:
+            loop = np.concatenate(points)
+            if wire.IsSame(outer_wire):
+                outer = loop
+            else:
+                inner.append(loop)
+        explorer.Next()
+    return outer, inner
+
+
+def _is_rectangle(loop: np.ndarray, surface: NurbsSurface, tol: float = 1e-7) -> bool:
+    """Every point of the loop on the parameter rectangle's edge: no trim."""
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    su, sv = u1 - u0, v1 - v0
+    u, v = loop[:, 0], loop[:, 1]
+    on_edge = ((np.abs(u - u0) <= tol * su) | (np.abs(u - u1) <= tol * su)
+               | (np.abs(v - v0) <= tol * sv) | (np.abs(v - v1) <= tol * sv))
+    return bool(on_edge.all())
+
+
+def _read_3dm(path: Path) -> HullModel:
+    import rhino3dm
+
+    model = rhino3dm.File3dm.Read(os.fspath(path))
+    if model is None:
+        raise HullModelError(f"{path}: rhino3dm cannot read it as a Rhino .3dm file")
+    unit = str(model.Settings.ModelUnitSystem).rsplit(".", 1)[-1]
+    if unit not in RHINO_UNIT_MM:
+        raise HullModelError(f"{path}: model unit {unit} is not one of {', '.join(RHINO_UNIT_MM)}")
+    scale = RHINO_UNIT_MM[unit]
+    faces = []
+    for obj in model.Objects:
+        geometry = obj.Geometry
+        if isinstance(geometry, rhino3dm.Brep):
+            surfaces = [face.UnderlyingSurface().ToNurbsSurface() for face in geometry.Faces]
+            note = "the Brep's trim loops are not read (rhino3dm gives no parameter curves): the untrimmed surface"
+        elif isinstance(geometry, rhino3dm.Surface):
+            surfaces, note = [geometry.ToNurbsSurface()], ""
+        else:
+            continue
+        for surface in surfaces:
+            ours = surface_from_rhino(surface, scale, f"{path.name} face {len(faces)}")
+            faces.append(HullFace(len(faces), ours, None, (), float("nan"), note))
+    if not faces:
+        raise HullModelError(f"{path}: the file holds no surface or Brep")
+    return HullModel(path, "3dm", tuple(faces), None)
+
+
+def surface_from_rhino(surface, scale: float, name: str) -> NurbsSurface:
+    """A rhino3dm NurbsSurface as ours, coordinates times ``scale`` (to mm). OpenNURBS keeps
+    no end knots beyond the degree's: one is added at each end (clamped or not, the spline
+    on its domain does not depend on it)."""
+    nu, nv = surface.Points.CountU, surface.Points.CountV
+    poles, weights = np.empty((nu, nv, 3)), np.empty((nu, nv))
+    for i in range(nu):
+        for j in range(nv):
+            point = surface.Points[i, j]  # homogeneous: w x, w y, w z, w
+            poles[i, j] = (point.X / point.W, point.Y / point.W, point.Z / point.W)
+            weights[i, j] = point.W
+    knots_u = [surface.KnotsU[k] for k in range(len(surface.KnotsU))]
+    knots_v = [surface.KnotsV[k] for k in range(len(surface.KnotsV))]
+    return nurbs_surface(surface.OrderU - 1, surface.OrderV - 1, poles * scale, [knots_u[0]] + knots_u + [knots_u[-1]],
+                         [knots_v[0]] + knots_v + [knots_v[-1]], weights, name=name)
+
+
+def rhino_surface(surface: NurbsSurface):
+    """Our surface as a rhino3dm NurbsSurface (for writing .3dm test files)."""
+    import rhino3dm
+
+    nu, nv, _ = surface.poles.shape
+    out = rhino3dm.NurbsSurface.Create(3, True, surface.degree_u + 1, surface.degree_v + 1, nu, nv)
+    for i in range(nu):
+        for j in range(nv):
+            w = float(surface.weights[i, j])
+            x, y, z = (float(c) * w for c in surface.poles[i, j])
+            out.Points[i, j] = rhino3dm.Point4d(x, y, z, w)  # OpenNURBS keeps homogeneous control points
+    for k, value in enumerate(surface.knots_u[1:-1]):
+        out.KnotsU[k] = float(value)
+    for k, value in enumerate(surface.knots_v[1:-1]):
+        out.KnotsV[k] = float(value)
+    return out
