@@ -261,6 +261,9 @@ class SeamAllowance(_Strict):
     end: float = Field(10.0, ge=0)
 
 
+NotchType = Literal["slit", "v", "t", "castle", "check", "u"]
+
+
 class NotchSpec(_Strict):
     """Notches at arc lengths along a boundary curve, measured from the curve's own start
     (so that neighbouring pieces sharing the curve get matching notches), or at both
@@ -269,6 +272,11 @@ class NotchSpec(_Strict):
     curve: StrictInt | Literal["c", "d"] | None = None
     at: list[float] = Field(default_factory=list)
     ruling: StrictInt | None = Field(None, ge=0)
+    # the notch type of this seam (ASTM D6673 layers 4, 80-83) and its size; None: the
+    # textile section's notch_type, notch_length and notch_width
+    type: NotchType | None = None
+    depth: float | None = Field(None, gt=0)
+    width: float | None = Field(None, gt=0)
 
     @model_validator(mode="after")
     def _one(self):
@@ -307,11 +315,26 @@ class Printout(_Strict):
     border: float = Field(8.0, ge=3, le=30)
 
 
+class Aama(_Strict):
+    """The AAMA / ASTM D6673 DXF: which flavour readers get (see README, "DXF flavours")."""
+
+    flavour: Literal["astm-2010", "aama-r12", "r10-compat"] = "astm-2010"
+
+
+class Plotter(_Strict):
+    """HPGL file for pen plotters and cutters (NAME.plt): the pen of each kind of line."""
+
+    cut: StrictInt = Field(1, ge=1, le=8)
+    sew: StrictInt = Field(2, ge=1, le=8)
+    notch: StrictInt = Field(3, ge=1, le=8)
+    text: StrictInt = Field(4, ge=1, le=8)
+
+
 class Textile(_Strict):
     seam_allowance: float | SeamAllowance = 10.0
     notches: list[NotchSpec] = Field(default_factory=list)
     notch_length: float = Field(6.0, gt=0)
-    notch_type: Literal["slit", "v"] = "slit"
+    notch_type: NotchType = "slit"
     notch_width: float = Field(3.0, gt=0, description="opening of a V notch at the cut line")
     grain: Grain = Grain(angle=0.0)
     size: str = Field("M", pattern=r"^[A-Za-z0-9.-]+$")
@@ -321,6 +344,14 @@ class Textile(_Strict):
     sew_line_layer: Literal[8, 14] | None = 8
     seams: Literal["match", "report", "require_full"] = "match"
     printout: bool | Printout = True
+    aama: Aama = Aama()
+    plotter: bool | Plotter = False
+
+    def plotter_options(self) -> Plotter | None:
+        """The HPGL plotter file's options, or None when none is wanted."""
+        if self.plotter is False:
+            return None
+        return Plotter() if self.plotter is True else self.plotter
 
     def printout_options(self) -> Printout | None:
         """The printout's options, or None when no printout is wanted."""

@@ -178,7 +178,14 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
         return written
     if config.spec.output.dxf:
         path = out_dir / f"{style}.dxf"
-        write_aama(path, pieces, style, config.mm_per_unit)
+        write_aama(path, pieces, style, config.mm_per_unit, config.spec.textile.aama.flavour)
+        written.append(path)
+    plotter = config.spec.textile.plotter_options()
+    if plotter is not None:
+        from .textile.hpgl import write_hpgl
+
+        path = out_dir / f"{style}.plt"
+        write_hpgl(path, pieces, config.mm_per_unit, plotter)
         written.append(path)
     options = config.spec.textile.printout_options()
     if options is not None:

@@ -1,0 +1,319 @@
+"""Cutting-room output of textile runs (issue 25): notch types per seam on the ASTM
+layers, the three DXF flavours, the HP-GL plotter / cutter file. Every file is read back
+by a reader that is not ours: the open ASTM parser (node), ezdxf's audit, GDAL's ogrinfo,
+and for HP-GL a small parser of the pen moves written here."""
+
+import collections
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from shapely.geometry import LinearRing, LineString, Point, Polygon
+
+from pipeline.cli import main
+from pipeline.textile.aama import read_aama
+
+from .astm_parser import parser_or_reason
+
+ROOT = Path(__file__).resolve().parents[1]
+LAMPSHADE = ROOT / "configs" / "lampshade.yaml"
+FLAVOURS = ("astm-2010", "aama-r12", "r10-compat")
+ASTM_LAYER = {"slit": "4", "v": "4", "t": "80", "castle": "81", "check": "82", "u": "83"}
+# per seam a notch type with its own depth and width; the section's default (V) elsewhere
+NOTCHES = [{"curve": 1, "at": [60.0, 180.0], "type": "t", "depth": 6.0, "width": 4.0},
+           {"curve": 1, "at": [300.0], "type": "castle", "depth": 4.0, "width": 6.0},
+           {"curve": 2, "at": [40.0], "type": "u", "depth": 7.0, "width": 5.0},
+           {"curve": 2, "at": [120.0], "type": "check", "depth": 5.0, "width": 3.0},
+           {"curve": 2, "at": [200.0], "type": "slit"},
+           {"curve": 2, "at": [280.0]}]
+DEFAULT = {"type": "v", "depth": 5.0, "width": 3.5}
+# (type, depth, width) of each notch at each arc length, as configured
+EXPECTED = {s: (spec.get("type", DEFAULT["type"]), spec.get("depth", DEFAULT["depth"]),
+                0.0 if spec.get("type") == "slit" else spec.get("width", DEFAULT["width"]))
+            for spec in NOTCHES for s in spec["at"]}
+
+
+def run_lampshade(out: Path, **textile) -> Path:
+    data = yaml.safe_load(LAMPSHADE.read_text())
+    data["textile"].update(notches=NOTCHES, notch_type=DEFAULT["type"], notch_length=DEFAULT["depth"],
+                           notch_width=DEFAULT["width"], printout=False, **textile)
+    data["output"] = {"png": False, "obj": False}
+    config = out.parent / f"{out.name}.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """The lampshade with typed notches in each flavour, with the plotter file."""
+    base = tmp_path_factory.mktemp("cutting")
+    return {flavour: run_lampshade(base / flavour, aama={"flavour": flavour}, plotter=True) for flavour in FLAVOURS}
+
+
+@pytest.fixture(scope="module")
+def astm(request):
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
+    if run is None:
+        pytest.skip(reason)
+    return run
+
+
+def reports(out: Path) -> dict:
+    import json
+    return {p.stem: json.loads(p.read_text()) for p in out.glob("lampshade_?.json")}
+
+
+# ------------------------------------------------------------------ notch types
+def test_each_notch_has_its_seams_type_depth_and_width_on_the_cut_line(runs):
+    read = read_aama(runs["astm-2010"] / "lampshade.dxf")
+    reps = reports(runs["astm-2010"])
+    seen = collections.Counter()
+    for piece in read.pieces:
+        configured = reps[piece.name]["textile"]["notches"]
+        assert len(configured) == len(piece.notches)
+        cut = LinearRing(piece.boundary)
+        for notch, conf in zip(piece.notches, configured):
+            kind, depth, width = EXPECTED[conf["arc_length"]]
+            assert (notch.kind, notch.depth, notch.width) == (kind, pytest.approx(depth), pytest.approx(width))
+            assert cut.distance(Point(notch.point)) <= 1e-9
+            inwards = np.array([np.cos(np.radians(notch.angle)), np.sin(np.radians(notch.angle))])
+            tip = notch.point + notch.depth * inwards
+            assert Polygon(piece.boundary).contains(Point(tip))
+            assert cut.distance(Point(tip)) == pytest.approx(depth, abs=0.05)
+            seen[kind] += 1
+    # both pieces along each seam carry its notches: two of each per arc length
+    assert seen == {k: 2 * sum(1 for v in EXPECTED.values() if v[0] == k) for k in ASTM_LAYER if k != "v"} | \
+        {"v": 2}
+
+
+def test_the_astm_parser_reads_every_typed_notch_on_its_astm_layer(runs, astm):
+    """The parser reads V and slit notches (layer 4) as notches; the T, castle, check and U
+    layers (80-83) it lists, entity by entity, as definitions it does not interpret: one
+    POINT per notch there, at the notch's place, and nothing it could not read."""
+    path = runs["astm-2010"] / "lampshade.dxf"
+    [res] = astm([path])
+    assert res["ok"], res
+    read = read_aama(path)
+    by_name = {p["name"]: p for p in res["pieces"]}
+    ours_typed = collections.defaultdict(list)
+    for piece in read.pieces:
+        plain = np.array([n.point for n in piece.notches if n.kind in ("v", "slit")]).reshape(-1, 2)
+        got = np.array(by_name[piece.name]["notches"]["M"]["points"]).reshape(-1, 2)
+        assert len(got) == len(plain)
+        assert np.abs(got - plain).max(initial=0.0) <= 1e-9
+        for n in piece.notches:
+            if n.kind not in ("v", "slit"):
+                ours_typed[ASTM_LAYER[n.kind]].append(n.point)
+    assert sorted(ours_typed) == ["80", "81", "82", "83"]
+    assert [d for d in res["diagnostics"] if d["severity"] > 1] == []
+    theirs = collections.defaultdict(list)
+    for d in res["diagnostics"]:
+        assert d["message"].startswith(f"Unhandled definition on layer {d['layer']}") and d["type"] == "POINT"
+        theirs[d["layer"]].append([d["position"]["x"], d["position"]["y"]])
+    assert sorted(theirs) == sorted(ours_typed)
+    for layer, points in ours_typed.items():
+        a, b = np.array(sorted(map(tuple, points))), np.array(sorted(map(tuple, theirs[layer])))
+        assert a.shape == b.shape and np.abs(a - b).max() <= 1e-9
+
+
+# ------------------------------------------------------------------ DXF flavours
+def ogr_features(path: Path) -> collections.Counter:
+    """(layer, geometry type) counts of GDAL's reading, block geometries kept apart."""
+    ogrinfo = shutil.which("ogrinfo")
+    if ogrinfo is None:
+        pytest.skip("GDAL's ogrinfo is not installed (apt-get install gdal-bin)")
+    done = subprocess.run([ogrinfo, "-ro", "-al", "--config", "DXF_MERGE_BLOCK_GEOMETRIES", "FALSE", str(path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and "ERROR" not in done.stderr, done.stderr
+    counts, layer = collections.Counter(), None
+    for line in done.stdout.splitlines():
+        found = re.match(r"\s+Layer \(String\) = (\S+)", line)
+        if found:
+            layer = found.group(1)
+        found = re.match(r"\s+(POINT|LINESTRING|POLYGON|MULTI\w+)\b", line)
+        if found:
+            counts[(layer, found.group(1))] += 1
+    return counts
+
+
+@pytest.mark.parametrize("flavour", FLAVOURS)
+def test_each_flavour_is_audited_by_ezdxf_and_read_by_gdal_and_the_astm_parser(runs, astm, flavour):
+    import ezdxf
+
+    path = runs[flavour] / "lampshade.dxf"
+    text = path.read_text()
+    doc = ezdxf.readfile(path)
+    auditor = doc.audit()
+    assert auditor.errors == [] and auditor.fixes == []
+    # what the flavour changes: the HEADER's version, the TABLES, the notch layers
+    header = re.search(r"HEADER\n(.*?)  0\nENDSEC", text, re.S).group(1)
+    version = {"astm-2010": None, "aama-r12": "AC1009", "r10-compat": "AC1006"}[flavour]
+    if version is None:
+        assert header == ""
+    else:
+        assert f"$ACADVER\n  1\n{version}\n" in header and "$EXTMIN" in header and "$EXTMAX" in header
+    assert ("\nTABLES\n" in text) == (flavour != "r10-compat")
+    assert ("\nSTYLE\n" in text) == (flavour == "aama-r12")
+    ours = read_aama(path)
+    reference = read_aama(runs["astm-2010"] / "lampshade.dxf")
+    assert [p.name for p in ours.pieces] == [p.name for p in reference.pieces] == [f"lampshade_{k}" for k in (1, 2, 3)]
+    notches = sum(len(p.notches) for p in ours.pieces)
+    for a, b in zip(ours.pieces, reference.pieces):
+        assert np.array_equal(a.boundary, b.boundary) and np.array_equal(a.sew, b.sew)
+        assert [(n.depth, n.width) for n in a.notches] == [(n.depth, n.width) for n in b.notches]
+    typed = sum(n.kind not in ("v", "slit") for p in reference.pieces for n in p.notches)
+    assert typed == 2 * sum(kind not in ("v", "slit") for kind, _, _ in EXPECTED.values())  # both sides of a seam
+    # GDAL: every piece's cut line, grain line and notch point through the INSERTs
+    feats = ogr_features(path)
+    assert feats[("1", "LINESTRING")] == 3 and feats[("7", "LINESTRING")] == 3
+    on_4 = notches if flavour != "astm-2010" else notches - typed
+    assert feats[("4", "POINT")] == on_4
+    assert sum(feats[(layer, "POINT")] for layer in ("80", "81", "82", "83")) == notches - on_4
+    # the parser: every piece, its boundary and the notches it reads (layer 4), no complaint
+    [res] = astm([path])
+    assert res["ok"], res
+    assert [d for d in res["diagnostics"] if d["severity"] > 1] == []
+    assert res["asset"]["unit"] == 1 and res["style"]["name"] == "lampshade"
+    assert sorted(p["name"] for p in res["pieces"]) == [p.name for p in ours.pieces]
+    for pc in res["pieces"]:
+        piece = next(p for p in ours.pieces if p.name == pc["name"])
+        assert np.abs(np.array(pc["boundary"]["M"]["points"]) - piece.boundary).max() <= 1e-9
+    assert sum(len(pc["notches"]["M"]["lengths"]) for pc in res["pieces"]) == on_4
+
+
+# ------------------------------------------------------------------ HP-GL
+def parse_hpgl(text: str) -> tuple[dict, list]:
+    """Pen strokes and labels of an HP-GL program, by an independent reading of
+    IN/SP/PU/PD/LB/SI/DI: {pen: [polyline (K, 2) in plotter units]}, [(pen, (x, y), text)].
+    PU/PD coordinates are absolute (PA, HP-GL's default)."""
+    strokes, labels = collections.defaultdict(list), []
+    pen, down, at, current = 0, False, (0, 0), None
+    i = 0
+    while i < len(text):
+        if text[i] in " \n\r;":
+            i += 1
+            continue
+        op = text[i:i + 2].upper()
+        i += 2
+        if op == "LB":
+            end = text.index("\x03", i)
+            labels.append((pen, at, text[i:end]))
+            i = end + 1
+            continue
+        end = text.index(";", i)
+        args = [int(v) for v in text[i:end].split(",") if v.strip()] if op in ("PU", "PD", "SP") else []
+        i = end + 1
+        if op == "SP":
+            pen = args[0] if args else 0
+        elif op in ("PU", "PD"):
+            pts = list(zip(args[0::2], args[1::2]))
+            if op == "PU":
+                down = False
+                if pts:
+                    at = pts[-1]
+            else:
+                if not down:
+                    current = [at]
+                    strokes[pen].append(current)
+                    down = True
+                current += pts
+                if pts:
+                    at = pts[-1]
+        else:
+            assert op in ("IN", "SI", "DI"), op
+    return {p: [np.array(s, dtype=float) for s in v] for p, v in strokes.items()}, labels
+
+
+def hausdorff(a: np.ndarray, ring: np.ndarray) -> float:
+    """Largest distance of a's points from the closed ring and of the ring's vertices from a."""
+    ring_line, path = LinearRing(ring), LineString(a)
+    return max(max(ring_line.distance(Point(p)) for p in a), max(path.distance(Point(p)) for p in ring))
+
+
+def test_hpgl_cut_paths_are_closed_and_one_to_one_with_the_pieces(runs):
+    out = runs["astm-2010"]
+    text = (out / "lampshade.plt").read_text()
+    assert text.startswith("IN;") and text.isascii()
+    strokes, labels = parse_hpgl(text)
+    read = read_aama(out / "lampshade.dxf")
+    mm = 0.025  # one plotter unit
+    cuts = strokes[1]
+    assert len(cuts) == len(read.pieces) == 3
+    for path, piece in zip(cuts, read.pieces):
+        assert np.array_equal(path[0], path[-1])  # closed
+        # 1:1: the plotter's path is the DXF's cut line to 0.1 mm
+        assert hausdorff(path * mm, piece.boundary) <= 0.1
+        assert Polygon(path * mm).area == pytest.approx(Polygon(piece.boundary).area, rel=1e-4)
+    sews = [s for s in strokes[2] if np.array_equal(s[0], s[-1]) and len(s) > 3]
+    assert len(sews) == 3
+    for path, piece in zip(sews, read.pieces):
+        assert hausdorff(path * mm, piece.sew) <= 0.1
+    # the texts and grain lines on the text pen, each piece named once
+    assert sorted(t for pen, _, t in labels if t.startswith("Piece Name:")) == \
+        [f"Piece Name: lampshade_{k}" for k in (1, 2, 3)]
+    assert {pen for pen, _, _ in labels} == {4} and len(strokes[4]) == 3
+    # the cut lines come last: a cutter cuts nothing free before it is drawn
+    assert text.rindex("SP1;") > max(text.rindex(f"SP{p};") for p in (2, 3, 4))
+
+
+def test_hpgl_notches_have_their_type_shape_depth_and_width(runs):
+    out = runs["astm-2010"]
+    strokes, _ = parse_hpgl((out / "lampshade.plt").read_text())
+    mm = 0.025
+    notches = [s * mm for s in strokes[3]]
+    read = read_aama(out / "lampshade.dxf")
+    # strokes per notch: a T is a slit and a cross cut, every other type one stroke
+    expected = sum(2 if n.kind == "t" else 1 for p in read.pieces for n in p.notches)
+    assert len(notches) == expected
+    used = np.zeros(len(notches), dtype=bool)
+    for piece in read.pieces:
+        cut = LinearRing(piece.boundary)
+        for n in piece.notches:
+            inwards = np.array([np.cos(np.radians(n.angle)), np.sin(np.radians(n.angle))])
+            across = np.array([-inwards[1], inwards[0]])
+            # the notch's strokes: those inside the box its depth and width span from its point
+            mine = [k for k, s in enumerate(notches) if not used[k]
+                    and ((s - n.point) @ inwards).min() >= -0.05
+                    and ((s - n.point) @ inwards).max() <= n.depth + 0.05
+                    and np.abs((s - n.point) @ across).max() <= n.width / 2 + 0.05]
+            assert len(mine) == (2 if n.kind == "t" else 1), (piece.name, n.kind)
+            used[mine] = True
+            pts = np.vstack([notches[k] for k in mine])
+            reach = (pts - n.point) @ inwards
+            spread = (pts - n.point) @ across
+            assert reach.max() == pytest.approx(n.depth, abs=0.05)  # as deep as the DXF says
+            assert np.ptp(spread) == pytest.approx(n.width, abs=0.05)  # as wide
+            # the first stroke leaves the cut line; all but a slit's (and a T's) come back to it
+            first = notches[mine[0]]
+            assert cut.distance(Point(first[0])) <= 0.05
+            back = cut.distance(Point(first[-1]))
+            assert back == (pytest.approx(n.depth, abs=0.05) if n.kind in ("slit", "t") else pytest.approx(0, abs=0.05))
+    assert used.all()
+
+
+# ------------------------------------------------------------------ bad input
+BAD = [({"notches": [{"curve": 1, "at": [50], "type": "w"}]}, ["textile.notches[0].type", "w"]),
+       ({"notches": [{"curve": 1, "at": [50], "width": -2}]}, ["textile.notches[0].width", "-2"]),
+       ({"aama": {"flavour": "r14"}}, ["textile.aama.flavour", "'r14'"]),
+       ({"plotter": {"cut": 9}}, ["textile.plotter", "cut", "9"])]
+
+
+@pytest.mark.parametrize("textile, expected", BAD, ids=[str(k) for k, _ in BAD])
+def test_bad_cutting_room_input_exits_2_naming_the_field_and_value(tmp_path, capsys, textile, expected):
+    data = yaml.safe_load(LAMPSHADE.read_text())
+    data["textile"].update(textile)
+    config = tmp_path / "bad.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    for piece in expected:
+        assert piece in err, (piece, err)
+    assert not out.exists()
