@@ -465,6 +465,17 @@ class StockSize(_Strict):
     name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=40)
 
 
+class Remnants(_Strict):
+    """Offcuts of steel stock plates kept as remnants (``devflat nest``): the rectangle beyond
+    a plate's last part, across its width, when it is at least ``min_length`` long and
+    ``min_width`` wide (config units). ``inventory``: a remnant CSV (a NAME_remnants.csv an
+    earlier nest wrote; relative to the config's folder) whose plates are used first."""
+
+    min_length: float = Field(500.0, gt=0)
+    min_width: float = Field(500.0, gt=0)
+    inventory: str | None = Field(None, min_length=1, max_length=4096)
+
+
 class NestingSpec(_Strict):
     """Nesting of the run's parts (``devflat nest``): a fabric marker (textile profile, on a
     roll ``fabric_width`` wide) or stock plates (steel profile, sizes ``stock``). Lengths in
@@ -482,6 +493,7 @@ class NestingSpec(_Strict):
     stock: StockSize | list[StockSize] | None = None
     pairs: bool = False
     developed_side: Literal["port", "starboard"] = "starboard"
+    remnants: Remnants | None = None
 
     @field_validator("orientations")
     @classmethod
@@ -642,6 +654,8 @@ class RunSpec(_Strict):
             raise ValueError("stock is for the steel profile; a textile marker takes fabric_width")
         if profile == "steel" and value.fabric_width is not None:
             raise ValueError("fabric_width is for the textile profile; steel nesting takes stock")
+        if profile == "textile" and value.remnants is not None:
+            raise ValueError("remnants are offcuts of steel stock plates; a textile marker has none")
         return value
 
     @model_validator(mode="after")
