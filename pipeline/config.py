@@ -287,6 +287,17 @@ class NotchSpec(_Strict):
         return self
 
 
+class MatchMarks(_Strict):
+    """Match marks along every seam two pieces share: notches at ``spacing`` (config units)
+    from the seam's sewable start, the same arc lengths on both pieces; their notch type
+    and size default to the textile section's."""
+
+    spacing: float = Field(gt=0)
+    type: NotchType | None = None
+    depth: float | None = Field(None, gt=0)
+    width: float | None = Field(None, gt=0)
+
+
 class Grain(_Strict):
     """Grain line: along a ruling, a 3D direction projected onto the piece, or an angle
     (degrees) against the piece's x axis."""
@@ -333,6 +344,7 @@ class Plotter(_Strict):
 class Textile(_Strict):
     seam_allowance: float | SeamAllowance = 10.0
     notches: list[NotchSpec] = Field(default_factory=list)
+    match_marks: MatchMarks | None = None
     notch_length: float = Field(6.0, gt=0)
     notch_type: NotchType = "slit"
     notch_width: float = Field(3.0, gt=0, description="opening of a V notch at the cut line")

@@ -125,7 +125,12 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     from .textile.seams import match_seams
     from .textile.pieces import build_piece
 
-    match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
+    seams = match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
+    settings = config.spec.textile
+    if settings.match_marks is not None:
+        from .textile.seams import with_match_marks
+
+        settings = with_match_marks(settings, seams)
     for result in results:
         if not result.ok and result.figures.get("seams"):
             result.figures["textile"] = {"seams": result.figures["seams"]}
@@ -135,7 +140,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     for result in results:
         if not result.ok:
             continue
-        piece = build_piece(result, config.spec.textile, result.pattern.placement)
+        piece = build_piece(result, settings, result.pattern.placement)
         shift = np.array([cursor - piece.cut[:, 0].min(), -piece.cut[:, 1].min()])
         piece = piece.translated(shift)
         cursor = piece.cut[:, 0].max() + gap

@@ -317,3 +317,46 @@ def test_bad_cutting_room_input_exits_2_naming_the_field_and_value(tmp_path, cap
     for piece in expected:
         assert piece in err, (piece, err)
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ sail match marks
+@pytest.mark.parametrize("name, spacing, kind", [("sail", 500.0, "t"), ("mainsail", 300.0, "v")])
+def test_sail_match_marks_sit_at_equal_arc_length_on_both_pieces_of_every_seam(tmp_path, astm, name, spacing, kind):
+    import json
+
+    data = yaml.safe_load((ROOT / "configs" / f"{name}.yaml").read_text())
+    assert data["textile"]["match_marks"]["spacing"] == spacing  # the example carries them
+    data["textile"]["printout"] = False
+    data["output"] = {"png": False, "obj": False}
+    config = tmp_path / f"{name}.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    reps = {p.stem: json.loads(p.read_text()) for p in out.glob(f"{name}_*.json") if re.fullmatch(rf"{name}_\d+", p.stem)}
+    seams = {s["curve"]: s for rep in reps.values() for s in rep["textile"]["seams"]}
+    assert len(seams) == {"sail": 1, "mainsail": 7}[name]  # every shared curve
+    marks_total = 0
+    for curve, seam in seams.items():
+        lo, hi = seam["sewable"]
+        expected = [lo + k * spacing for k in range(1, 100) if lo + k * spacing <= hi - 0.25 * spacing]
+        assert expected and hi - expected[-1] < 1.25 * spacing  # up to the end of the seam
+        flat = []
+        for edge in seam["edges"]:  # the panel below (its d edge) and the one above (its c edge)
+            rep = reps[edge["piece"]]
+            line = LineString(rep["textile"]["edges"][edge["edge"]])
+            mine = [n for n in rep["textile"]["notches"] if n["edge"] == edge["edge"]
+                    and any(abs(n["arc_length"] - s) <= 1e-9 * hi for s in expected)]
+            assert len(mine) == len(expected), (curve, edge["piece"])
+            # the flat distance from the seam's start along the developed edge: the 3D arc length (isometry)
+            along = np.array([line.project(Point(n["sew_point"])) for n in mine])
+            assert along == pytest.approx(np.array(expected) - lo, abs=0.5)
+            flat.append(along)
+        assert len(flat) == 2
+        assert np.abs(flat[0] - flat[1]).max() <= 0.5  # matched piece to piece
+        marks_total += 2 * len(expected)
+    # in the DXF: the marks are notches of their type on both pieces
+    read = read_aama(out / f"{name}.dxf")
+    assert sum(n.kind == kind for p in read.pieces for n in p.notches) == marks_total
+    if kind == "t":  # the parser lists each T notch on layer 80
+        [res] = astm([out / f"{name}.dxf"])
+        assert res["ok"] and sum(d["layer"] == "80" and d["type"] == "POINT" for d in res["diagnostics"]) == marks_total
