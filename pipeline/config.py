@@ -324,6 +324,9 @@ class Printout(_Strict):
     orientation: Literal["portrait", "landscape"] = "portrait"
     overlap: float = Field(10.0, ge=0, le=50)
     border: float = Field(8.0, ge=3, le=30)
+    # a roll plotter's paper width (mm; e.g. 914, 1067, 1524): NAME_roll.pdf lays the
+    # pieces on it at 1:1 in rows, besides the tiled pages
+    roll_width: float | None = Field(None, ge=300, le=5000)
 
 
 class Aama(_Strict):

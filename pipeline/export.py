@@ -170,6 +170,10 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             raise ConfigError(f"{config.source}: textile.printout: the pieces need up to {pages} pages of "
                               f"{options.paper} {options.orientation} (more than {MAX_PAGES}); choose a larger "
                               f"paper or printout: false")
+        if options.roll_width is not None:  # a piece wider than the roll: bad input, before any file
+            from .textile.roll import roll_layout
+
+            roll_layout(pieces, config.mm_per_unit, options.roll_width, f"{config.source}: textile.printout")
     return pieces
 
 
@@ -199,6 +203,12 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
         write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
         write_sheet_svg(targets[1], pieces, config.mm_per_unit, title)
         written += targets
+        if options.roll_width is not None:
+            from .textile.roll import write_roll_pdf
+
+            path = out_dir / f"{style}_roll.pdf"
+            write_roll_pdf(path, pieces, config.mm_per_unit, title, options.roll_width)
+            written.append(path)
     return written
 
 

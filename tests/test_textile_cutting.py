@@ -360,3 +360,81 @@ def test_sail_match_marks_sit_at_equal_arc_length_on_both_pieces_of_every_seam(t
     if kind == "t":  # the parser lists each T notch on layer 80
         [res] = astm([out / f"{name}.dxf"])
         assert res["ok"] and sum(d["layer"] == "80" and d["type"] == "POINT" for d in res["diagnostics"]) == marks_total
+
+
+# ------------------------------------------------------------------ roll printout
+PT = 72.0 / 25.4
+
+
+def pdf_rings(page) -> list[np.ndarray]:
+    """Closed polylines (K, 2) in page mm drawn at the cut line's width (0.85 pt)."""
+    out = []
+    for obj in page.curves + page.lines:
+        if abs(obj["linewidth"] - 0.85) <= 1e-3 and len(obj["pts"]) > 8:
+            pts = np.array(obj["pts"], dtype=float) / PT
+            pts[:, 1] = page.height / PT - pts[:, 1]
+            if np.hypot(*(pts[0] - pts[-1])) <= 1e-3:
+                out.append(pts)
+    return out
+
+
+@pytest.mark.parametrize("name, roll, pages", [("lampshade", 914.0, 1), ("mainsail", 1524.0, 4)])
+def test_roll_pdf_lays_every_piece_once_at_one_to_one_on_the_roll_width(tmp_path, name, roll, pages):
+    pdfplumber = pytest.importorskip("pdfplumber", reason="pdfplumber (test extra) reads the PDF back")
+    data = yaml.safe_load((ROOT / "configs" / f"{name}.yaml").read_text())
+    data["textile"]["printout"] = {"roll_width": roll, "paper": "A3", "orientation": "landscape"}
+    data["output"] = {"png": False, "obj": False}
+    config = tmp_path / f"{name}.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    read = read_aama(out / f"{name}.dxf")
+    pdf = pdfplumber.open(out / f"{name}_roll.pdf")
+    assert len(pdf.pages) == pages
+    rings, names, total = [], [], 0.0
+    for k, page in enumerate(pdf.pages):
+        width, length = page.width / PT, page.height / PT
+        assert width == pytest.approx(roll, abs=0.01) and length <= 5000.0 + 1e-6  # the roll, pages <= 5 m
+        total += length
+        squares = [r for r in page.rects if abs(r["width"] - 100 * PT) <= 0.01 and abs(r["height"] - 100 * PT) <= 0.01]
+        assert len(squares) == 1  # the 10 cm check square on every page
+        text = "".join(c["text"] for c in page.chars)
+        assert f"page {k + 1} of {pages}" in text
+        here = pdf_rings(page)
+        for ring in here:  # inside the roll's 10 mm edges
+            assert ring[:, 0].min() >= 10.0 - 1e-3 and ring[:, 0].max() <= roll - 10.0 + 1e-3
+            assert ring[:, 1].min() >= 0.0 and ring[:, 1].max() <= length
+        rings += here
+        names += [p.name for p in read.pieces if p.name in text]
+    assert f"of {total / 1000:.3f} m" in "".join(c["text"] for c in pdf.pages[0].chars)
+    assert sorted(names) == sorted(p.name for p in read.pieces)  # every piece named once
+    # every piece's cut line once, congruent with the DXF's (turned and moved only): same
+    # area, same perimeter, same sorted edge lengths to 0.01 mm
+    assert len(rings) == len(read.pieces)
+    unmatched = list(read.pieces)
+    for ring in rings:
+        poly = Polygon(ring)
+        edges = np.sort(np.hypot(*np.diff(ring, axis=0).T))
+        match = [p for p in unmatched if len(p.boundary) == len(ring) - 1 and
+                 np.abs(np.sort(np.hypot(*np.diff(np.vstack([p.boundary, p.boundary[:1]]), axis=0).T)) - edges).max()
+                 <= 0.01]
+        assert len(match) >= 1
+        piece = match[0]
+        assert poly.area == pytest.approx(Polygon(piece.boundary).area, rel=1e-6)
+        unmatched.remove(piece)
+    # no two pieces overlap on a page
+    for k, page in enumerate(pdf.pages):
+        polys = [Polygon(r) for r in pdf_rings(page)]
+        assert all(not a.intersects(b) for i, a in enumerate(polys) for b in polys[:i])
+
+
+def test_a_piece_wider_than_the_roll_is_bad_input(tmp_path, capsys):
+    data = yaml.safe_load((ROOT / "configs" / "mainsail.yaml").read_text())
+    data["textile"]["printout"] = {"roll_width": 400}
+    config = tmp_path / "mainsail.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "textile.printout.roll_width = 400" in err and "mainsail_1" in err and "380 mm printable" in err
+    assert not out.exists()

@@ -59,6 +59,17 @@ class TextilePiece:
                                   for n in self.notches),
                             self.grain + move, self.internal_lines + move, self.settings, self.cut_corners)
 
+    def moved(self, turn: np.ndarray, offset: np.ndarray) -> "TextilePiece":
+        """The piece turned by the rotation matrix ``turn`` (2, 2) about the origin, then
+        moved by ``offset`` (2,)."""
+        def f(points):
+            return np.asarray(points) @ np.asarray(turn).T + offset
+        return TextilePiece(self.name, f(self.sew), f(self.cut), tuple(f(e) for e in self.edges),
+                            self.edge_names, self.allowances,
+                            tuple(Notch(n.edge, n.arc_length, f(n.sew_point), f(n.line), n.kind, n.width)
+                                  for n in self.notches),
+                            f(self.grain), f(self.internal_lines), self.settings, self.cut_corners)
+
     @property
     def sew_corners(self) -> np.ndarray:
         """Indices of the sew ring's corners (the first point of each edge)."""
