@@ -177,8 +177,11 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     return pieces
 
 
-def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -> list[Path]:
-    """All pieces into one AAMA DXF, and the 1:1 printout."""
+def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str,
+                   figures: dict | None = None) -> list[Path]:
+    """All pieces into one AAMA DXF, and the 1:1 printout; ``figures`` (when given) gets
+    the printouts' page counts and roll length."""
+    figures = {} if figures is None else figures
     from .textile.aama import write_aama
     from .textile.printout import write_sheet_svg, write_tiled_pdf
 
@@ -200,16 +203,29 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
     if options is not None:
         title = f"{style}: {len(pieces)} piece(s), 1:1, units mm"
         targets = [out_dir / f"{style}_print.pdf", out_dir / f"{style}_print.svg"]
-        write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
+        figures["print"] = write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
         write_sheet_svg(targets[1], pieces, config.mm_per_unit, title)
         written += targets
         if options.roll_width is not None:
             from .textile.roll import write_roll_pdf
 
             path = out_dir / f"{style}_roll.pdf"
-            write_roll_pdf(path, pieces, config.mm_per_unit, title, options.roll_width)
+            figures["roll"] = write_roll_pdf(path, pieces, config.mm_per_unit, title, options.roll_width)
             written.append(path)
     return written
+
+
+def printout_line(figures: dict, style: str) -> str | None:
+    """The console's line on the printouts: pages to print, metres of roll."""
+    parts = []
+    if "print" in figures:
+        f = figures["print"]
+        parts.append(f"{style}_print.pdf {f['pages']} pages {f['paper']} {f['orientation']} (map + {f['pages'] - 1} tiles)")
+    if "roll" in figures:
+        f = figures["roll"]
+        parts.append(f"{style}_roll.pdf {f['length_mm'] / 1000:.2f} m of a {f['roll_width_mm']:g} mm roll "
+                     f"({f['pages']} page(s))")
+    return "printouts: " + "; ".join(parts) if parts else None
 
 
 def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:

@@ -438,3 +438,25 @@ def test_a_piece_wider_than_the_roll_is_bad_input(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "textile.printout.roll_width = 400" in err and "mainsail_1" in err and "380 mm printable" in err
     assert not out.exists()
+
+
+def test_tiled_pages_hold_a_piece_each_and_the_page_count_is_printed(tmp_path, capsys):
+    pdfplumber = pytest.importorskip("pdfplumber", reason="pdfplumber (test extra) reads the PDF back")
+    data = yaml.safe_load(LAMPSHADE.read_text())
+    data["output"] = {"png": False, "obj": False}
+    config = tmp_path / "lampshade.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out)]) == 0
+    pages = pdfplumber.open(out / "lampshade_print.pdf").pages
+    printed = re.search(r"lampshade_print\.pdf (\d+) pages A4 portrait \(map \+ (\d+) tiles\)", capsys.readouterr().out)
+    assert printed and int(printed.group(1)) == len(pages) == int(printed.group(2)) + 1
+    read = read_aama(out / "lampshade.dxf")
+    for page in pages[1:]:
+        # a 5 cm check square, and some of a piece: the lampshade has no page inside a piece, so a cut or sew line
+        squares = [r for r in page.rects if abs(r["width"] - 50 * PT) <= 0.01 and abs(r["height"] - 50 * PT) <= 0.01]
+        assert len(squares) == 1
+        strokes = [o for o in page.curves + page.lines if abs(o["linewidth"] - 0.85) <= 1e-3
+                   or abs(o["linewidth"] - 0.5) <= 1e-3]
+        assert strokes, page.page_number
+    assert "page 1 of" in "".join(c["text"] for c in pages[0].chars) and len(read.pieces) == 3
