@@ -159,6 +159,11 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             "seams": result.figures.get("seams", []),
         }
         result.figures["textile_piece"] = piece  # for the preview; not part of the report
+        flavour = settings.aama.flavour
+        typed = sorted({n.kind for n in piece.notches} - {"v", "slit"})
+        if typed and flavour != "astm-2010":
+            result.warnings.append(f"notch type(s) {', '.join(typed)} written on layer 4 with their depth and width: "
+                                   f"aama.flavour {flavour} has no notch type layers (80-83), so their shape is lost")
         pieces.append(piece)
     options = config.spec.textile.printout_options()
     if pieces and options is not None:

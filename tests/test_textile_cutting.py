@@ -169,6 +169,9 @@ def test_each_flavour_is_audited_by_ezdxf_and_read_by_gdal_and_the_astm_parser(r
         assert np.array_equal(a.boundary, b.boundary) and np.array_equal(a.sew, b.sew)
         assert [(n.depth, n.width) for n in a.notches] == [(n.depth, n.width) for n in b.notches]
     typed = sum(n.kind not in ("v", "slit") for p in reference.pieces for n in p.notches)
+    # the older flavours say what they lose
+    warned = [w for rep in reports(runs[flavour]).values() for w in rep["warnings"] if "notch type" in w]
+    assert (len(warned) == 3) == (flavour != "astm-2010") and (warned == []) == (flavour == "astm-2010")
     assert typed == 2 * sum(kind not in ("v", "slit") for kind, _, _ in EXPECTED.values())  # both sides of a seam
     # GDAL: every piece's cut line, grain line and notch point through the INSERTs
     feats = ogr_features(path)
@@ -460,3 +463,35 @@ def test_tiled_pages_hold_a_piece_each_and_the_page_count_is_printed(tmp_path, c
                    or abs(o["linewidth"] - 0.5) <= 1e-3]
         assert strokes, page.page_number
     assert "page 1 of" in "".join(c["text"] for c in pages[0].chars) and len(read.pieces) == 3
+
+
+def test_the_nested_marker_as_hpgl_matches_the_marker_dxf(tmp_path):
+    """`devflat nest` with textile.plotter: NAME_marker.plt holds every placed copy's cut
+    line, closed, where the marker DXF's INSERTs put it (read by ezdxf), to 0.1 mm."""
+    import ezdxf
+
+    data = yaml.safe_load(LAMPSHADE.read_text())
+    data["textile"].update(plotter=True, printout=False)
+    data["output"] = {"png": False, "obj": False}
+    data["nesting"] = {"fabric_width": 900, "spacing": 2, "time": 1, "seed": 5}
+    config = tmp_path / "lampshade.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["nest", str(config), "--out", str(out), "--quiet"]) == 0
+    strokes, labels = parse_hpgl((out / "lampshade_marker.plt").read_text())
+    doc = ezdxf.readfile(out / "lampshade_marker.dxf")
+    rings = []
+    for insert in doc.modelspace().query("INSERT"):
+        for e in insert.virtual_entities():
+            if e.dxftype() == "POLYLINE" and e.dxf.layer == "1":
+                rings.append(np.array([tuple(v.dxf.location)[:2] for v in e.vertices]))
+    cuts = [s * 0.025 for s in strokes[1]]
+    assert len(cuts) == len(rings) == 6  # three pieces, two copies each
+    matched = set()
+    for path in cuts:
+        assert np.array_equal(path[0], path[-1])
+        gaps = [hausdorff(path, ring) for ring in rings]
+        assert min(gaps) <= 0.1
+        matched.add(int(np.argmin(gaps)))
+    assert matched == set(range(len(rings)))  # each copy once
+    assert len([t for _, _, t in labels if t.startswith("Piece Name:")]) == 6

@@ -355,6 +355,15 @@ def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfi
             path = out_dir / f"{style}_marker.dxf"
             write_marker(path, r, job, style, scale)
             written.append(path)
+        plotter = config.spec.textile.plotter_options()
+        if plotter is not None:  # the marker for a cutter: every placed copy, where the DXF puts it
+            from ..textile.hpgl import write_hpgl
+            from .engine import rotation
+
+            path = out_dir / f"{style}_marker.plt"
+            placed = [job.pieces[p.item].moved(rotation(p.rotation), p.translation) for p in sheet.placements]
+            write_hpgl(path, placed, scale, plotter)
+            written.append(path)
         if png:
             path = out_dir / f"{style}_marker.png"
             layout_png(path, sheet.width, sheet.length,

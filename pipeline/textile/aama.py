@@ -14,6 +14,11 @@ INSERT per piece at the origin on layer 1. Unlike the real files a LAYER table d
 the layers (FreeCAD's importer needs one). Like ezdxf's gerber_D6673 exporter the file has
 no $MODEL_SPACE / $PAPER_SPACE blocks and no HEADER variables: AAMA readers take every
 block for a piece. The reader serves our files and the real AccuMark / CLO files alike.
+
+Flavours (``textile.aama.flavour``): ``astm-2010`` is the file above, with T, castle, check
+and U notches on ASTM D6673-10's layers 80-83 (``notchtypes``); ``aama-r12`` adds a HEADER
+naming AC1009 and the extents and a STYLE table, and writes every notch on layer 4;
+``r10-compat`` names AC1006 and the extents and has no TABLES section, as CLO's R10 files.
 """
 
 from __future__ import annotations
