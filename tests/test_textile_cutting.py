@@ -13,10 +13,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from shapely.geometry import LinearRing, LineString, Point, Polygon
 
 from pipeline.cli import main
 from pipeline.textile.aama import read_aama
+from pipeline.textile.notchtypes import KINDS, notch_strokes
+from pipeline.textile.pieces import TextilePiece
+from pipeline.textile.roll import EDGE_MM, roll_layout
 
 from .astm_parser import parser_or_reason
 
@@ -495,3 +500,57 @@ def test_the_nested_marker_as_hpgl_matches_the_marker_dxf(tmp_path):
         matched.add(int(np.argmin(gaps)))
     assert matched == set(range(len(rings)))  # each copy once
     assert len([t for _, _, t in labels if t.startswith("Piece Name:")]) == 6
+
+
+# ------------------------------------------------------------------ properties (hypothesis, derandomised)
+@settings(derandomize=True, max_examples=60, deadline=None)
+@given(kind=st.sampled_from(KINDS), depth=st.floats(1.0, 20.0), width=st.floats(0.5, 12.0),
+       angle=st.floats(-360.0, 360.0), x=st.floats(-1e3, 1e3), y=st.floats(-1e3, 1e3))
+def test_a_notch_reaches_its_depth_and_opens_its_width_whatever_its_direction(kind, depth, width, angle, x, y):
+    point = np.array([x, y])
+    strokes = notch_strokes(kind, point, angle, depth, width)
+    into = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+    across = np.array([-into[1], into[0]])
+    pts = np.vstack(strokes)
+    reach, spread = (pts - point) @ into, (pts - point) @ across
+    assert reach.min() == pytest.approx(0.0, abs=1e-9) and reach.max() == pytest.approx(depth, rel=1e-12, abs=1e-9)
+    expected = 0.0 if kind == "slit" else width
+    assert np.ptp(spread) == pytest.approx(expected, abs=1e-9)
+    assert np.abs(spread).max() <= width / 2 + 1e-9
+    # every stroke starts on the cut line (reach 0) except a T's cross cut, which lies at the depth
+    for k, s in enumerate(strokes):
+        start = (s[0] - point) @ into
+        assert start == pytest.approx(depth if (kind == "t" and k == 1) else 0.0, abs=1e-9)
+
+
+def _ring_piece(name: str, ring: np.ndarray) -> TextilePiece:
+    return TextilePiece(name, ring, ring, (ring,), ("c",), (0.0,), (), np.vstack([ring[0], ring[1]]),
+                        np.zeros((0, 2, 2)), None, np.zeros(0, dtype=int))
+
+
+@settings(derandomize=True, max_examples=30, deadline=None)
+@given(sizes=st.lists(st.tuples(st.floats(20.0, 800.0), st.floats(20.0, 800.0), st.floats(0.0, 180.0)),
+                      min_size=1, max_size=12),
+       roll=st.sampled_from([914.0, 1067.0, 1524.0]))
+def test_roll_rows_keep_pieces_apart_inside_the_roll_and_whole(sizes, roll):
+    """Rotated rectangles of any size that fits: laid out, each keeps its shape (a rigid
+    motion), lies within the roll's printable width and its page, and touches no other."""
+    pieces = []
+    for k, (w, h, turn) in enumerate(sizes):
+        a = np.radians(turn)
+        rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+        pieces.append(_ring_piece(f"p{k}", np.array([[0, 0], [w, 0], [w, h], [0, h]]) @ rot.T + [37.0, -11.0]))
+    layout = roll_layout(pieces, 1.0, roll, "textile.printout")
+    placed = []
+    for piece, angle, offset, page in zip(pieces, layout.angles, layout.offsets, layout.page_of):
+        a = np.radians(angle)
+        moved = piece.moved(np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]), offset)
+        poly = Polygon(moved.cut)
+        assert poly.area == pytest.approx(Polygon(piece.cut).area, rel=1e-9)
+        lo, hi = moved.cut.min(axis=0), moved.cut.max(axis=0)
+        assert lo[0] >= EDGE_MM - 1e-6 and hi[0] <= roll - EDGE_MM + 1e-6
+        assert lo[1] >= 0.0 and hi[1] <= layout.page_lengths[page] + 1e-6
+        placed.append((page, poly))
+    for i, (pi, a) in enumerate(placed):
+        for pj, b in placed[:i]:
+            assert pi != pj or a.distance(b) >= 10.0 - 1e-6  # the gap between pieces
