@@ -332,7 +332,7 @@ class Printout(_Strict):
 class Aama(_Strict):
     """The AAMA / ASTM D6673 DXF: which flavour readers get (see README, "DXF flavours")."""
 
-    flavour: Literal["astm-2010", "aama-r12", "r10-compat"] = "astm-2010"
+    flavour: Literal["aama-r12", "astm-2010", "r10-compat"] = "aama-r12"
 
 
 class Plotter(_Strict):

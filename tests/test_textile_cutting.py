@@ -119,9 +119,16 @@ def test_the_astm_parser_reads_every_typed_notch_on_its_astm_layer(runs, astm):
     assert sorted(ours_typed) == ["80", "81", "82", "83"]
     assert [d for d in res["diagnostics"] if d["severity"] > 1] == []
     theirs = collections.defaultdict(list)
+    validation = collections.Counter()
     for d in res["diagnostics"]:
-        assert d["message"].startswith(f"Unhandled definition on layer {d['layer']}") and d["type"] == "POINT"
+        assert d["message"].startswith(f"Unhandled definition on layer {d['layer']}")
+        if d["layer"] in ("84", "85"):  # the validation curves of the cut line and the sew line
+            assert d["type"] == "POLYLINE" and "ASTM" in d["message"]
+            validation[d["layer"]] += 1
+            continue
+        assert d["type"] == "POINT"
         theirs[d["layer"]].append([d["position"]["x"], d["position"]["y"]])
+    assert validation == {"84": 3, "85": 3}
     assert sorted(theirs) == sorted(ours_typed)
     for layer, points in ours_typed.items():
         a, b = np.array(sorted(map(tuple, points))), np.array(sorted(map(tuple, theirs[layer])))
@@ -157,15 +164,13 @@ def test_each_flavour_is_audited_by_ezdxf_and_read_by_gdal_and_the_astm_parser(r
     doc = ezdxf.readfile(path)
     auditor = doc.audit()
     assert auditor.errors == [] and auditor.fixes == []
-    # what the flavour changes: the HEADER's version, the TABLES, the notch layers
+    # what the flavour changes: the HEADER's version, the TABLES, the notch and validation layers
     header = re.search(r"HEADER\n(.*?)  0\nENDSEC", text, re.S).group(1)
-    version = {"astm-2010": None, "aama-r12": "AC1009", "r10-compat": "AC1006"}[flavour]
-    if version is None:
-        assert header == ""
+    if flavour == "r10-compat":
+        assert header.startswith("  9\n$ACADVER\n  1\nAC1006\n") and "$EXTMIN" in header and "$EXTMAX" in header
     else:
-        assert f"$ACADVER\n  1\n{version}\n" in header and "$EXTMIN" in header and "$EXTMAX" in header
+        assert header == ""
     assert ("\nTABLES\n" in text) == (flavour != "r10-compat")
-    assert ("\nSTYLE\n" in text) == (flavour == "aama-r12")
     ours = read_aama(path)
     reference = read_aama(runs["astm-2010"] / "lampshade.dxf")
     assert [p.name for p in ours.pieces] == [p.name for p in reference.pieces] == [f"lampshade_{k}" for k in (1, 2, 3)]
@@ -181,6 +186,8 @@ def test_each_flavour_is_audited_by_ezdxf_and_read_by_gdal_and_the_astm_parser(r
     # GDAL: every piece's cut line, grain line and notch point through the INSERTs
     feats = ogr_features(path)
     assert feats[("1", "LINESTRING")] == 3 and feats[("7", "LINESTRING")] == 3
+    # ASTM's validation curves: the cut line again on 84, the sew line (a layer 8 polyline) on 85
+    assert feats[("84", "LINESTRING")] == feats[("85", "LINESTRING")] == (3 if flavour == "astm-2010" else 0)
     on_4 = notches if flavour != "astm-2010" else notches - typed
     assert feats[("4", "POINT")] == on_4
     assert sum(feats[(layer, "POINT")] for layer in ("80", "81", "82", "83")) == notches - on_4

@@ -15,10 +15,12 @@ the layers (FreeCAD's importer needs one). Like ezdxf's gerber_D6673 exporter th
 no $MODEL_SPACE / $PAPER_SPACE blocks and no HEADER variables: AAMA readers take every
 block for a piece. The reader serves our files and the real AccuMark / CLO files alike.
 
-Flavours (``textile.aama.flavour``): ``astm-2010`` is the file above, with T, castle, check
-and U notches on ASTM D6673-10's layers 80-83 (``notchtypes``); ``aama-r12`` adds a HEADER
-naming AC1009 and the extents and a STYLE table, and writes every notch on layer 4;
-``r10-compat`` names AC1006 and the extents and has no TABLES section, as CLO's R10 files.
+Flavours (``textile.aama.flavour``): ``aama-r12`` (the default) is the file above, every
+notch on layer 4; ``astm-2010`` adds what ASTM D6673-10 adds: T, castle, check and U notches
+on layers 80-83 (``notchtypes``) and the mandatory quality validation curves, a copy of
+each layer 1 polyline on layer 84 and of each layer 8 polyline on layer 85 (as AccuMark's
+ASTM export and CLO write them); ``r10-compat`` is ``aama-r12`` with a HEADER naming AC1006
+and the extents and no TABLES section, as CLO's R10 files.
 """
 
 from __future__ import annotations
@@ -45,8 +47,10 @@ LAYER_COLOURS = {LAYER_BOUNDARY: 7, LAYER_TURN: 3, LAYER_CURVE: 4, LAYER_NOTCH: 
                  LAYER_INTERNAL: 6, LAYER_SEW: 2}
 TEXT_HEIGHT_MM = 5.0
 FLAVOURS = ("astm-2010", "aama-r12", "r10-compat")
-# the $ACADVER a flavour's HEADER names (astm-2010 writes an empty HEADER, as AccuMark does)
-ACADVER = {"aama-r12": "AC1009", "r10-compat": "AC1006"}
+# the $ACADVER a flavour's HEADER names (the others write an empty HEADER, as AccuMark does)
+ACADVER = {"r10-compat": "AC1006"}
+# ASTM D6673-10's quality validation curves of the boundary (layer 1) and internal lines (8)
+LAYER_CHECK_BOUNDARY, LAYER_CHECK_INTERNAL = "84", "85"
 
 
 def block_name(piece: TextilePiece, size: str) -> str:
@@ -81,7 +85,7 @@ def _new_r12() -> ezdxf.document.Drawing:
 
 
 def build_document(pieces: list[TextilePiece], style: str, scale: float,
-                   flavour: str = "astm-2010") -> ezdxf.document.Drawing:
+                   flavour: str = "aama-r12") -> ezdxf.document.Drawing:
     """Pieces in model units, written in millimetres (``scale`` = mm per model unit);
     notches on the layers of their type in this flavour."""
     if flavour not in FLAVOURS:
@@ -92,6 +96,10 @@ def build_document(pieces: list[TextilePiece], style: str, scale: float,
     # the ASTM notch layers only when a notch uses them: files without typed notches stay as they were
     for layer in sorted({notch_layer(n.kind, flavour) for p in pieces for n in p.notches} - set(LAYER_COLOURS)):
         doc.layers.add(layer, color=LAYER_COLOURS[LAYER_NOTCH])
+    astm = flavour == "astm-2010"
+    if astm:
+        doc.layers.add(LAYER_CHECK_BOUNDARY, color=LAYER_COLOURS[LAYER_BOUNDARY])
+        doc.layers.add(LAYER_CHECK_INTERNAL, color=LAYER_COLOURS[LAYER_INTERNAL])
     msp = doc.modelspace()
     now = creation_time()
     sizes = sorted({p.settings.size for p in pieces})
@@ -121,6 +129,9 @@ def build_document(pieces: list[TextilePiece], style: str, scale: float,
                 (at[0] - box[0] / 2, at[1] + box[1] / 2 - 1.5 * TEXT_HEIGHT_MM * (k + 1)))
         block.add_polyline2d([tuple(p) for p in piece.cut * scale], close=True,
                              dxfattribs={"layer": LAYER_BOUNDARY})
+        if astm:  # our boundary is the curve itself, to the chord tolerance: its own validation curve
+            block.add_polyline2d([tuple(p) for p in piece.cut * scale], close=True,
+                                 dxfattribs={"layer": LAYER_CHECK_BOUNDARY})
         turns, curves = piece.turn_and_curve_points()
         for layer, points in ((LAYER_TURN, turns), (LAYER_CURVE, curves)):
             for p in points * scale:
@@ -135,6 +146,9 @@ def build_document(pieces: list[TextilePiece], style: str, scale: float,
         if s.sew_line_layer is not None:
             block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True,
                                  dxfattribs={"layer": str(s.sew_line_layer)})
+            if astm and str(s.sew_line_layer) == LAYER_INTERNAL:
+                block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True,
+                                     dxfattribs={"layer": LAYER_CHECK_INTERNAL})
         for a, b in piece.internal_lines * scale:
             block.add_line(tuple(a), tuple(b), dxfattribs={"layer": LAYER_INTERNAL})
         msp.add_blockref(name, (0, 0), dxfattribs={"layer": LAYER_BOUNDARY})
@@ -161,9 +175,8 @@ def _extents(doc: ezdxf.document.Drawing) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _write_header(writer: TagWriter, doc: ezdxf.document.Drawing, flavour: str) -> None:
-    """astm-2010: an empty HEADER (as AccuMark writes it). The older flavours name their
-    version and the drawing's extents, as CLO's R10 files do: readers of that era size
-    their view from them."""
+    """An empty HEADER (as AccuMark writes it), but in r10-compat the version and the
+    drawing's extents, as CLO's R10 files: readers of that era size their view from them."""
     writer.write_str("  0\nSECTION\n  2\nHEADER\n")
     if flavour in ACADVER:
         low, high = _extents(doc)
@@ -179,10 +192,10 @@ def _write_header(writer: TagWriter, doc: ezdxf.document.Drawing, flavour: str) 
     writer.write_tag2(0, "ENDSEC")
 
 
-def export_text(doc: ezdxf.document.Drawing, flavour: str = "astm-2010") -> str:
-    """The R12 file: HEADER (empty in astm-2010), TABLES with the line types and layers
-    (aama-r12 adds the text styles; r10-compat has no TABLES, as CLO's R10 files), the
-    piece blocks only (no layout blocks), ENTITIES."""
+def export_text(doc: ezdxf.document.Drawing, flavour: str = "aama-r12") -> str:
+    """The R12 file: HEADER (empty but in r10-compat), TABLES with the line types and
+    layers (none in r10-compat, as CLO's R10 files), the piece blocks only (no layout
+    blocks), ENTITIES."""
     if doc.dxfversion != ezdxf.const.DXF12:
         raise ezdxf.DXFVersionError("AAMA files are DXF R12")
     if flavour not in FLAVOURS:
@@ -194,8 +207,6 @@ def export_text(doc: ezdxf.document.Drawing, flavour: str = "astm-2010") -> str:
         writer.write_str("  0\nSECTION\n  2\nTABLES\n")
         doc.tables.linetypes.export_dxf(writer)
         doc.tables.layers.export_dxf(writer)
-        if flavour == "aama-r12":
-            doc.tables.styles.export_dxf(writer)
         writer.write_tag2(0, "ENDSEC")
     writer.write_str("  0\nSECTION\n  2\nBLOCKS\n")
     for record in doc.block_records:
@@ -210,7 +221,7 @@ def export_text(doc: ezdxf.document.Drawing, flavour: str = "astm-2010") -> str:
 
 
 def write_aama(target: str | Path, pieces: list[TextilePiece], style: str, scale: float,
-               flavour: str = "astm-2010") -> None:
+               flavour: str = "aama-r12") -> None:
     text = export_text(build_document(pieces, style, scale, flavour), flavour)
     with atomic_path(target) as tmp:
         # the standard allows 7-bit ASCII only
