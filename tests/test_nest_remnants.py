@@ -87,6 +87,8 @@ def test_the_offcut_is_the_plate_beyond_its_last_part():
     assert offcut(row, 2000.0, 500.0) == (5363.28, 3000.0, pytest.approx(3636.72, abs=1e-9))
     assert offcut(row, 3700.0, 500.0) is None  # too short
     assert offcut(row, 500.0, 3001.0) is None  # too narrow
+    # the cut keeps the kerf (spacing) from the last part when it exceeds the edge margin
+    assert offcut(row, 2000.0, 500.0, 10.0, 25.0)[:2] == (pytest.approx(5378.28), 3000.0)
 
 
 # ------------------------------------------------------------------ the inventory round trip

@@ -322,7 +322,7 @@ def remnant_inventory(results: dict[str, NestResult], job: NestJob, config: RunC
     found = []
     for key, r in results.items():
         for row in r.figures["sheets"]:
-            cut = offcut(row, spec.min_length, spec.min_width)
+            cut = offcut(row, spec.min_length, spec.min_width, r.edge_margin, r.spacing)
             if cut is not None:
                 found.append((key, row, cut))
     ids = next_ids(sorted(known), len(found))

@@ -2,8 +2,9 @@
 `devflat nest` takes as stock first (AVEVA's "restplates").
 
 A plate is filled from its start (x = 0) and its parts end before ``used_length`` (the last
-part's end plus the edge margin), so one straight cut across the plate there frees the
-rectangle [used_length, length] x [0, width] without touching a part. That rectangle is a
+part's end plus the edge margin), so one straight cut across the plate there (or a kerf
+further, when the spacing is the larger) frees the rectangle [used_length, length] x
+[0, width] without touching a part. That rectangle is a
 remnant when it is at least ``min_length`` long and ``min_width`` wide. The inventory
 holds one row per remnant (mm, as the cutting list): its id, thickness, material, size and
 where it came from. A nest reads an inventory, uses some of its remnants (each at most
@@ -87,11 +88,13 @@ def next_ids(taken: list[str], count: int) -> list[str]:
     return [f"R{top + k:04d}" for k in range(1, count + 1)]
 
 
-def offcut(sheet_row: dict, min_length: float, min_width: float) -> tuple[float, float, float] | None:
+def offcut(sheet_row: dict, min_length: float, min_width: float, edge_margin: float = 0.0,
+           spacing: float = 0.0) -> tuple[float, float, float] | None:
     """(x where the cut goes, width, length) of a plate's offcut (model units), from its
-    cutting-list row (``used_length``, ``length``, ``width``), or None when it is smaller
-    than min_length x min_width."""
-    start = float(sheet_row["used_length"])
+    cutting-list row (``used_length``: the last part's end plus the edge margin;
+    ``length``, ``width``), or None when it is smaller than min_length x min_width. The cut
+    keeps the larger of the edge margin and the spacing (kerf) from the last part."""
+    start = float(sheet_row["used_length"]) - edge_margin + max(edge_margin, spacing)
     length = float(sheet_row["length"]) - start
     width = float(sheet_row["width"])
     if length + 1e-9 * float(sheet_row["length"]) < min_length or width < min_width:
