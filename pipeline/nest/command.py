@@ -188,16 +188,18 @@ def _sheet_name(style: str, key: str, sheet_id: str, single: bool) -> str:
     return f"{style}_{sheet_id}" if single else f"{style}_{key}_{sheet_id}"
 
 
-def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale: float) -> None:
-    """The marker in the AAMA dialect: the piece blocks of :mod:`pipeline.aama`, one INSERT
-    per placed copy (insertion point and rotation), the roll edges and marker figures."""
+def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale: float,
+                 flavour: str = "aama-r12") -> None:
+    """The marker in the AAMA dialect: the piece blocks of :mod:`pipeline.aama` (notch and
+    validation layers of the run's flavour; ezdxf's D6673 writer makes the file), one
+    INSERT per placed copy (insertion point and rotation), the roll edges and marker figures."""
     from ezdxf.addons import gerber_D6673
 
     from ..textile.aama import block_name, build_document
 
     sheet = result.sheets[0]
     pieces = [job.pieces[name] for name in result.items]
-    doc = build_document(pieces, style, scale)
+    doc = build_document(pieces, style, scale, flavour)
     msp = doc.modelspace()
     for insert in list(msp.query("INSERT")):  # the pieces' INSERTs at the origin make way for the placed copies
         msp.delete_entity(insert)
@@ -353,7 +355,7 @@ def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfi
         sheet = r.sheets[0]
         if config.spec.output.dxf:
             path = out_dir / f"{style}_marker.dxf"
-            write_marker(path, r, job, style, scale)
+            write_marker(path, r, job, style, scale, config.spec.textile.aama.flavour)
             written.append(path)
         plotter = config.spec.textile.plotter_options()
         if plotter is not None:  # the marker for a cutter: every placed copy, where the DXF puts it
