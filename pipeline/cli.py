@@ -102,7 +102,7 @@ def command_run(args, early=None) -> int:
 
 
 def _run(args, early) -> int:
-    from .export import export_summary, export_textile, textile_pieces
+    from .export import export_summary, export_textile, printout_line, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
     from .hull.plates import evaluate_plate
@@ -133,10 +133,11 @@ def _run(args, early) -> int:
                                 keep_geometry)
             if progress is not None:
                 progress.close()
+            printed: dict = {}  # the printouts' page counts, for the console
             if textile:
                 pieces = textile_pieces(results, config)
                 results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
-                export_textile(pieces, config, folder.run_folder, run_name(config))
+                export_textile(pieces, config, folder.run_folder, run_name(config), printed)
             export_summary(results, config, folder.run_folder)  # waits for every image
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
             n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
@@ -151,6 +152,8 @@ def _run(args, early) -> int:
                 print(f"part {result.name}:\n{result.figures['traceback']}", file=sys.stderr)
     if not args.quiet:
         print(summary_table(results))
+        if textile and printout_line(printed, run_name(config)):
+            print(printout_line(printed, run_name(config)))
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
 

@@ -280,6 +280,9 @@ class SeamAllowance(_Strict):
     end: float = Field(10.0, ge=0)
 
 
+NotchType = Literal["slit", "v", "t", "castle", "check", "u"]
+
+
 class NotchSpec(_Strict):
     """Notches at arc lengths along a boundary curve, measured from the curve's own start
     (so that neighbouring pieces sharing the curve get matching notches), or at both
@@ -288,6 +291,11 @@ class NotchSpec(_Strict):
     curve: StrictInt | Literal["c", "d"] | None = None
     at: list[float] = Field(default_factory=list)
     ruling: StrictInt | None = Field(None, ge=0)
+    # the notch type of this seam (ASTM D6673 layers 4, 80-83) and its size; None: the
+    # textile section's notch_type, notch_length and notch_width
+    type: NotchType | None = None
+    depth: float | None = Field(None, gt=0)
+    width: float | None = Field(None, gt=0)
 
     @model_validator(mode="after")
     def _one(self):
@@ -296,6 +304,17 @@ class NotchSpec(_Strict):
         if self.curve is not None and not self.at:
             raise ValueError("a notch on a curve needs at least one arc length in 'at'")
         return self
+
+
+class MatchMarks(_Strict):
+    """Match marks along every seam two pieces share: notches at ``spacing`` (config units)
+    from the seam's sewable start, the same arc lengths on both pieces; their notch type
+    and size default to the textile section's."""
+
+    spacing: float = Field(gt=0)
+    type: NotchType | None = None
+    depth: float | None = Field(None, gt=0)
+    width: float | None = Field(None, gt=0)
 
 
 class Grain(_Strict):
@@ -324,13 +343,32 @@ class Printout(_Strict):
     orientation: Literal["portrait", "landscape"] = "portrait"
     overlap: float = Field(10.0, ge=0, le=50)
     border: float = Field(8.0, ge=3, le=30)
+    # a roll plotter's paper width (mm; e.g. 914, 1067, 1524): NAME_roll.pdf lays the
+    # pieces on it at 1:1 in rows, besides the tiled pages
+    roll_width: float | None = Field(None, ge=300, le=5000)
+
+
+class Aama(_Strict):
+    """The AAMA / ASTM D6673 DXF: which flavour readers get (see README, "DXF flavours")."""
+
+    flavour: Literal["aama-r12", "astm-2010", "r10-compat"] = "aama-r12"
+
+
+class Plotter(_Strict):
+    """HPGL file for pen plotters and cutters (NAME.plt): the pen of each kind of line."""
+
+    cut: StrictInt = Field(1, ge=1, le=8)
+    sew: StrictInt = Field(2, ge=1, le=8)
+    notch: StrictInt = Field(3, ge=1, le=8)
+    text: StrictInt = Field(4, ge=1, le=8)
 
 
 class Textile(_Strict):
     seam_allowance: float | SeamAllowance = 10.0
     notches: list[NotchSpec] = Field(default_factory=list)
+    match_marks: MatchMarks | None = None
     notch_length: float = Field(6.0, gt=0)
-    notch_type: Literal["slit", "v"] = "slit"
+    notch_type: NotchType = "slit"
     notch_width: float = Field(3.0, gt=0, description="opening of a V notch at the cut line")
     grain: Grain = Grain(angle=0.0)
     size: str = Field("M", pattern=r"^[A-Za-z0-9.-]+$")
@@ -340,6 +378,14 @@ class Textile(_Strict):
     sew_line_layer: Literal[8, 14] | None = 8
     seams: Literal["match", "report", "require_full"] = "match"
     printout: bool | Printout = True
+    aama: Aama = Aama()
+    plotter: bool | Plotter = False
+
+    def plotter_options(self) -> Plotter | None:
+        """The HPGL plotter file's options, or None when none is wanted."""
+        if self.plotter is False:
+            return None
+        return Plotter() if self.plotter is True else self.plotter
 
     def printout_options(self) -> Printout | None:
         """The printout's options, or None when no printout is wanted."""
@@ -453,6 +499,17 @@ class StockSize(_Strict):
     name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.-]+$", max_length=40)
 
 
+class Remnants(_Strict):
+    """Offcuts of steel stock plates kept as remnants (``devflat nest``): the rectangle beyond
+    a plate's last part, across its width, when it is at least ``min_length`` long and
+    ``min_width`` wide (config units). ``inventory``: a remnant CSV (a NAME_remnants.csv an
+    earlier nest wrote; relative to the config's folder) whose plates are used first."""
+
+    min_length: float = Field(500.0, gt=0)
+    min_width: float = Field(500.0, gt=0)
+    inventory: str | None = Field(None, min_length=1, max_length=4096)
+
+
 class NestingSpec(_Strict):
     """Nesting of the run's parts (``devflat nest``): a fabric marker (textile profile, on a
     roll ``fabric_width`` wide) or stock plates (steel profile, sizes ``stock``). Lengths in
@@ -470,6 +527,7 @@ class NestingSpec(_Strict):
     stock: StockSize | list[StockSize] | None = None
     pairs: bool = False
     developed_side: Literal["port", "starboard"] = "starboard"
+    remnants: Remnants | None = None
 
     @field_validator("orientations")
     @classmethod
@@ -630,6 +688,8 @@ class RunSpec(_Strict):
             raise ValueError("stock is for the steel profile; a textile marker takes fabric_width")
         if profile == "steel" and value.fabric_width is not None:
             raise ValueError("fabric_width is for the textile profile; steel nesting takes stock")
+        if profile == "textile" and value.remnants is not None:
+            raise ValueError("remnants are offcuts of steel stock plates; a textile marker has none")
         return value
 
     @model_validator(mode="after")

@@ -125,7 +125,12 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     from .textile.seams import match_seams
     from .textile.pieces import build_piece
 
-    match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
+    seams = match_seams(results, config)  # trims (seams: match) or fails (require_full) pieces
+    settings = config.spec.textile
+    if settings.match_marks is not None:
+        from .textile.seams import with_match_marks
+
+        settings = with_match_marks(settings, seams)
     for result in results:
         if not result.ok and result.figures.get("seams"):
             result.figures["textile"] = {"seams": result.figures["seams"]}
@@ -135,7 +140,7 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
     for result in results:
         if not result.ok:
             continue
-        piece = build_piece(result, config.spec.textile, result.pattern.placement)
+        piece = build_piece(result, settings, result.pattern.placement)
         shift = np.array([cursor - piece.cut[:, 0].min(), -piece.cut[:, 1].min()])
         piece = piece.translated(shift)
         cursor = piece.cut[:, 0].max() + gap
@@ -154,6 +159,11 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             "seams": result.figures.get("seams", []),
         }
         result.figures["textile_piece"] = piece  # for the preview; not part of the report
+        flavour = settings.aama.flavour
+        typed = sorted({n.kind for n in piece.notches} - {"v", "slit"})
+        if typed and flavour != "astm-2010":
+            result.warnings.append(f"notch type(s) {', '.join(typed)} written on layer 4 with their depth and width: "
+                                   f"aama.flavour {flavour} has no notch type layers (80-83), so their shape is lost")
         pieces.append(piece)
     options = config.spec.textile.printout_options()
     if pieces and options is not None:
@@ -165,11 +175,18 @@ def textile_pieces(results: list[PartResult], config: RunConfig) -> list:
             raise ConfigError(f"{config.source}: textile.printout: the pieces need up to {pages} pages of "
                               f"{options.paper} {options.orientation} (more than {MAX_PAGES}); choose a larger "
                               f"paper or printout: false")
+        if options.roll_width is not None:  # a piece wider than the roll: bad input, before any file
+            from .textile.roll import roll_layout
+
+            roll_layout(pieces, config.mm_per_unit, options.roll_width, f"{config.source}: textile.printout")
     return pieces
 
 
-def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -> list[Path]:
-    """All pieces into one AAMA DXF, and the 1:1 printout."""
+def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str,
+                   figures: dict | None = None) -> list[Path]:
+    """All pieces into one AAMA DXF, and the 1:1 printout; ``figures`` (when given) gets
+    the printouts' page counts and roll length."""
+    figures = {} if figures is None else figures
     from .textile.aama import write_aama
     from .textile.printout import write_sheet_svg, write_tiled_pdf
 
@@ -178,15 +195,28 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
         return written
     if config.spec.output.dxf:
         path = out_dir / f"{style}.dxf"
-        write_aama(path, pieces, style, config.mm_per_unit)
+        write_aama(path, pieces, style, config.mm_per_unit, config.spec.textile.aama.flavour)
+        written.append(path)
+    plotter = config.spec.textile.plotter_options()
+    if plotter is not None:
+        from .textile.hpgl import write_hpgl
+
+        path = out_dir / f"{style}.plt"
+        write_hpgl(path, pieces, config.mm_per_unit, plotter)
         written.append(path)
     options = config.spec.textile.printout_options()
     if options is not None:
         title = f"{style}: {len(pieces)} piece(s), 1:1, units mm"
         targets = [out_dir / f"{style}_print.pdf", out_dir / f"{style}_print.svg"]
-        write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
+        figures["print"] = write_tiled_pdf(targets[0], pieces, config.mm_per_unit, title, options)
         write_sheet_svg(targets[1], pieces, config.mm_per_unit, title)
         written += targets
+        if options.roll_width is not None:
+            from .textile.roll import write_roll_pdf
+
+            path = out_dir / f"{style}_roll.pdf"
+            figures["roll"] = write_roll_pdf(path, pieces, config.mm_per_unit, title, options.roll_width)
+            written.append(path)
     return written
 
 
@@ -197,6 +227,19 @@ def model_sources(config: RunConfig) -> list:
         return []
     surfaces = [strake.surface] + (list(strake.plan.surfaces) if strake.plan is not None else [])
     return [s for s in surfaces if getattr(s, "model", None) is not None]
+
+
+def printout_line(figures: dict, style: str) -> str | None:
+    """The console's line on the printouts: pages to print, metres of roll."""
+    parts = []
+    if "print" in figures:
+        f = figures["print"]
+        parts.append(f"{style}_print.pdf {f['pages']} pages {f['paper']} {f['orientation']} (map + {f['pages'] - 1} tiles)")
+    if "roll" in figures:
+        f = figures["roll"]
+        parts.append(f"{style}_roll.pdf {f['length_mm'] / 1000:.2f} m of a {f['roll_width_mm']:g} mm roll "
+                     f"({f['pages']} page(s))")
+    return "printouts: " + "; ".join(parts) if parts else None
 
 
 def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:

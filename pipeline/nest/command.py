@@ -14,6 +14,7 @@ import io
 import json
 import math
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,6 +41,7 @@ class NestJob:
     marks: dict = field(default_factory=dict)  # item id -> {"bend": (K, 2, 2), "frames": [(x, (N, 2))]}
     pieces: dict = field(default_factory=dict)  # item id -> TextilePiece (textile)
     failed: list = field(default_factory=list)  # [{"part", "reason"}]
+    inventory: list = field(default_factory=list)  # remnants.Remnant plates to use first (steel)
 
 
 def _orientations(spec, default) -> tuple[float, ...] | None:
@@ -127,12 +129,16 @@ def run_job(job: NestJob, config: RunConfig, progress=None) -> dict[str, NestRes
         if not any(job.groups.values()):
             raise NestingError("no parts to nest: every part failed or has quantity 0")
         sizes = [(s.name or f"{s.width:g}x{s.length:g}", s.width, s.length) for s in spec.stock_sizes()]
-        budget = spec.time
-        total = sum(it.area * it.quantity for items in job.groups.values() for it in items)
+        # one budget for the command: each group gets its area's share of what is left
+        deadline = time.perf_counter() + spec.time
+        left = sum(it.area * it.quantity for items in job.groups.values() for it in items)
         for key, items in job.groups.items():
-            share = sum(it.area * it.quantity for it in items) / total
-            out[key] = nest_stock(items, sizes, spec.spacing, spec.edge_margin, max(1, round(budget * share)),
-                                  spec.seed, spec.workers, progress)
+            area = sum(it.area * it.quantity for it in items)
+            budget = max(0.0, deadline - time.perf_counter()) * area / left
+            left -= area
+            remnants = [(r.id, r.width, r.length) for r in job.inventory if r.fits_group(job.group_info[key])]
+            out[key] = nest_stock(items, sizes, spec.spacing, spec.edge_margin, budget,
+                                  spec.seed, spec.workers, progress, remnants=remnants)
         return out
     except NestingError as exc:
         raise ConfigError(f"{config.source}: {exc}") from None
@@ -182,16 +188,18 @@ def _sheet_name(style: str, key: str, sheet_id: str, single: bool) -> str:
     return f"{style}_{sheet_id}" if single else f"{style}_{key}_{sheet_id}"
 
 
-def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale: float) -> None:
-    """The marker in the AAMA dialect: the piece blocks of :mod:`pipeline.aama`, one INSERT
-    per placed copy (insertion point and rotation), the roll edges and marker figures."""
+def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale: float,
+                 flavour: str = "aama-r12") -> None:
+    """The marker in the AAMA dialect: the piece blocks of :mod:`pipeline.aama` (notch and
+    validation layers of the run's flavour; ezdxf's D6673 writer makes the file), one
+    INSERT per placed copy (insertion point and rotation), the roll edges and marker figures."""
     from ezdxf.addons import gerber_D6673
 
     from ..textile.aama import block_name, build_document
 
     sheet = result.sheets[0]
     pieces = [job.pieces[name] for name in result.items]
-    doc = build_document(pieces, style, scale)
+    doc = build_document(pieces, style, scale, flavour)
     msp = doc.modelspace()
     for insert in list(msp.query("INSERT")):  # the pieces' INSERTs at the origin make way for the placed copies
         msp.delete_entity(insert)
@@ -303,6 +311,37 @@ def nesting_report(results: dict[str, NestResult], job: NestJob, config: RunConf
             "failed_parts": job.failed, "groups": groups, "files": files}
 
 
+def remnant_inventory(results: dict[str, NestResult], job: NestJob, config: RunConfig) -> list:
+    """The inventory after this nest: the remnants read that no plate used, then each
+    plate's offcut above the configured size under a new id. Records per group, in its
+    figures, the remnants used and the offcuts kept."""
+    from .remnants import Remnant, next_ids, offcut
+
+    spec = config.spec.nesting.remnants
+    style = config.spec.name or config.source.stem
+    known = {r.id for r in job.inventory}
+    used = {s.stock for r in results.values() for s in r.sheets if s.stock in known}
+    found = []
+    for key, r in results.items():
+        for row in r.figures["sheets"]:
+            cut = offcut(row, spec.min_length, spec.min_width, r.edge_margin, r.spacing)
+            if cut is not None:
+                found.append((key, row, cut))
+    ids = next_ids(sorted(known), len(found))
+    new = []
+    for key in results:
+        results[key].figures["remnants"] = {"used": sorted(s.stock for s in results[key].sheets if s.stock in used),
+                                            "offcuts": []}
+    for ident, (key, row, (x, width, length)) in zip(ids, found):
+        info = job.group_info[key]
+        label = row["sheet"] if len(results) == 1 else f"{key}_{row['sheet']}"
+        new.append(Remnant(ident, info["thickness_mm"], info["material"], width, length,
+                           f"{style} {label} ({row['stock']}) beyond x = {x:.6g}"))
+        results[key].figures["remnants"]["offcuts"].append({"remnant": ident, "sheet": row["sheet"], "cut_at": x,
+                                                            "width": width, "length": length})
+    return [r for r in job.inventory if r.id not in used] + new
+
+
 def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfig, out_dir: Path) -> list[Path]:
     from ..plots import layout_png
 
@@ -316,7 +355,16 @@ def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfi
         sheet = r.sheets[0]
         if config.spec.output.dxf:
             path = out_dir / f"{style}_marker.dxf"
-            write_marker(path, r, job, style, scale)
+            write_marker(path, r, job, style, scale, config.spec.textile.aama.flavour)
+            written.append(path)
+        plotter = config.spec.textile.plotter_options()
+        if plotter is not None:  # the marker for a cutter: every placed copy, where the DXF puts it
+            from ..textile.hpgl import write_hpgl
+            from .engine import rotation
+
+            path = out_dir / f"{style}_marker.plt"
+            placed = [job.pieces[p.item].moved(rotation(p.rotation), p.translation) for p in sheet.placements]
+            write_hpgl(path, placed, scale, plotter)
             written.append(path)
         if png:
             path = out_dir / f"{style}_marker.png"
@@ -348,6 +396,12 @@ def write_outputs(results: dict[str, NestResult], job: NestJob, config: RunConfi
         path = out_dir / f"{style}_cutting_list.csv"
         write_text(path, cutting_list_csv(results, job, scale))
         written.append(path)
+        if config.spec.nesting.remnants is not None:
+            from .remnants import inventory_csv
+
+            path = out_dir / f"{style}_remnants.csv"
+            write_text(path, inventory_csv(remnant_inventory(results, job, config), scale))
+            written.append(path)
     path = out_dir / f"{style}_nesting.json"
     report = nesting_report(results, job, config, [p.name for p in written] + [path.name])
     write_text(path, json.dumps(sanitize(report), indent=1, default=_json_default, allow_nan=False))
@@ -376,6 +430,11 @@ def summary_lines(results: dict[str, NestResult], job: NestJob, units: str) -> l
             for row in f["sheets"]:
                 lines.append(f"  {row['sheet']} {row['stock']}: {len(row['parts'])} part(s), "
                              f"{100 * row['utilisation']:.1f}%  {' '.join(row['parts'])}")
+            kept = f.get("remnants")
+            if kept is not None:
+                lines.append(f"  remnants used: {', '.join(kept['used']) or 'none'}; kept: "
+                             + (", ".join(f"{o['remnant']} {o['width']:g} x {o['length']:.0f} {units} "
+                                          f"(from {o['sheet']})" for o in kept["offcuts"]) or "none"))
         checks = r.checks
         lines.append(f"  check: {'passed' if checks['passed'] else 'FAILED'} (max outside {checks['max_outside']:.3g}, "
                      f"min gap {checks['min_gap']:.4g} for spacing {checks['spacing']:g}, "
@@ -420,6 +479,11 @@ def command_nest(args) -> int:
         spec = spec.model_copy(update=updates)
         config.spec = config.spec.model_copy(update={"nesting": spec})
     check_quantities(config)
+    inventory = []
+    if spec.remnants is not None and spec.remnants.inventory is not None:
+        from .remnants import read_inventory
+
+        inventory = read_inventory(config.source.parent / spec.remnants.inventory, config.mm_per_unit)
     parts = config.parts
     if args.jobs > 1 and len(parts) > 1:
         from concurrent.futures import ProcessPoolExecutor
@@ -430,6 +494,7 @@ def command_nest(args) -> int:
     else:
         results = [run_part(p, config) for p in parts]
     job = build_job(results, config)
+    job.inventory = inventory
     bar = None
     progress = None
     if not args.quiet and args.replay is None:

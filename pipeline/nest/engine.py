@@ -289,19 +289,31 @@ def marker_result(items: list[NestItem], fabric_width: float, spacing: float, ed
     return result
 
 
+def solve_seconds(share: float, deadline: float) -> int:
+    """Whole seconds an engine run may take: its share of the budget rounded, never past
+    the deadline (time.perf_counter() value). 0 asks the engine for its first layout only
+    (about 0.1 s): once the budget is spent, the parts still get a layout."""
+    return max(0, min(math.floor(share + 0.5), math.floor(deadline - time.perf_counter())))
+
+
 def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spacing: float, edge_margin: float,
-               budget: int, seed: int, workers: int, progress=None,
-               tolerances: Tolerances = DEFAULT_TOLERANCES) -> NestResult:
+               budget: float, seed: int, workers: int, progress=None,
+               tolerances: Tolerances = DEFAULT_TOLERANCES,
+               remnants: list[tuple[str, float, float]] = ()) -> NestResult:
     """Every copy onto as few stock plates as possible, plate by plate.
 
     stock : [(name, width, length), ...] sizes available in any number
+    remnants : [(name, width, length), ...] plates there is one of each, used before any
+        stock size while one of them takes a part (the yard's remnants)
+    budget : seconds for every engine run of this call together
     Each round strip-packs the remaining parts on each stock width, cuts the strip at each
     stock length and keeps the parts that end before it (the cut goes through no part);
     the round takes the size that holds everything left with the least plate area, else
     the size with the highest utilisation. The parts the cut went through are then tried on
     the plate one by one (a strip packing of the kept parts and the candidate, accepted if
     it ends before the stock length, at most FILL_TRIES runs); the rest go to the next round.
-    Each engine run takes at least one second, so many plates may overrun the budget.
+    Each engine run gets whole seconds out of what is left of the budget; when nothing is
+    left it runs for its first layout only.
     A part wider than every plate raises NestingError; one that fits a width but no length
     is reported unplaced.
     """
@@ -309,6 +321,7 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
         raise NestingError("nesting.stock: no stock size")
     _check_input(items, min(w for _, w, _ in stock) - 2.0 * edge_margin, "nesting.stock width - 2 edge_margin")
     sizes = [(name, w, ln) for name, w, ln in stock]
+    remnants = [(name, w, ln) for name, w, ln in remnants if min(w, ln) - 2.0 * edge_margin > 0]
     for name, w, ln in sizes:
         if not min(w, ln) - 2.0 * edge_margin > 0:
             raise NestingError(f"nesting.stock {name}: {w:g} x {ln:g} leaves no room inside edge_margin {edge_margin:g}")
@@ -331,17 +344,22 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
             continue
         remaining[it.id] = it.quantity
     start = time.perf_counter()
+    deadline = start + budget
     sheets: list[Sheet] = []
-    engine = {"solves": 0, "seconds": 0.0, "budget": int(budget), "seed": int(seed), "workers": int(workers),
-              "last_improvements": []}
-    widths = sorted({w for _, w, _ in sizes})
+    engine = {"solves": 0, "seconds": 0.0, "budget": budget, "seed": int(seed), "workers": int(workers),
+              "last_improvements": [], "solve_budgets": [], "remnants_used": [], "remnants_tried": []}
+    tried: set = set()  # remnants that held nothing, or were used
     round_no = 0
     while any(remaining.values()):
+        # the remnants first, while any is left: stock sizes only when none takes a part
+        pool = [r for r in remnants if r[0] not in tried] or sizes
+        from_remnants = pool is not sizes
+        widths = sorted({w for _, w, _ in pool})
         left_area = sum(lookup[k].area * n for k, n in remaining.items())
         biggest = max(w * ln for _, w, ln in sizes)
-        rounds_left = max(1, math.ceil(left_area / (0.75 * biggest)))
-        time_left = budget - (time.perf_counter() - start)
-        per_solve = max(1, int(time_left / (rounds_left * len(widths))))
+        rounds_left = max(1, math.ceil(left_area / (0.75 * biggest))) + len(pool if from_remnants else ())
+        time_left = deadline - time.perf_counter()
+        per_solve = max(0.0, time_left / (rounds_left * len(widths)))
         best = None
         for w in widths:
             band = w - 2.0 * edge_margin
@@ -353,13 +371,15 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
                 if progress is not None:
                     progress(time.perf_counter() - start, f"plate {_sheet + 1}")
 
-            placements, eng = strip_pack(items, subset, band, spacing, per_solve, seed + round_no, workers, tick)
+            seconds = solve_seconds(per_solve, deadline)
+            engine["solve_budgets"].append(seconds)
+            placements, eng = strip_pack(items, subset, band, spacing, seconds, seed + round_no, workers, tick)
             engine["solves"] += 1
             engine["seconds"] += eng["seconds"]
             engine["last_improvements"].append(eng["last_improvement"])
             ends = np.array([p.place(lookup[p.item].outline)[:, 0].max() for p in placements])
             total = sum(remaining.values())
-            for name, sw, ln in sizes:
+            for name, sw, ln in pool:
                 if sw != w:
                     continue
                 cut = ln - 2.0 * edge_margin + 1e-9 * ln
@@ -375,13 +395,19 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
                 score = (1, -w * ln) if everything else (0, round(area / (w * ln), 9), w * ln)
                 if best is None or score > best[0]:
                     best = (score, name, w, ln, keep, crossing)
+        if best is None and from_remnants:  # no remnant left takes a part: on to the stock sizes
+            engine["remnants_tried"] += [r[0] for r in pool]
+            tried |= {r[0] for r in pool}
+            continue
         if best is None:  # no part ended before any stock length: give the largest part a plate alone
             big = max((k for k, n in remaining.items() if n > 0), key=lambda k: lookup[k].area)
             for name, w, ln in sorted(sizes, key=lambda s: s[1] * s[2]):
                 band = w - 2.0 * edge_margin
                 if not fits(lookup[big], band, ln - 2.0 * edge_margin, 1e-9 * ln):
                     continue
-                placements, eng = strip_pack(items, {big: 1}, band, spacing, 1, seed + round_no, workers)
+                seconds = solve_seconds(1.0, deadline)
+                engine["solve_budgets"].append(seconds)
+                placements, eng = strip_pack(items, {big: 1}, band, spacing, seconds, seed + round_no, workers)
                 engine["solves"] += 1
                 engine["seconds"] += eng["seconds"]
                 end = placements[0].place(lookup[big].outline)[:, 0].max()
@@ -396,17 +422,19 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
         _, name, w, ln, keep, crossing = best
         # the parts the cut went through: try each on this plate with the parts kept (a
         # layout of just these may well hold it), largest first, a few tries per plate
-        tried = 0
+        fills = 0
         for cand in sorted(dict.fromkeys(crossing), key=lambda k: -lookup[k].area):
             free = w * ln - sum(lookup[p.item].area for p in keep)
-            if tried >= FILL_TRIES or lookup[cand].area > free or \
-                    time.perf_counter() - start > budget - per_solve / 2:
+            # a fill is a refinement: only while the budget lasts
+            if fills >= FILL_TRIES or lookup[cand].area > free or deadline - time.perf_counter() < 1.0:
                 break
-            tried += 1
+            fills += 1
             trial = Counter(p.item for p in keep)
             trial[cand] += 1
+            seconds = solve_seconds(max(1.0, per_solve / 2), deadline)
+            engine["solve_budgets"].append(seconds)
             placements, eng = strip_pack(items, dict(trial), w - 2.0 * edge_margin, spacing,
-                                         max(1, per_solve // 2), seed + round_no, workers)
+                                         seconds, seed + round_no, workers)
             engine["solves"] += 1
             engine["seconds"] += eng["seconds"]
             end = max(p.place(lookup[p.item].outline)[:, 0].max() for p in placements)
@@ -419,6 +447,9 @@ def nest_stock(items: list[NestItem], stock: list[tuple[str, float, float]], spa
                                       p.translation + edge_margin))
             remaining[p.item] -= 1
         sheets.append(Sheet(f"P{len(sheets) + 1:02d}", w, ln, tuple(numbered), name))
+        if from_remnants:
+            tried.add(name)
+            engine["remnants_used"].append(name)
         round_no += 1
     return stock_result(items, sheets, spacing, edge_margin, unplaced, engine, tolerances)
 

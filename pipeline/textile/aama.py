@@ -14,6 +14,13 @@ INSERT per piece at the origin on layer 1. Unlike the real files a LAYER table d
 the layers (FreeCAD's importer needs one). Like ezdxf's gerber_D6673 exporter the file has
 no $MODEL_SPACE / $PAPER_SPACE blocks and no HEADER variables: AAMA readers take every
 block for a piece. The reader serves our files and the real AccuMark / CLO files alike.
+
+Flavours (``textile.aama.flavour``): ``aama-r12`` (the default) is the file above, every
+notch on layer 4; ``astm-2010`` adds what ASTM D6673-10 adds: T, castle, check and U notches
+on layers 80-83 (``notchtypes``) and the mandatory quality validation curves, a copy of
+each layer 1 polyline on layer 84 and of each layer 8 polyline on layer 85 (as AccuMark's
+ASTM export and CLO write them); ``r10-compat`` is ``aama-r12`` with a HEADER naming AC1006
+and the extents and no TABLES section, as CLO's R10 files.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import numpy as np
 from ezdxf.lldxf.tagwriter import TagWriter
 
 from ..io.atomic import atomic_path
+from .notchtypes import KIND_OF_LAYER, notch_layer
 from .pieces import TextilePiece, label_anchor
 
 LAYER_BOUNDARY, LAYER_TURN, LAYER_CURVE, LAYER_NOTCH = "1", "2", "3", "4"
@@ -38,6 +46,11 @@ LAYER_GRAIN, LAYER_INTERNAL, LAYER_SEW = "7", "8", "14"
 LAYER_COLOURS = {LAYER_BOUNDARY: 7, LAYER_TURN: 3, LAYER_CURVE: 4, LAYER_NOTCH: 1, LAYER_GRAIN: 5,
                  LAYER_INTERNAL: 6, LAYER_SEW: 2}
 TEXT_HEIGHT_MM = 5.0
+FLAVOURS = ("astm-2010", "aama-r12", "r10-compat")
+# the $ACADVER a flavour's HEADER names (the others write an empty HEADER, as AccuMark does)
+ACADVER = {"r10-compat": "AC1006"}
+# ASTM D6673-10's quality validation curves of the boundary (layer 1) and internal lines (8)
+LAYER_CHECK_BOUNDARY, LAYER_CHECK_INTERNAL = "84", "85"
 
 
 def block_name(piece: TextilePiece, size: str) -> str:
@@ -71,11 +84,22 @@ def _new_r12() -> ezdxf.document.Drawing:
         log.setLevel(level)
 
 
-def build_document(pieces: list[TextilePiece], style: str, scale: float) -> ezdxf.document.Drawing:
-    """Pieces in model units, written in millimetres (``scale`` = mm per model unit)."""
+def build_document(pieces: list[TextilePiece], style: str, scale: float,
+                   flavour: str = "aama-r12") -> ezdxf.document.Drawing:
+    """Pieces in model units, written in millimetres (``scale`` = mm per model unit);
+    notches on the layers of their type in this flavour."""
+    if flavour not in FLAVOURS:
+        raise ValueError(f"aama.flavour {flavour!r} is none of {', '.join(FLAVOURS)}")
     doc = _new_r12()
     for layer, colour in LAYER_COLOURS.items():
         doc.layers.add(layer, color=colour)
+    # the ASTM notch layers only when a notch uses them: files without typed notches stay as they were
+    for layer in sorted({notch_layer(n.kind, flavour) for p in pieces for n in p.notches} - set(LAYER_COLOURS)):
+        doc.layers.add(layer, color=LAYER_COLOURS[LAYER_NOTCH])
+    astm = flavour == "astm-2010"
+    if astm:
+        doc.layers.add(LAYER_CHECK_BOUNDARY, color=LAYER_COLOURS[LAYER_BOUNDARY])
+        doc.layers.add(LAYER_CHECK_INTERNAL, color=LAYER_COLOURS[LAYER_INTERNAL])
     msp = doc.modelspace()
     now = creation_time()
     sizes = sorted({p.settings.size for p in pieces})
@@ -105,39 +129,85 @@ def build_document(pieces: list[TextilePiece], style: str, scale: float) -> ezdx
                 (at[0] - box[0] / 2, at[1] + box[1] / 2 - 1.5 * TEXT_HEIGHT_MM * (k + 1)))
         block.add_polyline2d([tuple(p) for p in piece.cut * scale], close=True,
                              dxfattribs={"layer": LAYER_BOUNDARY})
+        if astm:  # our boundary is the curve itself, to the chord tolerance: its own validation curve
+            block.add_polyline2d([tuple(p) for p in piece.cut * scale], close=True,
+                                 dxfattribs={"layer": LAYER_CHECK_BOUNDARY})
         turns, curves = piece.turn_and_curve_points()
         for layer, points in ((LAYER_TURN, turns), (LAYER_CURVE, curves)):
             for p in points * scale:
                 block.add_point((p[0], p[1]), dxfattribs={"layer": layer})
-        width = s.notch_width * scale if s.notch_type == "v" else 0.0
         for notch in piece.notches:
             x, y = notch.line[0] * scale
             depth = float(np.hypot(*np.diff(notch.line, axis=0)[0])) * scale
-            block.add_point((x, y, depth), dxfattribs={"layer": LAYER_NOTCH, "thickness": width,
+            block.add_point((x, y, depth), dxfattribs={"layer": notch_layer(notch.kind, flavour),
+                                                       "thickness": notch.width * scale,
                                                        "angle": notch_angle(notch.line)})
         block.add_line(tuple(piece.grain[0] * scale), tuple(piece.grain[1] * scale), dxfattribs={"layer": LAYER_GRAIN})
         if s.sew_line_layer is not None:
             block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True,
                                  dxfattribs={"layer": str(s.sew_line_layer)})
+            if astm and str(s.sew_line_layer) == LAYER_INTERNAL:
+                block.add_polyline2d([tuple(p) for p in piece.sew * scale], close=True,
+                                     dxfattribs={"layer": LAYER_CHECK_INTERNAL})
         for a, b in piece.internal_lines * scale:
             block.add_line(tuple(a), tuple(b), dxfattribs={"layer": LAYER_INTERNAL})
         msp.add_blockref(name, (0, 0), dxfattribs={"layer": LAYER_BOUNDARY})
     return doc
 
 
-def export_text(doc: ezdxf.document.Drawing) -> str:
-    """The R12 file: empty HEADER, TABLES with the line types and layers, the piece
-    blocks only (no layout blocks), ENTITIES."""
+def _extents(doc: ezdxf.document.Drawing) -> tuple[np.ndarray, np.ndarray]:
+    """Lower-left and upper-right corners (2,) of every vertex, point and text insertion
+    of the file (blocks are inserted at the origin)."""
+    points = [(0.0, 0.0)]
+    for layout in [doc.modelspace()] + [b for b in doc.blocks if not b.name.startswith("*")]:
+        for e in layout:
+            kind = e.dxftype()
+            if kind == "POLYLINE":
+                points += [tuple(v.dxf.location)[:2] for v in e.vertices]
+            elif kind in ("POINT",):
+                points.append(tuple(e.dxf.location)[:2])
+            elif kind == "LINE":
+                points += [tuple(e.dxf.start)[:2], tuple(e.dxf.end)[:2]]
+            elif kind == "TEXT":
+                points.append(tuple(e.dxf.insert)[:2])
+    xy = np.array(points, dtype=float)
+    return xy.min(axis=0), xy.max(axis=0)
+
+
+def _write_header(writer: TagWriter, doc: ezdxf.document.Drawing, flavour: str) -> None:
+    """An empty HEADER (as AccuMark writes it), but in r10-compat the version and the
+    drawing's extents, as CLO's R10 files: readers of that era size their view from them."""
+    writer.write_str("  0\nSECTION\n  2\nHEADER\n")
+    if flavour in ACADVER:
+        low, high = _extents(doc)
+        writer.write_tag2(9, "$ACADVER")
+        writer.write_tag2(1, ACADVER[flavour])
+        writer.write_tag2(9, "$INSBASE")
+        for code in (10, 20, 30):
+            writer.write_tag2(code, "0.0")
+        for name, corner in (("$EXTMIN", low), ("$EXTMAX", high)):
+            writer.write_tag2(9, name)
+            writer.write_tag2(10, f"{corner[0]:.6f}")
+            writer.write_tag2(20, f"{corner[1]:.6f}")
+    writer.write_tag2(0, "ENDSEC")
+
+
+def export_text(doc: ezdxf.document.Drawing, flavour: str = "aama-r12") -> str:
+    """The R12 file: HEADER (empty but in r10-compat), TABLES with the line types and
+    layers (none in r10-compat, as CLO's R10 files), the piece blocks only (no layout
+    blocks), ENTITIES."""
     if doc.dxfversion != ezdxf.const.DXF12:
         raise ezdxf.DXFVersionError("AAMA files are DXF R12")
+    if flavour not in FLAVOURS:
+        raise ValueError(f"aama.flavour {flavour!r} is none of {', '.join(FLAVOURS)}")
     stream = io.StringIO()
     writer = TagWriter(stream, write_handles=False, dxfversion=ezdxf.const.DXF12)
-    writer.write_str("  0\nSECTION\n  2\nHEADER\n")
-    writer.write_tag2(0, "ENDSEC")
-    writer.write_str("  0\nSECTION\n  2\nTABLES\n")
-    doc.tables.linetypes.export_dxf(writer)
-    doc.tables.layers.export_dxf(writer)
-    writer.write_tag2(0, "ENDSEC")
+    _write_header(writer, doc, flavour)
+    if flavour != "r10-compat":
+        writer.write_str("  0\nSECTION\n  2\nTABLES\n")
+        doc.tables.linetypes.export_dxf(writer)
+        doc.tables.layers.export_dxf(writer)
+        writer.write_tag2(0, "ENDSEC")
     writer.write_str("  0\nSECTION\n  2\nBLOCKS\n")
     for record in doc.block_records:
         if record.is_block_layout:
@@ -150,8 +220,9 @@ def export_text(doc: ezdxf.document.Drawing) -> str:
     return stream.getvalue()
 
 
-def write_aama(target: str | Path, pieces: list[TextilePiece], style: str, scale: float) -> None:
-    text = export_text(build_document(pieces, style, scale))
+def write_aama(target: str | Path, pieces: list[TextilePiece], style: str, scale: float,
+               flavour: str = "aama-r12") -> None:
+    text = export_text(build_document(pieces, style, scale, flavour), flavour)
     with atomic_path(target) as tmp:
         # the standard allows 7-bit ASCII only
         Path(tmp).write_bytes(text.encode("ascii", errors="replace"))
@@ -167,6 +238,7 @@ class ReadNotch:
     angle: float | None = None
     depth: float = 0.0
     width: float = 0.0
+    kind: str = "slit"  # by its layer (ASTM 80-83), else v when it opens, else slit
 
 
 @dataclass
@@ -241,7 +313,9 @@ def _notch(entity) -> ReadNotch:
         return ReadNotch(a, notch_angle(np.vstack([a, b])), float(np.hypot(*(b - a))), 0.0)
     loc = tuple(entity.dxf.location)
     angle = float(entity.dxf.angle) if entity.dxf.hasattr("angle") else None
-    return ReadNotch(np.array(loc[:2]), angle, abs(float(loc[2])), float(entity.dxf.get("thickness", 0.0)))
+    width = float(entity.dxf.get("thickness", 0.0))
+    kind = KIND_OF_LAYER.get(entity.dxf.layer, "v" if width > 0 else "slit")
+    return ReadNotch(np.array(loc[:2]), angle, abs(float(loc[2])), width, kind)
 
 
 def read_aama(path: str | Path) -> ReadFile:
@@ -288,7 +362,7 @@ def read_aama(path: str | Path) -> ReadFile:
                 elif layer == LAYER_BOUNDARY:
                     boundary_parts.append(seg)
             elif kind == "POINT":
-                if layer == LAYER_NOTCH:
+                if layer == LAYER_NOTCH or layer in KIND_OF_LAYER:
                     piece.notches.append(_notch(e))
                 elif layer == LAYER_TURN:
                     turns.append(tuple(e.dxf.location)[:2])

@@ -17,6 +17,7 @@ from shapely.ops import polylabel, substring, unary_union
 from flatten.develop import develop
 
 from ..config import ConfigError, Part, Textile
+from .notchtypes import opening
 from .seams import ruling_through
 from ..stages import PartResult
 
@@ -25,7 +26,9 @@ class Notch:
     edge: str
     arc_length: float  # along the 3D curve from its own start (model units); nan for ruling notches
     sew_point: np.ndarray  # (2,)
-    line: np.ndarray  # (2, 2) from the cut line inwards
+    line: np.ndarray  # (2, 2) from the cut line inwards, as long as the notch is deep
+    kind: str = "slit"  # one of notchtypes.KINDS
+    width: float = 0.0  # opening at the cut line (model units; 0 for a slit)
 
 
 @dataclass(frozen=True)
@@ -52,8 +55,20 @@ class TextilePiece:
         move = np.asarray(offset, dtype=float)
         return TextilePiece(self.name, self.sew + move, self.cut + move, tuple(e + move for e in self.edges),
                             self.edge_names, self.allowances,
-                            tuple(Notch(n.edge, n.arc_length, n.sew_point + move, n.line + move) for n in self.notches),
+                            tuple(Notch(n.edge, n.arc_length, n.sew_point + move, n.line + move, n.kind, n.width)
+                                  for n in self.notches),
                             self.grain + move, self.internal_lines + move, self.settings, self.cut_corners)
+
+    def moved(self, turn: np.ndarray, offset: np.ndarray) -> "TextilePiece":
+        """The piece turned by the rotation matrix ``turn`` (2, 2) about the origin, then
+        moved by ``offset`` (2,)."""
+        def f(points):
+            return np.asarray(points) @ np.asarray(turn).T + offset
+        return TextilePiece(self.name, f(self.sew), f(self.cut), tuple(f(e) for e in self.edges),
+                            self.edge_names, self.allowances,
+                            tuple(Notch(n.edge, n.arc_length, f(n.sew_point), f(n.line), n.kind, n.width)
+                                  for n in self.notches),
+                            f(self.grain), f(self.internal_lines), self.settings, self.cut_corners)
 
     @property
     def sew_corners(self) -> np.ndarray:
@@ -200,13 +215,13 @@ def build_piece(result: PartResult, settings: Textile, transform) -> TextilePiec
                           f"{shapely.is_valid_reason(cut_poly)}")
     notches = []
     for k, spec in enumerate(settings.notches):
+        shape = _notch_shape(spec, settings)
         if spec.ruling is not None:
             if spec.ruling >= len(bend):
                 raise ConfigError(f"textile.notches[{k}].ruling = {spec.ruling} lies outside piece {name} "
                                   f"({len(bend)} rulings)")
             for edge_name, point in (("c", c_side[spec.ruling]), ("d", d_side[spec.ruling])):
-                notches.append(_notch(edge_name, float("nan"), point, edges, names, widths,
-                                      settings.notch_length))
+                notches.append(_notch(edge_name, float("nan"), point, edges, names, widths, *shape))
             continue
         for which, curve_id in zip(("c", "d"), result.part.curve_ids):
             if spec.curve != curve_id:
@@ -218,18 +233,26 @@ def build_piece(result: PartResult, settings: Textile, transform) -> TextilePiec
                 if point is None:
                     raise ConfigError(f"textile.notches[{k}].at[{j}] = {s:g} lies outside the {which} edge of "
                                       f"piece {name} (the strip covers only part of curve {curve_id!r})")
-                notches.append(_notch(which, s, point, edges, names, widths, settings.notch_length))
+                notches.append(_notch(which, s, point, edges, names, widths, *shape))
     grain = _grain(result, settings, sew_poly)
     internal = bend.copy() if settings.internal_rulings else np.zeros((0, 2, 2))
     return TextilePiece(name, sew, cut, edges, names, widths, tuple(notches), grain, internal, settings, cut_corners)
 
 
-def _notch(edge_name, arc_length, point, edges, names, widths, length) -> Notch:
+def _notch_shape(spec, settings: Textile) -> tuple[float, str, float]:
+    """Depth, type and opening width of the notches of one ``textile.notches`` entry: its
+    own, else the textile section's."""
+    kind = spec.type or settings.notch_type
+    depth = spec.depth if spec.depth is not None else settings.notch_length
+    return depth, kind, opening(kind, spec.width if spec.width is not None else settings.notch_width)
+
+
+def _notch(edge_name, arc_length, point, edges, names, widths, length, kind="slit", width=0.0) -> Notch:
     index = names.index(edge_name)
     foot, tangent = _snap_to_edge(edges[index], np.asarray(point, dtype=float))
     outward = np.array([tangent[1], -tangent[0]])  # right of a counter-clockwise ring
     start = foot + widths[index] * outward  # on the cut line: the slit starts at the edge
-    return Notch(edge_name, arc_length, foot, np.vstack([start, start - length * outward]))
+    return Notch(edge_name, arc_length, foot, np.vstack([start, start - length * outward]), kind, width)
 
 
 def _grain(result: PartResult, settings: Textile, sew_poly: Polygon) -> np.ndarray:

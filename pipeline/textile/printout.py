@@ -8,7 +8,8 @@ every side) and neighbouring windows share ``overlap`` mm (tiles that show nothi
 any piece are left out): on each page the left and top
 window edges are trim (cut) lines where a neighbour exists, and the right and bottom join
 lines (dash-dot, grey, marked with the neighbour's label) lie ``overlap`` mm inside the
-window, where the neighbour's trimmed edge goes. Every page carries the 10 cm check square
+window, where the neighbour's trimmed edge goes. Every page carries the 5 cm check square
+(TILE_CHECK_MM: a 10 cm one took 40 % of an A4 page whenever it needed a band of its own)
 with its label (row letter and column number) in a place no pattern line crosses; where
 some page has no such place, every page reserves a band below the window for it. Piece
 texts sit inside the sew line, clear of the grain line, the notches and the tile edges.
@@ -44,7 +45,8 @@ from .pieces import TextilePiece, label_anchor
 PdfPages = pdf_backend().PdfPages  # without fontTools' subsetter: Type 3 fonts do not need it
 
 MARGIN_MM = 5.0  # around the pieces, inside the tiled area
-CHECK_MM = 100.0
+CHECK_MM = 100.0  # the check square of the sheet and the roll, which have room for it
+TILE_CHECK_MM = 50.0  # the check square of the tiled pages
 GAP_MM = 4.0  # clearance of the check square and texts from lines
 PAPER_MM = {"A4": (210.0, 297.0), "A3": (297.0, 420.0), "Letter": (215.9, 279.4)}
 PT = 72.0 / 25.4  # points per mm
@@ -189,23 +191,24 @@ def _free_square(blocked, window, corner: np.ndarray) -> np.ndarray | None:
     comes within GAP_MM of, nearest to ``corner``; None when there is none."""
     shapely.prepare(blocked)
     x0, y0, x1, y1 = window.bounds
-    xs = np.arange(x0 + GAP_MM, x1 - CHECK_MM - GAP_MM + 1e-9, 5.0)
-    ys = np.arange(y0 + GAP_MM, y1 - CHECK_MM - GAP_MM + 1e-9, 5.0)
+    xs = np.arange(x0 + GAP_MM, x1 - TILE_CHECK_MM - GAP_MM + 1e-9, 5.0)
+    ys = np.arange(y0 + GAP_MM, y1 - TILE_CHECK_MM - GAP_MM + 1e-9, 5.0)
     if not len(xs) or not len(ys):
         return None
     grid = np.array([(x, y) for x in xs for y in ys])
     grid = grid[np.argsort(np.hypot(*(grid - corner).T), kind="stable")]
     for x, y in grid:
-        if not blocked.intersects(box(x - GAP_MM, y - GAP_MM, x + CHECK_MM + GAP_MM, y + CHECK_MM + GAP_MM)):
+        if not blocked.intersects(box(x - GAP_MM, y - GAP_MM, x + TILE_CHECK_MM + GAP_MM, y + TILE_CHECK_MM + GAP_MM)):
             return np.array([x, y])
     return None
 
 
-def _check_square(ax, at: np.ndarray, title: str, subtitle: str) -> None:
-    """The 10 cm square (page mm) with the page's label inside."""
-    ax.add_patch(Rectangle(tuple(at), CHECK_MM, CHECK_MM, fill=False, color="black", lw=0.6))
-    ax.text(at[0] + CHECK_MM / 2, at[1] + 0.62 * CHECK_MM, title, ha="center", va="center", fontsize=30)
-    ax.text(at[0] + CHECK_MM / 2, at[1] + 0.25 * CHECK_MM, subtitle, ha="center", va="center", fontsize=7,
+def _check_square(ax, at: np.ndarray, title: str, subtitle: str, size: float = CHECK_MM) -> None:
+    """The check square ``size`` mm wide (page mm) with the page's label inside."""
+    ax.add_patch(Rectangle(tuple(at), size, size, fill=False, color="black", lw=0.6))
+    big = size >= CHECK_MM
+    ax.text(at[0] + size / 2, at[1] + 0.62 * size, title, ha="center", va="center", fontsize=30 if big else 18)
+    ax.text(at[0] + size / 2, at[1] + 0.25 * size, subtitle, ha="center", va="center", fontsize=7 if big else 5.5,
             linespacing=1.3)
 
 
@@ -291,7 +294,7 @@ def count_pages(pieces: list[TextilePiece], scale: float, options: Printout) -> 
     printable = np.array(paper) - 2 * options.border
     pts = np.vstack([p.cut for p in pieces]) * scale
     lo, hi = pts.min(axis=0) - MARGIN_MM, pts.max(axis=0) + MARGIN_MM
-    window = (printable[0], printable[1] - CHECK_MM - 2 * GAP_MM)
+    window = (printable[0], printable[1] - TILE_CHECK_MM - 2 * GAP_MM)
     size = hi - lo
     cols = max(1, int(np.ceil((size[0] - options.overlap) / (window[0] - options.overlap))))
     rows = max(1, int(np.ceil((size[1] - options.overlap) / (window[1] - options.overlap))))
@@ -322,7 +325,7 @@ def write_tiled_pdf(target: Path, pieces: list[TextilePiece], scale: float, titl
         pages = _tile_pages(tiles, drawing, paper, b, band, o)
         if pages is not None:
             break
-        band = CHECK_MM + 2 * GAP_MM  # some page has no free place: every page gets a band
+        band = TILE_CHECK_MM + 2 * GAP_MM  # some page has no free place: every page gets a band
     labels = {(t.row, t.col): t.label for t in tiles}
     with atomic_path(target) as tmp, PdfPages(tmp) as pdf:
         pdf.savefig(_assembly_map(tiles, drawing, paper, b, title, options, len(pages)))
@@ -364,8 +367,8 @@ def _render_tile(tile: Tile, info: dict, paper, b, band, overlap, labels, subtit
     blocked = list(info["blocked"])
     square = info["square"]
     if square is not None:
-        blocked.append(box(*(square - GAP_MM), *(square + CHECK_MM + GAP_MM)))
-        _check_square(page, square, tile.label, f"10 cm check square: print at 100 %\n{subtitle}")
+        blocked.append(box(*(square - GAP_MM), *(square + TILE_CHECK_MM + GAP_MM)))
+        _check_square(page, square, tile.label, f"5 cm: print at 100 %\n{subtitle}", TILE_CHECK_MM)
     _join_marks(page, tile, np.array([b, b + band]), labels, overlap, blocked)
     return fig
 
@@ -374,8 +377,8 @@ def _assembly_map(tiles, drawing: Drawing, paper, b, title: str, options: Printo
     """Page 1: the sheet scaled to fit above the check square, the page grid labelled."""
     fig, page = _page(paper)
     _check_square(page, np.array([b + GAP_MM, b + GAP_MM]), "map",
-                  f"10 cm check square: print at 100 %\npage 1 of {n_pages + 1}")
-    top = b + CHECK_MM + 2 * GAP_MM
+                  f"5 cm: print at 100 %\npage 1 of {n_pages + 1}", TILE_CHECK_MM)
+    top = b + TILE_CHECK_MM + 2 * GAP_MM
     box_w, box_h = paper[0] - 2 * b, paper[1] - b - top - 30.0
     ax = fig.add_axes((b / paper[0], top / paper[1], box_w / paper[0], box_h / paper[1]))
     ax.set_aspect("equal", adjustable="datalim")
@@ -395,7 +398,7 @@ def _assembly_map(tiles, drawing: Drawing, paper, b, title: str, options: Printo
               f"{len(tiles)} pages in {rows} row(s) A.. x {cols} column(s) 1..; {options.paper} {options.orientation}, "
               f"overlap {options.overlap:g} mm.\nTrim each page along its left and top edges (grey line) and lay it "
               f"on the join line (dash-dot) of its neighbour.\nCut line solid, sew line dashed, grain line with "
-              f"arrows. Check that the square measures 10 cm.", fontsize=7, va="top", linespacing=1.4)
+              f"arrows. Check that the square measures 5 cm.", fontsize=7, va="top", linespacing=1.4)
     return fig
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import RunConfig
+from ..config import NotchSpec, RunConfig, Textile
 from ..stages import PartResult, finish_part, stage_check, stage_strip, stage_unroll
 
 MAX_ROUNDS = 20
@@ -250,3 +250,27 @@ def _spans(result: PartResult) -> list[tuple[float, float]]:
         s = curve.arc_length_at(np.array([values.min(), values.max()]))
         out.append((float(s[0]), float(s[1])))
     return out
+
+
+def match_mark_positions(seam: Seam, spacing: float) -> list[float]:
+    """Arc lengths (from the shared curve's start) of a seam's match marks: every
+    ``spacing`` from the start of its sewable stretch, none closer than a quarter spacing
+    to its end (the corner is matched already)."""
+    lo, hi = seam.sewable
+    count = int(np.floor((hi - lo - 0.25 * spacing) / spacing)) if hi - lo > 1.25 * spacing else 0
+    return [float(lo + k * spacing) for k in range(1, count + 1)]
+
+
+def with_match_marks(settings: Textile, seams: list[Seam]) -> Textile:
+    """The textile settings with one notch entry per seam: its match marks, at the same arc
+    lengths of the shared curve on every piece sewn along it."""
+    marks = settings.match_marks
+    if marks is None:
+        return settings
+    extra = []
+    for seam in seams:
+        at = match_mark_positions(seam, marks.spacing)
+        if at:
+            extra.append(NotchSpec(curve=int(seam.curve), at=at, type=marks.type, depth=marks.depth,
+                                   width=marks.width))
+    return settings.model_copy(update={"notches": list(settings.notches) + extra})

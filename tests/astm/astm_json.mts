@@ -1,7 +1,8 @@
 // Runs the open ASTM/AAMA parser (ksons/astm-parser, copied beside this file by the test)
 // on each DXF file given and prints one JSON array: per file the pieces with, per size,
 // the boundary, internal lines, turn and curve points, notches and grain lines as point
-// lists, and every diagnostic with the layer and type of the entity it is about.
+// lists, and every diagnostic with the layer, type and (for a point) position of the entity
+// it is about.
 import * as fs from 'fs';
 import { ASTMParser } from './src/index.js';
 
@@ -20,7 +21,8 @@ for (const file of process.argv.slice(2)) {
     });
     out.push({ file, ok: true, asset: data.asset, style: data.style, sizes: data.sizes, pieces,
                diagnostics: res.diagnostics.map((g: any) => ({ severity: g.severity, message: g.message,
-                 layer: g.data?.layer ?? null, type: g.data?.type ?? null })) });
+                 layer: g.data?.layer ?? null, type: g.data?.type ?? null,
+                 position: g.data?.position ?? null })) });
   } catch (e) {
     out.push({ file, ok: false, error: String(e) });
   }
