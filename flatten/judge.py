@@ -11,7 +11,8 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import DevelopabilityField, corner_knots, normalized_residual
+from .equation import (EDGE_REACH, EDGE_ROUNDOFF, GENERAL, DevelopabilityField, corner_knots, normalized_residual,
+                       root_along, ruling_determinant)
 from .nurbs import NurbsCurve
 from .solution import (Branch, Coverage, CurvatureMismatch, KnotCrossing, Path, Piece,
                        TurningPoint)
@@ -181,7 +182,94 @@ class UnitMap:
                 active = np.append(active, company)
         x[np.abs(x) <= 1e-14] = 0.0
         x[np.abs(x - 1.0) <= 1e-14] = 1.0
+        return self.locate_on_sides(self._on_curves(x, fixed), fixed)
+
+    def _on_curves(self, x: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+        """Points (N, 2) inside the square finished by Newton along the gradient of g
+        evaluated from the curves (:func:`ruling_determinant`), (N, 2): near a far side of
+        a high-degree cell the power form of f has lost digits and its root lies off Z by
+        up to ~1e-9 there. A point whose first step is round-off (``EDGE_ROUNDOFF``) stays
+        as it is; a correction is taken when it settles within ``EDGE_REACH`` with the normalised
+        residual not larger (not across a crossing, where the gradient vanishes)."""
+        if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
+            return x
+        inside = np.flatnonzero(np.all((x > 0.0) & (x < 1.0), axis=1) & ~fixed.any(axis=1))
+        if len(inside) == 0:
+            return x
+        y = x[inside].copy()
+        g0 = at_root = None
+        for _ in range(8):
+            p = self.to_params(y)
+            g, grad, scale = ruling_determinant(self.field.c, self.field.d, p[:, 0], p[:, 1])
+            grad = grad * self.width
+            gg = np.einsum("ij,ij->i", grad, grad)
+            step = np.divide(g, gg, out=np.zeros_like(g), where=gg > 0)[:, None] * grad
+            size = np.hypot(step[:, 0], step[:, 1])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g_now = np.abs(g) / scale  # the normalised residual (NaN where a curve stands still)
+            if g0 is None:
+                g0, at_root = g_now, size <= EDGE_ROUNDOFF
+                if at_root.all():
+                    return x
+            step[at_root] = 0.0
+            y = np.minimum(np.maximum(y - step, 0.0), 1.0)
+            if np.all(at_root | (size <= 1e-16)):
+                break
+        taken = (~at_root & (g_now <= g0) & (np.hypot(*(y - x[inside]).T) <= EDGE_REACH)
+                 & np.all((y > 0.0) & (y < 1.0), axis=1))
+        x = x.copy()
+        x[inside[taken]] = y[taken]
         return x
+
+    def locate_on_sides(self, x: np.ndarray, fixed: np.ndarray | None = None) -> np.ndarray:
+        """Points (N, 2) lying on a side of the unit square moved to the root of f
+        restricted to that side, (N, 2): Newton along the side on g evaluated from the
+        curves (:func:`ruling_determinant`), not on the power form of f, whose round-off
+        on a high-degree cell can put an end ~1e-9 off its root (degree-7 rational
+        curves). A point at a corner of the square where f does not vanish (a branch
+        passing within ~1e-8 of the corner, ended there by the tracer) goes to the nearer
+        root on the two sides through it. Points fixed on a knot line (``fixed`` (N, 2)
+        bool) and points whose side carries no root within ``EDGE_REACH`` (:func:`root_along`) stay."""
+        on_side = (x == 0.0) | (x == 1.0)
+        if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
+            return x
+        if fixed is not None:
+            on_side &= ~fixed.any(axis=1)[:, None]
+        sides = on_side.sum(axis=1)
+        if not sides.any():
+            return x
+        x = x.copy()
+        single = np.flatnonzero(sides == 1)
+        if len(single):
+            free = np.argmin(on_side[single], axis=1)
+            moved, ok, _ = self._newton_along(x[single], free)
+            x[single[ok]] = moved[ok]
+        corner = np.flatnonzero(sides == 2)
+        if len(corner):
+            best = x[corner].copy()
+            reach = np.full(len(corner), np.inf)
+            for free in (0, 1):
+                moved, ok, root = self._newton_along(x[corner], np.full(len(corner), free))
+                if root.any():  # f vanishes at the corner itself: it stays
+                    reach[root] = -1.0
+                dist = np.abs(moved[:, free] - x[corner, free])
+                take = ok & (dist < reach)
+                best[take], reach[take] = moved[take], dist[take]
+            x[corner] = best
+        return x
+
+    def _newton_along(self, x: np.ndarray, free: np.ndarray):
+        """:func:`root_along` of unit points (N, 2) along their free axes (N,): (moved unit
+        points (N, 2), taken (N,), at_root (N,))."""
+        p = self.to_params(x)
+        t, T, taken, at_root = root_along(self.field.c, self.field.d, p[:, 0], p[:, 1], free)
+        y = x.copy()
+        rows = np.arange(len(x))
+        y[rows, free] = self.to_unit(np.column_stack([t, T]))[rows, free]
+        # the sides map onto the domain ends exactly (see :meth:`to_params`)
+        y[np.abs(y) <= 1e-14] = 0.0
+        y[np.abs(y - 1.0) <= 1e-14] = 1.0
+        return y, taken, at_root
 
 
 # ------------------------------------------------------------------ classes
