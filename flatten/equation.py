@@ -663,8 +663,7 @@ def root_along(c: NurbsCurve, d: NurbsCurve, t, T, free, iterations: int = 8):
     lo = np.array([c.domain[0], d.domain[0]])[free]
     hi = np.array([c.domain[1], d.domain[1]])[free]
     width = hi - lo
-    g0 = at_root = g_now = None
-    beyond = y[rows, free]
+    g0 = at_root = None
     for _ in range(iterations):
         g, grad, scale = ruling_determinant(c, d, y[:, 0], y[:, 1])
         slope = grad[rows, free]
@@ -675,12 +674,12 @@ def root_along(c: NurbsCurve, d: NurbsCurve, t, T, free, iterations: int = 8):
             g_now = np.abs(g) / scale  # the normalised residual (NaN where a curve stands still)
         if g0 is None:
             g0, at_root = g_now, ~usable | (np.abs(step) <= EDGE_ROUNDOFF * width)
-        beyond = y[rows, free] - step
+        beyond = y[rows, free] - step  # where Newton puts the root
         moved = np.clip(beyond, lo, hi)
-        still = moved == y[rows, free]
-        y[rows, free] = moved
-        if np.all(still | at_root):
+        done = at_root | (moved == y[rows, free])
+        if done.all():
             break
+        y[rows[~done], free[~done]] = moved[~done]
     taken = (~at_root & np.isfinite(beyond) & (beyond >= lo - EDGE_ROUNDOFF * width)
              & (beyond <= hi + EDGE_ROUNDOFF * width)
              & (np.abs(y[rows, free] - start[rows, free]) <= EDGE_REACH * width) & (g_now <= g0))

@@ -22,6 +22,9 @@ from .tracer import Trace
 # A polyline crossing is a true crossing of two branches only where f vanishes to this
 # normalised residual (the saddle's f0 of a near-tangent pair does not).
 CROSSING_RESIDUAL = 1e-12
+# A polished point inside the square whose normalised residual is at most this is not
+# finished on the curves' own g (see UnitMap._on_curves): it lies on Z to round-off.
+RESIDUAL_FLOOR = 1e-14
 
 
 class UnitMap:
@@ -188,12 +191,17 @@ class UnitMap:
         """Points (N, 2) inside the square finished by Newton along the gradient of g
         evaluated from the curves (:func:`ruling_determinant`), (N, 2): near a far side of
         a high-degree cell the power form of f has lost digits and its root lies off Z by
-        up to ~1e-9 there. A point whose first step is round-off (``EDGE_ROUNDOFF``) stays
-        as it is; a correction is taken when it settles within ``EDGE_REACH`` with the normalised
+        up to ~1e-9 there. A point whose residual is at most :data:`RESIDUAL_FLOOR` or
+        whose first step is round-off (``EDGE_ROUNDOFF``) stays as it is; a correction is taken when it settles within ``EDGE_REACH`` with the normalised
         residual not larger (not across a crossing, where the gradient vanishes)."""
         if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
             return x
         inside = np.flatnonzero(np.all((x > 0.0) & (x < 1.0), axis=1) & ~fixed.any(axis=1))
+        if len(inside) == 0:
+            return x
+        # (first the residual alone, from first derivatives: most points meet it already)
+        p = self.to_params(x[inside])
+        inside = inside[~(normalized_residual(self.field.c, self.field.d, p[:, 0], p[:, 1]) <= RESIDUAL_FLOOR)]
         if len(inside) == 0:
             return x
         y = x[inside].copy()
@@ -211,10 +219,10 @@ class UnitMap:
                 g0, at_root = g_now, size <= EDGE_ROUNDOFF
                 if at_root.all():
                     return x
-            step[at_root] = 0.0
-            y = np.minimum(np.maximum(y - step, 0.0), 1.0)
-            if np.all(at_root | (size <= 1e-16)):
+            done = at_root | (size <= 1e-16)
+            if done.all():
                 break
+            y[~done] = np.minimum(np.maximum(y[~done] - step[~done], 0.0), 1.0)
         taken = (~at_root & (g_now <= g0) & (np.hypot(*(y - x[inside]).T) <= EDGE_REACH)
                  & np.all((y > 0.0) & (y < 1.0), axis=1))
         x = x.copy()
@@ -239,23 +247,25 @@ class UnitMap:
         if not sides.any():
             return x
         x = x.copy()
+        # one batch: each point on one side along that side, each corner point along both
         single = np.flatnonzero(sides == 1)
-        if len(single):
-            free = np.argmin(on_side[single], axis=1)
-            moved, ok, _ = self._newton_along(x[single], free)
-            x[single[ok]] = moved[ok]
         corner = np.flatnonzero(sides == 2)
+        which = np.concatenate([single, corner, corner])
+        free = np.concatenate([np.argmin(on_side[single], axis=1), np.zeros(len(corner), dtype=np.intp),
+                               np.ones(len(corner), dtype=np.intp)])
+        moved, ok, root = self._newton_along(x[which], free)
+        n = len(single)
+        x[single[ok[:n]]] = moved[:n][ok[:n]]
         if len(corner):
-            best = x[corner].copy()
-            reach = np.full(len(corner), np.inf)
-            for free in (0, 1):
-                moved, ok, root = self._newton_along(x[corner], np.full(len(corner), free))
-                if root.any():  # f vanishes at the corner itself: it stays
-                    reach[root] = -1.0
-                dist = np.abs(moved[:, free] - x[corner, free])
-                take = ok & (dist < reach)
-                best[take], reach[take] = moved[take], dist[take]
-            x[corner] = best
+            # the nearer root of the two sides; none where f vanishes at the corner itself
+            along = [slice(n, n + len(corner)), slice(n + len(corner), None)]
+            dist = np.stack([np.where(ok[k], np.abs(moved[k, axis] - x[corner, axis]), np.inf)
+                             for axis, k in enumerate(along)])
+            best = np.argmin(dist, axis=0)
+            take = np.isfinite(dist.min(axis=0)) & ~(root[along[0]] | root[along[1]])
+            for axis, k in enumerate(along):
+                pick = take & (best == axis)
+                x[corner[pick]] = moved[k][pick]
         return x
 
     def _newton_along(self, x: np.ndarray, free: np.ndarray):
