@@ -10,8 +10,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from .errors import InvalidCurveError
-from .nurbs import (MAX_COORDINATE, MAX_DEGREE, NurbsCurve, check_knot_structure, nurbs_curve,
-                    ppoly_from_spline)
+from .nurbs import MAX_COORDINATE, MAX_DEGREE, NurbsCurve, nurbs_curve, ppoly_from_spline
 
 
 def expand_knots(knots, multiplicities) -> np.ndarray:
@@ -191,7 +190,6 @@ def nurbs_surface(degree_u, degree_v, poles, knots_u, knots_v, weights=None, nam
             raise InvalidCurveError(f"{name}.{label} must be finite and non-decreasing")
         if not knots[-p - 1] > knots[p]:
             raise InvalidCurveError(f"{name}.{label} give an empty domain [{knots[p]}, {knots[-p - 1]}]")
-        check_knot_structure(knots, p, f"{name}.{label}")
     return NurbsSurface(int(degree_u), int(degree_v), np.ascontiguousarray(poles), np.ascontiguousarray(w), ku, kv,
                         name)
 
