@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from hypothesis import given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 from scipy.interpolate import BSpline
 
 from flatten import InvalidCurveError, nurbs_curve
@@ -118,6 +118,26 @@ def test_knot_vectors_are_refused_exactly_when_a_control_point_is_dead_or_the_cu
     lo, hi = curve.domain
     t = np.linspace(lo, hi, 41)  # both ends included: no 0/0 there
     assert np.all(np.isfinite(curve.derivatives(t, 2)))
+
+
+@settings(max_examples=25, derandomize=True, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])  # capsys is read out per example
+@given(data=st.data())
+def test_knot_vectors_in_a_config_exit_2_exactly_when_the_curve_is_broken(tmp_path_factory, capsys, data):
+    # a cubic of 7 control points: 11 knots drawn from a few values, in the YAML as given
+    knots = np.sort(np.array(data.draw(st.lists(st.sampled_from([0.0, 0.2, 0.5, 0.8, 1.0]), min_size=11,
+                                                max_size=11))))
+    if not knots[7] > knots[3]:
+        return  # an empty domain (its own message, tested in test_nurbs)
+    points = (np.random.default_rng(3).normal(size=(7, 3)) * 100.0).round(3)
+    path = tmp_path_factory.mktemp("knots") / "k.yaml"
+    path.write_text(yaml.safe_dump(config({"degree": 3, "control_points": points.tolist(),
+                                           "knots": knots.tolist()})))
+    bad = dead_or_broken(knots, 3)
+    assert main(["check", str(path)]) == (2 if bad else 0)
+    err = capsys.readouterr().err
+    if bad:
+        assert str(path) in err and "curves.c.knots" in err and ", ".join(f"{k:.10g}" for k in knots) in err, err
 
 
 # --------------------------------------------------------------------- DXF polylines
