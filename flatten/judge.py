@@ -192,8 +192,9 @@ class UnitMap:
         evaluated from the curves (:func:`ruling_determinant`), (N, 2): near a far side of
         a high-degree cell the power form of f has lost digits and its root lies off Z by
         up to ~1e-9 there. A point whose residual is at most :data:`RESIDUAL_FLOOR` or
-        whose first step is round-off (``EDGE_ROUNDOFF``) stays as it is; a correction is taken when it settles within ``EDGE_REACH`` with the normalised
-        residual not larger (not across a crossing, where the gradient vanishes)."""
+        whose first step is round-off (``EDGE_ROUNDOFF``) stays as it is; a correction is
+        taken when it settles within ``EDGE_REACH`` with the normalised residual not
+        larger (not across a crossing, where the gradient vanishes)."""
         if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
             return x
         inside = np.flatnonzero(np.all((x > 0.0) & (x < 1.0), axis=1) & ~fixed.any(axis=1))
