@@ -425,6 +425,7 @@ class DevelopabilityField:
         if flat_T.size <= 4:  # a few points (the pipeline asks one at a time): plain floats
             for k, (tk, Tk) in enumerate(zip(flat_t.tolist(), flat_T.tolist())):
                 flat_T[k] = self._refine_one(tk, Tk, iterations)
+            self._on_curves(flat_t, flat_T)
             return T
         i, s, _ = self._local(self.c, flat_t)
         bd = self.d.breakpoints
@@ -452,7 +453,23 @@ class DevelopabilityField:
             todo = np.concatenate(moved) if moved else np.zeros(0, dtype=int)
             if todo.size == 0:
                 break
+        self._on_curves(flat_t, flat_T)
         return T
+
+    def _on_curves(self, t: np.ndarray, T: np.ndarray) -> None:
+        """T (N,) finished in place by Newton in T on g from the curves (:func:`root_along`):
+        near a far side of a high-degree cell (a domain end of c or d) the power form of f
+        has lost digits and its root lies off by up to ~1e-9; where the first step is
+        round-off, T stays as it is. Only the general field: the equation of curves on
+        parallel planes is solved as it is (:func:`flatten.solver.solve` checks it and
+        solves the full one where it is not accurate enough)."""
+        if self.kind != GENERAL:
+            return
+        # (not on a corner line: a ruling there is a fan ruling, g one-sided)
+        free = np.flatnonzero(~np.isin(t, corner_knots(self.c)) & ~np.isin(T, corner_knots(self.d)))
+        if len(free):
+            _, moved, taken, _ = root_along(self.c, self.d, t[free], T[free], np.ones(len(free), dtype=np.intp))
+            T[free[taken]] = moved[taken]
 
     def _refine_one(self, t: float, T: float, iterations: int) -> float:
         """:meth:`refine_T` of one point in plain floats (the same steps)."""
@@ -593,6 +610,80 @@ def corner_knots(curve: NurbsCurve, relative: float = 1e-9) -> np.ndarray:
     right = right / np.maximum(np.linalg.norm(right, axis=1, keepdims=True), 1e-300)
     jump = np.linalg.norm(left - right, axis=1)  # 0: same line, same sense of travel
     return inner[idx[jump > relative]]
+
+
+def ruling_determinant(c: NurbsCurve, d: NurbsCurve, t, T) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """g = det(c'(t), d'(T), d(T) - c(t)) (N,), its gradient (g_t, g_T) (N, 2) and its
+    scale |c'| |d'| |d - c| (N,), from the curves' own derivatives (scipy's B-splines), not
+    from the power form of f: g_t = det(c'', d', d - c) and g_T = det(c', d'', d - c) (the
+    terms det(c', d', -c') and det(c', d', d') vanish).
+
+    The power form of f on a cell of high degree loses digits near the cell's far sides
+    (its coefficients cancel there); g from the curves keeps round-off relative to its
+    scale, so a root located on it has a residual :func:`normalized_residual` of round-off.
+    g has the zeros of f (f = +-w^2 W^2 g).
+    """
+    t, T = np.atleast_1d(np.asarray(t, dtype=np.float64)), np.atleast_1d(np.asarray(T, dtype=np.float64))
+    pc, dc, ddc = c.derivatives(t, 2)
+    pd, dd, ddd = d.derivatives(T, 2)
+    diff = pd - pc
+    g = np.einsum("ij,ij->i", np.cross(dc, dd), diff)
+    grad = np.column_stack([np.einsum("ij,ij->i", np.cross(ddc, dd), diff),
+                            np.einsum("ij,ij->i", np.cross(dc, ddd), diff)])
+    scale = np.linalg.norm(dc, axis=1) * np.linalg.norm(dd, axis=1) * np.linalg.norm(diff, axis=1)
+    return g, grad, scale
+
+
+# A point on a side of the parameter rectangle is located as a root of f restricted to that
+# side, on g evaluated from the curves (:func:`ruling_determinant`): a first Newton step
+# below EDGE_ROUNDOFF of the domain's width is round-off of either evaluation and leaves
+# the point as it is; the root is taken when it lies within EDGE_REACH (of the width) of
+# the point, inside the side.
+EDGE_ROUNDOFF = 1e-13
+EDGE_REACH = 1e-6
+
+
+def root_along(c: NurbsCurve, d: NurbsCurve, t, T, free, iterations: int = 8):
+    """Newton on g = det(c', d', d - c) (:func:`ruling_determinant`) along one parameter
+    per point, the other held: t (N,), T (N,), free (N,) 0 to move t, 1 to move T; moved
+    values stay on their curve's domain.
+
+    Returns (t (N,), T (N,), taken (N,): the root lies inside the domain (beyond its end by
+    round-off at most), within EDGE_REACH of the start, and the normalised residual
+    (:func:`normalized_residual`) is not larger there;
+    at_root (N,): the first step was round-off (or g does not change along the line),
+    the point stays). Where ``taken`` is False the returned values are not to be used.
+    """
+    t = np.array(t, dtype=np.float64, ndmin=1)
+    T = np.array(T, dtype=np.float64, ndmin=1)
+    free = np.asarray(free, dtype=np.intp)
+    rows = np.arange(len(t))
+    start = np.column_stack([t, T])
+    y = start.copy()
+    lo = np.array([c.domain[0], d.domain[0]])[free]
+    hi = np.array([c.domain[1], d.domain[1]])[free]
+    width = hi - lo
+    g0 = at_root = None
+    for _ in range(iterations):
+        g, grad, scale = ruling_determinant(c, d, y[:, 0], y[:, 1])
+        slope = grad[rows, free]
+        # not where g does not change along the line (a fan lying on it, a curve standing still)
+        usable = np.abs(slope * width) > 1e-6 * np.hypot(grad[:, 0] * np.ptp(c.domain), grad[:, 1] * np.ptp(d.domain))
+        step = np.divide(g, slope, out=np.zeros_like(g), where=usable)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g_now = np.abs(g) / scale  # the normalised residual (NaN where a curve stands still)
+        if g0 is None:
+            g0, at_root = g_now, ~usable | (np.abs(step) <= EDGE_ROUNDOFF * width)
+        beyond = y[rows, free] - step  # where Newton puts the root
+        moved = np.clip(beyond, lo, hi)
+        done = at_root | (moved == y[rows, free])
+        if done.all():
+            break
+        y[rows[~done], free[~done]] = moved[~done]
+    taken = (~at_root & np.isfinite(beyond) & (beyond >= lo - EDGE_ROUNDOFF * width)
+             & (beyond <= hi + EDGE_ROUNDOFF * width)
+             & (np.abs(y[rows, free] - start[rows, free]) <= EDGE_REACH * width) & (g_now <= g0))
+    return y[:, 0], y[:, 1], taken, at_root
 
 
 def normalized_residual(c: NurbsCurve, d: NurbsCurve, t, T) -> np.ndarray:

@@ -11,7 +11,8 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import DevelopabilityField, corner_knots, normalized_residual
+from .equation import (EDGE_REACH, EDGE_ROUNDOFF, GENERAL, DevelopabilityField, corner_knots, normalized_residual,
+                       root_along, ruling_determinant)
 from .nurbs import NurbsCurve
 from .solution import (Branch, Coverage, CurvatureMismatch, KnotCrossing, Path, Piece,
                        TurningPoint)
@@ -21,6 +22,9 @@ from .tracer import Trace
 # A polyline crossing is a true crossing of two branches only where f vanishes to this
 # normalised residual (the saddle's f0 of a near-tangent pair does not).
 CROSSING_RESIDUAL = 1e-12
+# A polished point inside the square whose normalised residual is at most this is not
+# finished on the curves' own g (see UnitMap._on_curves): it lies on Z to round-off.
+RESIDUAL_FLOOR = 1e-14
 
 
 class UnitMap:
@@ -181,7 +185,102 @@ class UnitMap:
                 active = np.append(active, company)
         x[np.abs(x) <= 1e-14] = 0.0
         x[np.abs(x - 1.0) <= 1e-14] = 1.0
+        return self.locate_on_sides(self._on_curves(x, fixed), fixed)
+
+    def _on_curves(self, x: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+        """Points (N, 2) inside the square finished by Newton along the gradient of g
+        evaluated from the curves (:func:`ruling_determinant`), (N, 2): near a far side of
+        a high-degree cell the power form of f has lost digits and its root lies off Z by
+        up to ~1e-9 there. A point whose residual is at most :data:`RESIDUAL_FLOOR` or
+        whose first step is round-off (``EDGE_ROUNDOFF``) stays as it is; a correction is
+        taken when it settles within ``EDGE_REACH`` with the normalised residual not
+        larger (not across a crossing, where the gradient vanishes)."""
+        if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
+            return x
+        inside = np.flatnonzero(np.all((x > 0.0) & (x < 1.0), axis=1) & ~fixed.any(axis=1))
+        if len(inside) == 0:
+            return x
+        # (first the residual alone, from first derivatives: most points meet it already)
+        p = self.to_params(x[inside])
+        inside = inside[~(normalized_residual(self.field.c, self.field.d, p[:, 0], p[:, 1]) <= RESIDUAL_FLOOR)]
+        if len(inside) == 0:
+            return x
+        y = x[inside].copy()
+        g0 = at_root = None
+        for _ in range(8):
+            p = self.to_params(y)
+            g, grad, scale = ruling_determinant(self.field.c, self.field.d, p[:, 0], p[:, 1])
+            grad = grad * self.width
+            gg = np.einsum("ij,ij->i", grad, grad)
+            step = np.divide(g, gg, out=np.zeros_like(g), where=gg > 0)[:, None] * grad
+            size = np.hypot(step[:, 0], step[:, 1])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g_now = np.abs(g) / scale  # the normalised residual (NaN where a curve stands still)
+            if g0 is None:
+                g0, at_root = g_now, size <= EDGE_ROUNDOFF
+                if at_root.all():
+                    return x
+            done = at_root | (size <= 1e-16)
+            if done.all():
+                break
+            y[~done] = np.minimum(np.maximum(y[~done] - step[~done], 0.0), 1.0)
+        taken = (~at_root & (g_now <= g0) & (np.hypot(*(y - x[inside]).T) <= EDGE_REACH)
+                 & np.all((y > 0.0) & (y < 1.0), axis=1))
+        x = x.copy()
+        x[inside[taken]] = y[taken]
         return x
+
+    def locate_on_sides(self, x: np.ndarray, fixed: np.ndarray | None = None) -> np.ndarray:
+        """Points (N, 2) lying on a side of the unit square moved to the root of f
+        restricted to that side, (N, 2): Newton along the side on g evaluated from the
+        curves (:func:`ruling_determinant`), not on the power form of f, whose round-off
+        on a high-degree cell can put an end ~1e-9 off its root (degree-7 rational
+        curves). A point at a corner of the square where f does not vanish (a branch
+        passing within ~1e-8 of the corner, ended there by the tracer) goes to the nearer
+        root on the two sides through it. Points fixed on a knot line (``fixed`` (N, 2)
+        bool) and points whose side carries no root within ``EDGE_REACH`` (:func:`root_along`) stay."""
+        on_side = (x == 0.0) | (x == 1.0)
+        if self.field.kind != GENERAL:  # (see DevelopabilityField._on_curves)
+            return x
+        if fixed is not None:
+            on_side &= ~fixed.any(axis=1)[:, None]
+        sides = on_side.sum(axis=1)
+        if not sides.any():
+            return x
+        x = x.copy()
+        # one batch: each point on one side along that side, each corner point along both
+        single = np.flatnonzero(sides == 1)
+        corner = np.flatnonzero(sides == 2)
+        which = np.concatenate([single, corner, corner])
+        free = np.concatenate([np.argmin(on_side[single], axis=1), np.zeros(len(corner), dtype=np.intp),
+                               np.ones(len(corner), dtype=np.intp)])
+        moved, ok, root = self._newton_along(x[which], free)
+        n = len(single)
+        x[single[ok[:n]]] = moved[:n][ok[:n]]
+        if len(corner):
+            # the nearer root of the two sides; none where f vanishes at the corner itself
+            along = [slice(n, n + len(corner)), slice(n + len(corner), None)]
+            dist = np.stack([np.where(ok[k], np.abs(moved[k, axis] - x[corner, axis]), np.inf)
+                             for axis, k in enumerate(along)])
+            best = np.argmin(dist, axis=0)
+            take = np.isfinite(dist.min(axis=0)) & ~(root[along[0]] | root[along[1]])
+            for axis, k in enumerate(along):
+                pick = take & (best == axis)
+                x[corner[pick]] = moved[k][pick]
+        return x
+
+    def _newton_along(self, x: np.ndarray, free: np.ndarray):
+        """:func:`root_along` of unit points (N, 2) along their free axes (N,): (moved unit
+        points (N, 2), taken (N,), at_root (N,))."""
+        p = self.to_params(x)
+        t, T, taken, at_root = root_along(self.field.c, self.field.d, p[:, 0], p[:, 1], free)
+        y = x.copy()
+        rows = np.arange(len(x))
+        y[rows, free] = self.to_unit(np.column_stack([t, T]))[rows, free]
+        # the sides map onto the domain ends exactly (see :meth:`to_params`)
+        y[np.abs(y) <= 1e-14] = 0.0
+        y[np.abs(y - 1.0) <= 1e-14] = 1.0
+        return y, taken, at_root
 
 
 # ------------------------------------------------------------------ classes

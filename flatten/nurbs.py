@@ -313,6 +313,58 @@ class NurbsCurve:
         return np.einsum("ij,ij->i", d2, normals) / np.einsum("ij,ij->i", d1, d1)
 
 
+def knots_text(knots: np.ndarray, limit: int = 40) -> str:
+    """A knot vector for a message: every value when there are at most ``limit``, else the
+    first and last ``limit // 2``."""
+    values = [f"{float(k):.10g}" for k in knots]
+    if len(values) > limit:
+        values = values[: limit // 2] + [f"... ({len(values) - limit} more)"] + values[-(limit // 2):]
+    return "[" + ", ".join(values) + "]"
+
+
+def check_knot_structure(u: np.ndarray, degree: int, field: str) -> None:
+    """Refuse a finite, non-decreasing knot vector (n+degree+2,) with a non-empty domain
+    that would break the curve or leave a control point without influence; the message
+    names ``field`` ("curves.c.knots"), the knot and the whole vector.
+
+    - a knot value inside the domain may appear at most ``degree`` times (the curve would
+      be discontinuous there);
+    - any knot value but the first and the last may appear at most ``degree`` times: with
+      degree + 1 copies the domain ends there and the knots beyond it give control points
+      that act nowhere (the curve evaluates to 0/0 at that end);
+    - a value may appear at most degree + 1 times anywhere;
+    - the first and the last control points act on the domain: knots[degree] <
+      knots[degree + 1] and knots[n] < knots[n + 1].
+    """
+    n = len(u) - degree - 2  # index of the last control point
+    lo, hi = u[degree], u[n + 1]
+    inner = u[(u > lo) & (u < hi)]
+    values, counts = np.unique(inner, return_counts=True)
+    if np.any(counts > degree):
+        k = values[np.argmax(counts)]
+        raise InvalidCurveError(
+            f"{field}: interior knot {k:.10g} has multiplicity {counts.max()} > degree {degree}, "
+            f"the curve would be discontinuous (knots: {knots_text(u)})")
+    values, counts = np.unique(u, return_counts=True)
+    if np.any(counts > degree + 1):
+        k = values[np.argmax(counts)]
+        raise InvalidCurveError(
+            f"{field}: knot {k:.10g} has multiplicity {counts.max()} > degree + 1 = {degree + 1}, "
+            f"a control point would have no influence on the curve (knots: {knots_text(u)})")
+    middle = (values > u[0]) & (values < u[-1]) & (counts > degree)
+    if np.any(middle):
+        k, m = values[middle][0], counts[middle][0]
+        raise InvalidCurveError(
+            f"{field}: interior knot {k:.10g} has multiplicity {m} > degree {degree} ({degree + 1} copies only "
+            f"at the two ends of the knot vector): the domain would end there and the control points beyond "
+            f"it act nowhere; a curve with a break is two curves (knots: {knots_text(u)})")
+    for i, a, b in ((0, degree, degree + 1), (n, n, n + 1)):
+        if not u[a] < u[b]:
+            raise InvalidCurveError(
+                f"{field}: knots[{a}] = knots[{b}] = {u[a]:.10g}: control point {i} would act nowhere on the "
+                f"domain [{lo:.10g}, {hi:.10g}] (knots: {knots_text(u)})")
+
+
 def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
                 name: str = "curve") -> NurbsCurve:
     """Validate the definition of a NURBS curve and build it.
@@ -400,19 +452,7 @@ def nurbs_curve(control_points, degree: int = 3, weights=None, knots=None,
         lo, hi = u[degree], u[-degree - 1]
         if not hi > lo:
             raise InvalidCurveError(f"{name}.knots give an empty domain [{lo}, {hi}]")
-        inner = u[(u > lo) & (u < hi)]
-        values, counts = np.unique(inner, return_counts=True)
-        if np.any(counts > degree):
-            k = values[np.argmax(counts)]
-            raise InvalidCurveError(
-                f"{name}.knots: interior knot {k} has multiplicity {counts.max()} > degree {degree}, "
-                "the curve would be discontinuous")
-        values, counts = np.unique(u, return_counts=True)
-        if np.any(counts > degree + 1):
-            k = values[np.argmax(counts)]
-            raise InvalidCurveError(
-                f"{name}.knots: knot {k} has multiplicity {counts.max()} > degree + 1 = {degree + 1}, "
-                "a control point would have no influence on the curve")
+        check_knot_structure(u, degree, f"{name}.knots")
         if np.abs(u).max() > MAX_KNOT or hi - lo < MIN_DOMAIN:
             raise InvalidCurveError(f"{name}.knots: the domain [{lo:g}, {hi:g}] is outside the supported "
                                     f"range (|knot| <= {MAX_KNOT:g}, width >= {MIN_DOMAIN:g})")

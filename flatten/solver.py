@@ -18,7 +18,7 @@ from .nurbs import NurbsCurve
 from .pair import check_pair
 from .solution import Branch, Finding, Path, Piece, SolutionSet
 from .tolerances import DEFAULT_TOLERANCES, Tolerances
-from .tracer import END_STEP_LIMIT, END_UNRESOLVED, StepCaps, _distance_to_polyline, trace_zero_set
+from .tracer import END_STEP_LIMIT, END_UNRESOLVED, SIDE_NAMES, StepCaps, _distance_to_polyline, trace_zero_set
 
 
 class LocalFrame:
@@ -183,6 +183,20 @@ def _end_names(ends: tuple[str, str], t_walls: tuple[bool, bool], T_walls: tuple
     return tuple(rename.get(e, e) for e in ends)
 
 
+def _side_ends(ends: tuple[str, str], points: np.ndarray) -> tuple[str, str]:
+    """A trace's end kinds after its ends were located on the sides (unit points (N, 2)):
+    an end the tracer put at a corner of the square that the polish moved along one side
+    (a branch passing the corner within round-off of the trace) is named by that side."""
+    out = list(ends)
+    for k, (name, point) in enumerate(zip(ends, points[[0, -1]])):
+        if name in SIDE_NAMES:
+            axis, value = (0 if name.startswith("t_") else 1), (0.0 if name.endswith("start") else 1.0)
+            if point[axis] != value:
+                on = [SIDE_NAMES[2 * a + int(point[a] == 1.0)] for a in (0, 1) if point[a] in (0.0, 1.0)]
+                out[k] = on[0] if on else name
+    return tuple(out)
+
+
 def _corner_fans(branches: list[Branch], c: NurbsCurve, d: NurbsCurve, first_index: int):
     """Corner fan pieces: on each corner line, join consecutive branch points lying on it.
 
@@ -296,7 +310,7 @@ def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool)
         polished = [tr.points for tr in traces]
         for k, points in zip(several, unit.polish_each([traces[k].points for k in several])):
             polished[k] = points
-        traces = [type(tr)(p, tr.closed, tr.ends) for tr, p in zip(traces, polished)]
+        traces = [type(tr)(p, tr.closed, _side_ends(tr.ends, p)) for tr, p in zip(traces, polished)]
         # the curves' derivatives at the branch points, once: the judge's classes and
         # Theorem 2's curvature signs both need them
         params = [unit.to_params(tr.points) for tr in traces]

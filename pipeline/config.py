@@ -853,8 +853,53 @@ def load_config(path: str | Path) -> RunConfig:
         more = f" [+{len(exc.errors()) - 1} more]" if len(exc.errors()) > 1 else ""
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: {field}: {message}{value_text}{more}") from None
     parts = _build_parts(spec, path, lines)
+    _check_part_sizes(spec, parts, path, lines)
     _check_notch_curves(spec, parts, path, lines)
     return RunConfig(spec, parts, path, lines)
+
+
+# A part is a plate or a piece: its extent (the diagonal of the box around both curves), in mm
+# after ``units:``, lies between these; outside them its numbers are taken for another unit
+# (a 2.9 km plate is 2.9 m of mm numbers under ``units: m``).
+MIN_PART_MM = 1.0
+MAX_PART_MM = 1.0e6  # 1 km
+
+
+def _part_extent(part: Part, samples: int = 129) -> float:
+    """Diagonal of the bounding box of c and d sampled at ``samples`` parameters each, model units."""
+    points = np.vstack([curve(np.linspace(*curve.domain, samples)) for curve in (part.c, part.d)])
+    return float(np.linalg.norm(np.ptp(points, axis=0)))
+
+
+def _check_part_sizes(spec: RunSpec, parts: list[Part], path: Path, lines: dict) -> None:
+    """Every part's extent, in mm, is within [MIN_PART_MM, MAX_PART_MM]: else its numbers are
+    in another unit than ``units:`` says, and the message says which units would fit."""
+    mm = UNIT_TO_MM[spec.units]
+    for k, part in enumerate(parts):
+        size = _part_extent(part)
+        if MIN_PART_MM <= size * mm <= MAX_PART_MM:
+            continue
+        if spec.sequence is not None:
+            loc, fields = ("sequence", k), f"sequence[{k}] and sequence[{k + 1}]"
+        else:
+            loc = (("parts", k) if spec.parts is not None else ()) + ("curves",)
+            fields = f"{_format_path(loc)}.c and {_format_path(loc)}.d"
+        line = _line_of(lines, loc)
+        fits = [f"as {unit}: {_length_text(size * factor)}" for unit, factor in UNIT_TO_MM.items()
+                if MIN_PART_MM <= size * factor <= MAX_PART_MM]
+        hint = f" (read {'; '.join(fits)})" if fits else ""
+        raise ConfigError(
+            f"{path}{':' + str(line) if line else ''}: part {part.name}: {fields} span {size:.6g} under "
+            f"units: {spec.units}, a part of {_length_text(size * mm)}; expected a part between {MIN_PART_MM:g} mm "
+            f"and {MAX_PART_MM / 1e6:g} km (the diagonal of the box around both curves, in mm after units): "
+            f"the numbers look like another unit{hint}")
+
+
+def _length_text(mm: float) -> str:
+    """A length in mm as text in mm, m or km, whichever reads best."""
+    if mm >= 1e6:
+        return f"{mm / 1e6:.4g} km"
+    return f"{mm / 1e3:.4g} m" if mm >= 1e3 else f"{mm:.4g} mm"
 
 
 def _check_notch_curves(spec: RunSpec, parts: list[Part], path: Path, lines: dict) -> None:

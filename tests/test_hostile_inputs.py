@@ -161,9 +161,11 @@ CASES = [
     ("end multiplicity above degree",
      changed(("curves", "c", "control_points"), C + [[400, 0, 0]], ("curves", "c", "knots"), [0] * 5 + [1] * 4), 2,
      ["curves.c.knots", "multiplicity 5 > degree + 1"]),
-    ("zero length hidden by knots",
+    # control point 0 acts nowhere on the domain [1, 2] (it would hide that the curve is a point)
+    ("dead control point hidden by knots",
      changed(("curves", "c", "control_points"), [[9, 9, 9]] + [[5, 5, 5]] * 4,
-             ("curves", "c", "knots"), [0, 1, 1, 1, 1, 2, 2, 2, 2]), 2, ["curves.c", "zero length", "[5.0, 5.0, 5.0]"]),
+             ("curves", "c", "knots"), [0, 1, 1, 1, 1, 2, 2, 2, 2]), 2,
+     ["curves.c.knots", "interior knot 1 has multiplicity 4 > degree 3", "[0, 1, 1, 1, 1, 2, 2, 2, 2]"]),
     ("knot domain 1e-300 wide", changed(("curves", "c", "knots"), [0, 0, 0, 0, 1e-300, 1e-300, 1e-300, 1e-300]), 2,
      ["curves.c.knots", "domain", "1e-300"]),
     ("knots 1e300", changed(("curves", "d", "knots"), [0, 0, 0, 0, 1e300, 1e300, 1e300, 1e300]), 2,

@@ -43,28 +43,32 @@ class FitReport:
     tolerance: float
 
 
-def fit_points(points: np.ndarray, tolerance: float, name: str) -> tuple[NurbsCurve, FitReport]:
+def fit_points(points: np.ndarray, tolerance: float, name: str,
+               where: str | None = None) -> tuple[NurbsCurve, FitReport]:
     """Cubic B-spline through (N, 3) points, smoothed as much as the tolerance allows:
     the smoothing factor is lowered until the largest distance of a point from the
-    curve (at its own parameter) is within ``tolerance``."""
+    curve (at its own parameter) is within ``tolerance``. Messages start with ``where``
+    (the file and entity the points come from), by default with the curve's ``name``."""
     from flatten.nurbs import MAX_COORDINATE
+
+    where = name if where is None else where
 
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < 4:
-        raise SourceError(f"{name}: need at least 4 points of 3 coordinates, got shape {pts.shape}")
+        raise SourceError(f"{where}: need at least 4 points of 3 coordinates, got shape {pts.shape}")
     if len(pts) > MAX_FIT_POINTS:
-        raise SourceError(f"{name}: {len(pts)} points, more than the {MAX_FIT_POINTS} a fit takes")
+        raise SourceError(f"{where}: {len(pts)} points, more than the {MAX_FIT_POINTS} a fit takes")
     bad = np.argwhere(~(np.abs(pts) <= MAX_COORDINATE))
     if len(bad):
         i, j = bad[0]
-        raise SourceError(f"{name}: point {i} coordinate {j} = {pts[i, j]:g} is not finite or beyond "
+        raise SourceError(f"{where}: point {i} coordinate {j} = {pts[i, j]:g} is not finite or beyond "
                           f"+-{MAX_COORDINATE:g}")
     keep = np.ones(len(pts), dtype=bool)
     keep[1:] = np.linalg.norm(np.diff(pts, axis=0), axis=1) > 0
     pts = pts[keep]
     distinct = len(np.unique(pts, axis=0))
     if distinct < 4:
-        raise SourceError(f"{name}: a cubic fit needs at least 4 distinct points, got {distinct}")
+        raise SourceError(f"{where}: a cubic fit needs at least 4 distinct points, got {distinct}")
     try:
         smoothing = len(pts) * tolerance**2
         for _ in range(60):
@@ -77,7 +81,7 @@ def fit_points(points: np.ndarray, tolerance: float, name: str) -> tuple[NurbsCu
             spline, u = make_splprep(pts.T, k=3, s=0)
             error = np.linalg.norm(spline(u).T - pts, axis=1)
     except ValueError as exc:  # scipy's own checks of the data (e.g. a point list that doubles back)
-        raise SourceError(f"{name}: the points cannot be fitted by a cubic B-spline: {exc}") from None
+        raise SourceError(f"{where}: the points cannot be fitted by a cubic B-spline: {exc}") from None
     n = len(spline.t) - 4
     curve = nurbs_curve(np.asarray(spline.c).reshape(3, -1).T[:n] if np.asarray(spline.c).shape[0] == 3
                         else np.asarray(spline.c)[:n], 3, None, spline.t, name=name)
@@ -167,7 +171,7 @@ def dxf_source(spec, base: Path, name: str) -> tuple[NurbsCurve, FitReport | Non
     if not candidates:
         raise SourceError(f"{path}: no SPLINE or polyline with {what}")
     entity = candidates[0]
-    where = f"{path}: {entity.dxftype()} {entity.dxf.handle}"
+    where = f"{path}: {entity.dxftype()} {entity.dxf.handle} on layer {entity.dxf.layer!r}"
     try:
         if entity.dxftype() == "SPLINE":
             points = np.array(entity.control_points, dtype=np.float64)
@@ -181,4 +185,4 @@ def dxf_source(spec, base: Path, name: str) -> tuple[NurbsCurve, FitReport | Non
             raise SourceError(f"{where}: not a SPLINE or polyline")
     except InvalidCurveError as exc:
         raise SourceError(f"{where}: {exc}") from None
-    return fit_points(pts, spec.tolerance, name)
+    return fit_points(pts, spec.tolerance, name, where=where)
