@@ -182,7 +182,8 @@ def class_shares(results: list[PartResult]) -> dict | None:
     return {"area_m2": areas, "share": {k: v / total for k, v in areas.items()}}
 
 
-def summary_json(results: list[PartResult]) -> str:
+def summary_json(results: list[PartResult], extra: dict | None = None) -> str:
+    """The run summary; ``extra``: further top-level keys (e.g. a hull plan's ``plan_cost``)."""
     return json.dumps(sanitize({"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
                                 "failed": [r.name for r in results if not r.ok],
-                                "classes": class_shares(results)}), indent=1)
+                                "classes": class_shares(results), **(extra or {})}), indent=1)
