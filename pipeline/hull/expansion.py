@@ -33,6 +33,7 @@ G_SAMPLES = 401
 LAYER_COLOURS = {"flat": 5, "developable": 3, "patch": 4, "formed": 30, "failed": 1}  # ACI
 LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROLLED", "formed": "EXP_FORMED",
                "failed": "EXP_FAILED"}
+DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
 SHEETS = {"A1": (841.0, 594.0), "A0": (1189.0, 841.0)}  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 2500, 5000, 10000)
 
@@ -94,14 +95,25 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
     hi_s = np.full((K, n), np.nan)
     lo_f = np.full((K, n), np.nan)
     hi_f = np.full((K, n), np.nan)
-    for k, X in enumerate(stations):  # the first bracketing pair of probes on each iso-g curve
-        f = x - X
+    step = np.diff(x, axis=1)
+    monotone = np.all(step > 0, axis=1) | np.all(step < 0, axis=1)
+    for i in np.flatnonzero(monotone):  # an iso-g curve running one way along x: bisect all stations
+        xr = x[i] if step[i, 0] > 0 else x[i, ::-1]
+        inside = (stations >= xr[0]) & (stations <= xr[-1])  # a station at the curve's very end included
+        j = np.clip(np.searchsorted(xr, stations[inside]) - 1, 0, probe - 2)
+        jj = j if step[i, 0] > 0 else probe - 1 - j  # back to the curve's own order: j and j + 1
+        a, b = (jj, jj + 1) if step[i, 0] > 0 else (jj - 1, jj)
+        lo_s[inside, i], hi_s[inside, i] = s[a], s[b]
+        lo_f[inside, i], hi_f[inside, i] = x[i, a] - stations[inside], x[i, b] - stations[inside]
+    rest = np.flatnonzero(~monotone)
+    for k, X in enumerate(stations if len(rest) else []):  # other curves: their first bracketing probes
+        f = x[rest] - X
         change = np.sign(f[:, :-1]) * np.sign(f[:, 1:]) <= 0
         has = change.any(axis=1)
         j = np.argmax(change, axis=1)
         rows = np.flatnonzero(has)
-        lo_s[k, rows], hi_s[k, rows] = s[j[rows]], s[j[rows] + 1]
-        lo_f[k, rows], hi_f[k, rows] = f[rows, j[rows]], f[rows, j[rows] + 1]
+        lo_s[k, rest[rows]], hi_s[k, rest[rows]] = s[j[rows]], s[j[rows] + 1]
+        lo_f[k, rest[rows]], hi_f[k, rest[rows]] = f[rows, j[rows]], f[rows, j[rows] + 1]
     ok = ~np.isnan(lo_s)
     GG = np.broadcast_to(g, (K, n))
     XX = np.broadcast_to(stations[:, None], (K, n))
@@ -255,6 +267,27 @@ def _centre(ring: np.ndarray) -> np.ndarray:
     return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)
 
 
+def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
+    """The polyline (N, 2) with the points Ramer-Douglas-Peucker keeps within ``tolerance``
+    (a drawing: a butt, straight in the expansion, keeps its two ends)."""
+    keep = np.zeros(len(line), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(line) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        chord = line[j] - line[i]
+        rel = line[i + 1:j] - line[i]
+        norm = np.hypot(*chord)
+        d = (np.abs(chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / norm if norm > 0 else np.hypot(rel[:, 0], rel[:, 1]))
+        k = int(np.argmax(d))
+        if d[k] > tolerance:
+            keep[i + 1 + k] = True
+            stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    return line[keep]
+
+
 def label(plate: ExpandedPlate) -> tuple[str, str]:
     thick = "" if plate.thickness is None else f"t {plate.thickness:g}"
     return plate.name, thick
@@ -275,11 +308,15 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     heights = []
     for p in drawing.plates:
         layer = LAYER_NAMES.get(p.klass, "EXP_FAILED")
-        msp.add_lwpolyline((p.outline * mm).tolist(), close=True, dxfattribs={"layer": layer})
+        # each side thinned alone: the four corners stay vertices
+        (s_lo, s_hi), (b_lo, b_hi) = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in pair]
+                                      for pair in (p.seams, p.butts))
+        ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
+        msp.add_lwpolyline(ring.tolist(), close=True, dxfattribs={"layer": layer})
         for line in p.seams:
-            msp.add_lwpolyline((line * mm).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
+            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
         for line in p.butts:
-            msp.add_lwpolyline((line * mm).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
+            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
         centre = _centre(p.outline) * mm
         width = float(np.ptp(p.outline[:, 1])) * mm
         length = float(np.ptp(p.outline[:, 0])) * mm
@@ -335,7 +372,8 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         fig = Figure(figsize=(w / 25.4, h / 25.4))
         FigureCanvasPdf(fig)
         draw_w, draw_h = (x1 - x0) * mm / n, height * mm / n
-        ax = fig.add_axes((margin / w, margin / h, draw_w / w, draw_h / h))
+        # the drawing right under the title, the legend under it
+        ax = fig.add_axes((margin / w, (h - margin - title_h - draw_h) / h, draw_w / w, draw_h / h))
         ax.set_xlim(x0 * mm, x1 * mm)
         ax.set_ylim(0.0, height * mm)
         ax.set_axis_off()
