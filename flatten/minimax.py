@@ -55,12 +55,8 @@ class MinimaxPlaneFit(PlaneFit):
 
     @property
     def proven(self) -> bool:
-        """The certificate closes: no plane fits better than 1e-9 relative (plus round-off)."""
-        return self.lower_bound >= self.max_distance * (1.0 - 1e-9) - 1e-12 * self.scale
-
-    @property
-    def scale(self) -> float:
-        return float(np.abs(self.distances).max(initial=0.0)) + 1.0
+        """The certificate closes: no plane fits better, to 1e-9 relative."""
+        return self.lower_bound >= self.max_distance * (1.0 - 1e-9)
 
 
 def _frame(normal: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -190,3 +186,16 @@ def flattest_plane(points: np.ndarray, tolerance: float) -> PlaneFit:
         return ls
     return minimax_plane(points, start=ls)
 
+
+
+def fits_a_plane(points: np.ndarray, tolerance: float) -> bool:
+    """Whether some plane lies within ``tolerance`` of every point (N, 3): the least-squares
+    plane settles it when it fits (the minimax plane fits then too) or when its RMS distance
+    exceeds the tolerance (no plane fits); the linear programmes run only in between."""
+    points = np.asarray(points, dtype=np.float64)
+    ls = fit_plane(points)
+    if ls.max_distance <= tolerance:
+        return True
+    if len(points) < 3 or float(np.sqrt(np.mean(ls.distances ** 2))) > tolerance:
+        return False
+    return minimax_plane(points, start=ls).max_distance <= tolerance

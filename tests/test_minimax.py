@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from flatten.minimax import flattest_plane, minimax_plane
+from flatten.minimax import fits_a_plane, flattest_plane, minimax_plane
 from flatten.patchflat import fit_plane
 
 
@@ -97,3 +97,6 @@ def test_the_certificate_closes_on_a_plate_grid_and_the_rms_shortcut_is_safe():
     assert rms <= fit.max_distance
     assert flattest_plane(pts, 0.99 * rms).max_distance == pytest.approx(fit.least_squares_max)
     assert flattest_plane(pts, fit.max_distance).max_distance == pytest.approx(fit.max_distance, rel=1e-12)
+    # fits_a_plane agrees with the minimax fit on either side of it, whichever bound decides
+    for tol in (0.99 * rms, 0.999 * fit.max_distance, fit.max_distance * 1.001, fit.least_squares_max):
+        assert fits_a_plane(pts, tol) == (fit.max_distance <= tol)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flatten.patch import principal_curvatures, region_grid
-from flatten.minimax import flattest_plane
+from flatten.minimax import fits_a_plane
 
 
 
@@ -82,7 +82,7 @@ def _misfit(s: RegionSample, mask: np.ndarray, length: np.ndarray, width: np.nda
 
 def _flat(s: RegionSample, mask: np.ndarray, tol: float) -> bool:
     pts = s.points[mask]
-    return len(pts) >= 3 and flattest_plane(pts, tol).max_distance <= tol
+    return len(pts) >= 3 and fits_a_plane(pts, tol)
 
 
 def estimate(s: RegionSample, tol: float) -> float:
