@@ -117,8 +117,11 @@ def test_the_expansion_pdf_names_every_plate_and_states_its_scale(cylinder):
         size_mm = sorted((page.width * 25.4 / 72, page.height * 25.4 / 72))
         assert size_mm == pytest.approx([594.0, 841.0], abs=0.5) or size_mm == pytest.approx([841.0, 1189.0], abs=0.5)
         text = page.extract_text()
+        # words in the order the PDF writes them (each label one text object): small labels
+        # of neighbouring plates would interleave in a layout-ordered reading
+        words = [w["text"] for w in page.extract_words(use_text_flow=True)]
     for name in (f"cyl_S{i}_B{j}" for i in (1, 2) for j in (1, 2)):
-        assert text.count(name) == 1
+        assert words.count(name) == 1
     assert "scale 1:" in text and "FR 4" in text  # frame 4 at x = 10 m
 
 
@@ -190,5 +193,5 @@ def test_the_160m_hull_strake_girths_match_its_sections_measured_again(tmp_path)
     import pdfplumber
 
     with pdfplumber.open(out / "hm_expansion.pdf") as pdf:
-        text = pdf.pages[0].extract_text()
-    assert all(text.count(name) == 1 for name in ("hm_S1_B1", "hm_S1_B2", "hm_S2_B1", "hm_S2_B2"))
+        words = [w["text"] for w in pdf.pages[0].extract_words(use_text_flow=True)]
+    assert all(words.count(name) == 1 for name in ("hm_S1_B1", "hm_S1_B2", "hm_S2_B1", "hm_S2_B2"))

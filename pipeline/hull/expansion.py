@@ -288,6 +288,12 @@ def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
     return line[keep]
 
 
+def _area(ring: np.ndarray) -> float:
+    """Area of a closed ring (N, 2) (shoelace)."""
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+
+
 def label(plate: ExpandedPlate) -> tuple[str, str]:
     thick = "" if plate.thickness is None else f"t {plate.thickness:g}"
     return plate.name, thick
@@ -386,8 +392,9 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         pt_per_model = 72.0 / 25.4 * mm / n  # font points per model unit on paper
         for p in drawing.plates:
             centre = _centre(p.outline) * mm
-            plate_h = float(np.ptp(p.outline[:, 1])) * pt_per_model
             plate_l = float(np.ptp(p.outline[:, 0])) * pt_per_model
+            # the mean girth width (area / length): a plate whose seams slope is not as wide as its extent
+            plate_h = _area(p.outline) * pt_per_model ** 2 / max(plate_l, 1e-300)
             name, thick = label(p)
             size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
             ax.text(centre[0], centre[1], f"{name}\n{thick}" if thick else name, fontsize=size, ha="center",
