@@ -324,8 +324,8 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         for line in p.butts:
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
         centre = _centre(p.outline) * mm
-        width = float(np.ptp(p.outline[:, 1])) * mm
         length = float(np.ptp(p.outline[:, 0])) * mm
+        width = _area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
         name, thick = label(p)
         h = max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0)
         heights.append(h)
