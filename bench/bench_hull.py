@@ -12,8 +12,8 @@ fits; the hull patch's minimal-strain development is within the tolerance: rolle
 failed; flat + strip is the honest share. The plan's cost (pipeline/hull/cost.py): metres of
 weld between plates (seams + butts), per m^2 of shell, and the narrowest plate's width. The
 worst deviation from the hull (flat and strip plates), the worst in-plane strain (patch and
-formed plates), crashes, time; the hull picture coloured by class and the plan (plate outlines
-in 3D, one DXF layer per class) go to --out.
+formed plates), crashes, time; the hull picture coloured by class, the plan (plate outlines
+in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --out.
 """
 
 from __future__ import annotations
@@ -72,14 +72,16 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
             worst_strain = max(worst_strain, klass.get("max_strain") or 0.0)
     total = sum(areas.values())
     from pipeline.hull.cost import plan_cost
-    from pipeline.hull.expansion import shell_edges
+    from pipeline.hull.expansion import shell_edges, write_expansion
 
-    cost = plan_cost(results, shell_edges(results), config.mm_per_unit)
+    edges = shell_edges(results)
+    cost = plan_cost(results, edges, config.mm_per_unit)
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}")
     class_hull_png(out / f"{tag}_classes.png", results, config.spec.units, config.mm_per_unit,
                    f"{hull}, {method} plan, {seams} seams: {len(results)} plates")
     write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
+    write_expansion(results, edges, config, out, tag, True, True)
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
             "shares": {k: v / total for k, v in areas.items()},
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
@@ -107,7 +109,7 @@ def main(argv=None) -> int:
                   f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
                   f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
                   flush=True)
-    print(f"pictures and plan DXFs in {args.out}")
+    print(f"pictures, plan DXFs and shell expansions in {args.out}")
     return 0
 
 
