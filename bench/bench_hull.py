@@ -9,9 +9,11 @@ Per hull, method and seams: plates, shares of the shell area (plate regions insi
 trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
 or butt sections fits the hull within the tolerance and covers the region), patch (no strip
 fits; the hull patch's minimal-strain development is within the tolerance: rolled), formed,
-failed; flat + strip is the honest share. The worst deviation from the hull (flat and strip
-plates), the worst in-plane strain (patch and formed plates), crashes, time; the hull picture
-coloured by class and the plan (plate outlines in 3D, one DXF layer per class) go to --out.
+failed; flat + strip is the honest share. The plan's cost (pipeline/hull/cost.py): metres of
+weld between plates (seams + butts), per m^2 of shell, and the narrowest plate's width. The
+worst deviation from the hull (flat and strip plates), the worst in-plane strain (patch and
+formed plates), crashes, time; the hull picture coloured by class, the plan (plate outlines
+in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --out.
 """
 
 from __future__ import annotations
@@ -69,14 +71,21 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
         if r.ok and name in ("patch", "formed"):
             worst_strain = max(worst_strain, klass.get("max_strain") or 0.0)
     total = sum(areas.values())
+    from pipeline.hull.cost import plan_cost
+    from pipeline.hull.expansion import shell_edges, write_expansion
+
+    edges = shell_edges(results)
+    cost = plan_cost(results, edges, config.mm_per_unit)
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}")
     class_hull_png(out / f"{tag}_classes.png", results, config.spec.units, config.mm_per_unit,
                    f"{hull}, {method} plan, {seams} seams: {len(results)} plates")
     write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
+    write_expansion(results, edges, config, out, tag, True, True)
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
             "shares": {k: v / total for k, v in areas.items()},
-            "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds}
+            "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
+            "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m")}
 
 
 def main(argv=None) -> int:
@@ -88,8 +97,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
     args = parser.parse_args(argv)
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
-          f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'worst dev mm':>13}{'worst strain':>13}"
-          f"{'crashes':>8}{'time s':>8}")
+          f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'weld m':>8}{'weld m/m2':>10}{'narrowest m':>12}"
+          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}")
     for hull in args.hulls:
         for method, seams in [(m, s) for m in args.methods for s in args.seams]:
             r = run(hull, method, args.out, seams)
@@ -97,10 +106,10 @@ def main(argv=None) -> int:
             print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}"
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
-                  f"{100 * (s['flat'] + s['strip']):>13.1f}"
-                  f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
+                  f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
+                  f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
                   flush=True)
-    print(f"pictures and plan DXFs in {args.out}")
+    print(f"pictures, plan DXFs and shell expansions in {args.out}")
     return 0
 
 

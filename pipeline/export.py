@@ -249,13 +249,25 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
 
     style = config.spec.name or config.source.stem
     written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
+    edges, cost = {}, None
+    if any(r.part.hull is not None for r in results):  # a strake or hull: what the plan costs
+        from .hull.cost import plan_cost
+        from .hull.expansion import shell_edges
+
+        edges = shell_edges(results)
+        cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit).as_dict()
     write_text(written[0], summary_csv(results))
-    extra = {}
+    extra = {} if cost is None else {"plan_cost": cost}
     if model_sources(config):  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports
 
         extra["hull_models"] = model_reports(model_sources(config), config.source.parent)
     write_text(written[1], summary_json(results, extra))
+    if edges:  # the shell expansion drawing: every plate in girth x length
+        from .hull.expansion import write_expansion
+
+        out = config.spec.output
+        written += write_expansion(results, edges, config, out_dir, style, out.dxf, out.png)
     classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
     planned = config.spec.strake is not None and config.spec.strake.plan is not None
     if classed and planned and config.spec.output.dxf:  # the plan: every plate's outline on the hull, by class

@@ -1,7 +1,9 @@
 """Run one part; a hull plate always gets a development and a class.
 
-flat        the plate's region on the hull fits a plane within the fit tolerance: the
-            development is its orthogonal projection on that plane (exact for a plane);
+flat        the plate's region on the hull fits some plane within the fit tolerance (its
+            minimax plane, :mod:`flatten.minimax`: the least-squares plane may miss where
+            another fits): the development is its orthogonal projection on that plane,
+            and the reported deviation is that plane's largest distance;
 developable devflat's strip fits the hull within the tolerance and covers the whole region
             (four corners included): its rulings seam to seam (between the seams, trimmed
             by the butt planes) or butt to butt (between the butt sections, trimmed by the
@@ -28,8 +30,8 @@ import numpy as np
 
 from flatten.closest import SurfaceDistance
 from flatten.patch import principal_curvatures, region_grid, weld
-from flatten.patchflat import (arap_development, fit_plane, planar_development, streamlines, triangle_maps,
-                               triangle_stretches)
+from flatten.minimax import flattest_plane
+from flatten.patchflat import arap_development, planar_development, streamlines, triangle_maps, triangle_stretches
 from flatten.trim import barycentric
 
 from ..config import Part, RunConfig
@@ -243,12 +245,16 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                                 "surface": hull.surface.name, "surface_note": hull.surface_note or None,
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
-    fit = fit_plane(v_grid)
+    # flat when some plane fits, not only the least-squares one: the minimax plane, the
+    # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
+    fit = flattest_plane(v_grid, tol)
     if fit.max_distance <= tol:
         uv = planar_development(v_grid, fit)
         _deliver_patch(result, config, grid, uv, v3, f3, index, "flat",
-                       {"method": "orthogonal projection on the least-squares plane of the region",
-                        "plane_max_distance": fit.max_distance, "normal": fit.normal.tolist()}, None, (length, width))
+                       {"method": "orthogonal projection on the minimax (Chebyshev) plane of the region",
+                        "plane_max_distance": fit.max_distance, "normal": fit.normal.tolist(),
+                        "plane_lower_bound": fit.lower_bound, "plane_proven_minimax": fit.proven,
+                        "least_squares_max_distance": fit.least_squares_max}, None, (length, width))
         result.figures["hull_fit"] = {"max_distance": fit.max_distance,
                                       "rms_distance": float(np.sqrt(np.mean(fit.distances ** 2))),
                                       "tolerance": tol, "passed": True}

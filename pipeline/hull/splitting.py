@@ -11,7 +11,7 @@ meets it within half of it:
     misfit(p) = |kappa_min(p)| l(p)^2 / 16        (model units)
 
 The plate's estimate is the largest misfit over a coarse grid of its region, or 0 when the
-region lies within the tolerance of its least-squares plane (flat). It ranks candidate splits,
+region lies within the tolerance of some plane (its minimax plane: flat). It ranks candidate splits,
 it is not the verdict (the strip solve and hull check are): a split at x = X (a butt plane)
 or at a girth fraction w (a new seam) is scored by the area of the halves it expects to fit
 (estimate <= tolerance), then by the larger of the halves' estimates, then by how near the
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flatten.patch import principal_curvatures, region_grid
-from flatten.patchflat import fit_plane
+from flatten.minimax import fits_a_plane
 
 
 
@@ -82,7 +82,7 @@ def _misfit(s: RegionSample, mask: np.ndarray, length: np.ndarray, width: np.nda
 
 def _flat(s: RegionSample, mask: np.ndarray, tol: float) -> bool:
     pts = s.points[mask]
-    return len(pts) >= 3 and float(np.abs(fit_plane(pts).distances).max()) <= tol
+    return len(pts) >= 3 and fits_a_plane(pts, tol)
 
 
 def estimate(s: RegionSample, tol: float) -> float:

@@ -1,0 +1,445 @@
+"""The shell expansion drawing: every plate in girth x length, the yard's classic.
+
+Each section x = X of the hull is unrolled: the girth of a point is its arc length along
+that section from where the section starts (the keel centreline, or the stem contour where
+the keel has risen into the stem), and it is drawn at (x, girth). The plates' seams and
+butts, sampled on the hull (:class:`pipeline.hull.cost.PlateEdges`), are mapped point by
+point, so that a seam is drawn where the sections cross it and a butt (a plane x = X) as a
+vertical line. Frames are vertical lines at their x, as tall as the section's girth.
+
+Girth at a point (x, g) (g the surface's girth parameter) is interpolated in a table of
+sections: at stations x_k (every butt and frame of the plan, and about every 0.25 % of the
+hull's length between) the section is found on each iso-g curve (the crossing of x = x_k,
+narrowed by regula falsi) and its cumulative chord length tabled on g; between stations and
+between g samples the table is interpolated linearly.
+
+Files (millimetres): NAME_expansion.dxf (R2000, one layer per plate class, frames, seams,
+butts, texts) and NAME_expansion.pdf (one A1 or A0 sheet, the largest standard scale that
+fits, stated on the sheet). A plan of several surfaces draws each in its own band.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..io.atomic import atomic_path
+from .cost import PlateEdges
+from .hullplots import CLASS_COLOURS, LABELS, display_class
+
+G_SAMPLES = 401
+LAYER_COLOURS = {"flat": 5, "developable": 3, "patch": 4, "formed": 30, "failed": 1}  # ACI
+LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROLLED", "formed": "EXP_FORMED",
+               "failed": "EXP_FAILED"}
+DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
+SHEETS = {"A1": (841.0, 594.0), "A0": (1189.0, 841.0)}  # landscape, mm
+SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 2500, 5000, 10000)
+
+
+@dataclass(frozen=True)
+class Sections:
+    """Girth along the sections x = stations[k]: ``g`` (n,) girth parameters ascending,
+    ``girth`` (K, n) arc length from the section's start (model units; NaN where the iso-g
+    curve does not reach x = X), ``from_high``: girth is counted from the high end of g
+    (when that end lies lower, e.g. a surface whose g runs from deck to keel)."""
+
+    stations: np.ndarray
+    g: np.ndarray
+    girth: np.ndarray
+    from_high: bool
+
+    def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
+        (next to a section's end, where one neighbour is off the section, the other's value)."""
+        x, g = np.asarray(x, dtype=float), np.asarray(g, dtype=float)
+        k = np.clip(np.searchsorted(self.stations, x) - 1, 0, len(self.stations) - 2)
+        x0, x1 = self.stations[k], self.stations[k + 1]
+        w = np.clip((x - x0) / np.where(x1 > x0, x1 - x0, 1.0), 0.0, 1.0)
+        dg = self.g[1] - self.g[0]
+        j = np.clip(((g - self.g[0]) / dg).astype(int), 0, len(self.g) - 2)
+        t = np.clip((g - self.g[j]) / dg, 0.0, 1.0)
+
+        def along(rows):
+            a, b = self.girth[rows, j], self.girth[rows, j + 1]
+            a, b = np.where(np.isnan(a), b, a), np.where(np.isnan(b), a, b)
+            return a + t * (b - a)
+
+        lo, hi = along(k), along(k + 1)
+        # a station where this g is off the section (the hull's end): the other one's value
+        lo, hi = np.where(np.isnan(lo), hi, lo), np.where(np.isnan(hi), lo, hi)
+        return (1.0 - w) * lo + w * hi
+
+    def total(self) -> np.ndarray:
+        """The whole girth (K,) of each section."""
+        return np.nanmax(self.girth, axis=1, initial=0.0)
+
+
+def _uv(axis: int, s, g):
+    return (s, g) if axis == 0 else (g, s)
+
+
+def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, probe: int = 800) -> Sections:
+    """The girth table of ``surface`` (long axis ``axis``: 0 when u runs along the hull) at
+    stations (K,) (model units of x)."""
+    sdom = surface.domain_u if axis == 0 else surface.domain_v
+    gdom = surface.domain_v if axis == 0 else surface.domain_u
+    g = np.linspace(*gdom, n)
+    s = np.linspace(*sdom, probe)
+    S, G = np.meshgrid(s, g)  # (n, probe)
+    x = surface(*_uv(axis, S.ravel(), G.ravel()))[:, 0].reshape(n, probe)
+    stations = np.asarray(stations, dtype=float)
+    K = len(stations)
+    lo_s = np.full((K, n), np.nan)
+    hi_s = np.full((K, n), np.nan)
+    lo_f = np.full((K, n), np.nan)
+    hi_f = np.full((K, n), np.nan)
+    step = np.diff(x, axis=1)
+    monotone = np.all(step > 0, axis=1) | np.all(step < 0, axis=1)
+    for i in np.flatnonzero(monotone):  # an iso-g curve running one way along x: bisect all stations
+        xr = x[i] if step[i, 0] > 0 else x[i, ::-1]
+        inside = (stations >= xr[0]) & (stations <= xr[-1])  # a station at the curve's very end included
+        j = np.clip(np.searchsorted(xr, stations[inside]) - 1, 0, probe - 2)
+        jj = j if step[i, 0] > 0 else probe - 1 - j  # back to the curve's own order: j and j + 1
+        a, b = (jj, jj + 1) if step[i, 0] > 0 else (jj - 1, jj)
+        lo_s[inside, i], hi_s[inside, i] = s[a], s[b]
+        lo_f[inside, i], hi_f[inside, i] = x[i, a] - stations[inside], x[i, b] - stations[inside]
+    rest = np.flatnonzero(~monotone)
+    for k, X in enumerate(stations if len(rest) else []):  # other curves: their first bracketing probes
+        f = x[rest] - X
+        change = np.sign(f[:, :-1]) * np.sign(f[:, 1:]) <= 0
+        has = change.any(axis=1)
+        j = np.argmax(change, axis=1)
+        rows = np.flatnonzero(has)
+        lo_s[k, rest[rows]], hi_s[k, rest[rows]] = s[j[rows]], s[j[rows] + 1]
+        lo_f[k, rest[rows]], hi_f[k, rest[rows]] = f[rows, j[rows]], f[rows, j[rows] + 1]
+    ok = ~np.isnan(lo_s)
+    GG = np.broadcast_to(g, (K, n))
+    XX = np.broadcast_to(stations[:, None], (K, n))
+    a, b, fa, fb = lo_s[ok], hi_s[ok], lo_f[ok], hi_f[ok]
+    gq, Xq = GG[ok], XX[ok]
+    for _ in range(4):  # regula falsi, vectorised over every (station, g)
+        denom = fb - fa
+        m = np.where(np.abs(denom) > 0, a - fa * (b - a) / np.where(denom != 0, denom, 1.0), a)
+        fm = surface(*_uv(axis, m, gq))[:, 0] - Xq
+        left = np.sign(fm) == np.sign(fa)
+        a, fa = np.where(left, m, a), np.where(left, fm, fa)
+        b, fb = np.where(left, b, m), np.where(left, fb, fm)
+    denom = fb - fa
+    root = np.where(np.abs(denom) > 0, a - fa * (b - a) / np.where(denom != 0, denom, 1.0), a)
+    pts = np.full((K, n, 3), np.nan)
+    pts[ok] = surface(*_uv(axis, root, gq))
+    seg = np.linalg.norm(np.diff(pts, axis=1), axis=2)  # NaN next to a missing point
+    low_z = np.nanmean(pts[:, 0, 2]) if np.isfinite(pts[:, 0, 2]).any() else 0.0
+    high_z = np.nanmean(pts[:, -1, 2]) if np.isfinite(pts[:, -1, 2]).any() else 0.0
+    from_high = bool(high_z < low_z)
+    if from_high:
+        seg = seg[:, ::-1]
+    girth = np.full((K, n), np.nan)
+    for k in range(K):
+        present = np.isfinite(pts[k, ::-1, 0] if from_high else pts[k, :, 0])
+        if present.sum() < 2:
+            continue
+        first = int(np.argmax(present))
+        # the section's longest run from its start (a gap ends it)
+        run = present[first:]
+        stop = first + (int(np.argmin(run)) if not run.all() else len(run))
+        row = np.full(n, np.nan)
+        row[first] = 0.0
+        row[first + 1:stop] = np.cumsum(seg[k, first:stop - 1])
+        girth[k] = row[::-1] if from_high else row
+    return Sections(stations, g, girth, from_high)
+
+
+def stations_for(plates: list[PlateEdges], frames: list[float], count: int = 400) -> np.ndarray:
+    """Every butt's x (the end columns' mean x), the frames, and ``count`` stations evenly
+    over the plates' x range."""
+    xs = np.concatenate([p.points[..., 0].ravel() for p in plates])
+    lo, hi = float(xs.min()), float(xs.max())
+    butts = [float(np.mean(p.points[:, c, 0])) for p in plates for c in (0, -1)]
+    every = np.linspace(lo, hi, count)
+    return np.unique(np.round(np.concatenate([every, butts, [f for f in frames if lo <= f <= hi]]), 9))
+
+
+@dataclass(frozen=True)
+class ExpandedPlate:
+    """A plate in the expansion: ``outline`` (N, 2) closed ring (x, girth), model units;
+    ``seams`` and ``butts``: its two seam and two butt edges as (M, 2) polylines; its class
+    (flat, developable, patch, formed, failed), ``thickness`` mm, ``band`` its surface."""
+
+    name: str
+    outline: np.ndarray
+    seams: tuple
+    butts: tuple
+    klass: str
+    thickness: float | None
+    band: int
+
+
+def _map(plate: PlateEdges, table: Sections, axis: int, offset: float) -> tuple:
+    g_of = plate.params[..., 1 - axis]
+    x = plate.points[..., 0]
+
+    def line(rows, cols):
+        xx, gg = x[rows, cols], g_of[rows, cols]
+        return np.column_stack([xx, table.at(xx, gg) + offset])
+
+    r, c = plate.points.shape[:2]
+    every_c, every_r = np.arange(c), np.arange(r)
+    s_lo, s_hi = line(np.zeros(c, int), every_c), line(np.full(c, r - 1), every_c)
+    b_lo, b_hi = line(every_r, np.zeros(r, int)), line(every_r, np.full(r, c - 1))
+    ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
+    return ring, (s_lo, s_hi), (b_lo, b_hi)
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """The drawing's content, model units: plates, frames (x, girth bottom, girth top, band,
+    frame number) and each band's girth offset and height."""
+
+    plates: tuple
+    frames: tuple
+    bands: tuple
+    x_range: tuple
+    girth_from: str
+
+
+def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float) -> Expansion:
+    """Map every plate of ``results`` (with ``edges`` by name) into girth x length; one band
+    per hull surface, ``gap`` (model units) apart; ``frames`` (number, x)."""
+    groups: dict[int, list] = {}
+    for r in results:
+        e = edges.get(r.name)
+        if e is not None:
+            groups.setdefault(id(r.part.hull.surface), []).append((r, e))
+    plates, frame_lines, bands = [], [], []
+    offset = 0.0
+    sides = set()
+    x_lo, x_hi = np.inf, -np.inf
+    for band, members in enumerate(groups.values()):
+        hull = members[0][0].part.hull
+        sampled = [e for _, e in members]
+        table = section_table(hull.surface, hull.long_axis, stations_for(sampled, [x for _, x in frames]))
+        sides.add("high" if table.from_high else "low")
+        height = float(np.nanmax(table.girth)) if np.isfinite(table.girth).any() else 0.0
+        for r, e in members:
+            ring, seams, butts = _map(e, table, hull.long_axis, offset)
+            steel = getattr(r.part, "steel", None)
+            plates.append(ExpandedPlate(r.name, ring, seams, butts, display_class(r),
+                                        getattr(steel, "thickness", None), band))
+        lo, hi = table.stations[0], table.stations[-1]
+        x_lo, x_hi = min(x_lo, lo), max(x_hi, hi)
+        for number, f in frames:
+            if lo <= f <= hi:
+                k = int(np.argmin(np.abs(table.stations - f)))
+                top = float(table.total()[k])
+                if top > 0:
+                    frame_lines.append((float(f), offset, offset + top, band, number))
+        bands.append((offset, height))
+        offset += height + gap
+    side = "the low end of the girth parameter" if sides == {"low"} else (
+        "the high end of the girth parameter" if sides == {"high"} else "the lower end of each surface's girth")
+    return Expansion(tuple(plates), tuple(frame_lines), tuple(bands), (float(x_lo), float(x_hi)), side)
+
+
+def plan_frames(spec_frames, x_range: tuple[float, float]) -> list[tuple[int, float]]:
+    """(number, x) of the frames over the plan's x range (model units; frame k at
+    start + k spacing), or none."""
+    if spec_frames is None:
+        return []
+    lo, hi = x_range
+    first = int(np.ceil((lo - spec_frames.start) / spec_frames.spacing))
+    last = int(np.floor((hi - spec_frames.start) / spec_frames.spacing))
+    if last - first > 5000:
+        return []
+    return [(k, spec_frames.start + k * spec_frames.spacing) for k in range(first, last + 1)]
+
+
+def _centre(ring: np.ndarray) -> np.ndarray:
+    """Area centroid (2,) of a closed ring (N, 2) (the mean point when it has no area)."""
+    x, y = ring[:, 0], ring[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = cross.sum() / 2
+    if abs(area) < 1e-12 * max(np.ptp(x) * np.ptp(y), 1e-300):
+        return ring.mean(axis=0)
+    return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)
+
+
+def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
+    """The polyline (N, 2) with the points Ramer-Douglas-Peucker keeps within ``tolerance``
+    (a drawing: a butt, straight in the expansion, keeps its two ends)."""
+    keep = np.zeros(len(line), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(line) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        chord = line[j] - line[i]
+        rel = line[i + 1:j] - line[i]
+        norm = np.hypot(*chord)
+        d = (np.abs(chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / norm if norm > 0 else np.hypot(rel[:, 0], rel[:, 1]))
+        k = int(np.argmax(d))
+        if d[k] > tolerance:
+            keep[i + 1 + k] = True
+            stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    return line[keep]
+
+
+def _area(ring: np.ndarray) -> float:
+    """Area of a closed ring (N, 2) (shoelace)."""
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+
+
+def label(plate: ExpandedPlate) -> tuple[str, str]:
+    thick = "" if plate.thickness is None else f"t {plate.thickness:g}"
+    return plate.name, thick
+
+
+def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str) -> None:
+    """The expansion in model space at 1:1, millimetres: x along the hull, y the girth."""
+    import ezdxf
+
+    doc = ezdxf.new("R2000")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    for klass, layer in LAYER_NAMES.items():
+        doc.layers.add(layer, color=LAYER_COLOURS[klass])
+    for layer, colour in (("EXP_SEAMS", 7), ("EXP_BUTTS", 7), ("EXP_FRAMES", 8), ("EXP_TEXT", 7)):
+        doc.layers.add(layer, color=colour)
+    mm = mm_per_unit
+    heights = []
+    for p in drawing.plates:
+        layer = LAYER_NAMES.get(p.klass, "EXP_FAILED")
+        # each side thinned alone: the four corners stay vertices
+        (s_lo, s_hi), (b_lo, b_hi) = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in pair]
+                                      for pair in (p.seams, p.butts))
+        ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
+        msp.add_lwpolyline(ring.tolist(), close=True, dxfattribs={"layer": layer})
+        for line in p.seams:
+            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
+        for line in p.butts:
+            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
+        centre = _centre(p.outline) * mm
+        length = float(np.ptp(p.outline[:, 0])) * mm
+        width = _area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
+        name, thick = label(p)
+        h = max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0)
+        heights.append(h)
+        msp.add_text(name, height=h, dxfattribs={"layer": "EXP_TEXT"}).set_placement(
+            (float(centre[0]), float(centre[1]) + 0.1 * h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
+        if thick:
+            msp.add_text(thick, height=0.8 * h, dxfattribs={"layer": "EXP_TEXT"}).set_placement(
+                (float(centre[0]), float(centre[1]) - 0.1 * h), align=ezdxf.enums.TextEntityAlignment.TOP_CENTER)
+    text_h = float(np.median(heights)) if heights else 100.0
+    for x, lo, hi, _, number in drawing.frames:
+        msp.add_line((x * mm, lo * mm), (x * mm, hi * mm), dxfattribs={"layer": "EXP_FRAMES"})
+        msp.add_text(f"FR {number}", height=0.5 * text_h, dxfattribs={"layer": "EXP_FRAMES"}).set_placement(
+            (x * mm, hi * mm + 0.2 * text_h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
+    x0 = drawing.x_range[0] * mm
+    top = max((o + h for o, h in drawing.bands), default=0.0) * mm
+    msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + 2 * text_h)})
+    with atomic_path(target) as tmp:
+        doc.saveas(tmp)
+
+
+def sheet_and_scale(width_mm: float, height_mm: float, margin: float = 20.0, title: float = 30.0):
+    """The sheet (name, (w, h) mm) and the scale denominator: the largest standard scale
+    at which the drawing fits A1 landscape, or A0 when A0 allows a larger scale."""
+    best = None
+    for name, (w, h) in SHEETS.items():
+        for n in SCALES:
+            if width_mm / n <= w - 2 * margin and height_mm / n <= h - 2 * margin - title:
+                if best is None or n < best[2]:
+                    best = (name, (w, h), n)
+                break
+    if best is None:
+        raise ValueError(f"the expansion ({width_mm:.0f} x {height_mm:.0f} mm) fits no sheet at 1:{SCALES[-1]}")
+    return best
+
+
+def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str) -> dict:
+    """One sheet, true to the stated scale (x along the hull, girth up); returns the sheet,
+    the scale and the sheet's size in mm."""
+    from matplotlib import rc_context
+    from matplotlib.backends.backend_pdf import FigureCanvasPdf
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.figure import Figure
+
+    mm = mm_per_unit
+    x0, x1 = drawing.x_range
+    height = max((o + h for o, h in drawing.bands), default=0.0)
+    sheet, (w, h), n = sheet_and_scale((x1 - x0) * mm, height * mm)
+    margin, title_h = 20.0, 30.0
+    with rc_context({"pdf.fonttype": 42}):  # TrueType text: readable (and searchable) in the PDF
+        fig = Figure(figsize=(w / 25.4, h / 25.4))
+        FigureCanvasPdf(fig)
+        draw_w, draw_h = (x1 - x0) * mm / n, height * mm / n
+        # the drawing right under the title, the legend under it
+        ax = fig.add_axes((margin / w, (h - margin - title_h - draw_h) / h, draw_w / w, draw_h / h))
+        ax.set_xlim(x0 * mm, x1 * mm)
+        ax.set_ylim(0.0, height * mm)
+        ax.set_axis_off()
+        polys = [p.outline * mm for p in drawing.plates]
+        colours = [CLASS_COLOURS.get(p.klass, CLASS_COLOURS["failed"]) for p in drawing.plates]
+        ax.add_collection(PolyCollection(polys, facecolors=colours, edgecolors="black", linewidths=0.3))
+        frames = [[(x * mm, lo * mm), (x * mm, hi * mm)] for x, lo, hi, _, _ in drawing.frames]
+        if frames:
+            ax.add_collection(LineCollection(frames, colors="0.45", linewidths=0.15, linestyles=(0, (4, 2))))
+        pt_per_model = 72.0 / 25.4 * mm / n  # font points per model unit on paper
+        for p in drawing.plates:
+            centre = _centre(p.outline) * mm
+            plate_l = float(np.ptp(p.outline[:, 0])) * pt_per_model
+            # the mean girth width (area / length): a plate whose seams slope is not as wide as its extent
+            plate_h = _area(p.outline) * pt_per_model ** 2 / max(plate_l, 1e-300)
+            name, thick = label(p)
+            size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
+            ax.text(centre[0], centre[1], f"{name}\n{thick}" if thick else name, fontsize=size, ha="center",
+                    va="center", linespacing=1.1)
+        step = max(1, len(drawing.frames) // 40)  # every frame drawn, a number on some
+        for k, (x, lo, hi, _, number) in enumerate(drawing.frames):
+            if k % step == 0:
+                ax.text(x * mm, hi * mm, f"FR {number}", fontsize=3.0, ha="center", va="bottom", color="0.3")
+        legend = "   ".join(f"{LABELS.get(k, k)}" for k in CLASS_COLOURS)
+        for k, colour in CLASS_COLOURS.items():
+            ax.plot([], [], "s", color=colour, label=LABELS.get(k, k))
+        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.005), fontsize=6, ncol=5, frameon=False)
+        fig.text(margin / w, 1.0 - 12.0 / h, title, fontsize=11, ha="left", va="top")
+        fig.text(margin / w, 1.0 - 20.0 / h,
+                 f"shell expansion: girth along the sections x = const (from {drawing.girth_from}) "
+                 f"upward, length x along the hull; scale 1:{n} on {sheet} ({w:.0f} x {h:.0f} mm); "
+                 f"dimensions mm; classes: {legend}", fontsize=6.5, ha="left", va="top")
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format="pdf")
+    return {"sheet": sheet, "scale": f"1:{n}", "size_mm": [w, h]}
+
+
+def shell_edges(results) -> dict:
+    """Every hull plate's region sampled on the hull, by name (None when it misses it)."""
+    from .cost import plate_edges
+
+    return {r.name: plate_edges(r.name, r.part.hull) for r in results
+            if r.part.hull is not None and r.part.hull.girths is not None}
+
+
+def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf: bool, pdf: bool) -> list[Path]:
+    """NAME_expansion.dxf and / or NAME_expansion.pdf of a strake or hull run."""
+    hull = [r for r in results if edges.get(r.name) is not None]
+    if not hull or not (dxf or pdf):
+        return []
+    xs = np.concatenate([edges[r.name].points[..., 0].ravel() for r in hull])
+    strake = config.spec.strake
+    frames = plan_frames(None if strake is None else strake.frames, (float(xs.min()), float(xs.max())))
+    drawing = expand(hull, edges, frames, gap=0.05 * float(np.ptp(xs)))
+    title = f"{style}: shell expansion, {len(hull)} plates"
+    written = []
+    if dxf:
+        written.append(out_dir / f"{style}_expansion.dxf")
+        write_expansion_dxf(written[-1], drawing, config.mm_per_unit, title)
+    if pdf:
+        written.append(out_dir / f"{style}_expansion.pdf")
+        write_expansion_pdf(written[-1], drawing, config.mm_per_unit, title)
+    return written
