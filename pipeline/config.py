@@ -369,6 +369,9 @@ class Shop(_Strict):
 
     outline_tolerance: float = Field(0.05, gt=0, le=10, description="mm, cut outline vs exact development")
     bend_spacing: float = Field(400.0, gt=0, description="mm between bending lines")
+    no_roll_radius: float | None = Field(
+        None, gt=0, description="mm: no bending line where the radius across it is larger (taken elastically when "
+        "the plate is pulled into place); default from thickness and yield stress, pipeline.shop.rolling")
     frame_clearance: float = Field(50.0, ge=0, description="mm: a frame nearer a butt is not marked")
     text_height: tuple[float, float] = Field((5.0, 40.0), description="mm, smallest and largest text")
     mirror: bool = Field(False, description="also write the mirrored plate of the other side (P/S in the id)")

@@ -363,7 +363,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     3D shape is the strip at the closest points of the hull's patch grid, its cut outline
     the developed region boundary, its bending lines the strip's own rulings."""
     from ..shop.bending import lines_on_rulings
-    from ..shop.plate import ShopPlate, _scaled
+    from ..shop.plate import ShopPlate, _scaled, roll_setup
 
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
@@ -379,6 +379,11 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     a2, b2 = a2 @ rot.T + shift, b2 @ rot.T + shift
     spacing = config.spec.shop.bend_spacing / mm
     lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
+    rolling = None
+    if lines and config.spec.profile == "steel":  # only the lines the plate is rolled at (shop.rolling)
+        kept, rolling = roll_setup([dataclasses.replace(b, radius=b.radius * mm) for b in lines], part.steel,
+                                   config.spec.shop)
+        lines = [dataclasses.replace(b, radius=b.radius / mm) for b in kept]
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     bends = np.array([[b.a, b.b] for b in lines]).reshape(-1, 2, 2)
     result.strip, result.solution, result.development, result.developed = None, None, None, None
@@ -411,10 +416,11 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     outline_mm = _scaled(net, mm)
     lines_mm = [dataclasses.replace(b, a=b.a * mm, b=b.b * mm, station=b.station * mm, radius=b.radius * mm)
                 for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm)
+    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm, rolling)
     result.figures["bending"] = {
         "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
         "centre_line_length": centre * mm, "family": trim.family,
+        "rolling": rolling.figures() if rolling is not None else None,
         "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)), "radius": b.radius if np.isfinite(b.radius) else None,

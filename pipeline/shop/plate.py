@@ -13,6 +13,7 @@ import numpy as np
 
 from .bending import BendLine, bending_lines
 from .outline import Outline, PlateTracer, exact_outline
+from .rolling import RollSetup, plate_limit, rolled_lines
 
 
 @dataclass(frozen=True)
@@ -23,18 +24,33 @@ class ShopPlate:
     bending : numbered bending lines (none on a flat plate)
     bend_spacing : their spacing along the plate's centre line
     centre_length : length of that centre line
+    rolling : the roll set-up (radius limit, lines rolled and not), None where not decided
     """
 
     outline: Outline
     bending: tuple[BendLine, ...] = ()
     bend_spacing: float = 0.0
     centre_length: float = 0.0
+    rolling: RollSetup | None = None
+
+
+def roll_setup(lines_mm: list, steel, shop) -> tuple[list, RollSetup]:
+    """The bending lines (mm) a plate of ``steel``'s thickness and material is rolled at
+    (:mod:`pipeline.shop.rolling`), renumbered, and its roll set-up."""
+    return rolled_lines(lines_mm, plate_limit(steel.thickness, steel.material, shop.no_roll_radius))
 
 
 def bend_text(line: BendLine) -> str:
     """The mark written beside a bending line: number, radius, roll side."""
     radius = "FLAT" if not np.isfinite(line.radius) or line.radius > 1e6 else f"R{line.radius:.0f}"
     return f"B{line.number} {radius} {'CVX' if line.convex_on_drawn_side else 'CCV'}"
+
+
+def _roll_note(plate: ShopPlate) -> str:
+    """The roll set-up's shop text where it tells the plater something: no rolling at all,
+    or rolling only at the lines marked (others were flatter than the limit); else ''."""
+    rolling = plate.rolling
+    return rolling.text() if rolling is not None and (not rolling.needs_rolling or rolling.dropped) else ""
 
 
 def _scaled(outline: Outline, factor: float) -> Outline:
@@ -55,16 +71,19 @@ def stage_shop(result, config) -> None:
     lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
     # the pattern (previews, sheet, nesting) shows what the DXF holds: the exact outline and
     # the shop's bending lines, not the solver's rulings
-    result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
-                                         bend_lines=np.array([(b.a, b.b) for b in lines]).reshape(-1, 2, 2))
     lines = [dataclasses.replace(b, a=b.a * scale, b=b.b * scale, station=b.station * scale, radius=b.radius * scale)
              for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale)
+    lines, rolling = roll_setup(lines, result.part.steel, shop) if lines else (lines, None)
+    result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
+                                         bend_lines=np.array([(b.a / scale, b.b / scale) for b in lines])
+                                         .reshape(-1, 2, 2))
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling)
     result.figures["bending"] = {
         "units": "mm",
         "count": len(lines),
         "spacing": shop.bend_spacing,
         "centre_line_length": centre * scale,
+        "rolling": rolling.figures() if rolling is not None else None,
         "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)),
@@ -173,6 +192,8 @@ def shop_layout(result, config, part_data: list[str]):
     if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:
         part_data = part_data + [f"BEND LINES B1-B{len(plate.bending)} EVERY {plate.bend_spacing:g} MM",
                                  "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
+    if _roll_note(plate):
+        part_data = part_data + [_roll_note(plate)]
     cut, allowance = allowance_cut(outline, result.part.hull, settings, result.shop is not None)
     if allowance is not None:
         part_data = part_data + [allowance["text"]]
@@ -295,6 +316,8 @@ def shop_drawing(result, config, layout, target):
         notes.append("CVX / CCV: CONVEX / CONCAVE ON THE DRAWN SIDE; R: RADIUS ACROSS THE LINE")
     else:
         spacing = None
+    if _roll_note(plate):
+        notes.append(_roll_note(plate))
     edges = {}
     if result.shop is not None:
         names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
