@@ -373,6 +373,9 @@ class Shop(_Strict):
         None, gt=0, description="mm: no bending line where the radius across it is larger (taken elastically when "
         "the plate is pulled into place); default from thickness and yield stress, pipeline.shop.rolling")
     frame_clearance: float = Field(50.0, ge=0, description="mm: a frame nearer a butt is not marked")
+    template_spacing: float = Field(3500.0, gt=0, le=3500, description="mm: most between templates across the rulings "
+                                    "of a plate without frames")
+    template_margin: float = Field(100.0, ge=50, le=1000, description="mm: template ends inside the plate's edges")
     text_height: tuple[float, float] = Field((5.0, 40.0), description="mm, smallest and largest text")
     mirror: bool = Field(False, description="also write the mirrored plate of the other side (P/S in the id)")
     bevel: EdgeTexts = EdgeTexts()

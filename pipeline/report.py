@@ -83,6 +83,8 @@ def part_report(result: PartResult, units: str) -> dict:
         "files": result.figures.get("files"),
         "traceback": result.figures.get("traceback"),  # an internal error's, for the bug report
     }
+    if result.figures.get("templates") is not None:  # steel plates with a formed shape to check
+        report["templates"] = result.figures["templates"]
     return report
 
 

@@ -25,6 +25,7 @@ class ShopPlate:
     bend_spacing : their spacing along the plate's centre line
     centre_length : length of that centre line
     rolling : the roll set-up (radius limit, lines rolled and not), None where not decided
+    templates : the templates that check its formed shape (:mod:`pipeline.shop.templates`)
     """
 
     outline: Outline
@@ -32,6 +33,7 @@ class ShopPlate:
     bend_spacing: float = 0.0
     centre_length: float = 0.0
     rolling: RollSetup | None = None
+    templates: tuple = ()
 
 
 def roll_setup(lines_mm: list, steel, shop) -> tuple[list, RollSetup]:
@@ -64,8 +66,7 @@ def stage_shop(result, config) -> None:
     scale = config.mm_per_unit
     shop = config.spec.shop
     hull = result.part.hull
-    planes = hull.butts if hull is not None else ()
-    tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes, result.developed)
+    tracer = plate_tracer(result)
     outline = exact_outline(tracer, shop.outline_tolerance / scale)
     outline_mm = _scaled(outline, scale)
     lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
@@ -77,7 +78,11 @@ def stage_shop(result, config) -> None:
     result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
                                          bend_lines=np.array([(b.a / scale, b.b / scale) for b in lines])
                                          .reshape(-1, 2, 2))
-    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling)
+    templates = ()
+    if result.solution.kind != "coplanar":
+        curvature = "none" if rolling is None or not rolling.needs_rolling else "single"
+        templates, _ = strip_templates(result, tracer, scale, outline_mm.points, curvature, shop)
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling, templates)
     result.figures["bending"] = {
         "units": "mm",
         "count": len(lines),
@@ -105,6 +110,31 @@ def stage_shop(result, config) -> None:
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates {outline_mm.max_deviation:.3g} mm from the exact development "
                                f"(tolerance {outline_mm.tolerance:g} mm): the sampling limit was reached")
+
+
+def plate_tracer(result) -> PlateTracer:
+    """The tracer of a solved strip plate: its rulings kept between its butt planes."""
+    hull = result.part.hull
+    planes = hull.butts if hull is not None else ()
+    return PlateTracer(result.part, result.solution, result.strip, result.pattern, planes, result.developed)
+
+
+def strip_templates(result, tracer, scale: float, outline_mm: np.ndarray, curvature: str, shop) -> tuple:
+    """The templates of a solved strip plate (mm) by the count rule of
+    :mod:`pipeline.shop.templates` for its ``curvature`` ('none', 'single', 'double'),
+    sections of the strip itself (exact at the vertices of a mesh about 10 mm fine); their
+    figures go to the report's ``templates``. Returns (chosen, every candidate)."""
+    from .templates import TEMPLATE_STEP, candidate_planes, plate_templates, templates_section, tracer_mesh
+
+    vertices, faces, flat, ruling, normal = tracer_mesh(tracer, scale)
+    hull = result.part.hull
+    frames = [x * scale for x in hull.frames] if hull is not None else []
+    planes = candidate_planes(frames, ruling, shop.template_spacing, shop.template_margin)
+    chosen, candidates, why = plate_templates(vertices, faces, flat, outline_mm, planes, curvature, normal,
+                                              shop.template_margin, TEMPLATE_STEP)
+    result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
+                                                    shop.template_margin, TEMPLATE_STEP)
+    return tuple(chosen), candidates
 
 
 def trimmed_figures(result, outline: Outline) -> None:
