@@ -99,12 +99,11 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
                 errors = write_steel_dxf(path, layout, out.layers)
                 written += [path] if pdf is None else [path, pdf]
             result.figures["dxf_audit_errors"] = errors
-            shop = result.shop
-            if shop is not None and shop.templates:  # the templates at 1:1 (pipeline.shop.templates)
+            if result.templates:  # the templates at 1:1 (pipeline.shop.templates)
                 from .shop.templates import write_templates_dxf
 
                 path = out_dir / f"{name}_templates.dxf"
-                result.figures["templates"]["dxf_audit_errors"] = write_templates_dxf(path, name, list(shop.templates))
+                result.figures["templates"]["dxf_audit_errors"] = write_templates_dxf(path, name, list(result.templates))
                 written.append(path)
         if out.obj:
             path = out_dir / f"{name}.obj"

@@ -126,13 +126,54 @@ def test_cone_templates_vary_as_its_radius_does(tmp_path):
     assert all(h is not None and h < 0 for h in first["sight_line_heights"])
 
 
-def test_hull_plate_templates_are_the_hulls_own_frame_sections(tmp_path):
-    """A plate of the 160 m hull (hullmod, seams v = 4.0 / 4.3, butts 88 / 104 m, frames
-    every 2.5 m): each frame template of the delivered strip lies within 0.5 mm of the hull
-    surface's own section by the frame plane, computed here from the surface (x(u, v) = X
-    solved per v), and its ends stay 100 mm inside the seams."""
+def _hull_section(surface, x, vs):
+    """The hull surface's own section by the plane x = X: per v, the u where x(u, v) = X
+    (bracketed on a grid, then brentq), (n, 3)."""
     from scipy.optimize import brentq
 
+    (u0, u1) = surface.domain_u
+    us = np.linspace(u0, u1, 65)
+    grid_x = surface(np.repeat(us, len(vs)), np.tile(vs, len(us)))[:, 0].reshape(len(us), len(vs)) - x
+    section = []
+    for j, v in enumerate(vs):
+        g = grid_x[:, j]
+        k = np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:]))
+        if len(k):
+            u = brentq(lambda u: float(surface(np.array([u]), np.array([v]))[0, 0]) - x, us[k[0]], us[k[0] + 1],
+                       xtol=1e-12)
+            section.append(surface(np.array([u]), np.array([v]))[0])
+    return np.array(section)
+
+
+def _distance_to_polyline(points, line):
+    a, b = line[:-1], line[1:]
+    d = b - a
+    w = np.clip(np.einsum("pkj,kj->pk", points[:, None, :] - a[None], d) / np.einsum("kj,kj->k", d, d), 0, 1)
+    return np.linalg.norm(points[:, None, :] - (a[None] + w[..., None] * d[None]), axis=2).min(axis=1)
+
+
+def _check_against_hull(templates, surface, vs, outline):
+    """Every template on the hull's own frame section (0.5 mm), its ends 100 mm inside the
+    plate; returns the largest distance."""
+    ring = shapely.LinearRing(outline)
+    worst = 0.0
+    for t in templates:
+        x = float(t.origin[0])
+        assert np.abs(t.points[:, 0] - x).max() <= 1e-6
+        dist = _distance_to_polyline(t.points, _hull_section(surface, x, vs))
+        assert dist.max() <= 0.5, (t.name, dist.max())
+        worst = max(worst, float(dist.max()))
+        # both ends 100 mm inside the plate (on the flat plate: the development is isometric)
+        ends = shapely.distance(shapely.points(t.flat[[0, -1]]), ring)
+        assert np.allclose(ends, 100.0, atol=0.5) and t.length > 700.0
+    return worst
+
+
+def test_hull_plate_templates_are_the_hulls_own_frame_sections(tmp_path):
+    """A plate of the 160 m hull (hullmod, seams v = 4.0 / 4.3, butts 88 / 104 m, frames
+    every 2.5 m), delivered as a strip: each frame template of the strip lies within 0.5 mm
+    of the hull surface's own section by the frame plane, computed here from the surface
+    (x(u, v) = X solved per v), and its ends stay 100 mm inside the seams."""
     from pipeline.hull.plan import load_run
     from pipeline.hull.plates import run_part
     from pipeline.shop.plate import plate_tracer, strip_templates
@@ -147,38 +188,45 @@ def test_hull_plate_templates_are_the_hulls_own_frame_sections(tmp_path):
     assert result.ok and result.solution is not None
     _, templates = strip_templates(result, plate_tracer(result), plan.mm_per_unit, result.shop.outline.points,
                                    "double", plan.spec.shop)
-    surface = result.part.hull.surface
     assert [t.name for t in templates] == [f"FR {x}" for x in range(90000, 104000, 2500)]
-    (u0, u1) = surface.domain_u
-    vs = np.linspace(3.95, 4.35, 401)
-    ring = shapely.LinearRing(result.shop.outline.points)
-    worst = 0.0
+    worst = _check_against_hull(templates, result.part.hull.surface, np.linspace(3.95, 4.35, 401),
+                                result.shop.outline.points)
+    print(f"hull strip plate frame templates: largest distance to the hull's own section {worst:.3f} mm")
+
+
+def test_formed_plate_gets_a_template_at_every_frame_on_the_hull(tmp_path):
+    """A doubly curved plate of DTMB 5415 (ship scale, seams v = 2.0 / 2.4, butts 40 / 54 m,
+    frames every 2.5 m; formed: no developable strip fits): the count rule gives a template
+    at each of its 5 frames (at least 3), each on the hull's own section (0.5 mm), their
+    sight lines in one plane; NAME_templates.dxf holds one block per template."""
+    data = {"name": "dt", "units": "mm", "steel": {"thickness": 14, "material": "AH36"},
+            "strake": {"surface": {"iges": str(SHIP / "ship_5415.igs"), "directory": 5},
+                       "seams": [{"iso": {"v": 2.0}}, {"iso": {"v": 2.4}}], "butts": [40000.0, 54000.0],
+                       "scale": 24.824, "frames": {"spacing": 2500}, "margin": 0.2}}
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import run_part
+
+    plan = load_run(_write(tmp_path, data, "dt"))
+    result = run_part(plan.parts[0], plan)
+    assert result.ok and result.figures["plate_class"]["class"] == "formed"
+    templates = result.templates
+    assert [t.name for t in templates] == [f"FR {x}" for x in range(42500, 54000, 2500)]
+    assert "double curvature" in result.figures["templates"]["rule"]
+    outline = result.pattern.outline * plan.mm_per_unit
+    worst = _check_against_hull(templates, result.part.hull.surface, np.linspace(1.95, 2.45, 401), outline)
+    print(f"formed plate frame templates: largest distance to the hull's own section {worst:.3f} mm")
+    # the sight lines' ends, back in 3D, lie in one plane
+    ends = []
     for t in templates:
-        x = float(t.origin[0])
-
-        def gap(u, v):
-            return float(surface(np.array([u]), np.array([v]))[0, 0]) - x
-
-        section = []
-        us = np.linspace(u0, u1, 65)
-        grid_x = surface(np.repeat(us, len(vs)), np.tile(vs, len(us)))[:, 0].reshape(len(us), len(vs)) - x
-        for j, v in enumerate(vs):
-            g = grid_x[:, j]
-            k = np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:]))
-            if len(k):
-                u = brentq(gap, us[k[0]], us[k[0] + 1], args=(v,), xtol=1e-12)
-                section.append(surface(np.array([u]), np.array([v]))[0])
-        section = np.array(section)
-        assert np.abs(t.points[:, 0] - x).max() <= 1e-6
-        # distance of every template point to the hull section's polyline (segments ~1 mm)
-        seg_a, seg_b = section[:-1], section[1:]
-        d = seg_b - seg_a
-        w = np.clip(np.einsum("pkj,kj->pk", t.points[:, None, :] - seg_a[None], d) / np.einsum("kj,kj->k", d, d),
-                    0, 1)
-        dist = np.linalg.norm(t.points[:, None, :] - (seg_a[None] + w[..., None] * d[None]), axis=2).min(axis=1)
-        assert dist.max() <= 0.5, (t.name, dist.max())
-        worst = max(worst, float(dist.max()))
-        # both ends 100 mm inside the plate (on the flat plate: the development is isometric)
-        ends = shapely.distance(shapely.points(t.flat[[0, -1]]), ring)
-        assert np.allclose(ends, 100.0, atol=0.5) and t.length > 700.0
-    print(f"hull plate frame templates: largest distance to the hull's own section {worst:.3f} mm")
+        e1 = (t.points[-1] - t.points[0]) / t.length
+        e2 = np.cross(t.normal, e1)
+        e2 *= np.sign(np.mean((t.points - t.points[0]) @ e2))
+        ends += [t.points[0] + s * e1 + h * e2 for s, h in zip((0.0, t.length), t.sight)]
+    ends = np.array(ends)
+    _, sv, _ = np.linalg.svd(ends - ends.mean(axis=0))
+    assert sv[-1] <= 1e-6 * sv[0]
+    out = tmp_path / "o"
+    assert main(["run", str(tmp_path / "dt.yaml"), "--out", str(out), "--quiet"]) == 0
+    doc = ezdxf.readfile(out / "dt_S1_B1_templates.dxf")
+    assert sorted(b.name for b in doc.blocks if b.name.startswith("TEMPLATE_")) == [f"TEMPLATE_T{k}" for k in range(1, 6)]
+    assert len(doc.modelspace().query("INSERT")) == 5 and not doc.audit().errors

@@ -433,6 +433,10 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates about {outline_mm.max_deviation:.3g} mm from the exact "
                                f"development (tolerance {outline_mm.tolerance:g} mm)")
+    from ..shop.plate import hull_templates  # the hull's own sections check the rolled plate
+
+    hull_templates(result, config, grid.params, pg, outline,
+                   "none" if rolling is None or not rolling.needs_rolling else "single")
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
@@ -505,6 +509,10 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
         return
     finish_part(result, config)
+    if kind == "formed" and config.spec.profile == "steel":  # double curvature: templates at every frame
+        from ..shop.plate import hull_templates
+
+        hull_templates(result, config, grid.params, pg, outline, "double")
 
 
 def least_bending_lines(surface, grid, placed, faces, outline, spacing):

@@ -25,7 +25,6 @@ class ShopPlate:
     bend_spacing : their spacing along the plate's centre line
     centre_length : length of that centre line
     rolling : the roll set-up (radius limit, lines rolled and not), None where not decided
-    templates : the templates that check its formed shape (:mod:`pipeline.shop.templates`)
     """
 
     outline: Outline
@@ -33,7 +32,6 @@ class ShopPlate:
     bend_spacing: float = 0.0
     centre_length: float = 0.0
     rolling: RollSetup | None = None
-    templates: tuple = ()
 
 
 def roll_setup(lines_mm: list, steel, shop) -> tuple[list, RollSetup]:
@@ -78,11 +76,10 @@ def stage_shop(result, config) -> None:
     result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
                                          bend_lines=np.array([(b.a / scale, b.b / scale) for b in lines])
                                          .reshape(-1, 2, 2))
-    templates = ()
     if result.solution.kind != "coplanar":
         curvature = "none" if rolling is None or not rolling.needs_rolling else "single"
-        templates, _ = strip_templates(result, tracer, scale, outline_mm.points, curvature, shop)
-    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling, templates)
+        result.templates, _ = strip_templates(result, tracer, scale, outline_mm.points, curvature, shop)
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling)
     result.figures["bending"] = {
         "units": "mm",
         "count": len(lines),
@@ -135,6 +132,21 @@ def strip_templates(result, tracer, scale: float, outline_mm: np.ndarray, curvat
     result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
                                                     shop.template_margin, TEMPLATE_STEP)
     return tuple(chosen), candidates
+
+
+def hull_templates(result, config, params: np.ndarray, flat: np.ndarray, outline: np.ndarray, curvature: str):
+    """The templates of a hull plate given by its region grid (params (R, C, 2), flat (R, C,
+    2) placed, outline (N, 2), model units): sections of the hull surface itself at its
+    frames (:func:`pipeline.shop.templates.patch_templates`); sets ``result.templates`` and
+    the report's ``templates``."""
+    from .templates import TEMPLATE_STEP, patch_templates, templates_section
+
+    shop, hull = config.spec.shop, result.part.hull
+    chosen, candidates, why = patch_templates(hull.surface, params, flat, outline, list(hull.frames), curvature,
+                                              shop.template_spacing, shop.template_margin, config.mm_per_unit)
+    result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
+                                                    shop.template_margin, TEMPLATE_STEP)
+    result.templates = tuple(chosen)
 
 
 def trimmed_figures(result, outline: Outline) -> None:

@@ -351,3 +351,51 @@ def templates_section(chosen: list, candidates: list, why: str, curvature: str, 
             "count_rule": "ShipConstructor: none for constant-radius single curvature (or no rolling), one for a "
                           "varying radius, at least three for double curvature",
             "templates": [t.figures() for t in chosen]}
+
+
+def _subdivided(grid: np.ndarray, factor: int) -> np.ndarray:
+    """A (R, C, k) grid with every cell cut into factor x factor cells, bilinearly."""
+    r, c = grid.shape[:2]
+    si, sj = np.linspace(0, r - 1, (r - 1) * factor + 1), np.linspace(0, c - 1, (c - 1) * factor + 1)
+    i0, j0 = np.minimum(si.astype(int), r - 2), np.minimum(sj.astype(int), c - 2)
+    fi, fj = (si - i0)[:, None, None], (sj - j0)[None, :, None]
+    g00, g01 = grid[i0][:, j0], grid[i0][:, j0 + 1]
+    g10, g11 = grid[i0 + 1][:, j0], grid[i0 + 1][:, j0 + 1]
+    return (1 - fi) * ((1 - fj) * g00 + fj * g01) + fi * ((1 - fj) * g10 + fj * g11)
+
+
+def grid_faces(rows: int, cols: int) -> np.ndarray:
+    idx = np.arange(rows * cols).reshape(rows, cols)
+    a, b, d, e = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])])
+
+
+def patch_templates(surface, params: np.ndarray, flat: np.ndarray, outline: np.ndarray, frames: list,
+                    curvature: str, spacing: float, margin: float, scale: float, step: float = TEMPLATE_STEP,
+                    target_mm: float = 50.0):
+    """Templates of a hull plate given by its region grid: the hull surface's own sections
+    (the design shape the formed plate is checked against). params (R, C, 2) the grid's
+    surface parameters, flat (R, C, 2) its developed (placed) points, outline (N, 2) the flat
+    plate's net outline, frames the frame positions x (all model units; ``scale`` mm per
+    unit). The grid is refined to cells of about ``target_mm`` on the surface itself (the
+    mesh's chord error target^2 / (8 R): 0.06 mm at R 5 m). Without frames, planes x = X
+    through the middles of equal pieces of the plate's length, at most ``spacing`` apart.
+    Returns (chosen, candidates, why) as :func:`plate_templates`."""
+    points = np.asarray(surface(params[..., 0].ravel(), params[..., 1].ravel())).reshape(params.shape[:2] + (3,))
+    cell = max(float(np.linalg.norm(np.diff(points, axis=0), axis=2).max()),
+               float(np.linalg.norm(np.diff(points, axis=1), axis=2).max())) * scale
+    factor = int(np.clip(np.ceil(cell / target_mm), 1, 16))
+    fine_params, fine_flat = _subdivided(params, factor), _subdivided(flat, factor)
+    rows, cols = fine_params.shape[:2]
+    vertices = np.asarray(surface(fine_params[..., 0].ravel(), fine_params[..., 1].ravel())) * scale
+    faces = grid_faces(rows, cols)
+    if frames:
+        planes = candidate_planes([x * scale for x in frames], None, spacing, margin)
+    else:
+        x = vertices[:, 0]
+        along = np.array([[x.min(), 0.0, 0.0], [x.max(), 0.0, 0.0]])
+        planes = [(f"X {o[0]:.0f}", o, n) for _, o, n in candidate_planes([], along, spacing, margin)]
+    e1, e2 = vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]
+    normal = np.cross(e1, e2).sum(axis=0)
+    return plate_templates(vertices, faces, fine_flat.reshape(-1, 2) * scale, outline * scale, planes, curvature,
+                           normal, margin, step)
