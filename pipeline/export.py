@@ -105,6 +105,10 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
                 path = out_dir / f"{name}_templates.dxf"
                 result.figures["templates"]["dxf_audit_errors"] = write_templates_dxf(path, name, list(result.templates))
                 written.append(path)
+            if result.pinjig is not None:  # the pin jig's table (pipeline.shop.pinjig)
+                path = out_dir / f"{name}_pinjig.csv"
+                write_text(path, result.pinjig.csv())
+                written.append(path)
         if out.obj:
             path = out_dir / f"{name}.obj"
             v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh

@@ -85,6 +85,8 @@ def part_report(result: PartResult, units: str) -> dict:
     }
     if result.figures.get("templates") is not None:  # steel plates with a formed shape to check
         report["templates"] = result.figures["templates"]
+    if result.figures.get("pinjig") is not None:
+        report["pinjig"] = result.figures["pinjig"]
     return report
 
 

@@ -420,7 +420,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     result.figures["bending"] = {
         "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
         "centre_line_length": centre * mm, "family": trim.family,
-        "rolling": rolling.figures() if rolling is not None else None,
+        **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)), "radius": b.radius if np.isfinite(b.radius) else None,

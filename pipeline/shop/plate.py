@@ -85,7 +85,7 @@ def stage_shop(result, config) -> None:
         "count": len(lines),
         "spacing": shop.bend_spacing,
         "centre_line_length": centre * scale,
-        "rolling": rolling.figures() if rolling is not None else None,
+        **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)),
@@ -131,6 +131,8 @@ def strip_templates(result, tracer, scale: float, outline_mm: np.ndarray, curvat
                                               shop.template_margin, TEMPLATE_STEP)
     result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
                                                     shop.template_margin, TEMPLATE_STEP)
+    if hull is not None and curvature != "none":  # a rolled hull plate: its pin jig
+        plate_pin_jig(result, vertices, faces, normal, frames, shop)
     return tuple(chosen), candidates
 
 
@@ -139,14 +141,28 @@ def hull_templates(result, config, params: np.ndarray, flat: np.ndarray, outline
     2) placed, outline (N, 2), model units): sections of the hull surface itself at its
     frames (:func:`pipeline.shop.templates.patch_templates`); sets ``result.templates`` and
     the report's ``templates``."""
-    from .templates import TEMPLATE_STEP, patch_templates, templates_section
+    from .templates import TEMPLATE_STEP, hull_mesh, patch_templates, templates_section
 
-    shop, hull = config.spec.shop, result.part.hull
-    chosen, candidates, why = patch_templates(hull.surface, params, flat, outline, list(hull.frames), curvature,
-                                              shop.template_spacing, shop.template_margin, config.mm_per_unit)
+    shop, hull, scale = config.spec.shop, result.part.hull, config.mm_per_unit
+    vertices, faces, flat_mm, normal = hull_mesh(hull.surface, params, flat, scale)
+    frames = [x * scale for x in hull.frames]
+    chosen, candidates, why = patch_templates(vertices, faces, flat_mm, normal, outline * scale, frames, curvature,
+                                              shop.template_spacing, shop.template_margin)
     result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
                                                     shop.template_margin, TEMPLATE_STEP)
     result.templates = tuple(chosen)
+    if curvature != "none":
+        plate_pin_jig(result, vertices, faces, normal, frames, shop)
+
+
+def plate_pin_jig(result, vertices, faces, normal, frames_mm, shop) -> None:
+    """The pin jig of a rolled or formed plate (mesh in mm): sets ``result.pinjig`` and the
+    report's ``pinjig`` (:mod:`pipeline.shop.pinjig`)."""
+    from .pinjig import pin_jig
+
+    jig = pin_jig(vertices, faces, normal, frames_mm, shop.pin_spacing, shop.shortest_pin)
+    result.pinjig = jig
+    result.figures["pinjig"] = dict(jig.figures(), spacing=shop.pin_spacing)
 
 
 def trimmed_figures(result, outline: Outline) -> None:

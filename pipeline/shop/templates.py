@@ -370,17 +370,12 @@ def grid_faces(rows: int, cols: int) -> np.ndarray:
     return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])])
 
 
-def patch_templates(surface, params: np.ndarray, flat: np.ndarray, outline: np.ndarray, frames: list,
-                    curvature: str, spacing: float, margin: float, scale: float, step: float = TEMPLATE_STEP,
-                    target_mm: float = 50.0):
-    """Templates of a hull plate given by its region grid: the hull surface's own sections
-    (the design shape the formed plate is checked against). params (R, C, 2) the grid's
-    surface parameters, flat (R, C, 2) its developed (placed) points, outline (N, 2) the flat
-    plate's net outline, frames the frame positions x (all model units; ``scale`` mm per
-    unit). The grid is refined to cells of about ``target_mm`` on the surface itself (the
-    mesh's chord error target^2 / (8 R): 0.06 mm at R 5 m). Without frames, planes x = X
-    through the middles of equal pieces of the plate's length, at most ``spacing`` apart.
-    Returns (chosen, candidates, why) as :func:`plate_templates`."""
+def hull_mesh(surface, params: np.ndarray, flat: np.ndarray, scale: float, target_mm: float = 50.0):
+    """A hull plate's region grid as a fine mesh on the hull surface itself: params (R, C, 2)
+    the grid's surface parameters, flat (R, C, 2) its developed (placed) points (model
+    units; ``scale`` mm per unit), refined to cells of about ``target_mm`` (the mesh's chord
+    error target^2 / (8 R): 0.06 mm at R 5 m). Returns (vertices (V, 3) mm, faces (F, 3),
+    flat (V, 2) mm, area-weighted mean normal (3,))."""
     points = np.asarray(surface(params[..., 0].ravel(), params[..., 1].ravel())).reshape(params.shape[:2] + (3,))
     cell = max(float(np.linalg.norm(np.diff(points, axis=0), axis=2).max()),
                float(np.linalg.norm(np.diff(points, axis=1), axis=2).max())) * scale
@@ -389,13 +384,20 @@ def patch_templates(surface, params: np.ndarray, flat: np.ndarray, outline: np.n
     rows, cols = fine_params.shape[:2]
     vertices = np.asarray(surface(fine_params[..., 0].ravel(), fine_params[..., 1].ravel())) * scale
     faces = grid_faces(rows, cols)
-    if frames:
-        planes = candidate_planes([x * scale for x in frames], None, spacing, margin)
+    e1, e2 = vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]
+    return vertices, faces, fine_flat.reshape(-1, 2) * scale, np.cross(e1, e2).sum(axis=0)
+
+
+def patch_templates(vertices, faces, flat, normal, outline_mm: np.ndarray, frames_mm: list, curvature: str,
+                    spacing: float, margin: float, step: float = TEMPLATE_STEP):
+    """Templates of a hull plate from its :func:`hull_mesh` (the hull surface's own
+    sections: the design shape the formed plate is checked against), at its frames (mm);
+    without frames, planes x = X through the middles of equal pieces of the plate's length,
+    at most ``spacing`` apart. Returns (chosen, candidates, why) as :func:`plate_templates`."""
+    if frames_mm:
+        planes = candidate_planes(frames_mm, None, spacing, margin)
     else:
         x = vertices[:, 0]
         along = np.array([[x.min(), 0.0, 0.0], [x.max(), 0.0, 0.0]])
         planes = [(f"X {o[0]:.0f}", o, n) for _, o, n in candidate_planes([], along, spacing, margin)]
-    e1, e2 = vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]
-    normal = np.cross(e1, e2).sum(axis=0)
-    return plate_templates(vertices, faces, fine_flat.reshape(-1, 2) * scale, outline * scale, planes, curvature,
-                           normal, margin, step)
+    return plate_templates(vertices, faces, flat, outline_mm, planes, curvature, normal, margin, step)
