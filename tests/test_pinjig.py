@@ -74,7 +74,8 @@ def test_formed_hull_plate_pin_jig_table(tmp_path):
     surface = load_run(path).parts[0].hull.surface
     for frame in sorted({r["row"] for r in rows}):
         x = float(frame.split()[1])
-        tops = np.array([[float(r[k]) for k in ("top_x_mm", "top_y_mm", "top_z_mm")] for r in rows if r["row"] == frame])
+        tops = np.array([[float(r[k]) for k in ("top_x_mm", "top_y_mm", "top_z_mm")]
+                         for r in rows if r["row"] == frame])
         assert np.abs(tops[:, 0] - x).max() <= 0.05
         tops[:, 0] = x
         assert _distance_to_polyline(tops, _hull_section(surface, x, np.linspace(1.95, 2.45, 401))).max() <= 0.5

@@ -228,5 +228,6 @@ def test_formed_plate_gets_a_template_at_every_frame_on_the_hull(tmp_path):
     out = tmp_path / "o"
     assert main(["run", str(tmp_path / "dt.yaml"), "--out", str(out), "--quiet"]) == 0
     doc = ezdxf.readfile(out / "dt_S1_B1_templates.dxf")
-    assert sorted(b.name for b in doc.blocks if b.name.startswith("TEMPLATE_")) == [f"TEMPLATE_T{k}" for k in range(1, 6)]
+    blocks = sorted(b.name for b in doc.blocks if b.name.startswith("TEMPLATE_"))
+    assert blocks == [f"TEMPLATE_T{k}" for k in range(1, 6)]
     assert len(doc.modelspace().query("INSERT")) == 5 and not doc.audit().errors

@@ -244,7 +244,9 @@ def shop_layout(result, config, part_data: list[str]):
             d = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
             p = np.asarray(position) * scale
             edges[text] = np.array([p - 50.0 * d, p + 50.0 * d])
-    butts = [outline.edge_points(k) for k in ("start", "end")] if result.part.hull is not None else []
+    # every stretch of a butt edge on its own: joined, two stretches of one name would make
+    # a line across the plate that every frame touches ("0.0 mm from a butt")
+    butts = [run for k in ("start", "end") for run in outline.edge_runs(k)] if result.part.hull is not None else []
     frames = [(f"FR {x * scale:g}", line * scale) for x, line in result.pattern.frame_lines]
     bends = [(bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
     if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:

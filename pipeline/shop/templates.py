@@ -289,7 +289,8 @@ def write_templates_dxf(path, plate_name: str, templates: list[Template], text_h
         block.add_lwpolyline(contour, close=True, dxfattribs={"layer": "TEMPLATE_CUT"})
         block.add_line((0.0, 0.0), (t.length, 0.0), dxfattribs={"layer": "TEMPLATE_BASE"})
         if np.all(np.isfinite(t.sight)):
-            block.add_line((0.0, float(t.sight[0])), (t.length, float(t.sight[1])), dxfattribs={"layer": "TEMPLATE_SIGHT"})
+            block.add_line((0.0, float(t.sight[0])), (t.length, float(t.sight[1])),
+                           dxfattribs={"layer": "TEMPLATE_SIGHT"})
         for at, height in zip(t.stations, t.heights):
             block.add_line((float(at), 0.0), (float(at), float(height)), dxfattribs={"layer": "TEMPLATE_TEXT"})
             block.add_text(f"{height:.1f}", height=0.4 * text_height, rotation=90.0,
