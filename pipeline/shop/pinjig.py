@@ -85,28 +85,63 @@ def assembly_normal(points: np.ndarray, side: np.ndarray) -> np.ndarray:
     return n if n @ side >= 0 else -n
 
 
-def _heights_at(vertices2: np.ndarray, heights: np.ndarray, faces: np.ndarray,
-                query: np.ndarray) -> np.ndarray:
-    """Heights (Q,) of the mesh above the floor at floor points query (Q, 2): the triangle
-    holding each point (projected vertices vertices2 (V, 2), their heights (V,)), linear in
-    it; nan where no triangle holds it."""
-    a, b, c = vertices2[faces[:, 0]], vertices2[faces[:, 1]], vertices2[faces[:, 2]]
-    lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-    out = np.full(len(query), np.nan)
-    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
-    for k, q in enumerate(query):
-        cand = np.flatnonzero(np.all((q >= lo - 1e-9) & (q <= hi + 1e-9), axis=1) & (np.abs(det) > 0))
-        if not len(cand):
-            continue
-        qa = q - a[cand]
-        u = ((qa[:, 0]) * (c[cand, 1] - a[cand, 1]) - (c[cand, 0] - a[cand, 0]) * qa[:, 1]) / det[cand]
-        v = ((b[cand, 0] - a[cand, 0]) * qa[:, 1] - qa[:, 0] * (b[cand, 1] - a[cand, 1])) / det[cand]
-        inside = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
-        if inside.any():
-            j = np.flatnonzero(inside)[0]
-            f = faces[cand[j]]
-            out[k] = (1 - u[j] - v[j]) * heights[f[0]] + u[j] * heights[f[1]] + v[j] * heights[f[2]]
-    return out
+def height_field(vertices2: np.ndarray, heights: np.ndarray, faces: np.ndarray, shadow, near: int = 48):
+    """A function: floor points query (Q, 2) -> heights (Q,) of the mesh above the floor
+    there (the triangle holding each point, projected vertices vertices2 (V, 2), their
+    heights (V,), linear in it); nan where no triangle holds it. The triangles tried first
+    are those whose centres are nearest (a k-d tree); a point inside the mesh's ``shadow``
+    (a shapely polygon) that none of them holds is tried against all."""
+    import shapely
+    from scipy.spatial import cKDTree
+
+    tri = vertices2[faces]  # (F, 3, 2)
+    tree = cKDTree(tri.mean(axis=1))
+
+    def solve(q, c):  # q (Q, 2), c (Q, K) face indices -> (found (Q,), value (Q,))
+        a, b, d = tri[c, 0], tri[c, 1], tri[c, 2]
+        det = (b[..., 0] - a[..., 0]) * (d[..., 1] - a[..., 1]) - (d[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])
+        qa = q[:, None, :] - a
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = (qa[..., 0] * (d[..., 1] - a[..., 1]) - (d[..., 0] - a[..., 0]) * qa[..., 1]) / det
+            v = ((b[..., 0] - a[..., 0]) * qa[..., 1] - qa[..., 0] * (b[..., 1] - a[..., 1])) / det
+        inside = (det != 0) & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
+        first = np.argmax(inside, axis=1)
+        rows = np.arange(len(q))
+        f = faces[c[rows, first]]
+        uu, vv = u[rows, first], v[rows, first]
+        value = (1 - uu - vv) * heights[f[:, 0]] + uu * heights[f[:, 1]] + vv * heights[f[:, 2]]
+        return inside.any(axis=1), value
+
+    def at(query):
+        query = np.asarray(query, float).reshape(-1, 2)
+        out = np.full(len(query), np.nan)
+        if not len(query):
+            return out
+        _, cand = tree.query(query, k=min(near, len(faces)))
+        found, value = solve(query, cand.reshape(len(query), -1))
+        out[found] = value[found]
+        missed = np.flatnonzero(~found & shapely.contains_xy(shadow, query[:, 0], query[:, 1]))
+        for k in missed:  # rare: a long sliver triangle whose centre is far
+            ok, val = solve(query[k:k + 1], np.arange(len(faces))[None, :])
+            if ok[0]:
+                out[k] = val[0]
+        return out
+
+    return at
+
+
+def _shadow(vertices2: np.ndarray, faces: np.ndarray):
+    """The mesh's outline on the floor: its boundary edges (used by one triangle) joined
+    into polygons, the largest kept."""
+    import shapely
+
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    boundary = unique[count == 1]
+    polygons = shapely.get_parts(shapely.polygonize(shapely.linestrings(vertices2[boundary])))
+    if not len(polygons):
+        return shapely.union_all(shapely.polygons(vertices2[faces]))
+    return max(polygons, key=lambda p: p.area)
 
 
 def pin_jig(vertices: np.ndarray, faces: np.ndarray, side: np.ndarray, frames: list, spacing: float,
@@ -129,8 +164,9 @@ def pin_jig(vertices: np.ndarray, faces: np.ndarray, side: np.ndarray, frames: l
     v2 = np.column_stack([(vertices - origin) @ along, (vertices - origin) @ across])
     heights = h - level
     # the plate's shadow on the floor, shrunk by the margin: where pins may stand
-    shadow = shapely.union_all(shapely.polygons(v2[faces]))
+    shadow = _shadow(v2, faces)
     inner = shadow.buffer(-margin)
+    height_at = height_field(v2, heights, faces, shadow)
     if frames:
         row_names, row_lines = [f"FR {x:g}" for x in frames], list(frames)
     else:
@@ -148,17 +184,17 @@ def pin_jig(vertices: np.ndarray, faces: np.ndarray, side: np.ndarray, frames: l
             # a = (value - origin.x - b across.x - h(a, b) normal.x) / along.x, h from the mesh
             a = (value - origin[0] - bs * across[0]) / along[0]
             for _ in range(6):
-                h_ab = _heights_at(v2, heights, faces, np.column_stack([a, bs]))
+                h_ab = height_at(np.column_stack([a, bs]))
                 a = np.where(np.isfinite(h_ab), (value - origin[0] - bs * across[0] - np.nan_to_num(h_ab) * normal[0])
                              / along[0], a)
         else:
             a = np.full(len(bs), value)
-        for p in np.column_stack([a, bs]):
-            if inner.contains(shapely.Point(p)):
-                names.append(name)
-                pins.append(p)
+        feet = np.column_stack([a, bs])
+        for p in feet[shapely.contains_xy(inner, feet[:, 0], feet[:, 1])]:
+            names.append(name)
+            pins.append(p)
     pins = np.array(pins).reshape(-1, 2)
-    pin_h = _heights_at(v2, heights, faces, pins)
+    pin_h = height_at(pins)
     keep = np.isfinite(pin_h)
     pins, pin_h = pins[keep], pin_h[keep]
     names = tuple(n for n, k in zip(names, keep) if k)
