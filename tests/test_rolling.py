@@ -1,6 +1,7 @@
 """Roll set-up: bending lines only where a plate of its thickness must be rolled."""
 
 import json
+import re
 
 import ezdxf
 import numpy as np
@@ -153,3 +154,37 @@ def test_hull_side_plate_needs_no_rolling(tmp_path):
     assert rolling["lines_not_rolled"] == len(radii) and rolling["no_roll_radius"] == pytest.approx(8927.41, abs=0.01)
     assert len(msp.query("LINE[layer=='MARK_BEND']")) == 0
     assert any(t.dxf.text.startswith("NO ROLLING") for t in msp.query("TEXT"))
+
+
+def test_formed_plate_roll_lines_carry_the_hulls_radius_and_the_limit(tmp_path):
+    """A plate of a torus hull (a bilge tube of radius 3 m whose centre line bows on 20 m,
+    butts 6 m apart: no developable strip fits, it is formed): every roll line follows the
+    tube, so the radius across it is the tube's, 3000 mm (closed form), marked 'B1 R3000';
+    under a no-roll radius of 2500 mm none is rolled and the plate says NO ROLLING."""
+    from tests.hull_shapes import bowed_bilge_iges
+
+    iges = bowed_bilge_iges(tmp_path / "torus.igs", bow=20000.0, bilge=3000.0, length=8000.0)
+    reps = {}
+    for key, shop in (("default", {}), ("limited", {"no_roll_radius": 2500.0})):
+        data = {"name": key, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "shop": shop,
+                "strake": {"surface": {"iges": str(iges)}, "butts": [-3000.0, 3000.0], "margin": 0.2,
+                           "seams": [{"iso": {"v": 0.2}}, {"iso": {"v": 0.8}}], "fit_tolerance": 5.0}}
+        path = tmp_path / f"{key}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        assert main(["run", str(path), "--out", str(tmp_path / key), "--quiet"]) == 0
+        reps[key] = json.loads((tmp_path / key / f"{key}_S1_B1.json").read_text())
+        reps[key + "_dxf"] = ezdxf.readfile(tmp_path / key / f"{key}_S1_B1.dxf").modelspace()
+    assert reps["default"]["plate_class"]["class"] == "formed"
+    forming = reps["default"]["forming"]
+    radii = np.array(forming["roll_line_radii"])
+    assert len(radii) >= 3 and np.abs(radii - 3000.0).max() <= 0.005 * 3000.0
+    assert forming["rolling"]["needs_rolling"] and forming["rolling"]["lines_not_rolled"] == 0
+    texts = [t.dxf.text for t in reps["default_dxf"].query("TEXT")]
+    marks = [re.fullmatch(r"B(\d+) R(\d+)", t) for t in texts]
+    marks = sorted((int(m.group(1)), int(m.group(2))) for m in marks if m)
+    assert [n for n, _ in marks] == list(range(1, len(radii) + 1))
+    assert all(abs(r - 3000) <= 15 for _, r in marks)  # no roll side: not decided on a formed plate
+    limited = reps["limited"]["forming"]
+    assert limited["roll_lines"] == 0 and limited["rolling"]["lines_not_rolled"] == len(radii)
+    assert len(reps["limited_dxf"].query("LINE[layer=='MARK_BEND']")) == 0
+    assert any(t.dxf.text.startswith("NO ROLLING: RADIUS >= 2500 MM") for t in reps["limited_dxf"].query("TEXT"))

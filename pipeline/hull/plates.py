@@ -483,6 +483,9 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         rolls, roll_method = np.zeros((0, 2, 2)), ""
     if not len(rolls) and kind != "flat":
         rolls, roll_method = least_bending_lines(hull.surface, grid, placed, f_grid, outline, spacing)
+    rolling = None
+    if kind != "flat" and len(rolls) and config.spec.profile == "steel":
+        rolls, rolling = _rolled(rolls, hull.surface, grid, placed, f_grid, outline, part.steel, config)
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     check = completeness(v3, f3, grid, tol, min(tol, 1e-6 * max(size) + 1e-9))
     if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
@@ -496,7 +499,8 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     result.figures["completeness"] = check
     result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
                                  "shrink_area_m2": strains["shrink_area_m2"],
-                                 "stretch_area_m2": strains["stretch_area_m2"]} if kind != "flat" else None
+                                 "stretch_area_m2": strains["stretch_area_m2"],
+                                 **(rolling or {})} if kind != "flat" else None
     area3 = float(result.figures["region"]["area_m2"])
     result.figures["plate_class"] = dict(
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
@@ -513,6 +517,22 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         from ..shop.plate import hull_templates
 
         hull_templates(result, config, grid.params, pg, outline, "double")
+
+
+def _rolled(rolls, surface, grid, placed, faces, outline, steel, config):
+    """The roll lines of a patch-developed plate that it must be rolled at (the radius across
+    each, the hull's largest principal radius along it, below the plate's no-roll radius:
+    :mod:`pipeline.shop.rolling`) and the report's roll figures (mm)."""
+    from ..shop.rolling import line_radii, plate_limit
+
+    radii = line_radii(surface, grid.params.reshape(-1, 2), placed, faces, outline, rolls) * config.mm_per_unit
+    setup = plate_limit(steel.thickness, steel.material, config.spec.shop.no_roll_radius)
+    keep = radii < setup.limit
+    finite = radii[np.isfinite(radii)]
+    setup = dataclasses.replace(setup, rolled=int(keep.sum()), dropped=int((~keep).sum()),
+                                smallest_radius=float(finite.min()) if finite.size else float("inf"))
+    return rolls[keep], {"roll_line_radii": [float(r) for r in radii[keep]], "rolling": setup.figures(),
+                         "roll_line_radius": "the hull's largest principal radius along the line (5 points), mm"}
 
 
 def least_bending_lines(surface, grid, placed, faces, outline, spacing):

@@ -43,6 +43,8 @@ def roll_setup(lines_mm: list, steel, shop) -> tuple[list, RollSetup]:
 def bend_text(line: BendLine) -> str:
     """The mark written beside a bending line: number, radius, roll side."""
     radius = "FLAT" if not np.isfinite(line.radius) or line.radius > 1e6 else f"R{line.radius:.0f}"
+    if line.convex_on_drawn_side is None:  # a formed plate's roll line: its side is not decided
+        return f"B{line.number} {radius}"
     return f"B{line.number} {radius} {'CVX' if line.convex_on_drawn_side else 'CCV'}"
 
 
@@ -204,9 +206,20 @@ def _fallback(result, scale: float) -> ShopPlate:
     pattern = result.pattern
     n = len(pattern.outline)
     outline = Outline(pattern.outline * scale, ("edge",) * n, float("nan"), float("nan"), 0.0)
-    lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("nan"), True)
-             for k, (a, b) in enumerate(pattern.bend_lines)]
-    return ShopPlate(outline, tuple(lines))
+    forming = result.figures.get("forming") or {}
+    radii = forming.get("roll_line_radii")  # mm, where the roll set-up measured them
+    if radii is None or len(radii) != len(pattern.bend_lines):
+        lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("nan"), True)
+                 for k, (a, b) in enumerate(pattern.bend_lines)]
+        return ShopPlate(outline, tuple(lines))
+    lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("inf") if r is None else float(r), None)
+             for k, ((a, b), r) in enumerate(zip(pattern.bend_lines, radii))]
+    rolling = forming.get("rolling")
+    setup = None if rolling is None else RollSetup(rolling["no_roll_radius"], rolling["thickness"],
+                                                   rolling["yield_stress_mpa"], rolling["source"],
+                                                   rolling["rolled_lines"], rolling["lines_not_rolled"],
+                                                   rolling["smallest_radius"] or float("inf"))
+    return ShopPlate(outline, tuple(lines), rolling=setup)
 
 
 def edge_names(result, shop_settings) -> dict:
@@ -248,7 +261,7 @@ def shop_layout(result, config, part_data: list[str]):
     # a line across the plate that every frame touches ("0.0 mm from a butt")
     butts = [run for k in ("start", "end") for run in outline.edge_runs(k)] if result.part.hull is not None else []
     frames = [(f"FR {x * scale:g}", line * scale) for x, line in result.pattern.frame_lines]
-    bends = [(bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
     if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:
         part_data = part_data + [f"BEND LINES B1-B{len(plate.bending)} EVERY {plate.bend_spacing:g} MM",
                                  "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
@@ -358,7 +371,7 @@ def shop_drawing(result, config, layout, target):
     from .drawing import write_shop_drawing
 
     plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
-    bends = [(b.number, bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
     steel = result.figures.get("steel") or {}
     data = [f"PART {result.name}   THK {steel.get('thickness_mm', 0):g} MM   MAT {steel.get('material', '')}",
             f"NET AREA {steel.get('area_m2', 0):.3f} M2   WEIGHT {steel.get('weight_kg', 0):.1f} KG",

@@ -122,6 +122,37 @@ def plate_limit(thickness: float, material: str, configured: float | None) -> Ro
     return RollSetup(limit, thickness, sigma, source)
 
 
+def line_radii(surface, params: np.ndarray, flat: np.ndarray, faces: np.ndarray, outline: np.ndarray,
+               lines: np.ndarray, samples: int = 5) -> np.ndarray:
+    """The smallest radius across each roll line of a plate developed from its hull patch
+    (model units): at ``samples`` points along each flat line (lines (L, 2, 2)), the patch
+    grid's surface parameters there (params (V, 2) of the flat grid points flat (V, 2),
+    triangles faces, linear in each) and the hull's largest principal curvature at them:
+    a roll line follows the least curvature, so the curvature across it is the largest.
+    inf where a line leaves the plate everywhere."""
+    import shapely
+
+    from flatten.patch import principal_curvatures
+
+    from .pinjig import height_field
+
+    if not len(lines):
+        return np.zeros(0)
+    shadow = shapely.Polygon(outline)
+    u_at = height_field(flat, params[:, 0], faces, shadow)
+    v_at = height_field(flat, params[:, 1], faces, shadow)
+    f = np.linspace(0.1, 0.9, samples)
+    pts = (lines[:, :1, :] + f[None, :, None] * (lines[:, 1:, :] - lines[:, :1, :])).reshape(-1, 2)
+    u, v = u_at(pts), v_at(pts)
+    kappa = np.zeros(len(pts))
+    ok = np.isfinite(u) & np.isfinite(v)
+    if ok.any():
+        kappa[ok] = np.abs(principal_curvatures(surface, u[ok], v[ok])[0][:, 1])
+    largest = kappa.reshape(len(lines), samples).max(axis=1)
+    with np.errstate(divide="ignore"):
+        return np.where(largest > 0, 1.0 / largest, np.inf)
+
+
 def rolled_lines(lines, setup: RollSetup):
     """The bending lines a plate is rolled at: those whose radius (BendLine.radius, mm) is
     below the limit, numbered again from 1 in their order; returns (lines, the setup with
