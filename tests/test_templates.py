@@ -77,6 +77,8 @@ def test_cylinder_sections_are_arcs_of_its_radius_and_it_gets_no_template(tmp_pa
     assert rep["candidate_sections"][0]["arc_radius"] == pytest.approx(2000.0, abs=0.1)
     assert rep["candidate_sections"][0]["arc_deviation"] <= 0.1
     assert not (out / "cyl_templates.dxf").exists()
+    lines = json.loads((out / "cyl.json").read_text())["bending"]["lines"]
+    assert lines and all(line["checked_by"] == ["radius gauge"] for line in lines)
 
 
 def test_cone_templates_vary_as_its_radius_does(tmp_path):
@@ -112,6 +114,12 @@ def test_cone_templates_vary_as_its_radius_does(tmp_path):
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "frustum.json").read_text())["templates"]
     assert rep["count"] == 1 and "varying radius" in rep["rule"]
+    # the template runs across the rulings: it checks the bending lines it reaches (the
+    # middle ones; its plane leaves the cone's end rulings), a gauge the others
+    lines = json.loads((out / "frustum.json").read_text())["bending"]["lines"]
+    checks = [line["checked_by"] for line in lines]
+    assert len(lines) == 13 and checks[6] == ["T1"] and checks.count(["T1"]) >= 5
+    assert all(c in (["T1"], ["radius gauge"]) for c in checks)
     doc = ezdxf.readfile(out / "frustum_templates.dxf")
     assert doc.dxfversion == "AC1015" and doc.header["$INSUNITS"] == 4 and not doc.audit().errors
     block = doc.blocks.get("TEMPLATE_T1")

@@ -437,6 +437,10 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
 
     hull_templates(result, config, grid.params, pg, outline,
                    "none" if rolling is None or not rolling.needs_rolling else "single")
+    if lines_mm:
+        from ..shop.templates import checked_by
+
+        checked_by(result.figures["bending"]["lines"], result.templates)
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):

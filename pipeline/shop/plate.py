@@ -94,6 +94,10 @@ def stage_shop(result, config) -> None:
                    "radius": b.radius if np.isfinite(b.radius) else None,
                    "convex_on_drawn_side": b.convex_on_drawn_side, "mark": bend_text(b)} for b in lines],
     }
+    if lines:
+        from .templates import checked_by
+
+        checked_by(result.figures["bending"]["lines"], result.templates)
     result.figures["outline"] = {
         "units": "mm",
         "vertices": len(outline_mm.points),

@@ -402,3 +402,15 @@ def patch_templates(vertices, faces, flat, normal, outline_mm: np.ndarray, frame
         along = np.array([[x.min(), 0.0, 0.0], [x.max(), 0.0, 0.0]])
         planes = [(f"X {o[0]:.0f}", o, n) for _, o, n in candidate_planes([], along, spacing, margin)]
     return plate_templates(vertices, faces, flat, outline_mm, planes, curvature, normal, margin, step)
+
+
+def checked_by(line_figures: list, templates) -> None:
+    """Add to each bending line's report entry (``start``, ``end`` on the flat plate, mm)
+    the templates that cross it, which check its radius once rolled; a rolled line no
+    template crosses is checked with a radius gauge."""
+    import shapely
+
+    paths = [(t.ident, shapely.LineString(t.flat)) for t in templates if len(t.flat) >= 2]
+    for entry in line_figures:
+        segment = shapely.LineString([entry["start"], entry["end"]])
+        entry["checked_by"] = [ident for ident, path in paths if path.intersects(segment)] or ["radius gauge"]
