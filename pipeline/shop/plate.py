@@ -167,8 +167,12 @@ def plate_pin_jig(result, vertices, faces, normal, frames_mm, shop) -> None:
     from .pinjig import pin_jig
 
     jig = pin_jig(vertices, faces, normal, frames_mm, shop.pin_spacing, shop.shortest_pin)
-    result.pinjig = jig
     result.figures["pinjig"] = dict(jig.figures(), spacing=shop.pin_spacing)
+    if len(jig.heights):
+        result.pinjig = jig
+    else:  # a plate narrower than the grid: no table, and the report says why
+        result.figures["pinjig"]["note"] = ("no point of the pin grid lies under the plate 50 mm inside its edge: "
+                                            "no table written")
 
 
 def trimmed_figures(result, outline: Outline) -> None:
