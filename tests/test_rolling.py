@@ -188,3 +188,18 @@ def test_formed_plate_roll_lines_carry_the_hulls_radius_and_the_limit(tmp_path):
     assert limited["roll_lines"] == 0 and limited["rolling"]["lines_not_rolled"] == len(radii)
     assert len(reps["limited_dxf"].query("LINE[layer=='MARK_BEND']")) == 0
     assert any(t.dxf.text.startswith("NO ROLLING: RADIUS >= 2500 MM") for t in reps["limited_dxf"].query("TEXT"))
+
+
+@pytest.mark.parametrize("field, value", [("no_roll_radius", -3.0), ("template_spacing", 5000.0),
+                                          ("template_margin", 20.0), ("pin_spacing", 10.0), ("shortest_pin", 0.0)])
+def test_bad_forming_settings_are_refused_naming_file_field_and_value(tmp_path, capsys, field, value):
+    from pathlib import Path
+
+    data = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "plate.yaml").read_text())
+    data["shop"] = {field: value}
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and f"shop.{field}" in err and f"{value:g}" in err
+    assert not (tmp_path / "o").exists()
