@@ -40,7 +40,6 @@ def _all_templates(config_path, part_index=0):
     geometry, whatever the count rule picks): (result, templates with sight lines)."""
     from pipeline.config import load_config
     from pipeline.shop.plate import plate_tracer, strip_templates
-    from pipeline.shop.templates import with_sight_lines
     from pipeline.stages import run_part
 
     config = load_config(config_path)

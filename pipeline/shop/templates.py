@@ -25,6 +25,7 @@ Everything here is geometry on arrays: a plate is given as a triangle mesh with 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -165,8 +166,6 @@ def with_sight_lines(templates: list[Template], plate_normal: np.ndarray, offset
     """The templates with their sight lines: each one's plane cut by the common sight plane
     (normal the plate's mean normal, ``offset`` beyond the farthest base-line end, on the
     base lines' side)."""
-    import dataclasses
-
     if not templates:
         return []
     n = np.asarray(plate_normal, float) / np.linalg.norm(plate_normal)
@@ -257,8 +256,6 @@ def plate_templates(vertices, faces, flat, outline, planes, curvature: str, plat
     chosen, why = count_rule(candidates, curvature)
     if curvature == "double" and 0 < len(chosen) < 3:
         why += f" (only {len(chosen)} candidate plane(s) cross the plate inside its margins)"
-    import dataclasses
-
     picked = [dataclasses.replace(candidates[k], ident=f"T{j + 1}") for j, k in enumerate(chosen)]
     return with_sight_lines(picked, plate_normal), candidates, why
 
