@@ -45,7 +45,12 @@ def test_spherical_cap_pins_reach_the_sphere():
     expected = np.sqrt(radius ** 2 - rho2) - (corner - 250.0)
     assert np.abs(jig.heights - expected).max() <= 0.5
     assert jig.extent == pytest.approx(radius - corner + 250.0, abs=1e-6)
-    assert jig.csv().count("\n") == len(jig.heights) + 1
+    # check points: the cap's four corners, its lowest points, the shortest pin above the floor
+    assert len(jig.checks) == 4 and np.allclose(jig.check_heights, 250.0, atol=1e-6)
+    c, s = np.cos(0.3), np.sin(0.3)
+    unturned = jig.checks @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])  # back about x: the cap's own axes
+    assert np.allclose(np.abs(unturned[:, :2]), 1200.0)
+    assert jig.csv().count("\n") == len(jig.heights) + 4 + 1
 
 
 def test_formed_hull_plate_pin_jig_table(tmp_path):
@@ -65,8 +70,13 @@ def test_formed_hull_plate_pin_jig_table(tmp_path):
     assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "dt_S1_B1.json").read_text())
     assert rep["plate_class"]["class"] == "formed"
-    rows = list(csv.DictReader(io.StringIO((out / "dt_S1_B1_pinjig.csv").read_text())))
-    assert len(rows) == rep["pinjig"]["pins"] >= 10
+    table = list(csv.DictReader(io.StringIO((out / "dt_S1_B1_pinjig.csv").read_text())))
+    rows = [r for r in table if r["row"] != "CHECK CORNER"]
+    corners = [r for r in table if r["row"] == "CHECK CORNER"]
+    assert len(rows) == rep["pinjig"]["pins"] >= 10 and len(corners) == 4
+    # the corners lie on the butts (x 40 and 54 m), the lowest one the shortest pin above the floor
+    assert sorted(round(float(r["top_x_mm"])) for r in corners) == [40000, 40000, 54000, 54000]
+    assert min(float(r["height_mm"]) for r in corners) == pytest.approx(250.0, abs=0.05)
     heights = np.array([float(r["height_mm"]) for r in rows])
     assert heights.min() >= 250.0 - 0.05  # the table's 0.1 mm rounding
     from pipeline.hull.plan import load_run

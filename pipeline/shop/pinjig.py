@@ -1,4 +1,5 @@
-"""Pin-jig table of a curved plate: the assembly plane and the height of every pin (mm).
+"""Pin-jig table of a curved plate: the assembly plane, the height of every pin and of the
+plate's corners (its check points) above the floor (mm).
 
 A pin jig is a bed of vertical screw pins standing on a flat floor (the assembly plane);
 set to their heights, the pins' tops carry the formed plate in its shape, so it can be
@@ -18,7 +19,7 @@ row, kept where they lie under the plate at least ``margin`` inside its edge.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,6 +33,8 @@ class PinJig:
     pins : (P, 2) pin positions on the floor (along, across); heights : (P,)
     tops : (P, 3) where each pin touches the plate; rows : (P,) the row (frame) name of each
     shortest : the shortest pin asked for; extent : the plate's height range above the floor
+    checks : (4, 3) the plate's check points, its corners (the points farthest along the
+        floor's diagonals); check_feet : (4, 2) their places on the floor; check_heights (4,)
     """
 
     origin: np.ndarray
@@ -43,6 +46,9 @@ class PinJig:
     rows: tuple
     shortest: float
     extent: float
+    checks: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    check_feet: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    check_heights: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def figures(self) -> dict:
         return {"units": "mm", "pins": len(self.heights), "assembly_plane": {"origin": self.origin.tolist(),
@@ -51,6 +57,8 @@ class PinJig:
                 "lowest_pin": float(self.heights.min()) if len(self.heights) else None,
                 "tallest_pin": float(self.heights.max()) if len(self.heights) else None,
                 "rows": sorted(set(self.rows), key=self.rows.index),
+                "check_points": [{"point": p.tolist(), "floor": f.tolist(), "height": float(h)}
+                                 for p, f, h in zip(self.checks, self.check_feet, self.check_heights)],
                 "side": "pins touch the side the plate's mean normal points away from (the drawn side faces up)",
                 "rule": "assembly plane normal minimising the plate's extent along it; floor at the lowest point "
                         "of the plate minus the shortest pin"}
@@ -60,6 +68,8 @@ class PinJig:
         lines = ["pin,row,along_mm,across_mm,height_mm,top_x_mm,top_y_mm,top_z_mm"]
         for k, (row, p, h, t) in enumerate(zip(self.rows, self.pins, self.heights, self.tops)):
             lines.append(f"P{k + 1},{row},{p[0]:.1f},{p[1]:.1f},{h:.1f},{t[0]:.1f},{t[1]:.1f},{t[2]:.1f}")
+        for k, (p, h, t) in enumerate(zip(self.check_feet, self.check_heights, self.checks)):
+            lines.append(f"C{k + 1},CHECK CORNER,{p[0]:.1f},{p[1]:.1f},{h:.1f},{t[0]:.1f},{t[1]:.1f},{t[2]:.1f}")
         return "\n".join(lines) + "\n"
 
 
@@ -199,5 +209,7 @@ def pin_jig(vertices: np.ndarray, faces: np.ndarray, side: np.ndarray, frames: l
     pins, pin_h = pins[keep], pin_h[keep]
     names = tuple(n for n, k in zip(names, keep) if k)
     tops = origin + pins[:, :1] * along + pins[:, 1:] * across + pin_h[:, None] * normal
+    # check points: the plate's corners, the vertices farthest along the floor's diagonals
+    corner = np.unique([int(np.argmax(v2 @ d)) for d in ((1, 1), (1, -1), (-1, -1), (-1, 1))])
     return PinJig(origin, normal, np.vstack([along, across]), pins, pin_h, tops, names, shortest,
-                  float(heights.max()))
+                  float(heights.max()), vertices[corner], v2[corner], heights[corner])
