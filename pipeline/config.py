@@ -434,7 +434,16 @@ class Shop(_Strict):
 
     outline_tolerance: float = Field(0.05, gt=0, le=10, description="mm, cut outline vs exact development")
     bend_spacing: float = Field(400.0, gt=0, description="mm between bending lines")
+    no_roll_radius: float | None = Field(
+        None, gt=0, description="mm: no bending line where the radius across it is larger (taken elastically when "
+        "the plate is pulled into place); default from thickness and yield stress, pipeline.shop.rolling")
     frame_clearance: float = Field(50.0, ge=0, description="mm: a frame nearer a butt is not marked")
+    template_spacing: float = Field(3500.0, gt=0, le=3500, description="mm: most between templates across the rulings "
+                                    "of a plate without frames")
+    template_margin: float = Field(100.0, ge=50, le=1000, description="mm: template ends inside the plate's edges")
+    pin_spacing: float = Field(800.0, ge=100, description="mm between the pins of a pin jig along a row (and between "
+                               "rows where there are no frames)")
+    shortest_pin: float = Field(250.0, gt=0, description="mm: the pin jig's shortest pin")
     text_height: tuple[float, float] = Field((5.0, 40.0), description="mm, smallest and largest text")
     mirror: bool = Field(False, description="also write the mirrored plate of the other side (P/S in the id)")
     bevel: EdgeTexts = EdgeTexts()

@@ -99,6 +99,16 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
                 errors = write_steel_dxf(path, layout, out.layers)
                 written += [path] if pdf is None else [path, pdf]
             result.figures["dxf_audit_errors"] = errors
+            if result.templates:  # the templates at 1:1 (pipeline.shop.templates)
+                from .shop.templates import write_templates_dxf
+
+                path = out_dir / f"{name}_templates.dxf"
+                result.figures["templates"]["dxf_audit_errors"] = write_templates_dxf(path, name, list(result.templates))
+                written.append(path)
+            if result.pinjig is not None:  # the pin jig's table (pipeline.shop.pinjig)
+                path = out_dir / f"{name}_pinjig.csv"
+                write_text(path, result.pinjig.csv())
+                written.append(path)
         if out.obj:
             path = out_dir / f"{name}.obj"
             v3, faces = (result.strip.vertices, result.strip.faces) if result.strip is not None else result.mesh

@@ -34,7 +34,7 @@ STAGING_PREFIX = ".devflat-staging-"
 RUN_FOLDER = "run"
 
 # every file a part or a run may write, by profile (DXF first: it is removed first)
-PART_SUFFIXES = {"steel": (".dxf", "_P.dxf", "_S.dxf", "_drawing.pdf", "_P_drawing.pdf", "_S_drawing.pdf", ".obj", "_flat.png", "_solutions.png", ".json"),
+PART_SUFFIXES = {"steel": (".dxf", "_P.dxf", "_S.dxf", "_templates.dxf", "_pinjig.csv", "_drawing.pdf", "_P_drawing.pdf", "_S_drawing.pdf", ".obj", "_flat.png", "_solutions.png", ".json"),
                  "textile": (".obj", "_flat.png", "_solutions.png", ".json")}
 RUN_SUFFIXES = {"steel": ("_plan.dxf", "_expansion.dxf", "_expansion.pdf", "_sheet.png", "_classes.png", "_hull.png",
                           "_summary.csv", "_summary.json"),

@@ -83,6 +83,10 @@ def part_report(result: PartResult, units: str) -> dict:
         "files": result.figures.get("files"),
         "traceback": result.figures.get("traceback"),  # an internal error's, for the bug report
     }
+    if result.figures.get("templates") is not None:  # steel plates with a formed shape to check
+        report["templates"] = result.figures["templates"]
+    if result.figures.get("pinjig") is not None:
+        report["pinjig"] = result.figures["pinjig"]
     return report
 
 

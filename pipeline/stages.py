@@ -58,6 +58,8 @@ class PartResult:
     figures: dict = field(default_factory=dict)
     mesh: tuple | None = None  # (vertices (V, 3), faces (F, 3)) of a plate that is no strip (flat, formed)
     shop: object = None  # a pipeline.shop.ShopPlate for steel plates
+    templates: tuple = ()  # pipeline.shop.templates.Template: what checks a curved steel plate's shape
+    pinjig: object = None  # a pipeline.shop.pinjig.PinJig of a rolled or formed hull plate
 
     @property
     def ok(self) -> bool:

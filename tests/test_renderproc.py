@@ -78,7 +78,7 @@ def test_a_one_shot_run_writes_what_an_in_process_run_writes(tmp_path):
     done = subprocess.run([sys.executable, "-c", ONE_SHOT, "run", str(config), "--out", str(tmp_path / "there")],
                           env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines()[-1].startswith("wrote 8 files")
+    assert done.stdout.splitlines()[-1].startswith("wrote 9 files")  # with its templates DXF
     here, there = sorted(p.name for p in (tmp_path / "here").iterdir()), sorted(
         p.name for p in (tmp_path / "there").iterdir())
     assert here == there and "bilge_plate_drawing.pdf" in there

@@ -370,7 +370,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     3D shape is the strip at the closest points of the hull's patch grid, its cut outline
     the developed region boundary, its bending lines the strip's own rulings."""
     from ..shop.bending import lines_on_rulings
-    from ..shop.plate import ShopPlate, _scaled
+    from ..shop.plate import ShopPlate, _scaled, roll_setup
 
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
@@ -386,6 +386,11 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     a2, b2 = a2 @ rot.T + shift, b2 @ rot.T + shift
     spacing = config.spec.shop.bend_spacing / mm
     lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
+    rolling = None
+    if lines and config.spec.profile == "steel":  # only the lines the plate is rolled at (shop.rolling)
+        kept, rolling = roll_setup([dataclasses.replace(b, radius=b.radius * mm) for b in lines], part.steel,
+                                   config.spec.shop)
+        lines = [dataclasses.replace(b, radius=b.radius / mm) for b in kept]
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     bends = np.array([[b.a, b.b] for b in lines]).reshape(-1, 2, 2)
     result.strip, result.solution, result.development, result.developed = None, None, None, None
@@ -418,10 +423,11 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     outline_mm = _scaled(net, mm)
     lines_mm = [dataclasses.replace(b, a=b.a * mm, b=b.b * mm, station=b.station * mm, radius=b.radius * mm)
                 for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm)
+    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm, rolling)
     result.figures["bending"] = {
         "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
         "centre_line_length": centre * mm, "family": trim.family,
+        **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)), "radius": b.radius if np.isfinite(b.radius) else None,
@@ -434,6 +440,14 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates about {outline_mm.max_deviation:.3g} mm from the exact "
                                f"development (tolerance {outline_mm.tolerance:g} mm)")
+    from ..shop.plate import hull_templates  # the hull's own sections check the rolled plate
+
+    hull_templates(result, config, grid.params, pg, outline,
+                   "none" if rolling is None or not rolling.needs_rolling else "single")
+    if lines_mm:
+        from ..shop.templates import checked_by
+
+        checked_by(result.figures["bending"]["lines"], result.templates)
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
@@ -480,6 +494,9 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         rolls, roll_method = np.zeros((0, 2, 2)), ""
     if not len(rolls) and kind != "flat":
         rolls, roll_method = least_bending_lines(hull.surface, grid, placed, f_grid, outline, spacing)
+    rolling = None
+    if kind != "flat" and len(rolls) and config.spec.profile == "steel":
+        rolls, rolling = _rolled(rolls, hull.surface, grid, placed, f_grid, outline, part.steel, config)
     frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
     labels = _labels(sides, hull, grid.points)
     cut = None if hull.trim is None else cut_at_trim(hull.trim, grid.params, placed, f_grid)
@@ -502,7 +519,8 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     result.figures["completeness"] = check
     result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
                                  "shrink_area_m2": strains["shrink_area_m2"],
-                                 "stretch_area_m2": strains["stretch_area_m2"]} if kind != "flat" else None
+                                 "stretch_area_m2": strains["stretch_area_m2"],
+                                 **(rolling or {})} if kind != "flat" else None
     area3 = float(result.figures["region"]["area_m2"])
     result.figures["plate_class"] = dict(
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
@@ -517,6 +535,10 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     finish_part(result, config)
     if cut is not None:
         _cut_figures(result, cut, placed, grid, config)
+    if kind == "formed" and config.spec.profile == "steel":  # double curvature: templates at every frame
+        from ..shop.plate import hull_templates
+
+        hull_templates(result, config, grid.params, pg, outline, "double")
 
 
 def _clipped(rolls, frames, labels, outline):
@@ -553,6 +575,22 @@ def _cut_figures(result, cut, placed, grid, config) -> None:
         outline = np.vstack([cut.outline, cut.outline[:1]])
         steel.update(area_m2=area_m2, weight_kg=area_m2 * steel["thickness_mm"] / 1000.0 * steel["density_kg_m3"],
                      outline_length=float(np.linalg.norm(np.diff(outline, axis=0), axis=1).sum()))
+
+
+def _rolled(rolls, surface, grid, placed, faces, outline, steel, config):
+    """The roll lines of a patch-developed plate that it must be rolled at (the radius across
+    each, the hull's largest principal radius along it, below the plate's no-roll radius:
+    :mod:`pipeline.shop.rolling`) and the report's roll figures (mm)."""
+    from ..shop.rolling import line_radii, plate_limit
+
+    radii = line_radii(surface, grid.params.reshape(-1, 2), placed, faces, outline, rolls) * config.mm_per_unit
+    setup = plate_limit(steel.thickness, steel.material, config.spec.shop.no_roll_radius)
+    keep = radii < setup.limit
+    finite = radii[np.isfinite(radii)]
+    setup = dataclasses.replace(setup, rolled=int(keep.sum()), dropped=int((~keep).sum()),
+                                smallest_radius=float(finite.min()) if finite.size else float("inf"))
+    return rolls[keep], {"roll_line_radii": [float(r) for r in radii[keep]], "rolling": setup.figures(),
+                         "roll_line_radius": "the hull's largest principal radius along the line (5 points), mm"}
 
 
 def least_bending_lines(surface, grid, placed, faces, outline, spacing):

@@ -235,6 +235,24 @@ def seam_curve(surface: NurbsSurface, long_axis: int, girth: Girth, name: str) -
     return curve
 
 
+def plate_x_range(planes, surface=None, long_axis: int = 0, girths=None) -> tuple[float, float]:
+    """The x range a plate spans: between its butt planes; an end plate (a None plane: the
+    hull's end before or after its butt) from its butt to the farthest x its region reaches
+    on that side (the stem or the stern; sampled on 9 girth lines across the region, 801
+    points each: a transom can reach farther aft between the seams than on them), so its
+    frames are marked like any plate's."""
+    if all(p is not None for p in planes):
+        xs = [p.offset for p in planes]
+        return min(xs), max(xs)
+    s = np.linspace(*(surface.domain_u if long_axis == 0 else surface.domain_v), 801)
+    lines = [girths[0].between(girths[1], f)(s) for f in np.linspace(0.0, 1.0, 9)]
+    x = np.concatenate([surface(*((s, g) if long_axis == 0 else (g, s)))[:, 0] for g in lines])
+    if all(p is None for p in planes):
+        return float(x.min()), float(x.max())
+    butt = next(p for p in planes if p is not None)
+    return (float(x.min()), butt.offset) if planes[0] is None else (butt.offset, float(x.max()))
+
+
 def plate_part(name, surface, axis, girths, curves, planes, spec_steel, strake, distance, seam_names, butt_names,
            resolution, surface_note="", crossings: dict | None = None) -> Part:
     """One plate: its curve pair (the seams, extended past plane butts) and its HullPlate;
@@ -251,8 +269,7 @@ def plate_part(name, surface, axis, girths, curves, planes, spec_steel, strake, 
         note = "end plate: bounded by the hull's end, not by two butt planes"
     if c is None:
         c, d = curves
-    xs = [p.offset for p in planes if p is not None]
-    frames = frames_between(strake.frames, min(xs), max(xs), name) if len(xs) == 2 else []
+    frames = frames_between(strake.frames, *plate_x_range(planes, surface, axis, girths), name) if strake.frames else []
     hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
                      tuple(girths), distance, developable, note, resolution, None, surface_note)
     return Part(name, c, d, spec_steel, ("c", "d"), {}, hull)

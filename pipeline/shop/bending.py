@@ -26,7 +26,8 @@ class BendLine:
     station : position along the plate's centre line from its first end
     radius : radius of curvature across the line at its middle (inf where flat)
     convex_on_drawn_side : the plate bulges towards the viewer of the drawing (the side
-        the strip normal c' x (d - c) points to)
+        the strip normal c' x (d - c) points to); None where not known (the roll lines of
+        a plate developed from its hull patch)
     """
 
     number: int

@@ -59,6 +59,20 @@ class Outline:
             idx = np.roll(idx, -(gaps[0] + 1))
         return self.points[np.append(idx, (idx[-1] + 1) % n)]
 
+    def edge_runs(self, name: str) -> list[np.ndarray]:
+        """Each stretch of consecutive segments named ``name`` (modulo N) as its own
+        polyline of vertices: an edge whose name occurs in two places is two polylines,
+        never one line drawn across the plate from one to the other."""
+        idx = np.flatnonzero(np.array(self.edges) == name)
+        if idx.size == 0:
+            return []
+        n = len(self.points)
+        gaps = np.flatnonzero(np.diff(idx) > 1)
+        runs = np.split(idx, gaps + 1)
+        if len(runs) > 1 and runs[0][0] == 0 and runs[-1][-1] == n - 1:  # one stretch through the closing point
+            runs = [np.concatenate([runs[-1], runs[0]])] + runs[1:-1]
+        return [self.points[np.append(r, (r[-1] + 1) % n)] for r in runs]
+
 
 def lies_on(sa: np.ndarray, sb: np.ndarray, size: np.ndarray) -> np.ndarray:
     """Rulings whose both ends lie on a plane to round-off (signed distances sa, sb against
@@ -196,6 +210,18 @@ class PlateTracer:
             if lies_on(sa, sb, size + np.abs(sa))[0]:
                 return index
         return -1
+
+    def nearest_plane(self, lam: float) -> int:
+        """Index of the butt plane the ruling at lam lies in, else of the one nearer to it:
+        an end ruling is named by where it is, never by the direction the path runs (a
+        seam running towards -x reaches the first butt last)."""
+        on = self.plane_of(lam)
+        if on >= 0:
+            return on
+        _, pc, pd, *_ = self._ruled(np.array([lam]))
+        far = [np.inf if plane is None else float(max(abs(plane.signed(pc)[0]), abs(plane.signed(pd)[0])))
+               for plane in self.planes]
+        return int(np.argmin(far))
 
     def normals(self, lam: np.ndarray) -> np.ndarray:
         """Unit strip normals c' x (d - c) of the rulings at lam, (N, 3): the pattern is
@@ -418,7 +444,7 @@ def exact_outline(tracer: "PlateTracer", tolerance: float = 0.05) -> Outline:
     points = np.vstack([lower, upper[::-1]])
     # the closing rulings: a hull plate's end ruling lying in a butt plane is that butt's
     # edge (whichever way the seams run); otherwise the strip's own last and first rulings
-    closing = [{0: "start", 1: "end"}.get(tracer.plane_of(lam), default) if tracer.planes else default
+    closing = [("start", "end")[tracer.nearest_plane(lam)] if tracer.planes else default
                for lam, default in ((last, "end"), (first, "start"))]
     edges = list(names[0]) + [closing[0]] + list(names[1][::-1]) + [closing[1]]
     # drop repeated points (degenerate corner rulings) with their zero-length segments

@@ -13,6 +13,7 @@ import numpy as np
 
 from .bending import BendLine, bending_lines
 from .outline import Outline, PlateTracer, exact_outline
+from .rolling import RollSetup, plate_limit, rolled_lines
 
 
 @dataclass(frozen=True)
@@ -23,18 +24,35 @@ class ShopPlate:
     bending : numbered bending lines (none on a flat plate)
     bend_spacing : their spacing along the plate's centre line
     centre_length : length of that centre line
+    rolling : the roll set-up (radius limit, lines rolled and not), None where not decided
     """
 
     outline: Outline
     bending: tuple[BendLine, ...] = ()
     bend_spacing: float = 0.0
     centre_length: float = 0.0
+    rolling: RollSetup | None = None
+
+
+def roll_setup(lines_mm: list, steel, shop) -> tuple[list, RollSetup]:
+    """The bending lines (mm) a plate of ``steel``'s thickness and material is rolled at
+    (:mod:`pipeline.shop.rolling`), renumbered, and its roll set-up."""
+    return rolled_lines(lines_mm, plate_limit(steel.thickness, steel.material, shop.no_roll_radius))
 
 
 def bend_text(line: BendLine) -> str:
     """The mark written beside a bending line: number, radius, roll side."""
     radius = "FLAT" if not np.isfinite(line.radius) or line.radius > 1e6 else f"R{line.radius:.0f}"
+    if line.convex_on_drawn_side is None:  # a formed plate's roll line: its side is not decided
+        return f"B{line.number} {radius}"
     return f"B{line.number} {radius} {'CVX' if line.convex_on_drawn_side else 'CCV'}"
+
+
+def _roll_note(plate: ShopPlate) -> str:
+    """The roll set-up's shop text where it tells the plater something: no rolling at all,
+    or rolling only at the lines marked (others were flatter than the limit); else ''."""
+    rolling = plate.rolling
+    return rolling.text() if rolling is not None and (not rolling.needs_rolling or rolling.dropped) else ""
 
 
 def _scaled(outline: Outline, factor: float) -> Outline:
@@ -48,29 +66,38 @@ def stage_shop(result, config) -> None:
     scale = config.mm_per_unit
     shop = config.spec.shop
     hull = result.part.hull
-    planes = hull.butts if hull is not None else ()
-    tracer = PlateTracer(result.part, result.solution, result.strip, result.pattern, planes, result.developed)
+    tracer = plate_tracer(result)
     outline = exact_outline(tracer, shop.outline_tolerance / scale)
     outline_mm = _scaled(outline, scale)
     lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
     # the pattern (previews, sheet, nesting) shows what the DXF holds: the exact outline and
     # the shop's bending lines, not the solver's rulings
-    result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
-                                         bend_lines=np.array([(b.a, b.b) for b in lines]).reshape(-1, 2, 2))
     lines = [dataclasses.replace(b, a=b.a * scale, b=b.b * scale, station=b.station * scale, radius=b.radius * scale)
              for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale)
+    lines, rolling = roll_setup(lines, result.part.steel, shop) if lines else (lines, None)
+    result.pattern = dataclasses.replace(result.pattern, outline=outline.points,
+                                         bend_lines=np.array([(b.a / scale, b.b / scale) for b in lines])
+                                         .reshape(-1, 2, 2))
+    if result.solution.kind != "coplanar":
+        curvature = "none" if rolling is None or not rolling.needs_rolling else "single"
+        result.templates, _ = strip_templates(result, tracer, scale, outline_mm.points, curvature, shop)
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling)
     result.figures["bending"] = {
         "units": "mm",
         "count": len(lines),
         "spacing": shop.bend_spacing,
         "centre_line_length": centre * scale,
+        **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
                    "length": float(np.linalg.norm(b.b - b.a)),
                    "radius": b.radius if np.isfinite(b.radius) else None,
                    "convex_on_drawn_side": b.convex_on_drawn_side, "mark": bend_text(b)} for b in lines],
     }
+    if lines:
+        from .templates import checked_by
+
+        checked_by(result.figures["bending"]["lines"], result.templates)
     result.figures["outline"] = {
         "units": "mm",
         "vertices": len(outline_mm.points),
@@ -86,6 +113,66 @@ def stage_shop(result, config) -> None:
     if outline_mm.max_deviation > outline_mm.tolerance:
         result.warnings.append(f"cut outline deviates {outline_mm.max_deviation:.3g} mm from the exact development "
                                f"(tolerance {outline_mm.tolerance:g} mm): the sampling limit was reached")
+
+
+def plate_tracer(result) -> PlateTracer:
+    """The tracer of a solved strip plate: its rulings kept between its butt planes."""
+    hull = result.part.hull
+    planes = hull.butts if hull is not None else ()
+    return PlateTracer(result.part, result.solution, result.strip, result.pattern, planes, result.developed)
+
+
+def strip_templates(result, tracer, scale: float, outline_mm: np.ndarray, curvature: str, shop) -> tuple:
+    """The templates of a solved strip plate (mm) by the count rule of
+    :mod:`pipeline.shop.templates` for its ``curvature`` ('none', 'single', 'double'),
+    sections of the strip itself (exact at the vertices of a mesh about 10 mm fine); their
+    figures go to the report's ``templates``. Returns (chosen, every candidate)."""
+    from .templates import TEMPLATE_STEP, candidate_planes, plate_templates, templates_section, tracer_mesh
+
+    vertices, faces, flat, ruling, normal = tracer_mesh(tracer, scale)
+    hull = result.part.hull
+    frames = [x * scale for x in hull.frames] if hull is not None else []
+    planes = candidate_planes(frames, ruling, shop.template_spacing, shop.template_margin)
+    chosen, candidates, why = plate_templates(vertices, faces, flat, outline_mm, planes, curvature, normal,
+                                              shop.template_margin, TEMPLATE_STEP)
+    result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
+                                                    shop.template_margin, TEMPLATE_STEP)
+    if hull is not None and curvature != "none":  # a rolled hull plate: its pin jig
+        plate_pin_jig(result, vertices, faces, normal, frames, shop)
+    return tuple(chosen), candidates
+
+
+def hull_templates(result, config, params: np.ndarray, flat: np.ndarray, outline: np.ndarray, curvature: str):
+    """The templates of a hull plate given by its region grid (params (R, C, 2), flat (R, C,
+    2) placed, outline (N, 2), model units): sections of the hull surface itself at its
+    frames (:func:`pipeline.shop.templates.patch_templates`); sets ``result.templates`` and
+    the report's ``templates``."""
+    from .templates import TEMPLATE_STEP, hull_mesh, patch_templates, templates_section
+
+    shop, hull, scale = config.spec.shop, result.part.hull, config.mm_per_unit
+    vertices, faces, flat_mm, normal = hull_mesh(hull.surface, params, flat, scale)
+    frames = [x * scale for x in hull.frames]
+    chosen, candidates, why = patch_templates(vertices, faces, flat_mm, normal, outline * scale, frames, curvature,
+                                              shop.template_spacing, shop.template_margin)
+    result.figures["templates"] = templates_section(chosen, candidates, why, curvature, shop.template_spacing,
+                                                    shop.template_margin, TEMPLATE_STEP)
+    result.templates = tuple(chosen)
+    if curvature != "none":
+        plate_pin_jig(result, vertices, faces, normal, frames, shop)
+
+
+def plate_pin_jig(result, vertices, faces, normal, frames_mm, shop) -> None:
+    """The pin jig of a rolled or formed plate (mesh in mm): sets ``result.pinjig`` and the
+    report's ``pinjig`` (:mod:`pipeline.shop.pinjig`)."""
+    from .pinjig import pin_jig
+
+    jig = pin_jig(vertices, faces, normal, frames_mm, shop.pin_spacing, shop.shortest_pin)
+    result.figures["pinjig"] = dict(jig.figures(), spacing=shop.pin_spacing)
+    if len(jig.heights):
+        result.pinjig = jig
+    else:  # a plate narrower than the grid: no table, and the report says why
+        result.figures["pinjig"]["note"] = ("no point of the pin grid lies under the plate 50 mm inside its edge: "
+                                            "no table written")
 
 
 def trimmed_figures(result, outline: Outline) -> None:
@@ -127,9 +214,20 @@ def _fallback(result, scale: float) -> ShopPlate:
     pattern = result.pattern
     n = len(pattern.outline)
     outline = Outline(pattern.outline * scale, ("edge",) * n, float("nan"), float("nan"), 0.0)
-    lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("nan"), True)
-             for k, (a, b) in enumerate(pattern.bend_lines)]
-    return ShopPlate(outline, tuple(lines))
+    forming = result.figures.get("forming") or {}
+    radii = forming.get("roll_line_radii")  # mm, where the roll set-up measured them
+    if radii is None or len(radii) != len(pattern.bend_lines):
+        lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("nan"), True)
+                 for k, (a, b) in enumerate(pattern.bend_lines)]
+        return ShopPlate(outline, tuple(lines))
+    lines = [BendLine(k + 1, a * scale, b * scale, float("nan"), float("inf") if r is None else float(r), None)
+             for k, ((a, b), r) in enumerate(zip(pattern.bend_lines, radii))]
+    rolling = forming.get("rolling")
+    setup = None if rolling is None else RollSetup(rolling["no_roll_radius"], rolling["thickness"],
+                                                   rolling["yield_stress_mpa"], rolling["source"],
+                                                   rolling["rolled_lines"], rolling["lines_not_rolled"],
+                                                   rolling["smallest_radius"] or float("inf"))
+    return ShopPlate(outline, tuple(lines), rolling=setup)
 
 
 def edge_names(result, shop_settings) -> dict:
@@ -167,12 +265,16 @@ def shop_layout(result, config, part_data: list[str]):
             d = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
             p = np.asarray(position) * scale
             edges[text] = np.array([p - 50.0 * d, p + 50.0 * d])
-    butts = [outline.edge_points(k) for k in ("start", "end")] if result.part.hull is not None else []
+    # every stretch of a butt edge on its own: joined, two stretches of one name would make
+    # a line across the plate that every frame touches ("0.0 mm from a butt")
+    butts = [run for k in ("start", "end") for run in outline.edge_runs(k)] if result.part.hull is not None else []
     frames = [(f"FR {x * scale:g}", line * scale) for x, line in result.pattern.frame_lines]
-    bends = [(bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
     if plate.bending and np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0:
         part_data = part_data + [f"BEND LINES B1-B{len(plate.bending)} EVERY {plate.bend_spacing:g} MM",
                                  "CVX/CCV: CONVEX/CONCAVE ON THIS SIDE"]
+    if _roll_note(plate):
+        part_data = part_data + [_roll_note(plate)]
     cut, allowance = allowance_cut(outline, result.part.hull, settings, result.shop is not None)
     if allowance is not None:
         part_data = part_data + [allowance["text"]]
@@ -277,7 +379,7 @@ def shop_drawing(result, config, layout, target):
     from .drawing import write_shop_drawing
 
     plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
-    bends = [(b.number, bend_text(b) if np.isfinite(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
     steel = result.figures.get("steel") or {}
     data = [f"PART {result.name}   THK {steel.get('thickness_mm', 0):g} MM   MAT {steel.get('material', '')}",
             f"NET AREA {steel.get('area_m2', 0):.3f} M2   WEIGHT {steel.get('weight_kg', 0):.1f} KG",
@@ -295,6 +397,8 @@ def shop_drawing(result, config, layout, target):
         notes.append("CVX / CCV: CONVEX / CONCAVE ON THE DRAWN SIDE; R: RADIUS ACROSS THE LINE")
     else:
         spacing = None
+    if _roll_note(plate):
+        notes.append(_roll_note(plate))
     edges = {}
     if result.shop is not None:
         names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
