@@ -190,15 +190,20 @@ def export_textile(pieces: list, config: RunConfig, out_dir: Path, style: str) -
     return written
 
 
-def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:
+def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, shell=None) -> list[Path]:
     """The run summary: summary.csv and summary.json of every part; for hull strakes also a
-    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns."""
+    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns.
+    ``shell``: the run's :class:`pipeline.hull.fitup.ShellFitup` (computed here when None)."""
     from .report import summary_csv, summary_json
 
+    if shell is None:
+        from .hull.fitup import shell_fitup
+
+        shell = shell_fitup(results, config)
     style = config.spec.name or config.source.stem
     written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
     write_text(written[0], summary_csv(results))
-    write_text(written[1], summary_json(results))
+    write_text(written[1], summary_json(results, None if shell is None else shell.as_dict()))
     classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
     planned = config.spec.strake is not None and config.spec.strake.plan is not None
     if classed and planned and config.spec.output.dxf:  # the plan: every plate's outline on the hull, by class

@@ -182,7 +182,10 @@ def class_shares(results: list[PartResult]) -> dict | None:
     return {"area_m2": areas, "share": {k: v / total for k, v in areas.items()}}
 
 
-def summary_json(results: list[PartResult]) -> str:
-    return json.dumps(sanitize({"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
-                                "failed": [r.name for r in results if not r.ok],
-                                "classes": class_shares(results)}), indent=1)
+def summary_json(results: list[PartResult], shell: dict | None = None) -> str:
+    """The run summary; ``shell``: a hull run's fit-up and coverage (pipeline.hull.fitup)."""
+    summary = {"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
+               "failed": [r.name for r in results if not r.ok], "classes": class_shares(results)}
+    if shell is not None:
+        summary["shell"] = shell
+    return json.dumps(sanitize(summary), indent=1)
