@@ -4,9 +4,10 @@ A delivered plate's boundary ring (3D, on the plate) is mapped to its surface by
 points: a polygon in (u, v) (shapely). The reference is what the plan set out to cover: a
 planned shell (``strake.plan``) the whole surface inside its IGES trim, a hand-laid strake the
 union of its plates' planned regions (between their seams and butts, whether delivered or
-not). Areas are areas on the surface: per cell of a fixed AREA_CELLS x AREA_CELLS parameter
-grid, the piece's parameter area times the surface's area element |S_u x S_v| at the
-piece's centroid (a midpoint rule: exact for an area element linear over a cell).
+not). Areas are areas on the surface, per cell of a fixed AREA_CELLS x AREA_CELLS parameter
+grid: a whole cell by 2 x 2 Gauss points of the area element |S_u x S_v|, a cell the polygon
+cuts by the piece's parameter area times the area element at the piece's centroid (a
+midpoint rule: exact for an area element linear over the cell).
 
 covered = area(union of plates inside the reference) / area(reference), computed as the sum
 of the plates' areas inside it less the pairwise overlaps (exact where no point is covered
@@ -51,11 +52,20 @@ def surface_area(surface, geom, cells: int = AREA_CELLS) -> float:
     boxes = shapely.box(ue[i.ravel()], ve[j.ravel()], ue[i.ravel() + 1], ve[j.ravel() + 1])
     pieces = shapely.intersection(boxes, geom)
     area = shapely.area(pieces)
-    keep = area > 0
-    if not keep.any():
-        return 0.0
-    centre = shapely.centroid(pieces[keep])
-    return float(np.sum(area[keep] * area_element(surface, shapely.get_x(centre), shapely.get_y(centre))))
+    cell = (ue[1] - ue[0]) * (ve[1] - ve[0])
+    full = area >= cell * (1.0 - 1e-12)
+    part = (area > 0) & ~full
+    total = 0.0
+    if full.any():  # whole cells: 2 x 2 Gauss points (exact for a bicubic area element)
+        g = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
+        cu = ue[i.ravel()[full]][:, None, None] + (ue[1] - ue[0]) * g[None, :, None]
+        cv = ve[j.ravel()[full]][:, None, None] + (ve[1] - ve[0]) * g[None, None, :]
+        cu, cv = np.broadcast_arrays(cu, cv)
+        total += 0.25 * cell * float(area_element(surface, cu.ravel(), cv.ravel()).sum())
+    if part.any():  # cut cells: the area element at the piece's centroid
+        centre = shapely.centroid(pieces[part])
+        total += float(np.sum(area[part] * area_element(surface, shapely.get_x(centre), shapely.get_y(centre))))
+    return total
 
 
 def _polygon(uv: np.ndarray):

@@ -292,9 +292,11 @@ def _longest_run(codes: np.ndarray, code: int, extend: bool) -> np.ndarray | Non
 # ------------------------------------------------------------ measuring a shared edge
 @dataclass(frozen=True)
 class _Dense:
+    t: np.ndarray  # (n,) spline parameter (3D chord length through the edge's vertices)
     p3: np.ndarray  # (n, 3)
     s3: np.ndarray  # (n,) cumulative 3D length
     s2: np.ndarray  # (n,) cumulative developed length
+    spline: object  # the (t -> 3D + 2D) cubic spline, None for an edge of two or three points
 
 
 def _dense(edge: Edge, spacing: float) -> _Dense:
@@ -307,38 +309,53 @@ def _dense(edge: Edge, spacing: float) -> _Dense:
     n = int(np.clip(np.ceil(t[-1] / spacing) + 1, 16, 20000))
     s = np.linspace(0.0, t[-1], n)
     if len(t) >= 4:
-        dense = make_interp_spline(t, data, k=3)(s)
+        spline = make_interp_spline(t, data, k=3)
+        dense, speed = spline(s), spline.derivative()(s)
+        # lengths from the spline's speed (trapezoid): the samples' chords would be short
+        # of the arc by (h kappa)^2 / 24 (2e-6 on a 3 m bilge radius at 20 mm)
+        s3, s2 = (np.r_[0.0, np.cumsum(0.5 * np.diff(s) * (v[1:] + v[:-1]))]
+                  for v in (np.linalg.norm(speed[:, :3], axis=1), np.linalg.norm(speed[:, 3:], axis=1)))
     else:
+        spline = None
         dense = np.column_stack([np.interp(s, t, data[:, k]) for k in range(5)])
-    p3, p2 = dense[:, :3], dense[:, 3:]
-    s3 = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p3, axis=0), axis=1))]
-    s2 = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p2, axis=0), axis=1))]
-    return _Dense(p3, s3, s2)
+        s3, s2 = (np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d, axis=0), axis=1))] for d in (dense[:, :3], dense[:, 3:]))
+    return _Dense(s, dense[:, :3], s3, s2, spline)
 
 
-def project(points: np.ndarray, poly: np.ndarray, cum: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distance (N,) of points (N, 3) to the polyline (M, 3) and the arc length (N,) of their
-    closest points on it (``cum`` (M,) its cumulative length): nearest vertex by KD-tree, then
-    the two segments at it."""
+def project(points: np.ndarray, edge: _Dense) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (N,) of points (N, 3) to the edge's curve and the arc length (N,) of their
+    closest points on it: the nearest sample by KD-tree, the closer of the two chords at it,
+    then Newton on the spline (a chord alone would stand off the curve by its sagitta,
+    0.017 mm for 20 mm on a 3 m radius)."""
     from scipy.spatial import cKDTree
 
+    poly, t = edge.p3, edge.t
     _, i = cKDTree(poly).query(points)
     best_d = np.full(len(points), np.inf)
-    best_s = np.zeros(len(points))
+    best_t = np.zeros(len(points))
     for j in (np.clip(i - 1, 0, len(poly) - 2), np.clip(i, 0, len(poly) - 2)):
         a, b = poly[j], poly[j + 1]
         ab = b - a
-        t = np.clip(np.einsum("ij,ij->i", points - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
-        d = np.linalg.norm(a + t[:, None] * ab - points, axis=1)
+        f = np.clip(np.einsum("ij,ij->i", points - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+        d = np.linalg.norm(a + f[:, None] * ab - points, axis=1)
         better = d < best_d
         best_d = np.where(better, d, best_d)
-        best_s = np.where(better, cum[j] + t * (cum[j + 1] - cum[j]), best_s)
-    return best_d, best_s
+        best_t = np.where(better, t[j] + f * (t[j + 1] - t[j]), best_t)
+    if edge.spline is not None:
+        d1, d2 = edge.spline.derivative(1), edge.spline.derivative(2)
+        for _ in range(4):  # Newton on (S(t) - q) . S'(t) = 0, kept on the edge
+            r = edge.spline(best_t)[:, :3] - points
+            s1, s2 = d1(best_t)[:, :3], d2(best_t)[:, :3]
+            g = np.einsum("ij,ij->i", r, s1)
+            h = np.einsum("ij,ij->i", s1, s1) + np.einsum("ij,ij->i", r, s2)
+            best_t = np.clip(best_t - g / np.where(h > 0, h, np.inf), t[0], t[-1])
+        best_d = np.linalg.norm(edge.spline(best_t)[:, :3] - points, axis=1)
+    return best_d, np.interp(best_t, t, edge.s3)
 
 
 def _common(a: _Dense, b: _Dense) -> tuple[float, float]:
     """Arc-length interval on a's edge that b's edge spans (b's ends projected onto a)."""
-    _, s = project(b.p3[[0, -1]], a.p3, a.s3)
+    _, s = project(b.p3[[0, -1]], a)
     return float(s.min()), float(s.max())
 
 
@@ -353,8 +370,8 @@ def measure(a: Edge, b: Edge, spacing: float) -> tuple | None:
         return None
     ina = (da.s3 >= lo_a) & (da.s3 <= hi_a)
     inb = (db.s3 >= lo_b) & (db.s3 <= hi_b)
-    steps_a, _ = project(da.p3[ina], db.p3, db.s3)
-    steps_b, _ = project(db.p3[inb], da.p3, da.s3)
+    steps_a, _ = project(da.p3[ina], db)
+    steps_b, _ = project(db.p3[inb], da)
     steps = np.r_[steps_a, steps_b]
     where = np.vstack([da.p3[ina], db.p3[inb]])[int(np.argmax(steps))]
     length3 = (hi_a - lo_a, hi_b - lo_b)
