@@ -12,6 +12,9 @@ fits; the hull patch's minimal-strain development is within the tolerance: rolle
 failed; flat + strip is the honest share. The worst deviation from the hull (flat and strip
 plates), the worst in-plane strain (patch and formed plates), crashes, time; the hull picture
 coloured by class and the plan (plate outlines in 3D, one DXF layer per class) go to --out.
+Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell), developed
+length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
+neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm.
 """
 
 from __future__ import annotations
@@ -56,6 +59,9 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
         config = load_run(path, evaluate_plate)
         results = [run_part(part, config) for part in config.parts]
         seconds = time.perf_counter() - start
+        from pipeline.hull.fitup import shell_fitup
+
+        fit = shell_fitup(results, config).as_dict()  # not timed: the run's report, not the plan
     areas = {"flat": 0.0, "strip": 0.0, "patch": 0.0, "formed": 0.0, "failed": 0.0}
     worst_dev, worst_strain, crashes = 0.0, 0.0, 0
     for r in results:
@@ -76,7 +82,22 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
             "shares": {k: v / total for k, v in areas.items()},
-            "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds}
+            "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
+            "fitup": fit}
+
+
+def fitup_columns(fit: dict) -> str:
+    """Shell covered and covered twice, the developed length mismatch of flat/strip neighbours
+    (p95 / max) and the step between neighbours' 3D edges (p95 / max, count over 3 mm)."""
+    def pct(x):
+        return "-" if x is None else f"{100 * x:.2f}"
+
+    def pair(d):
+        return "-" if d["max"] is None else f"{d['p95']:.2f}/{d['max']:.2f}"
+
+    cov = fit.get("coverage") or {}
+    return (f"{pct(cov.get('covered')):>10}{pct(cov.get('overlap')):>10}{pair(fit['length_mismatch_mm']):>18}"
+            f"{pair(fit['step_mm']):>16}{fit['steps_over_3mm']:>6}")
 
 
 def main(argv=None) -> int:
@@ -89,7 +110,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
           f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'worst dev mm':>13}{'worst strain':>13}"
-          f"{'crashes':>8}{'time s':>8}")
+          f"{'crashes':>8}{'time s':>8}{'covered %':>10}{'overlap %':>10}{'fit-up p95/max mm':>18}"
+          f"{'step p95/max mm':>16}{'>3mm':>6}")
     for hull in args.hulls:
         for method, seams in [(m, s) for m in args.methods for s in args.seams]:
             r = run(hull, method, args.out, seams)
@@ -98,8 +120,8 @@ def main(argv=None) -> int:
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
                   f"{100 * (s['flat'] + s['strip']):>13.1f}"
-                  f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
-                  flush=True)
+                  f"{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
+                  f"{fitup_columns(r['fitup'])}", flush=True)
     print(f"pictures and plan DXFs in {args.out}")
     return 0
 
