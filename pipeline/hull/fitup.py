@@ -138,6 +138,9 @@ class ShellFitup:
         worst_strain = self.edge_strains[int(np.argmax(strains))] if len(strains) else None
         return {
             "rule": RULE, "thickness_mm": self.thickness_mm,
+            "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates; "
+                      "plates on different surfaces are not paired. Steps: distances between the two plates' 3D "
+                      "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs),
             "step_mm": _stats(steps, self.pairs),
