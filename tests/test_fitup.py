@@ -165,3 +165,15 @@ def test_hullmod_strake_run_reports_its_shell(tmp_path, capsys):
         arc = float(np.ptp(seam.arc_length_at(np.array(ends))))
         np.testing.assert_allclose(pair["developed_length_mm"] + pair["length_3d_mm"], [arc] * 4, rtol=2e-6)
         assert pair["step_max_mm"] < 0.1
+
+
+def test_worker_processes_report_the_same_shell(bilge, tmp_path):
+    """With --jobs 2 the parent gets each plate's edges back from the workers (the plates'
+    geometry stays there): the summary's shell section is the in-process one."""
+    config, results = bilge
+    out = tmp_path / "out"
+    assert main(["run", str(write_config(tmp_path)), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    shell = json.loads((out / "bilge_summary.json").read_text())["shell"]
+    here = shell_fitup(results, config).as_dict()
+    assert shell["pairs"] == json.loads(json.dumps(here["pairs"]))
+    assert shell["coverage"]["covered"] == pytest.approx(here["coverage"]["covered"], abs=1e-12)
