@@ -195,8 +195,9 @@ def plate_edges(result) -> PlateEdges | None:
     if result.strip is not None and result.strip.trim is not None:
         ring, labels = _strip_ring(result.strip, hull)
         v3 = result.strip.vertices
-        # a corner lies on its butt plane: the butts hold their corners, the seams borrow them
-        extend = ("seam0", "seam1")
+        # a corner lies on its butt plane: the butts hold their corners, the seams borrow
+        # them (a neighbour on a plane, not a point of an end ruling short of it)
+        borrow = {"seam0": (2, 3), "seam1": (2, 3)}
     elif result.mesh is not None:
         shape = tuple((result.figures.get("region") or {}).get("grid") or ())
         v3 = np.asarray(result.mesh[0], dtype=np.float64)
@@ -208,7 +209,7 @@ def plate_edges(result) -> PlateEdges | None:
             fit = fit_plane(v3)
             v3 = v3 - np.outer(fit.distances, fit.normal)
         ring, labels = _grid_ring(v3.reshape(*shape, 3), hull)
-        extend = ("butt0", "butt1")  # the grid's rows hold the corners, its end columns borrow them
+        borrow = {"butt0": (0, 1), "butt1": (0, 1)}  # the grid's rows hold the corners, its end columns borrow them
     else:
         return None
     from .planner import is_strip
@@ -218,11 +219,11 @@ def plate_edges(result) -> PlateEdges | None:
     edges = []
     size = float(np.ptp(v3[ring], axis=0).max())
     for code, side in enumerate(SIDES):
-        run = _longest_run(labels, code, side in extend)
+        run = _longest_run(labels, code, borrow.get(side, ()))
         if run is None:
             continue
         p3, p2 = v3[ring[run]], flat2[ring[run]]
-        keep = np.r_[True, np.linalg.norm(np.diff(p3, axis=0), axis=1) > 1e-9 * size]
+        keep = np.r_[True, np.linalg.norm(np.diff(p3, axis=0), axis=1) > 1e-6 * size]  # a collapsed seam end: one point
         if keep.sum() >= 2:
             edges.append(Edge(side, names[side], p3[keep], p2[keep]))
     return PlateEdges(result.name, name, bool(isometric), tuple(edges), v3[ring])
@@ -231,12 +232,15 @@ def plate_edges(result) -> PlateEdges | None:
 def _butt_codes(points_by_end, hull) -> list[int]:
     """Side codes (2 or 3) of the plate's two ends (lists of points): the assignment to the
     butt planes with the smaller distances (a hull end, None, is infinitely far)."""
-    cost = np.full((2, 2), 1e300)
-    for e, pts in enumerate(points_by_end):
-        for j, plane in enumerate(hull.butts):
-            if plane is not None:
-                cost[e, j] = float(np.abs(plane.signed(pts)).mean())
-    return [2, 3] if cost[0, 0] + cost[1, 1] <= cost[0, 1] + cost[1, 0] else [3, 2]
+    planes = [j for j, plane in enumerate(hull.butts) if plane is not None]
+    cost = np.array([[float(np.abs(hull.butts[j].signed(pts)).mean()) for j in planes] for pts in points_by_end])
+    if len(planes) == 2:
+        return [2, 3] if cost[0, 0] + cost[1, 1] <= cost[0, 1] + cost[1, 0] else [3, 2]
+    if len(planes) == 1:  # an end plate: the end nearer the butt plane is that butt
+        j = planes[0]
+        near = int(np.argmin(cost[:, 0]))
+        return [2 + j, 3 - j] if near == 0 else [3 - j, 2 + j]
+    return [2, 3]
 
 
 def _grid_ring(p: np.ndarray, hull) -> tuple[np.ndarray, np.ndarray]:
@@ -252,13 +256,13 @@ def _grid_ring(p: np.ndarray, hull) -> tuple[np.ndarray, np.ndarray]:
 def _strip_ring(strip, hull) -> tuple[np.ndarray, np.ndarray]:
     """Boundary ring of a strip trimmed by butt planes (indices into its vertices) and side
     codes: a point on a butt plane (to round-off) is on that butt; otherwise the first sample
-    of a ruling is on seam 0 (curve c), the last on seam 1."""
+    of a ruling is on seam 0 (curve c), the last on seam 1, and the end rulings' samples off
+    the planes (a corner ruling kept a hair inside the plane) are on no edge (code 4)."""
     m = len(strip.samples)
     k = strip.n_rulings
     idx = np.arange(k * m).reshape(k, m)
     v = strip.vertices
-    ends = _butt_codes((v[idx[0]], v[idx[-1]]), hull)
-    pieces = [(idx[:, 0], 0), (idx[-1, 1:], ends[1]), (idx[-2::-1, -1], 1), (idx[0, -2:0:-1], ends[0])]
+    pieces = [(idx[:, 0], 0), (idx[-1, 1:-1], 4), (idx[::-1, -1], 1), (idx[0, -2:0:-1], 4)]
     ring = np.concatenate([i for i, _ in pieces])
     codes = np.concatenate([np.full(len(i), c) for i, c in pieces])
     pts = v[ring]
@@ -269,9 +273,10 @@ def _strip_ring(strip, hull) -> tuple[np.ndarray, np.ndarray]:
     return ring, codes
 
 
-def _longest_run(codes: np.ndarray, code: int, extend: bool) -> np.ndarray | None:
-    """Ring positions of the longest cyclic run of ``code``; with ``extend`` one neighbour
-    either side too (the corners it shares with the adjacent edges, labelled theirs)."""
+def _longest_run(codes: np.ndarray, code: int, borrow: tuple) -> np.ndarray | None:
+    """Ring positions of the longest cyclic run of ``code``, and its neighbour either side
+    where that neighbour's code is in ``borrow`` (the corners it shares with the adjacent
+    edges, labelled theirs)."""
     n = len(codes)
     hit = codes == code
     if not hit.any():
@@ -288,8 +293,9 @@ def _longest_run(codes: np.ndarray, code: int, extend: bool) -> np.ndarray | Non
             best = max(best, (i - begin, begin))
             begin = None
     length, first = best
-    pad = 1 if extend else 0
-    return (np.arange(first - pad, first + length + pad) + start) % n
+    lo, hi = (first - 1 + start) % n, (first + length + start) % n
+    run = (np.arange(first, first + length) + start) % n
+    return np.r_[[lo] if codes[lo] in borrow else [], run, [hi] if codes[hi] in borrow else []].astype(int)
 
 
 # ------------------------------------------------------------ measuring a shared edge
@@ -321,7 +327,8 @@ def _dense(edge: Edge, spacing: float) -> _Dense:
     else:
         spline = None
         dense = np.column_stack([np.interp(s, t, data[:, k]) for k in range(5)])
-        s3, s2 = (np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d, axis=0), axis=1))] for d in (dense[:, :3], dense[:, 3:]))
+        s3, s2 = (np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d, axis=0), axis=1))]
+                  for d in (dense[:, :3], dense[:, 3:]))
     return _Dense(s, dense[:, :3], s3, s2, spline)
 
 
