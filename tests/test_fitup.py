@@ -177,3 +177,40 @@ def test_worker_processes_report_the_same_shell(bilge, tmp_path):
     here = shell_fitup(results, config).as_dict()
     assert shell["pairs"] == json.loads(json.dumps(here["pairs"]))
     assert shell["coverage"]["covered"] == pytest.approx(here["coverage"]["covered"], abs=1e-12)
+
+
+@pytest.mark.parametrize("reverse", [False, True])
+def test_a_planned_bilge_shell_with_end_plates(tmp_path, reverse):
+    """A planned shell (strake.plan, uniform) of the whole bilge: 2 strakes of 3 plates, the
+    end plates closed by the hull's ends. Every butt is found on both of its plates (an end
+    plate's butt is its end nearer the butt plane, not its hull end, also where the surface's
+    u runs towards -x), each butt is the strake's arc on both plates and the two strakes'
+    arcs make the quarter circle; the shell is the whole surface, covered once."""
+    cylinder_along_iges(tmp_path / "bilge.igs", radius=RADIUS, angle_deg=90.0, length=LENGTH, reverse=reverse)
+    config_path = tmp_path / "shell.yaml"
+    config_path.write_text(yaml.safe_dump({
+        "name": "shell", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+        "steel": {"thickness": THICKNESS},
+        "strake": {"surface": {"iges": "bilge.igs"}, "margin": 0.2, "fit_tolerance": 5.0,
+                   "plan": {"method": "uniform", "stock": {"max_length": 8000, "max_width": 2500,
+                                                           "min_length": 1000, "min_width": 500}}}}))
+    config = load_run(config_path, evaluate_plate)
+    results = [run_part(part, config) for part in config.parts]
+    assert len(results) == 6 and all(r.ok for r in results)
+    fit = shell_fitup(results, config)
+    assert sorted(p.kind for p in fit.pairs) == ["butt"] * 4 + ["seam"] * 3
+    arcs = {}
+    for p in fit.pairs:
+        assert p.step_max < 1e-3 and not p.misfit
+        assert p.length3[0] == pytest.approx(p.length3[1], rel=1e-9)
+        if p.kind == "butt":
+            arcs.setdefault(p.label, []).append(p.length2[0])
+        else:
+            assert p.length2[0] == pytest.approx(LENGTH / 3, rel=1e-6)
+    assert sorted(arcs) == ["BUTT X13333", "BUTT X6667"]
+    for both in arcs.values():
+        assert sum(both) == pytest.approx(RADIUS * 2 * HALF_ANGLE, rel=1e-6)
+    cov = fit.coverage
+    assert cov["surfaces"][0]["reference"] == "the whole surface"
+    assert cov["shell_m2"] == pytest.approx(LENGTH * RADIUS * 2 * HALF_ANGLE / 1e6, rel=1e-6)
+    assert cov["covered"] == pytest.approx(1.0, abs=1e-6) and cov["overlap"] < 1e-9
