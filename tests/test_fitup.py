@@ -214,3 +214,22 @@ def test_a_planned_bilge_shell_with_end_plates(tmp_path, reverse):
     assert cov["surfaces"][0]["reference"] == "the whole surface"
     assert cov["shell_m2"] == pytest.approx(LENGTH * RADIUS * 2 * HALF_ANGLE / 1e6, rel=1e-6)
     assert cov["covered"] == pytest.approx(1.0, abs=1e-6) and cov["overlap"] < 1e-9
+
+
+def test_areas_on_the_surface_inside_a_trim(tmp_path):
+    """The coverage's reference inside a trim: the bilge's parameter rectangle trimmed to
+    u < 0.3 (the first 6 m along x) without a hole of 0.1 x 0.25 in (u, v), whose area on the
+    surface is closed form (u is linear in x, v is the rational arc: theta(v))."""
+    from pipeline.hull.coverage import _trim_region, surface_area
+    from pipeline.hull.trims import Trim
+    from pipeline.io.iges import iges_surface, read_iges
+
+    iges = read_iges(cylinder_along_iges(tmp_path / "bilge.igs", radius=RADIUS, angle_deg=90.0, length=LENGTH))
+    surface = iges_surface(iges, iges.of_type(128)[0], 1.0, "bilge")
+    outer = np.array([[0.0, 0.0], [0.3, 0.0], [0.3, 1.0], [0.0, 1.0], [0.0, 0.0]])
+    hole = np.array([[0.1, 0.5], [0.2, 0.5], [0.2, 0.75], [0.1, 0.75], [0.1, 0.5]])
+    region = _trim_region(surface, Trim(1, outer, (hole,), 144))
+    whole = 0.3 * LENGTH * RADIUS * 2 * HALF_ANGLE
+    cut = 0.1 * LENGTH * RADIUS * (theta(0.75) - theta(0.5))
+    # cells the hole cuts are integrated by the midpoint rule (2.4e-7 here), whole ones by Gauss
+    assert surface_area(surface, region) == pytest.approx(whole - cut, rel=1e-6)
