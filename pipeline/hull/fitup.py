@@ -22,11 +22,15 @@ Edges are interpolated by cubic splines through their vertices (by chord length)
 every SAMPLE_MM, so that a polyline's chords (a strip's are up to its chord tolerance off its
 boundary curve) add nothing to the step.
 
-Coverage is counted in each surface's parameters: every delivered plate's boundary mapped to
-the surface by closest points is a polygon (shapely); its area on the surface is the sum over
-cells of a fixed parameter grid of the piece's parameter area times the surface's area
-element at the piece's centroid. A planned shell is measured against the whole surface inside
-its IGES trim, a hand-laid strake against the union of its plates' planned regions.
+Coverage (:mod:`.coverage`) is counted in each surface's parameters: every delivered plate's
+boundary mapped to the surface by closest points is a polygon (shapely), its area taken on the
+surface. A planned shell is measured against the whole surface inside its IGES trim, a
+hand-laid strake against the union of its plates' planned regions.
+
+A flat plate's 3D shape is its region projected on its least-squares plane (the plate as cut
+is planar), not the hull points its OBJ carries; a strip trimmed by its region has its edges
+where the region's boundary maps onto the strip by closest points, which need not lie in the
+butt plane (a plane section of the two plates there can differ from the edges' distance).
 """
 
 from __future__ import annotations
