@@ -233,3 +233,14 @@ def test_areas_on_the_surface_inside_a_trim(tmp_path):
     cut = 0.1 * LENGTH * RADIUS * (theta(0.75) - theta(0.5))
     # cells the hole cuts are integrated by the midpoint rule (2.4e-7 here), whole ones by Gauss
     assert surface_area(surface, region) == pytest.approx(whole - cut, rel=1e-6)
+
+
+def test_neighbours_whose_edges_lie_apart_are_reported_apart(bilge):
+    """S1_B1 moved 60 mm off the hull: more than 10 fit tolerances (50 mm) from its neighbours,
+    so its two shared edges are reported apart (with a warning each), not as steps."""
+    config, results = bilge
+    fit = shell_fitup([moved(results[0], radial(60.0))] + results[1:], config)
+    assert sorted((p.a, p.b) for p in fit.apart) == [("bilge_S1_B1", "bilge_S1_B2"), ("bilge_S1_B1", "bilge_S2_B1")]
+    assert all(p.step_median == pytest.approx(60.0, abs=1e-3) for p in fit.apart)
+    assert len(fit.pairs) == 2 and max(p.step_max for p in fit.pairs) < 1e-3
+    assert sum("lie 60 mm apart" in w for w in fit.warnings()) == 2

@@ -44,6 +44,7 @@ STEP_SHARE_OF_T = 0.15  # IACS Rec. 47: butt / seam misalignment a <= 0.15 t ...
 STEP_MAX_MM = 3.0  # ... and at most 3 mm
 LENGTH_LIMIT_MM = 1.0  # flat/strip neighbours: developed lengths of a shared edge agree within
 MIN_COMMON = 0.01  # a shared edge overlaps by at least this share of the shorter edge
+APART = 10.0  # edges whose median distance exceeds this many fit tolerances are not one edge
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
         f"plates (isometric developments) differ by more than {LENGTH_LIMIT_MM:g} mm in the developed length of "
@@ -118,9 +119,14 @@ class ShellFitup:
     coverage: dict | None
     thickness_mm: float
     unmeasured: tuple = field(default=())  # plates without delivered geometry
+    # neighbours by the plan whose edges lie apart (median distance above APART fit
+    # tolerances: a seam that leaves the surface at a centreline or stem): not in the steps
+    apart: tuple = field(default=())
 
     def warnings(self) -> list[str]:
-        out = []
+        out = [f"fit-up: {p.kind} {p.label} between {p.a} and {p.b}: the plan makes them neighbours but their edges "
+               f"lie {p.step_median:.0f} mm apart (median) near {np.round(p.worst_point, 1).tolist()}"
+               for p in self.apart]
         for p in self.pairs:
             if not p.misfit:
                 continue
@@ -155,6 +161,7 @@ class ShellFitup:
             "formed_edge_strain": {"edges": len(strains), "max_abs": float(strains.max()) if len(strains) else None,
                                    "worst": None if worst_strain is None else list(worst_strain[:2])},
             "misfits": sum(p.misfit for p in self.pairs),
+            "apart": [p.as_dict() for p in self.apart],
             "coverage": self.coverage,
             "unmeasured_plates": list(self.unmeasured),
             "warnings": self.warnings(),
@@ -212,7 +219,7 @@ def plate_edges(result) -> PlateEdges | None:
 
             fit = fit_plane(v3)
             v3 = v3 - np.outer(fit.distances, fit.normal)
-        ring, labels = _grid_ring(v3.reshape(*shape, 3), hull)
+        ring, labels = _grid_ring(v3.reshape(*shape, 3), hull, hull.fit_tolerance)
         borrow = {"butt0": (0, 1), "butt1": (0, 1)}  # the grid's rows hold the corners, its end columns borrow them
     else:
         return None
@@ -247,14 +254,22 @@ def _butt_codes(points_by_end, hull) -> list[int]:
     return [2, 3]
 
 
-def _grid_ring(p: np.ndarray, hull) -> tuple[np.ndarray, np.ndarray]:
+def _grid_ring(p: np.ndarray, hull, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """Boundary ring (indices into the row-major grid (R, C, 3)) and side codes: row 0 seam
-    0, last row seam 1, end columns the butts."""
+    0, last row seam 1, end columns the butts where they lie within ``tolerance`` of their
+    butt plane; an end column's points farther off (rows that end on the surface's own edge,
+    a centreline or stem, before reaching the butt) are on no edge (code 4)."""
     r, c = p.shape[:2]
     idx = np.arange(r * c).reshape(r, c)
     first, last = _butt_codes((p[:, 0], p[:, -1]), hull)
     pieces = [(idx[0, :], 0), (idx[1:-1, -1], last), (idx[-1, ::-1], 1), (idx[-2:0:-1, 0], first)]
-    return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
+    ring = np.concatenate([i for i, _ in pieces])
+    codes = np.concatenate([np.full(len(i), k) for i, k in pieces])
+    pts = p.reshape(-1, 3)[ring]
+    for j, plane in enumerate(hull.butts):
+        if plane is not None:
+            codes = np.where((codes == 2 + j) & (np.abs(plane.signed(pts)) > tolerance), 4, codes)
+    return ring, codes
 
 
 def _strip_ring(strip, hull) -> tuple[np.ndarray, np.ndarray]:
@@ -409,7 +424,7 @@ def shell_fitup(results, config) -> ShellFitup | None:
         else:
             records[r.name] = (rec, r.part)
     thickness = float(config.spec.steel.thickness)
-    pairs = []
+    pairs, apart = [], []
     for (na, nb, side_a, side_b, kind) in _neighbours(records):
         (ra, pa), (rb, pb) = records[na], records[nb]
         ea, eb = ra.edge(side_a), rb.edge(side_b)
@@ -420,7 +435,8 @@ def shell_fitup(results, config) -> ShellFitup | None:
             continue
         steps, where, l3, l2 = got
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
-        pairs.append(SharedEdge(na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
+        far = np.median(steps) > APART * min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
+        (apart if far else pairs).append(SharedEdge(na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
                                 tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
                                 ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM)))
     strains = []
@@ -436,7 +452,7 @@ def shell_fitup(results, config) -> ShellFitup | None:
         coverage = shell_coverage(records, [r.part for r in hull_results], config)
     except Exception as exc:  # noqa: BLE001 - the run's plates are written; the report says why it has no coverage
         coverage = {"error": f"{type(exc).__name__}: {exc}"}
-    return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured))
+    return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured), tuple(apart))
 
 
 def _thickness(part, default: float) -> float:
