@@ -256,9 +256,9 @@ def _butt_codes(points_by_end, hull) -> list[int]:
 
 def _grid_ring(p: np.ndarray, hull, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """Boundary ring (indices into the row-major grid (R, C, 3)) and side codes: row 0 seam
-    0, last row seam 1, end columns the butts where they lie within ``tolerance`` of their
-    butt plane; an end column's points farther off (rows that end on the surface's own edge,
-    a centreline or stem, before reaching the butt) are on no edge (code 4)."""
+    0, last row seam 1, end columns the butts; an end column's points farther from its butt
+    plane than the column's nearest point by more than ``tolerance`` (rows that end on the
+    surface's own edge, a centreline or stem, before reaching the butt) are on no edge (4)."""
     r, c = p.shape[:2]
     idx = np.arange(r * c).reshape(r, c)
     first, last = _butt_codes((p[:, 0], p[:, -1]), hull)
@@ -267,8 +267,11 @@ def _grid_ring(p: np.ndarray, hull, tolerance: float) -> tuple[np.ndarray, np.nd
     codes = np.concatenate([np.full(len(i), k) for i, k in pieces])
     pts = p.reshape(-1, 3)[ring]
     for j, plane in enumerate(hull.butts):
-        if plane is not None:
-            codes = np.where((codes == 2 + j) & (np.abs(plane.signed(pts)) > tolerance), 4, codes)
+        mine = codes == 2 + j
+        if plane is not None and mine.any():
+            # measured from the column's nearest point: a plate moved as a whole keeps its butt
+            d = np.abs(plane.signed(pts))
+            codes = np.where(mine & (d > d[mine].min() + tolerance), 4, codes)
     return ring, codes
 
 
