@@ -45,6 +45,7 @@ STEP_MAX_MM = 3.0  # ... and at most 3 mm
 LENGTH_LIMIT_MM = 1.0  # flat/strip neighbours: developed lengths of a shared edge agree within
 MIN_COMMON = 0.01  # a shared edge overlaps by at least this share of the shorter edge
 APART = 10.0  # edges whose median distance exceeds this many fit tolerances are not one edge
+NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
         f"plates (isometric developments) differ by more than {LENGTH_LIMIT_MM:g} mm in the developed length of "
@@ -328,6 +329,7 @@ class _Dense:
     s3: np.ndarray  # (n,) cumulative 3D length
     s2: np.ndarray  # (n,) cumulative developed length
     spline: object  # the (t -> 3D + 2D) cubic spline, None for an edge of two or three points
+    tree: object  # cKDTree of p3
 
 
 def _dense(edge: Edge, spacing: float) -> _Dense:
@@ -351,7 +353,9 @@ def _dense(edge: Edge, spacing: float) -> _Dense:
         dense = np.column_stack([np.interp(s, t, data[:, k]) for k in range(5)])
         s3, s2 = (np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d, axis=0), axis=1))]
                   for d in (dense[:, :3], dense[:, 3:]))
-    return _Dense(s, dense[:, :3], s3, s2, spline)
+    from scipy.spatial import cKDTree
+
+    return _Dense(s, dense[:, :3], s3, s2, spline, cKDTree(dense[:, :3]))
 
 
 def project(points: np.ndarray, edge: _Dense) -> tuple[np.ndarray, np.ndarray]:
@@ -359,10 +363,8 @@ def project(points: np.ndarray, edge: _Dense) -> tuple[np.ndarray, np.ndarray]:
     closest points on it: the nearest sample by KD-tree, the closer of the two chords at it,
     then Newton on the spline (a chord alone would stand off the curve by its sagitta,
     0.017 mm for 20 mm on a 3 m radius)."""
-    from scipy.spatial import cKDTree
-
     poly, t = edge.p3, edge.t
-    _, i = cKDTree(poly).query(points)
+    _, i = edge.tree.query(points)
     best_d = np.full(len(points), np.inf)
     best_t = np.zeros(len(points))
     for j in (np.clip(i - 1, 0, len(poly) - 2), np.clip(i, 0, len(poly) - 2)):
@@ -394,7 +396,10 @@ def _common(a: _Dense, b: _Dense) -> tuple[float, float]:
 def measure(a: Edge, b: Edge, spacing: float) -> tuple | None:
     """(steps (N,), worst point (3,), 3D lengths (2,), developed lengths (2,)) of the common
     part of two edges, model units; None when they do not overlap along their length."""
-    da, db = _dense(a, spacing), _dense(b, spacing)
+    return _measure(_dense(a, spacing), _dense(b, spacing))
+
+
+def _measure(da: _Dense, db: _Dense) -> tuple | None:
     lo_a, hi_a = _common(da, db)
     lo_b, hi_b = _common(db, da)
     shorter = min(da.s3[-1], db.s3[-1])
@@ -428,12 +433,19 @@ def shell_fitup(results, config) -> ShellFitup | None:
             records[r.name] = (rec, r.part)
     thickness = float(config.spec.steel.thickness)
     pairs, apart = [], []
+    dense = {}  # (plate, side) -> its edge sampled: each edge is asked for by several candidates
+
+    def sampled(name, side, edge):
+        if (name, side) not in dense:
+            dense[name, side] = _dense(edge, SAMPLE_MM / mm)
+        return dense[name, side]
+
     for (na, nb, side_a, side_b, kind) in _neighbours(records):
         (ra, pa), (rb, pb) = records[na], records[nb]
         ea, eb = ra.edge(side_a), rb.edge(side_b)
-        if ea is None or eb is None:
+        if ea is None or eb is None or not _near(ea, eb, NEAR_MM / mm):
             continue
-        got = measure(ea, eb, SAMPLE_MM / mm)
+        got = _measure(sampled(na, side_a, ea), sampled(nb, side_b, eb))
         if got is None:
             continue
         steps, where, l3, l2 = got
@@ -456,6 +468,13 @@ def shell_fitup(results, config) -> ShellFitup | None:
     except Exception as exc:  # noqa: BLE001 - the run's plates are written; the report says why it has no coverage
         coverage = {"error": f"{type(exc).__name__}: {exc}"}
     return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured), tuple(apart))
+
+
+def _near(a: Edge, b: Edge, margin: float) -> bool:
+    """The edges' bounding boxes, grown by ``margin``, meet (plates that share a seam or butt
+    plane but lie apart along it are not measured)."""
+    lo_a, hi_a = a.points3.min(axis=0) - margin, a.points3.max(axis=0) + margin
+    return bool(np.all(b.points3.max(axis=0) >= lo_a) and np.all(b.points3.min(axis=0) <= hi_a))
 
 
 def _thickness(part, default: float) -> float:
