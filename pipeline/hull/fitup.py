@@ -451,9 +451,10 @@ def shell_fitup(results, config) -> ShellFitup | None:
         steps, where, l3, l2 = got
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         far = np.median(steps) > APART * min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
-        (apart if far else pairs).append(SharedEdge(na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
-                                tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
-                                ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM)))
+        (apart if far else pairs).append(SharedEdge(
+            na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
+            tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
+            ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM)))
     strains = []
     for rec, _ in records.values():
         if rec.klass != "formed":
