@@ -193,6 +193,7 @@ def shell_coverage(records: dict, parts, config) -> dict | None:
             "shell_m2": shell * mm2, "covered_m2": totals["covered"] * mm2, "overlap_m2": totals["overlap"] * mm2,
             "outside_m2": totals["outside"] * mm2,
             "method": "delivered plate boundaries mapped to the surface by closest points, areas on the surface "
-                      f"({AREA_CELLS} x {AREA_CELLS} parameter cells, midpoint rule per piece); covered = plates "
+                      f"({AREA_CELLS} x {AREA_CELLS} parameter cells: whole cells by 2 x 2 Gauss points, cut ones by the "
+                      "midpoint rule); covered = plates "
                       "inside the reference less pairwise overlaps",
             "surfaces": surfaces}
