@@ -14,6 +14,9 @@ weld between plates (seams + butts), per m^2 of shell, and the narrowest plate's
 worst deviation from the hull (flat and strip plates), the worst in-plane strain (patch and
 formed plates), crashes, time; the hull picture coloured by class, the plan (plate outlines
 in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --out.
+Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell), developed
+length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
+neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm.
 """
 
 from __future__ import annotations
@@ -58,6 +61,9 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
         config = load_run(path, evaluate_plate)
         results = [run_part(part, config) for part in config.parts]
         seconds = time.perf_counter() - start
+        from pipeline.hull.fitup import shell_fitup
+
+        fit = shell_fitup(results, config).as_dict()  # not timed: the run's report, not the plan
     areas = {"flat": 0.0, "strip": 0.0, "patch": 0.0, "formed": 0.0, "failed": 0.0}
     worst_dev, worst_strain, crashes = 0.0, 0.0, 0
     for r in results:
@@ -85,7 +91,22 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
             "shares": {k: v / total for k, v in areas.items()},
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
-            "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m")}
+            "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m"),
+            "fitup": fit}
+
+
+def fitup_columns(fit: dict) -> str:
+    """Shell covered and covered twice, the developed length mismatch of flat/strip neighbours
+    (p95 / max) and the step between neighbours' 3D edges (p95 / max, count over 3 mm)."""
+    def pct(x):
+        return "-" if x is None else f"{100 * x:.2f}"
+
+    def pair(d):
+        return "-" if d["max"] is None else f"{d['p95']:.2f}/{d['max']:.2f}"
+
+    cov = fit.get("coverage") or {}
+    return (f"{pct(cov.get('covered')):>10}{pct(cov.get('overlap')):>10}{pair(fit['length_mismatch_mm']):>18}"
+            f"{pair(fit['step_mm']):>16}{fit['steps_over_3mm']:>6}")
 
 
 def main(argv=None) -> int:
@@ -98,7 +119,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
           f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'weld m':>8}{'weld m/m2':>10}{'narrowest m':>12}"
-          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}")
+          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'covered %':>10}{'overlap %':>10}"
+          f"{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}")
     for hull in args.hulls:
         for method, seams in [(m, s) for m in args.methods for s in args.seams]:
             r = run(hull, method, args.out, seams)
@@ -107,8 +129,8 @@ def main(argv=None) -> int:
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
                   f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
-                  f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}",
-                  flush=True)
+                  f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
+                  f"{fitup_columns(r['fitup'])}", flush=True)
     print(f"pictures, plan DXFs and shell expansions in {args.out}")
     return 0
 

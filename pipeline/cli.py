@@ -138,7 +138,12 @@ def _run(args, early) -> int:
                 pieces = textile_pieces(results, config)
                 results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
                 export_textile(pieces, config, folder.run_folder, run_name(config), printed)
-            export_summary(results, config, folder.run_folder)  # waits for every image
+            shell = None
+            if not textile:
+                from .hull.fitup import shell_fitup
+
+                shell = shell_fitup(results, config)  # None unless the run has hull plates
+            export_summary(results, config, folder.run_folder, shell)  # waits for every image
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
             n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
             folder.commit([r.name for r in results])
@@ -154,6 +159,8 @@ def _run(args, early) -> int:
         print(summary_table(results))
         if textile and printout_line(printed, run_name(config)):
             print(printout_line(printed, run_name(config)))
+        if shell is not None:
+            print(shell.one_line())
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
 

@@ -252,11 +252,16 @@ def printout_line(figures: dict, style: str) -> str | None:
     return "printouts: " + "; ".join(parts) if parts else None
 
 
-def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) -> list[Path]:
+def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, shell=None) -> list[Path]:
     """The run summary: summary.csv and summary.json of every part; for hull strakes also a
-    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns."""
+    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns.
+    ``shell``: the run's :class:`pipeline.hull.fitup.ShellFitup` (computed here when None)."""
     from .report import summary_csv, summary_json
 
+    if shell is None:
+        from .hull.fitup import shell_fitup
+
+        shell = shell_fitup(results, config)
     style = config.spec.name or config.source.stem
     written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
     edges, cost = {}, None
@@ -268,6 +273,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path) 
         cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit).as_dict()
     write_text(written[0], summary_csv(results))
     extra = {} if cost is None else {"plan_cost": cost}
+    if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
+        extra["shell"] = shell.as_dict()
     if model_sources(config):  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports
 

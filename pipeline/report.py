@@ -187,7 +187,7 @@ def class_shares(results: list[PartResult]) -> dict | None:
 
 
 def summary_json(results: list[PartResult], extra: dict | None = None) -> str:
-    """The run summary; ``extra``: further top-level keys (a hull plan's ``plan_cost``, the hull models)."""
+    """The run summary; ``extra``: further top-level keys (a hull plan's ``plan_cost``, the hull models, the shell's fit-up)."""
     return json.dumps(sanitize({"schema_version": SCHEMA_VERSION, "parts": summary_rows(results),
                                 "failed": [r.name for r in results if not r.ok],
                                 "classes": class_shares(results), **(extra or {})}), indent=1)

@@ -88,15 +88,16 @@ def cylinder_sphere_iges(path: Path, radius=10000.0, angle_deg=60.0, cylinder=15
     return write_iges_surface(path, 2, 2, poles, weights, [0, 0, 0, 1, 1, 1], knots_v)
 
 
-def cylinder_along_iges(path: Path, radius=3000.0, angle_deg=90.0, length=20000.0) -> Path:
+def cylinder_along_iges(path: Path, radius=3000.0, angle_deg=90.0, length=20000.0, reverse=False) -> Path:
     """Circular cylinder of axis x (a bilge of the parallel midbody): u runs along x in
-    [0, length], v along the arc y = R sin(theta), z = R (1 - cos(theta)), theta in
-    [-angle/2, angle/2] (exact rational quadratic); its generators run along u."""
+    [0, length] (from x = length to 0 when ``reverse``), v along the arc y = R sin(theta),
+    z = R (1 - cos(theta)), theta in [-angle/2, angle/2] (exact rational quadratic); its
+    generators run along u."""
     h = np.radians(angle_deg) / 2
     arc = np.array([[-radius * np.sin(h), radius * (1 - np.cos(h))], [0.0, radius - radius / np.cos(h)],
                     [radius * np.sin(h), radius * (1 - np.cos(h))]])
     w = np.array([1.0, np.cos(h), 1.0])
-    poles = np.array([[[x, y, z] for y, z in arc] for x in (0.0, length)])
+    poles = np.array([[[x, y, z] for y, z in arc] for x in ((length, 0.0) if reverse else (0.0, length))])
     return write_iges_surface(path, 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
 
 

@@ -53,9 +53,19 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     """Any part: curve pairs through the stages, hull plates through :func:`run_plate`."""
     if part.hull is None:
         return run_curve_part(part, config)
-    if part.hull.result is not None:  # an adaptive plan evaluated it already
-        return part.hull.result
-    return run_plate(part, config)
+    # an adaptive plan evaluated it already
+    result = part.hull.result if part.hull.result is not None else run_plate(part, config)
+    if "fitup_edges" not in result.figures:
+        # the run's fit-up report needs each plate's edges after the worker has dropped the
+        # plate's geometry; figures not named by the part report are not written to its JSON
+        from .fitup import plate_edges
+
+        try:
+            result.figures["fitup_edges"] = plate_edges(result)
+        except Exception as exc:  # noqa: BLE001 - the plate is delivered; the report says it went unmeasured
+            result.figures["fitup_edges"] = None
+            result.figures["fitup_error"] = f"{type(exc).__name__}: {exc}"
+    return result
 
 
 def evaluate_plate(part: Part, config: RunConfig) -> PartResult:

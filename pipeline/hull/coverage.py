@@ -1,0 +1,199 @@
+"""Is the shell covered once? Plates' delivered regions in each hull surface's parameters.
+
+A delivered plate's boundary ring (3D, on the plate) is mapped to its surface by closest
+points: a polygon in (u, v) (shapely). The reference is what the plan set out to cover: a
+planned shell (``strake.plan``) the whole surface inside its IGES trim, a hand-laid strake the
+union of its plates' planned regions (between their seams and butts, whether delivered or
+not). Areas are areas on the surface, per cell of a fixed AREA_CELLS x AREA_CELLS parameter
+grid: a whole cell by 2 x 2 Gauss points of the area element |S_u x S_v|, a cell the polygon
+cuts by the piece's parameter area times the area element at the piece's centroid (a
+midpoint rule: exact for an area element linear over the cell).
+
+covered = area(union of plates inside the reference) / area(reference), computed as the sum
+of the plates' areas inside it less the pairwise overlaps (exact where no point is covered
+three times); overlap = area inside two plates / area(reference); outside = plate area
+beyond the reference (steel cut for shell that is not there, e.g. beyond a trim).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+AREA_CELLS = 64
+REGION_ROWS, REGION_COLS = 33, 129  # planned region's boundary samples (girth, length)
+
+
+def area_element(surface, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """|S_u x S_v| (N,) by central differences (one-sided at the domain's edges)."""
+    hu, hv = 1e-6 * np.ptp(surface.domain_u), 1e-6 * np.ptp(surface.domain_v)
+    u0, u1 = np.clip(u - hu, *surface.domain_u), np.clip(u + hu, *surface.domain_u)
+    v0, v1 = np.clip(v - hv, *surface.domain_v), np.clip(v + hv, *surface.domain_v)
+    n = len(u)
+    at = surface(np.concatenate([u0, u1, u, u]), np.concatenate([v, v, v0, v1]))
+    su = (at[n:2 * n] - at[:n]) / (u1 - u0)[:, None]
+    sv = (at[3 * n:] - at[2 * n:3 * n]) / (v1 - v0)[:, None]
+    return np.linalg.norm(np.cross(su, sv), axis=1)
+
+
+def surface_area(surface, geom, cells: int = AREA_CELLS) -> float:
+    """Area on the surface (model units^2) of a shapely geometry in its (u, v)."""
+    import shapely
+
+    if geom is None or geom.is_empty:
+        return 0.0
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    ue, ve = np.linspace(u0, u1, cells + 1), np.linspace(v0, v1, cells + 1)
+    bu0, bv0, bu1, bv1 = geom.bounds
+    iu = np.arange(max(0, np.searchsorted(ue, bu0, "right") - 1), min(cells, np.searchsorted(ue, bu1, "left") + 1))
+    iv = np.arange(max(0, np.searchsorted(ve, bv0, "right") - 1), min(cells, np.searchsorted(ve, bv1, "left") + 1))
+    if not len(iu) or not len(iv):
+        return 0.0
+    i, j = np.meshgrid(iu, iv, indexing="ij")
+    boxes = shapely.box(ue[i.ravel()], ve[j.ravel()], ue[i.ravel() + 1], ve[j.ravel() + 1])
+    pieces = shapely.intersection(boxes, geom)
+    area = shapely.area(pieces)
+    cell = (ue[1] - ue[0]) * (ve[1] - ve[0])
+    full = area >= cell * (1.0 - 1e-12)
+    part = (area > 0) & ~full
+    total = 0.0
+    if full.any():  # whole cells: 2 x 2 Gauss points (exact for a bicubic area element)
+        g = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
+        cu = ue[i.ravel()[full]][:, None, None] + (ue[1] - ue[0]) * g[None, :, None]
+        cv = ve[j.ravel()[full]][:, None, None] + (ve[1] - ve[0]) * g[None, None, :]
+        cu, cv = np.broadcast_arrays(cu, cv)
+        total += 0.25 * cell * float(area_element(surface, cu.ravel(), cv.ravel()).sum())
+    if part.any():  # cut cells: the area element at the piece's centroid
+        centre = shapely.centroid(pieces[part])
+        total += float(np.sum(area[part] * area_element(surface, shapely.get_x(centre), shapely.get_y(centre))))
+    return total
+
+
+def _polygon(uv: np.ndarray):
+    import shapely
+
+    poly = shapely.Polygon(uv)
+    if not poly.is_valid:
+        poly = shapely.make_valid(poly)
+        poly = shapely.union_all([g for g in getattr(poly, "geoms", [poly]) if g.area > 0]) \
+            if poly.geom_type == "GeometryCollection" else poly
+    return poly
+
+
+def planned_region(hull):
+    """The plate's region between its seams and butts as a polygon in (u, v) (None if empty)."""
+    from flatten.patch import region_grid
+
+    planes = [None if p is None else p.as_tuple() for p in hull.butts]
+    grid = region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, REGION_ROWS,
+                       REGION_COLS, probe=400)
+    if grid is None:
+        return None
+    q = grid.params
+    ring = np.vstack([q[0, :], q[1:, -1], q[-1, -2::-1], q[-2:0:-1, 0]])
+    return _polygon(ring)
+
+
+def _trim_region(surface, trim):
+    import shapely
+
+    box = shapely.box(surface.domain_u[0], surface.domain_v[0], surface.domain_u[1], surface.domain_v[1])
+    if trim is None:
+        return box
+    region = box if trim.outer is None else _polygon(trim.outer).intersection(box)
+    for loop in trim.inner:
+        region = region.difference(_polygon(loop))
+    return region
+
+
+def _shell_references(parts, config) -> dict:
+    """id(surface) -> (region in (u, v), what it is) for a planned shell: each surface inside
+    its IGES trim (read again from the file; a trim that cannot be read: the whole surface)."""
+    from .region import load_surface_trimmed
+
+    strake = config.spec.strake
+    surfaces = {id(p.hull.surface): p.hull.surface for p in parts}
+    out = {}
+    for spec in [strake.surface] + list(strake.plan.surfaces):
+        loaded, trim, _ = load_surface_trimmed(spec, config.source.parent, config.mm_per_unit, strake.scale)
+        probe = (np.array([0.25, 0.5, 0.75]), np.array([0.3, 0.6, 0.9]))
+        for key, surface in surfaces.items():
+            if key in out or surface.domain_u != loaded.domain_u or surface.domain_v != loaded.domain_v:
+                continue
+            u = surface.domain_u[0] + probe[0] * np.ptp(surface.domain_u)
+            v = surface.domain_v[0] + probe[1] * np.ptp(surface.domain_v)
+            if np.allclose(surface(u, v), loaded(u, v), rtol=0, atol=1e-9 * (1 + np.abs(loaded(u, v)).max())):
+                out[key] = (_trim_region(surface, trim), "the surface inside its trim" if trim is not None
+                            else "the whole surface")
+                break
+    for key, surface in surfaces.items():  # not matched (should not happen): the whole surface
+        out.setdefault(key, (_trim_region(surface, None), "the whole surface"))
+    return out
+
+
+def shell_coverage(records: dict, parts, config) -> dict | None:
+    """Coverage, overlap and area outside the reference, over all surfaces and per surface.
+
+    records : plate name -> (PlateEdges, Part) of the delivered plates
+    parts : every hull plate of the run (delivered or not)"""
+    import shapely
+    from shapely.strtree import STRtree
+
+    from flatten.closest import SurfaceDistance
+
+    if not parts:
+        return None
+    mm2 = (config.mm_per_unit / 1e3) ** 2
+    planned = config.spec.strake is not None and config.spec.strake.plan is not None
+    if planned:
+        references = _shell_references(parts, config)
+    else:
+        regions = {}
+        for p in parts:
+            poly = planned_region(p.hull)
+            if poly is not None:
+                regions.setdefault(id(p.hull.surface), []).append(poly)
+        references = {k: (shapely.union_all(v), "the strake's planned plate regions") for k, v in regions.items()}
+    by_surface = {}
+    for name, (rec, part) in records.items():
+        by_surface.setdefault(id(part.hull.surface), (part.hull.surface, []))[1].append((name, rec))
+    totals = {"shell": 0.0, "covered": 0.0, "overlap": 0.0, "outside": 0.0}
+    surfaces = []
+    for key, (reference, what) in references.items():
+        surface, plates = by_surface.get(key, (next(p.hull.surface for p in parts if id(p.hull.surface) == key), []))
+        shell = surface_area(surface, reference)
+        polys = []
+        if plates:
+            distance = SurfaceDistance(surface)
+            for name, rec in plates:
+                uv, _ = distance.closest(rec.ring3)
+                polys.append(_polygon(uv))
+        inside = sum(surface_area(surface, p.intersection(reference)) for p in polys)
+        outside = sum(surface_area(surface, p.difference(reference)) for p in polys)
+        overlap_pieces = []
+        if len(polys) > 1:
+            tree = STRtree(polys)
+            a, b = tree.query(polys, predicate="intersects")
+            for i, j in zip(a, b):
+                if i < j:
+                    piece = polys[i].intersection(polys[j]).intersection(reference)
+                    if piece.area > 0:
+                        overlap_pieces.append(piece)
+        overlap = sum(surface_area(surface, p) for p in overlap_pieces)
+        covered = inside - overlap
+        totals["shell"] += shell
+        totals["covered"] += covered
+        totals["overlap"] += overlap
+        totals["outside"] += outside
+        surfaces.append({"surface": surface.name, "reference": what, "plates": len(polys),
+                         "shell_m2": shell * mm2, "covered": covered / shell if shell else None,
+                         "overlap": overlap / shell if shell else None, "outside_m2": outside * mm2})
+    shell = totals["shell"]
+    return {"covered": totals["covered"] / shell if shell else None,
+            "overlap": totals["overlap"] / shell if shell else None,
+            "shell_m2": shell * mm2, "covered_m2": totals["covered"] * mm2, "overlap_m2": totals["overlap"] * mm2,
+            "outside_m2": totals["outside"] * mm2,
+            "method": "delivered plate boundaries mapped to the surface by closest points, areas on the surface "
+                      f"({AREA_CELLS} x {AREA_CELLS} parameter cells: whole cells by 2 x 2 Gauss points, cut ones by the "
+                      "midpoint rule); covered = plates "
+                      "inside the reference less pairwise overlaps",
+            "surfaces": surfaces}
