@@ -331,3 +331,22 @@ def test_a_plate_cut_at_the_trim_reports_and_cuts_the_part_inside(tmp_path):
     from pipeline.hull.trimcut import polygon_area
 
     assert polygon_area(np.array(outline.get_points("xy"))) / 1e6 == pytest.approx(cut["area_m2"], rel=1e-6)
+
+
+def test_the_coverage_of_two_overlapping_faces_is_measured_against_the_sides_they_keep(tmp_path):
+    """The two-face cylinder planned and run: the fit-up report measures each face against the
+    side of the cut it keeps, so the shell is covered once (no overlap, nothing missing)."""
+    aft, fore = cylinder_piece(tmp_path / "aft.igs", 0.0, 12000.0), cylinder_piece(tmp_path / "fore.igs", 8000.0, 20000.0)
+    data = {"name": "two", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "steel": {"thickness": 12, "material": "S355"},
+            "strake": {"surface": {"iges": str(aft)}, "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "surfaces": [{"iges": str(fore)}],
+                                "stock": {"max_length": 6000, "max_width": 3000, "min_length": 1000,
+                                          "min_width": 1000}}}}
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "2"]) == 0
+    coverage = json.loads((tmp_path / "out" / "two_summary.json").read_text())["shell"]["coverage"]
+    assert coverage["covered"] == pytest.approx(1.0, abs=1e-3)
+    assert coverage["overlap"] == pytest.approx(0.0, abs=1e-6)
+    assert coverage["shell_m2"] == pytest.approx(3.0 * np.pi / 2 * 20.0, rel=2e-3)

@@ -127,7 +127,40 @@ def _shell_references(parts, config) -> dict:
                 break
     for key, surface in surfaces.items():  # not matched (should not happen): the whole surface
         out.setdefault(key, (_trim_region(surface, None), "the whole surface"))
+    for part in parts:  # a face the plan cut where it overlaps another keeps one side of the cut
+        limits, key = part.hull.x_limits, id(part.hull.surface)
+        if any(x is not None for x in limits) and "cut" not in out[key][1]:
+            region, what = out[key]
+            out[key] = (region.intersection(x_range_region(part.hull.surface, part.hull.long_axis, limits)),
+                        f"{what}, cut at x = {' and '.join(f'{x:.0f}' for x in limits if x is not None)}")
     return out
+
+
+def x_range_region(surface, axis: int, limits: tuple, lines: int = 201, samples: int = 2001):
+    """The part of the surface's parameter rectangle where x lies within ``limits`` (lo, hi;
+    None: open), as a polygon in (u, v): on each of ``lines`` girth lines the parameter
+    along the hull where x crosses a limit (x runs monotone along the hull), interpolated on
+    ``samples`` points."""
+    import shapely
+
+    s_dom = surface.domain_u if axis == 0 else surface.domain_v
+    g_dom = surface.domain_v if axis == 0 else surface.domain_u
+    s = np.linspace(*s_dom, samples)
+    g = np.linspace(*g_dom, lines)
+    x = (surface.grid(s, g) if axis == 0 else surface.grid(g, s).transpose(1, 0, 2))[..., 0]  # (samples, lines)
+    bounds = []
+    for limit, extreme in zip(limits, (np.argmin, np.argmax)):
+        crossing = np.empty(lines)
+        for k in range(lines):
+            xs = x[:, k]
+            order = np.argsort(xs)
+            # an open side runs to the hull's end, wherever x has its extreme on the line
+            crossing[k] = s[extreme(xs)] if limit is None else np.interp(limit, xs[order], s[order])
+        bounds.append(crossing)
+    ring_s = np.concatenate([bounds[0], bounds[1][::-1]])
+    ring_g = np.concatenate([g, g[::-1]])
+    ring = np.column_stack([ring_s, ring_g] if axis == 0 else [ring_g, ring_s])
+    return shapely.make_valid(shapely.Polygon(ring))
 
 
 def shell_coverage(records: dict, parts, config) -> dict | None:

@@ -172,6 +172,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
                           butt_names, resolution, "; ".join(n for n in (loaded[k][2], cut_note) if n))
             part.hull.inside_trim = inside
             part.hull.trim = loaded[k][1] if inside < 1.0 else None
+            part.hull.x_limits = limits[k]
             if plan.method == "uniform" or evaluate is None:
                 parts.append(part)
                 continue

@@ -82,6 +82,7 @@ class HullPlate:
     surface_note: str = ""  # e.g. a trim of the surface that is not honoured
     inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
     trim: object = None  # the face's trim (pipeline.hull.trims.Trim) when the region reaches past it
+    x_limits: tuple = (None, None)  # where a plan cut the face (overlapping another): the x range it keeps
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
