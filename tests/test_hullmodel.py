@@ -350,3 +350,24 @@ def test_the_coverage_of_two_overlapping_faces_is_measured_against_the_sides_the
     assert coverage["covered"] == pytest.approx(1.0, abs=1e-3)
     assert coverage["overlap"] == pytest.approx(0.0, abs=1e-6)
     assert coverage["shell_m2"] == pytest.approx(3.0 * np.pi / 2 * 20.0, rel=2e-3)
+
+
+def test_cut_plates_leave_no_steel_outside_the_trim_in_the_fitup_report(tmp_path):
+    """KCS's flat bottom alone, planned and run: plates cut at the trim cover it once and no
+    plate area lies outside it (the report measures the delivered plates)."""
+    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False, "dxf": False},
+            "steel": {"thickness": 16, "material": "AH36"},
+            "strake": {"surface": {"iges": str(DATA / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,
+                       "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "stock": {"max_length": 16000, "max_width": 4000,
+                                                               "min_length": 3000, "min_width": 1000}}}}
+    path = tmp_path / "de3.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "2"]) == 0
+    summary = json.loads((tmp_path / "out" / "de3_summary.json").read_text())
+    coverage = summary["shell"]["coverage"]
+    assert coverage["covered"] == pytest.approx(1.0, abs=2e-3)
+    assert coverage["overlap"] == pytest.approx(0.0, abs=1e-6)
+    assert coverage["outside_m2"] < 1e-3 * coverage["shell_m2"]
+    steel = sum(p["area_m2"] for p in summary["parts"])
+    assert steel == pytest.approx(1128.0, rel=5e-3)

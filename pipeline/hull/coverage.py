@@ -199,7 +199,12 @@ def shell_coverage(records: dict, parts, config) -> dict | None:
             distance = SurfaceDistance(surface)
             for name, rec in plates:
                 uv, _ = distance.closest(rec.ring3)
-                polys.append(_polygon(uv))
+                poly = _polygon(uv)
+                trim = next((p.hull.trim for p in parts if p.name == name), None)
+                if trim is not None and rec.klass in ("flat", "formed"):
+                    # a patch plate reaching past its face's trim is cut there (pipeline.hull.trimcut)
+                    poly = poly.intersection(_trim_region(surface, trim))
+                polys.append(poly)
         inside = sum(surface_area(surface, p.intersection(reference)) for p in polys)
         outside = sum(surface_area(surface, p.difference(reference)) for p in polys)
         overlap_pieces = []
