@@ -16,6 +16,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import pytest
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 SOURCE_PARTS = ("shared", "realdata", "textile", "astm-parser-src")
@@ -68,3 +70,13 @@ def parser_or_reason(cache_dir: Path):
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     return run, None
+
+
+@pytest.fixture(scope="module")
+def astm(request):
+    """The open ASTM parser (node), installed once per worker into the pytest cache."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
+    if run is None:
+        pytest.skip(reason)
+    return run

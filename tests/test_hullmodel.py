@@ -227,6 +227,20 @@ def cylinder_piece(path: Path, x0: float, x1: float, radius: float = 3000.0) -> 
     return write_iges_surface(path, 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
 
 
+def two_faces_config(tmp_path: Path) -> Path:
+    """One bilge cylinder given as two faces lying on each other over x 8-12 m, planned uniformly."""
+    aft, fore = cylinder_piece(tmp_path / "aft.igs", 0.0, 12000.0), cylinder_piece(tmp_path / "fore.igs", 8000.0, 20000.0)
+    data = {"name": "two", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "steel": {"thickness": 12, "material": "S355"},
+            "strake": {"surface": {"iges": str(aft)}, "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "surfaces": [{"iges": str(fore)}],
+                                "stock": {"max_length": 6000, "max_width": 3000, "min_length": 1000,
+                                          "min_width": 1000}}}}
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 def region_area(part) -> float:
     from flatten.patch import region_grid
 
@@ -246,15 +260,7 @@ def test_a_plan_of_two_overlapping_faces_covers_the_shell_once(tmp_path):
     the two faces meet at that plane."""
     from pipeline.hull.plan import load_run
 
-    aft, fore = cylinder_piece(tmp_path / "aft.igs", 0.0, 12000.0), cylinder_piece(tmp_path / "fore.igs", 8000.0, 20000.0)
-    data = {"name": "two", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
-            "strake": {"surface": {"iges": str(aft)}, "fit_tolerance": 5.0,
-                       "plan": {"method": "uniform", "surfaces": [{"iges": str(fore)}],
-                                "stock": {"max_length": 6000, "max_width": 3000, "min_length": 1000,
-                                          "min_width": 1000}}}}
-    path = tmp_path / "two.yaml"
-    path.write_text(yaml.safe_dump(data))
-    parts = load_run(path).parts
+    parts = load_run(two_faces_config(tmp_path)).parts
     total = sum(region_area(p) for p in parts)
     shell = 3000.0 * np.pi / 2 * 20000.0
     assert total == pytest.approx(shell, rel=2e-3)
@@ -264,17 +270,23 @@ def test_a_plan_of_two_overlapping_faces_covers_the_shell_once(tmp_path):
     assert all("overlap" in p.hull.surface_note for p in parts)
 
 
-def kcs_bottom_plan(tmp_path):
-    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+def kcs_bottom_config(tmp_path: Path, **output) -> Path:
+    """KCS's flat bottom (DE3, trimmed) alone at ship scale, planned uniformly."""
+    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False, **output},
+            "steel": {"thickness": 16, "material": "AH36"},
             "strake": {"surface": {"iges": str(DATA / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,
                        "fit_tolerance": 5.0,
                        "plan": {"method": "uniform", "stock": {"max_length": 16000, "max_width": 4000,
                                                                "min_length": 3000, "min_width": 1000}}}}
     path = tmp_path / "de3.yaml"
     path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def kcs_bottom_plan(tmp_path):
     from pipeline.hull.plan import load_run
 
-    return load_run(path)
+    return load_run(kcs_bottom_config(tmp_path))
 
 
 def test_kcs_flat_bottom_plates_are_cut_at_its_trim_and_cover_it_once(tmp_path):
@@ -336,16 +348,7 @@ def test_a_plate_cut_at_the_trim_reports_and_cuts_the_part_inside(tmp_path):
 def test_the_coverage_of_two_overlapping_faces_is_measured_against_the_sides_they_keep(tmp_path):
     """The two-face cylinder planned and run: the fit-up report measures each face against the
     side of the cut it keeps, so the shell is covered once (no overlap, nothing missing)."""
-    aft, fore = cylinder_piece(tmp_path / "aft.igs", 0.0, 12000.0), cylinder_piece(tmp_path / "fore.igs", 8000.0, 20000.0)
-    data = {"name": "two", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
-            "steel": {"thickness": 12, "material": "S355"},
-            "strake": {"surface": {"iges": str(aft)}, "fit_tolerance": 5.0,
-                       "plan": {"method": "uniform", "surfaces": [{"iges": str(fore)}],
-                                "stock": {"max_length": 6000, "max_width": 3000, "min_length": 1000,
-                                          "min_width": 1000}}}}
-    path = tmp_path / "two.yaml"
-    path.write_text(yaml.safe_dump(data))
-    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "2"]) == 0
+    assert main(["run", str(two_faces_config(tmp_path)), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "2"]) == 0
     coverage = json.loads((tmp_path / "out" / "two_summary.json").read_text())["shell"]["coverage"]
     assert coverage["covered"] == pytest.approx(1.0, abs=1e-3)
     assert coverage["overlap"] == pytest.approx(0.0, abs=1e-6)
@@ -355,14 +358,7 @@ def test_the_coverage_of_two_overlapping_faces_is_measured_against_the_sides_the
 def test_cut_plates_leave_no_steel_outside_the_trim_in_the_fitup_report(tmp_path):
     """KCS's flat bottom alone, planned and run: plates cut at the trim cover it once and no
     plate area lies outside it (the report measures the delivered plates)."""
-    data = {"name": "de3", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False, "dxf": False},
-            "steel": {"thickness": 16, "material": "AH36"},
-            "strake": {"surface": {"iges": str(DATA / "ship_kcs.igs"), "directory": 3}, "scale": 31.6,
-                       "fit_tolerance": 5.0,
-                       "plan": {"method": "uniform", "stock": {"max_length": 16000, "max_width": 4000,
-                                                               "min_length": 3000, "min_width": 1000}}}}
-    path = tmp_path / "de3.yaml"
-    path.write_text(yaml.safe_dump(data))
+    path = kcs_bottom_config(tmp_path, dxf=False)
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "2"]) == 0
     summary = json.loads((tmp_path / "out" / "de3_summary.json").read_text())
     coverage = summary["shell"]["coverage"]

@@ -1,7 +1,6 @@
 """Textile pieces: AAMA round trip, sew line, allowance, notches, grain, printout, real files."""
 
 import json
-import os
 import re
 from pathlib import Path
 
@@ -15,7 +14,7 @@ from pipeline.textile.aama import read_aama
 from pipeline.cli import main
 from pipeline.io.meshio import read_obj
 
-from .astm_parser import parser_or_reason
+from .astm_parser import astm  # noqa: F401 (a fixture)
 
 ROOT = Path(__file__).resolve().parents[1]
 LAMPSHADE = ROOT / "configs" / "lampshade.yaml"
@@ -224,16 +223,6 @@ def test_real_aama_files_parse_with_the_same_reader(name):
         assert len(piece.boundary) >= 3
         assert Polygon(piece.boundary).area > 0
     assert any(piece.grain for piece in read.pieces)
-
-
-@pytest.fixture(scope="module")
-def astm(request):
-    """The open ASTM parser (node), installed once per worker into the pytest cache."""
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
-    if run is None:
-        pytest.skip(reason)
-    return run
 
 
 REAL_FILES = sorted(REALDATA.iterdir())

@@ -4,7 +4,6 @@ by a reader that is not ours: the open ASTM parser (node), ezdxf's audit, GDAL's
 and for HP-GL a small parser of the pen moves written here."""
 
 import collections
-import os
 import re
 import shutil
 import subprocess
@@ -23,7 +22,7 @@ from pipeline.textile.notchtypes import KINDS, notch_strokes
 from pipeline.textile.pieces import TextilePiece
 from pipeline.textile.roll import EDGE_MM, roll_layout
 
-from .astm_parser import parser_or_reason
+from .astm_parser import astm  # noqa: F401 (a fixture)
 
 ROOT = Path(__file__).resolve().parents[1]
 LAMPSHADE = ROOT / "configs" / "lampshade.yaml"
@@ -59,15 +58,6 @@ def runs(tmp_path_factory):
     """The lampshade with typed notches in each flavour, with the plotter file."""
     base = tmp_path_factory.mktemp("cutting")
     return {flavour: run_lampshade(base / flavour, aama={"flavour": flavour}, plotter=True) for flavour in FLAVOURS}
-
-
-@pytest.fixture(scope="module")
-def astm(request):
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
-    if run is None:
-        pytest.skip(reason)
-    return run
 
 
 def reports(out: Path) -> dict:
