@@ -61,10 +61,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_Version, help="print devflat's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run every part of a configuration and write the files")
-    run.add_argument("config", type=Path)
+    run.add_argument("config", type=Path, nargs="+", help="one configuration, or several: a batch, each "
+                     "written into DIR/<its file stem>/ (pipeline.batch)")
     run.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     run.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
     run.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
+    run.add_argument("--scheduler", help="run the parts on Dask distributed: tcp://host:port of a scheduler, "
+                     "or local[:N] for a local cluster of N processes (pipeline.cluster)")
+    run.add_argument("--scheduler-timeout", type=float, default=10.0,
+                     help="seconds to wait for the scheduler and a worker (default 10)")
     check = sub.add_parser("check", help="validate a configuration without running it")
     check.add_argument("config", type=Path)
     nest = sub.add_parser("nest", help="run the parts and nest them (the config's nesting section): a fabric "
@@ -319,6 +324,10 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
     args.one_shot = one_shot
+    if args.command == "run" and (len(args.config) > 1 or args.scheduler is not None):
+        args.command = "batch"  # several configurations or a Dask scheduler: pipeline.batch
+    elif args.command == "run":
+        args.config = args.config[0]
     from .lazymodules import defer_unused
 
     defer_unused()
@@ -332,6 +341,12 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     try:
         if args.command == "run":
             return command_run(args, early)
+        if args.command == "batch":
+            from .batch import command_batch
+
+            if one_shot:
+                imports_done()
+            return command_batch(args, wrote_line)
         if args.command == "nest":
             from .nest.command import command_nest
 
