@@ -17,6 +17,8 @@ import sys
 from contextlib import ExitStack
 from pathlib import Path
 
+from flatten.errors import DevflatError
+
 from .config import ConfigError, RunConfig
 from .validate import check_jobs, validate
 
@@ -29,6 +31,8 @@ def batch_folders(configs: list[Path], out: Path) -> list[tuple[Path, Path]]:
     seen: dict[str, Path] = {}
     for path in configs:
         stem = path.stem
+        if stem in seen and seen[stem].resolve() == path.resolve():
+            raise ConfigError(f"{path}: given twice")
         if stem in seen:
             raise ConfigError(f"{path}: {seen[stem]} and {path} would both write into {out / stem}; "
                               "give configurations of different file names")
@@ -88,7 +92,7 @@ def command_batch(args, wrote_line) -> int:
                 written.append((results, _finish(results, config, folder, out)))
             for (config, out), folder, (results, _) in zip(checked, folders, written):
                 folder.commit([r.name for r in results])
-    except OutputError:
+    except DevflatError:  # an output fault, a cluster that cannot run the parts: named already
         raise
     except OSError as exc:
         raise OutputError(f"--out {args.out}: cannot write the results: {exc.strerror or exc}") from None

@@ -101,7 +101,7 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
             if scheduler.local:
                 workers = scheduler.workers or worker_count(MAX_LOCAL_WORKERS, MAX_LOCAL_WORKERS)
                 cluster = distributed.LocalCluster(n_workers=max(1, min(workers, n_parts)), threads_per_worker=1,
-                                                   processes=True, dashboard_address=None,
+                                                   processes=True, dashboard_address=":0",
                                                    silence_logs=logging.CRITICAL)
                 client = distributed.Client(cluster, timeout=timeout, set_as_default=False)
             else:

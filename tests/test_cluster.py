@@ -1,0 +1,177 @@
+"""Batches of configurations and runs on Dask distributed (pipeline.batch, pipeline.cluster):
+the same files as ``--jobs`` (JSON, OBJ and CSV byte for byte; DXF and PDF carry their
+creation time), each configuration of a batch in DIR/<stem>/, bad input refused before
+anything is written. The cluster is a LocalCluster of two worker processes."""
+
+from __future__ import annotations
+
+import json
+import pickle
+import socket
+from pathlib import Path
+
+import pytest
+import yaml
+
+from pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+STRAKE = ROOT / "configs" / "hullmod_strake.yaml"
+SAME_BYTES = (".json", ".obj", ".csv")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A LocalCluster of two worker processes and a client to look at it; yields
+    (address, client)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc:
+        with distributed.Client(lc, set_as_default=False) as client:
+            yield lc.scheduler_address, client
+
+
+def executed(client) -> int:
+    """Tasks the cluster's workers have run so far."""
+    return sum(client.run(lambda dask_worker: dask_worker.state.executed_count).values())
+
+
+def files(folder: Path) -> dict[str, Path]:
+    return {str(p.relative_to(folder)): p for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def assert_same_outputs(expected: Path, got: Path) -> None:
+    """The same file names; the JSON, OBJ and CSV files byte for byte."""
+    want, have = files(expected), files(got)
+    assert sorted(have) == sorted(want)
+    compared = [name for name in want if name.endswith(SAME_BYTES)]
+    assert {Path(n).suffix for n in compared} == set(SAME_BYTES)
+    for name in compared:
+        assert have[name].read_bytes() == want[name].read_bytes(), name
+
+
+def small_strake(tmp_path: Path, name: str, butts: int = 3) -> Path:
+    """hullmod_strake.yaml cut to fewer butts (2 x (butts - 1) plates), saved as NAME.yaml."""
+    data = yaml.safe_load(STRAKE.read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data["strake"]["butts"] = data["strake"]["butts"][:butts]
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_a_part_result_survives_pickling(tmp_path):
+    """What a worker sends back: a part's whole result, as --jobs 1 exports it."""
+    from pipeline.hull.plates import evaluate_plate
+    from pipeline.runner import guarded_export, guarded_run
+    from pipeline.validate import validate
+
+    config = validate(small_strake(tmp_path, "one", butts=2), evaluate_plate)
+    result = guarded_run(config.parts[0], config)
+    assert result.ok
+    copy = pickle.loads(pickle.dumps(result))
+    guarded_export(result, config, tmp_path / "a", tmp_path)
+    guarded_export(copy, config, tmp_path / "b", tmp_path)
+    for name in ("hullmod_S1_B1.json", "hullmod_S1_B1.obj"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
+def test_a_strake_on_the_cluster_writes_what_jobs_1_and_2_write(cluster, tmp_path):
+    address, client = cluster
+    assert main(["run", str(STRAKE), "--out", str(tmp_path / "j1"), "--quiet"]) == 0
+    assert main(["run", str(STRAKE), "--out", str(tmp_path / "j2"), "--quiet", "--jobs", "2"]) == 0
+    before = executed(client)
+    assert main(["run", str(STRAKE), "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address]) == 0
+    summary = json.loads((tmp_path / "dask" / "hullmod_summary.json").read_text())
+    assert len(summary["parts"]) == 10 and summary["failed"] == []
+    assert executed(client) - before >= 10  # the plates ran on the workers
+    assert_same_outputs(tmp_path / "j1", tmp_path / "j2")
+    assert_same_outputs(tmp_path / "j1", tmp_path / "dask")
+    assert [p.name for p in (tmp_path / "dask").iterdir() if p.name.startswith(".")] == []  # no staging, no lock
+
+
+def test_a_batch_writes_each_config_into_its_own_folder(cluster, tmp_path, capsys):
+    """Two configurations in one command: DIR/<stem>/ each, what each run alone writes, on
+    the cluster and with --jobs alike."""
+    address, _ = cluster
+    strake = small_strake(tmp_path, "two_plates")  # 4 plates
+    plate = ROOT / "configs" / "plate.yaml"
+    for config in (strake, plate):
+        assert main(["run", str(config), "--out", str(tmp_path / "alone" / config.stem), "--quiet"]) == 0
+    assert main(["run", str(strake), str(plate), "--out", str(tmp_path / "jobs"), "--jobs", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert f"{strake}:" in printed and f"{plate}:" in printed
+    assert f"wrote 21 files to {tmp_path / 'jobs' / 'two_plates'}/" in printed  # 4 x 4 plate files + 5 run files
+    assert f"wrote 8 files to {tmp_path / 'jobs' / 'plate'}/" in printed
+    assert main(["run", str(strake), str(plate), "--out", str(tmp_path / "dask"), "--quiet",
+                 "--scheduler", address]) == 0
+    for out in ("jobs", "dask"):
+        assert sorted(p.name for p in (tmp_path / out).iterdir()) == ["plate", "two_plates"]
+        assert_same_outputs(tmp_path / "alone", tmp_path / out)
+
+
+def test_a_local_cluster_of_two_processes_is_started_and_stopped(tmp_path):
+    psutil = pytest.importorskip("psutil")
+    configs = [str(ROOT / "configs" / name) for name in ("frustum.yaml", "flat_plate.yaml", "plate.yaml")]
+    assert main(["run", *configs, "--out", str(tmp_path / "jobs"), "--quiet"]) == 0
+    before = {p.pid for p in psutil.Process().children(recursive=True)}
+    assert main(["run", *configs, "--out", str(tmp_path / "local"), "--quiet", "--scheduler", "local:2"]) == 0
+    assert_same_outputs(tmp_path / "jobs", tmp_path / "local")
+    after = [p for p in psutil.Process().children(recursive=True) if p.pid not in before]
+    # its worker processes are gone (multiprocessing's resource tracker stays, one per interpreter)
+    assert [p.cmdline() for p in after if "resource_tracker" not in " ".join(p.cmdline())] == []
+
+
+def test_a_geometric_failure_on_the_cluster_exits_1_with_its_report(cluster, tmp_path):
+    address, _ = cluster
+    configs = [str(ROOT / "configs" / name) for name in ("c_against_mirror.yaml", "frustum.yaml")]
+    assert main(["run", *configs, "--out", str(tmp_path / "jobs"), "--quiet"]) == 1
+    assert main(["run", *configs, "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address]) == 1
+    assert_same_outputs(tmp_path / "jobs", tmp_path / "dask")
+    assert not list((tmp_path / "dask" / "c_against_mirror").glob("*.dxf"))
+
+
+def test_a_bad_config_among_several_exits_2_naming_it_and_writes_nothing(cluster, tmp_path, capsys):
+    address, _ = cluster
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nunits: mm\n")
+    good = ROOT / "configs" / "frustum.yaml"
+    for extra in ([], ["--scheduler", address]):
+        out = tmp_path / "out"
+        assert main(["run", str(good), str(bad), "--out", str(out), "--quiet", *extra]) == 2
+        err = capsys.readouterr().err
+        assert str(bad) in err and "Traceback" not in err
+        assert not out.exists()
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "frustum.yaml").write_text(good.read_text())
+    assert main(["run", str(good), str(other / "frustum.yaml"), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "would both write into" in err and str(tmp_path / "out" / "frustum") in err
+    assert not (tmp_path / "out").exists()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_scheduler_exits_2_and_writes_nothing(tmp_path, capsys):
+    address = f"tcp://127.0.0.1:{free_port()}"
+    out = tmp_path / "out"
+    code = main(["run", str(ROOT / "configs" / "frustum.yaml"), "--out", str(out), "--quiet",
+                 "--scheduler", address, "--scheduler-timeout", "1"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith(f"devflat: error: --scheduler {address}: no Dask scheduler with a worker answered within 1 s")
+    assert "Traceback" not in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("spec", ["localhost:8786", "local:0", "local:65", "local:x", "tcp://host", "http://h:8786",
+                                  "tcp://h:70000"])
+def test_a_bad_scheduler_spec_exits_2_before_anything_runs(tmp_path, capsys, spec):
+    out = tmp_path / "out"
+    assert main(["run", str(ROOT / "configs" / "frustum.yaml"), "--out", str(out), "--scheduler", spec]) == 2
+    assert f"--scheduler {spec}: give " in capsys.readouterr().err
+    assert not out.exists()
