@@ -102,7 +102,7 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
                 workers = scheduler.workers or worker_count(MAX_LOCAL_WORKERS, MAX_LOCAL_WORKERS)
                 cluster = distributed.LocalCluster(n_workers=max(1, min(workers, n_parts)), threads_per_worker=1,
                                                    processes=True, dashboard_address=":0",
-                                                   silence_logs=logging.CRITICAL)
+                                                   silence_logs=logging.CRITICAL, preload=[__name__])
                 client = distributed.Client(cluster, timeout=timeout, set_as_default=False)
             else:
                 client = distributed.Client(scheduler.address, timeout=timeout, set_as_default=False)
@@ -121,6 +121,17 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
         if cluster is not None:
             cluster.close()
         quiet.setLevel(level)
+
+
+def dask_setup(worker) -> None:
+    """Run by each process of a local cluster as it starts (``preload``; again when its
+    nanny restarts it): it ignores SIGINT, like a ``--jobs`` worker (Ctrl-C reaches the whole
+    process group; this process decides and stops the cluster)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _worker_versions() -> str:
@@ -184,47 +195,76 @@ def put_files(folder: Path, files: dict[str, bytes], out: Path, name: str) -> No
         raise OutputError(f"--out {out}: cannot write the files of part {name}: {exc.strerror or exc}") from None
 
 
+def _given(value):
+    return value
+
+
 def run_on_cluster(client, batches: list[Batch], progress=None, spec: str = "") -> list[list[PartResult]]:
     """Every part of every batch on the cluster, all submitted at once (the cluster is kept
     busy across configurations); each part's files go into its batch's staging folder as
-    soon as they arrive. Returns the results per batch, in the order of its parts."""
+    soon as they arrive. Returns the results per batch, in the order of its parts.
+
+    When a worker dies, Dask runs its parts again elsewhere and gives up on a part whose
+    workers died too often (``KilledWorker``); the parts that were merely beside it on a
+    dying worker get the blame too. Those parts are run again one at a time once the
+    others are done, so that the part a worker dies on fails alone (as ``--jobs`` does)."""
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
     results: list[list[PartResult | None]] = [[None] * len(b.config.parts) for b in batches]
-    futures = {}
-    for k, batch in enumerate(batches):
-        config = client.scatter(batch.config, broadcast=True, hash=False)
-        for index in range(len(batch.config.parts)):
-            future = client.submit(cluster_part, config, index, batch.out, batch.keep_geometry,
-                                   batch.staging is not None, pure=False)
-            futures[future] = (k, index)
+    # each configuration sent once, as a task that returns it (not scattered: a scattered
+    # value is lost with the workers that held it; a task's result is computed again)
+    configs = [client.submit(_given, batch.config, pure=False) for batch in batches]
+
+    def submit(k: int, index: int):
+        batch = batches[k]
+        return client.submit(cluster_part, configs[k], index, batch.out, batch.keep_geometry,
+                             batch.staging is not None, pure=False)
+
+    def receive(k: int, index: int, future, alone: bool) -> bool:
+        """Stage the part's files and record its result; False: its worker died and it
+        was not run alone (it is run again)."""
+        batch = batches[k]
+        part = batch.config.parts[index]
+        folder = None if batch.staging is None else batch.staging / f"part-{index:06d}"
+        try:
+            result, files = future.result()
+        except KilledWorker as exc:
+            if not alone:
+                return False
+            result, files = failed_result(part, exc, "computing the part (its worker process died)"), None
+            if folder is not None:
+                result = slim(guarded_export(result, batch.config, folder, batch.out), batch.keep_geometry)
+        except OutputError as exc:
+            raise ClusterError(f"--scheduler {spec}: a worker cannot write part {part.name}'s files into its "
+                               f"temporary folder: {exc}") from None
+        except Exception as exc:  # noqa: BLE001 - not a part's failure: the guard runs on the worker
+            raise ClusterError(f"--scheduler {spec}: part {part.name} did not come back from the cluster "
+                               f"({type(exc).__name__}: {exc})") from None
+        if files is not None:
+            put_files(folder, files, batch.out, part.name)
+        result.part = part
+        results[k][index] = result
+        if progress is not None:
+            progress.set_postfix_str(result.name)
+            progress.update()
+        return True
+
+    # a future dropped (popped, out of scope) lets the cluster forget the part's result
+    futures = {submit(k, index): (k, index) for k, batch in enumerate(batches)
+               for index in range(len(batch.config.parts))}
+    again = []
     try:
-        for future in as_completed(futures, loop=client.loop):
-            k, index = futures[future]
-            batch = batches[k]
-            part = batch.config.parts[index]
-            folder = None if batch.staging is None else batch.staging / f"part-{index:06d}"
-            try:
-                result, files = future.result()
-            except KilledWorker as exc:
-                result, files = failed_result(part, exc, "computing the part (its worker process died)"), None
-                if folder is not None:
-                    result = slim(guarded_export(result, batch.config, folder, batch.out), batch.keep_geometry)
-            except Exception as exc:  # noqa: BLE001 - not a part's failure: the guard runs on the worker
-                if isinstance(exc, OutputError):
-                    raise ClusterError(f"--scheduler {spec}: a worker cannot write part {part.name}'s files "
-                                       f"into its temporary folder: {exc}") from None
-                raise ClusterError(f"--scheduler {spec}: part {part.name} did not come back from the cluster "
-                                   f"({type(exc).__name__}: {exc})") from None
-            if files is not None:
-                put_files(folder, files, batch.out, part.name)
-            result.part = part
-            results[k][index] = result
-            if progress is not None:
-                progress.set_postfix_str(result.name)
-                progress.update()
+        for future in as_completed(list(futures), loop=client.loop):
+            k, index = futures.pop(future)
+            if not receive(k, index, future, alone=False):
+                again.append((k, index))
+        for k, index in sorted(again):
+            future = submit(k, index)
+            futures[future] = (k, index)
+            receive(k, index, future, alone=True)
+            futures.pop(future)
     finally:
-        for future in futures:
-            future.release()
+        if futures:  # interrupted: what is still queued or running
+            client.cancel(list(futures))
     return results

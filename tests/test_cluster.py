@@ -6,7 +6,9 @@ anything is written. The cluster is a LocalCluster of two worker processes."""
 from __future__ import annotations
 
 import json
+import os
 import pickle
+import signal
 import socket
 from pathlib import Path
 
@@ -14,6 +16,8 @@ import pytest
 import yaml
 
 from pipeline.cli import main
+
+distributed = pytest.importorskip("distributed")  # the test extra installs it
 
 ROOT = Path(__file__).resolve().parents[1]
 STRAKE = ROOT / "configs" / "hullmod_strake.yaml"
@@ -24,7 +28,6 @@ SAME_BYTES = (".json", ".obj", ".csv")
 def cluster():
     """A LocalCluster of two worker processes and a client to look at it; yields
     (address, client)."""
-    distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc:
         with distributed.Client(lc, set_as_default=False) as client:
             yield lc.scheduler_address, client
@@ -175,3 +178,86 @@ def test_a_bad_scheduler_spec_exits_2_before_anything_runs(tmp_path, capsys, spe
     assert main(["run", str(ROOT / "configs" / "frustum.yaml"), "--out", str(out), "--scheduler", spec]) == 2
     assert f"--scheduler {spec}: give " in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGKILL])
+def test_an_interrupted_cluster_run_leaves_no_worker_and_no_partial_output(tmp_path, signum):
+    """Ctrl-C reaches the whole process group: the local cluster's workers ignore it, the
+    run stops them, removes its staging folder and says so in one line. Killed, the run's
+    workers die with it and the next run clears what it left."""
+    from pipeline.outdir import LOCK_NAME, STAGING_PREFIX
+    from tests.test_run_faults import alive, children, devflat, staged_part, strake_config, wait_for
+
+    out = tmp_path / "out"
+    config = strake_config(tmp_path, butts=range(56000, 104001, 4000))  # 24 plates
+    run = devflat("run", str(config), "--out", str(out), "--quiet", "--scheduler", "local:2",
+                  start_new_session=True)
+    wait_for(lambda: staged_part(out) or run.poll() is not None)
+    assert run.poll() is None, run.communicate()
+    workers = [p for p in children(run.pid) for p in [p, *children(p)]]
+    assert len(workers) >= 2
+    if signum == signal.SIGINT:
+        os.killpg(run.pid, signum)
+    else:
+        os.kill(run.pid, signum)
+    _, err = run.communicate(timeout=60)
+    wait_for(lambda: not any(alive(w) for w in workers), timeout=30)
+    if signum == signal.SIGINT:
+        assert run.returncode == 130
+        assert err.strip().splitlines() == ["devflat: interrupted (SIGINT)"]
+        assert not out.exists()
+        return
+    assert run.returncode == -signal.SIGKILL
+    assert {p.name for p in out.iterdir()} <= {LOCK_NAME} | {p.name for p in out.glob(STAGING_PREFIX + "*")}
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    assert not list(out.glob(STAGING_PREFIX + "*"))
+
+
+class KillOnePart(distributed.WorkerPlugin):
+    """A worker plugin (installed on every worker, restarted ones too) that makes the
+    worker process die when it computes the part ``name``."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def setup(self, worker) -> None:
+        import pipeline.hull.plates as plates
+
+        run_part, name = plates.run_part, self.name
+
+        def dying(part, config):
+            if part.name == name:
+                os._exit(3)
+            return run_part(part, config)
+
+        plates.run_part = dying
+
+
+def test_a_part_that_kills_its_workers_fails_alone(tmp_path):
+    import dask
+
+    plugin = KillOnePart("two_plates_S1_B2")
+    config = small_strake(tmp_path, "two_plates")
+    data = yaml.safe_load(config.read_text())
+    data["name"] = "two_plates"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--out", str(tmp_path / "jobs"), "--quiet"]) == 0
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1}):  # one retry on another worker
+        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                      dashboard_address=":0") as lc:
+            with distributed.Client(lc, set_as_default=False) as client:
+                client.register_plugin(plugin)
+                code = main(["run", str(config), "--out", str(tmp_path / "dask"), "--quiet",
+                             "--scheduler", lc.scheduler_address])
+    assert code == 1
+    summary = json.loads((tmp_path / "dask" / "two_plates_summary.json").read_text())
+    assert [row["id"] for row in summary["parts"]] == [f"two_plates_S{s}_B{b}" for s in (1, 2) for b in (1, 2)]
+    assert summary["failed"] == ["two_plates_S1_B2"]
+    report = json.loads((tmp_path / "dask" / "two_plates_S1_B2.json").read_text())
+    assert "its worker process died" in report["reason"]
+    assert not (tmp_path / "dask" / "two_plates_S1_B2.dxf").exists()
+    for name in ("two_plates_S1_B1", "two_plates_S2_B1", "two_plates_S2_B2"):
+        for suffix in (".json", ".obj"):
+            assert (tmp_path / "dask" / f"{name}{suffix}").read_bytes() == \
+                (tmp_path / "jobs" / f"{name}{suffix}").read_bytes()
