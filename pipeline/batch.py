@@ -69,6 +69,9 @@ def command_batch(args, wrote_line) -> int:
 
         scheduler = parse_scheduler(args.scheduler)
         check_timeout(args.scheduler_timeout)
+        if args.jobs != 1:
+            raise ConfigError(f"--jobs {args.jobs} --scheduler {args.scheduler}: the scheduler's workers run the "
+                              "parts; give one of the two")
     checked = validate_all(args.config, args.out)
     n_parts = sum(len(config.parts) for config, _ in checked)
     progress = None

@@ -180,6 +180,14 @@ def test_a_bad_scheduler_spec_exits_2_before_anything_runs(tmp_path, capsys, spe
     assert not out.exists()
 
 
+def test_jobs_and_a_scheduler_are_refused_together(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", str(ROOT / "configs" / "frustum.yaml"), "--out", str(out), "--jobs", "2",
+                 "--scheduler", "local:2"]) == 2
+    assert "--jobs 2 --scheduler local:2: the scheduler's workers run the parts" in capsys.readouterr().err
+    assert not out.exists()
+
+
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGKILL])
 def test_an_interrupted_cluster_run_leaves_no_worker_and_no_partial_output(tmp_path, signum):
