@@ -92,9 +92,9 @@ class WarmCluster:
 
         logging.getLogger("distributed").setLevel(logging.ERROR)  # its INFO lines on every connection
 
-        self.cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                                dashboard_address=":0", silence_logs=logging.CRITICAL,
-                                                preload=["pipeline.cluster"])
+        from pipeline.cluster import local_cluster
+
+        self.cluster = local_cluster(n)  # as devflat starts one for --scheduler local:N
         self.client = distributed.Client(self.cluster, set_as_default=False)
         self.address = self.cluster.scheduler_address
 

@@ -100,9 +100,7 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
         try:
             if scheduler.local:
                 workers = scheduler.workers or worker_count(MAX_LOCAL_WORKERS, MAX_LOCAL_WORKERS)
-                cluster = distributed.LocalCluster(n_workers=max(1, min(workers, n_parts)), threads_per_worker=1,
-                                                   processes=True, dashboard_address=":0",
-                                                   silence_logs=logging.CRITICAL, preload=[__name__])
+                cluster = local_cluster(max(1, min(workers, n_parts)))
                 client = distributed.Client(cluster, timeout=timeout, set_as_default=False)
             else:
                 client = distributed.Client(scheduler.address, timeout=timeout, set_as_default=False)
@@ -121,6 +119,24 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
         if cluster is not None:
             cluster.close()
         quiet.setLevel(level)
+
+
+def local_cluster(workers: int):
+    """A ``distributed.LocalCluster`` of ``workers`` processes of one thread each, as devflat
+    runs the parts: they ignore SIGINT (:func:`dask_setup`), and they run without the
+    ``MALLOC_TRIM_THRESHOLD_`` that Dask's nanny sets for its workers by default: glibc then
+    no longer adapts its mmap threshold, every large array is mapped and unmapped afresh,
+    and a hull plate took 10-15 % more CPU (bench/README.md). Its dashboard on a free port."""
+    import logging
+
+    import dask
+    import distributed
+
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {})
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        return distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                        dashboard_address=":0", silence_logs=logging.CRITICAL, preload=[__name__])
 
 
 def dask_setup(worker) -> None:
