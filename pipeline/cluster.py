@@ -108,7 +108,7 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
             _check_workers(client, scheduler)
         except ClusterError:
             raise
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, RuntimeError) as exc:  # RuntimeError: a nanny that failed to start
             what = ("cannot start a local cluster" if scheduler.local else
                     f"no Dask scheduler with a worker answered within {timeout:g} s")
             raise ClusterError(f"--scheduler {scheduler.spec}: {what} ({type(exc).__name__}: {exc})") from None
@@ -126,7 +126,7 @@ def local_cluster(workers: int):
     runs the parts: they ignore SIGINT (:func:`dask_setup`), and they run without the
     ``MALLOC_TRIM_THRESHOLD_`` that Dask's nanny sets for its workers by default: glibc then
     no longer adapts its mmap threshold, every large array is mapped and unmapped afresh,
-    and a hull plate took 10-15 % more CPU (bench/README.md). Its dashboard on a free port."""
+    and a hull plate took 5-15 % more CPU (bench/README.md). Its dashboard on a free port."""
     import logging
 
     import dask
