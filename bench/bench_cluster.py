@@ -18,10 +18,10 @@ interleaved rounds; the median run of each kind is printed:
 Then the model's terms, each measured separately (CPU seconds, so that the neighbours on a
 shared machine do not enter them):
 
-- S, the coordinator's serial part: start, imports (distributed's included), planning,
-  summary, commit; and b, the coordinator's CPU per plate (receiving a plate's files and
-  writing them into the staging folder): a line through the coordinator's CPU on the warm
-  cluster at two plate counts;
+- S0 + P S1, the coordinator's serial part (its CPU outside the phase where the parts run:
+  start, imports, distributed's included, planning, summary, commit), a line through two
+  plate counts on the warm cluster; b, the coordinator's CPU per plate while the parts run
+  (receiving a plate's files and writing them into the staging folder);
 - c, the workers' CPU per plate (compute and export; measured in the worker processes);
 - d, the client's and scheduler's CPU per task, from 2000 no-op tasks on the warm cluster
   (the scheduler runs in this bench's process); beside it the scheduler process's CPU
@@ -29,11 +29,11 @@ shared machine do not enter them):
   monitors: about 5 % of a core) and is not a per-plate cost;
 - the file bytes per plate that cross the network.
 
-    T(W) = S + P * max(c / W, b + d + bytes / bandwidth)
+    T(W) = S0 + P * S1 + P * max(c / W, b + d + bytes / bandwidth)
 
 W workers compute while the coordinator and scheduler take each plate in turn; whichever
-is slower sets the pace. For ``--jobs`` on one machine: T(J) = S_jobs + P * c_jobs / J
-(its workers write their own files: no per-plate work in the parent worth counting).
+is slower sets the pace. ``--jobs`` on one machine is the same model with its own S0, b
+(the parent receiving each plate's summary) and c, no scheduler and no network.
 bench/README.md has the figures and the extrapolation.
 """
 
@@ -61,13 +61,31 @@ from bench_strake import config  # noqa: E402  the same strake
 
 
 def one(args) -> int:
-    """One run in this fresh process, as the ``devflat`` program runs it."""
+    """One run in this fresh process, as the ``devflat`` program runs it; besides its CPU
+    time, the CPU time this process spent while the parts ran (``run_parts`` with --jobs,
+    ``run_on_cluster`` on a scheduler: receiving and staging the parts' files)."""
+    import pipeline.cluster
+    import pipeline.runner
     from pipeline.cli import run_program
 
+    phase = {"cpu": 0.0}
+
+    def timed(function):
+        def run(*a, **k):
+            start = time.process_time()
+            try:
+                return function(*a, **k)
+            finally:
+                phase["cpu"] += time.process_time() - start
+        return run
+
+    # both are imported by name when a run starts: the wrapped ones are what it calls
+    pipeline.runner.run_parts = timed(pipeline.runner.run_parts)
+    pipeline.cluster.run_on_cluster = timed(pipeline.cluster.run_on_cluster)
     code = run_program(["run", args.config, "--out", args.out, "--quiet", *args.extra.split()])
     self_use, child_use = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     print(json.dumps({"code": code, "parent_cpu": self_use.ru_utime + self_use.ru_stime,
-                      "children_cpu": child_use.ru_utime + child_use.ru_stime}))
+                      "children_cpu": child_use.ru_utime + child_use.ru_stime, "parts_phase_cpu": phase["cpu"]}))
     return 0
 
 
@@ -208,8 +226,13 @@ def main(argv=None) -> int:
     small_run = sorted(small_runs, key=lambda r: r["seconds"])[(len(small_runs) - 1) // 2]
     if plates <= small_plates:
         sys.exit("bench_cluster: give more than 3 seams (the model's line needs two plate counts)")
-    b = max((big["parent_cpu"] - small_run["parent_cpu"]) / (plates - small_plates), 0.0)
-    serial = big["parent_cpu"] - b * plates
+
+    def outside(r):  # the coordinator's CPU before and after the parts ran
+        return r["parent_cpu"] - r["parts_phase_cpu"]
+
+    s1 = max((outside(big) - outside(small_run)) / (plates - small_plates), 0.0)
+    s0 = outside(big) - s1 * plates
+    b = big["parts_phase_cpu"] / plates
     c = statistics.median([r["workers_cpu"] / plates for label in ("warm cluster, 1 worker", "warm cluster, 2 workers")
                            for r in runs[label]])
     background = statistics.median([r["scheduler_cpu"] / plates for label in ("warm cluster, 1 worker",
@@ -218,30 +241,34 @@ def main(argv=None) -> int:
     d = max(trip[1][1], trip[2][1])
     jobs = median["--jobs 2"]
     c_jobs = jobs["workers_cpu"] / plates
-    serial_jobs = jobs["parent_cpu"]
+    b_jobs = jobs["parts_phase_cpu"] / plates
+    s0_jobs = outside(jobs) - s1 * plates
     per_plate_bytes = big["bytes"] / plates
-    print("model terms (CPU seconds; medians):")
-    print(f"  S   coordinator's serial part (start, imports, planning, summary)  {serial:.2f} s")
-    print(f"  b   coordinator per plate (receive the files, stage them)          {1000 * b:.1f} ms")
-    print(f"  c   workers per plate (compute and export)                         {1000 * c:.1f} ms")
+    print("model terms (CPU; medians of the runs above):")
+    print(f"  S0  coordinator's fixed serial part (start, imports, connecting)    {s0:.2f} s Dask, {s0_jobs:.2f} s --jobs")
+    print(f"  S1  serial part per plate, before and after the parts run         {1000 * s1:.1f} ms "
+          f"(planning, summary, commit; {small_plates} and {plates} plates)")
+    print(f"  b   coordinator per plate while they run (receive, stage)          {1000 * b:.1f} ms Dask, "
+          f"{1000 * b_jobs:.1f} ms --jobs")
+    print(f"  c   workers per plate (compute and export)                         {1000 * c:.1f} ms Dask, "
+          f"{1000 * c_jobs:.1f} ms --jobs")
     print(f"  d   client + scheduler per task (no-op tasks, 1 / 2 workers)        {1000 * trip[1][1]:.2f} / "
           f"{1000 * trip[2][1]:.2f} ms (wall per task {1000 * trip[1][0]:.2f} / {1000 * trip[2][0]:.2f} ms)")
     print(f"      scheduler process's CPU during the runs / plates (with its background) {1000 * background:.1f} ms")
     print(f"      file bytes per plate                                           {per_plate_bytes / 1024:.0f} KiB")
-    print(f"  --jobs: parent {serial_jobs:.2f} s serial, workers {1000 * c_jobs:.1f} ms per plate")
-    print("predicted (idle cores; T = S + P max(c / W, b + d + bytes / bandwidth); the cluster already "
-          f"running), for these {plates} plates and for 10 x as many:")
-    for label, workers, bandwidth in (("--jobs 16, one 16-core machine", None, None),
-                                      ("local cluster, 16 cores (15 workers)", 15, None),
-                                      ("4 x 16-core cluster, 64 workers, 1 Gbit/s", 64, 125e6),
-                                      ("4 x 16-core cluster, 64 workers, 10 Gbit/s", 64, 1250e6)):
+    print("predicted on idle cores, T = S0 + P S1 + P max(c / W, b + d + bytes / bandwidth) (--jobs: d = 0, "
+          f"no network; the cluster already running), for these {plates} plates and for 10 x as many:")
+    for label, workers, bandwidth, dask in (("--jobs 16, one 16-core machine", 16, None, False),
+                                            ("local cluster, 16 cores (15 workers)", 15, None, True),
+                                            ("4 x 16-core cluster, 64 workers, 1 Gbit/s", 64, 125e6, True),
+                                            ("4 x 16-core cluster, 64 workers, 10 Gbit/s", 64, 1250e6, True)):
         row = []
         for n in (plates, 10 * plates):
-            if workers is None:
-                seconds = serial_jobs + n * c_jobs / 16
-            else:
+            if dask:
                 pace = b + d + (per_plate_bytes / bandwidth if bandwidth else 0.0)
-                seconds = serial + n * max(c / workers, pace)
+                seconds = s0 + n * s1 + n * max(c / workers, pace)
+            else:
+                seconds = s0_jobs + n * s1 + n * max(c_jobs / workers, b_jobs)
             row.append(f"{n} plates {seconds:6.1f} s, {n / seconds:6.1f} plates/s")
         print(f"  {label:<45}" + "; ".join(row))
     return 0
