@@ -124,6 +124,17 @@ def test_a_local_cluster_of_two_processes_is_started_and_stopped(tmp_path):
     assert [p.cmdline() for p in after if "resource_tracker" not in " ".join(p.cmdline())] == []
 
 
+def test_textile_pieces_come_back_whole_and_are_laid_out_by_the_coordinator(cluster, tmp_path):
+    """A textile run sends back each piece's whole result (pieces are laid out side by side
+    before any is written): the same files as --jobs 1."""
+    address, _ = cluster
+    configs = [str(ROOT / "configs" / name) for name in ("lampshade.yaml", "sail.yaml")]
+    assert main(["run", *configs, "--out", str(tmp_path / "jobs"), "--quiet"]) == 0
+    assert main(["run", *configs, "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address]) == 0
+    assert_same_outputs(tmp_path / "jobs", tmp_path / "dask")
+    assert (tmp_path / "dask" / "lampshade" / "lampshade.dxf").exists()  # the marker of the run
+
+
 def test_a_geometric_failure_on_the_cluster_exits_1_with_its_report(cluster, tmp_path):
     address, _ = cluster
     configs = [str(ROOT / "configs" / name) for name in ("c_against_mirror.yaml", "frustum.yaml")]
