@@ -56,7 +56,7 @@ def validate_all(configs: list[Path], out: Path) -> list[tuple[RunConfig, Path]]
 
 
 def command_batch(args, wrote_line) -> int:
-    """Run ``args.config`` (a list of paths) into ``args.out``; ``wrote_line(n_files, out,
+    """Run ``args.configs`` (a list of paths) into ``args.out``; ``wrote_line(n_files, out,
     run)`` is the run's last line (:func:`pipeline.cli.wrote_line`). Exit code: 0 every part
     of every configuration written, 1 a part failed geometrically."""
     from .outdir import OutputError, OutputFolder, run_name
@@ -72,7 +72,7 @@ def command_batch(args, wrote_line) -> int:
         if args.jobs != 1:
             raise ConfigError(f"--jobs {args.jobs} --scheduler {args.scheduler}: the scheduler's workers run the "
                               "parts; give one of the two")
-    checked = validate_all(args.config, args.out)
+    checked = validate_all(args.configs, args.out)
     n_parts = sum(len(config.parts) for config, _ in checked)
     progress = None
     try:

@@ -54,6 +54,14 @@ class _Version(argparse.Action):
         parser.exit(message=f"devflat {number}\n")
 
 
+class _Configs(argparse.Action):
+    """``run``'s configurations: ``config`` the first (what a single run reads), ``configs``
+    all of them (a batch, :mod:`pipeline.batch`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        namespace.config, namespace.configs = values[0], list(values)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="devflat", description="Developable strips from two NURBS curves, "
                                      "unrolled into DXF cutting patterns.")
@@ -61,8 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_Version, help="print devflat's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run every part of a configuration and write the files")
-    run.add_argument("config", type=Path, nargs="+", help="one configuration, or several: a batch, each "
-                     "written into DIR/<its file stem>/ (pipeline.batch)")
+    run.add_argument("config", type=Path, nargs="+", action=_Configs, help="one configuration, or several: a "
+                     "batch, each written into DIR/<its file stem>/ (pipeline.batch)")
     run.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     run.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
     run.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
@@ -324,10 +332,8 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
     args.one_shot = one_shot
-    if args.command == "run" and (len(args.config) > 1 or args.scheduler is not None):
+    if args.command == "run" and (len(args.configs) > 1 or args.scheduler is not None):
         args.command = "batch"  # several configurations or a Dask scheduler: pipeline.batch
-    elif args.command == "run":
-        args.config = args.config[0]
     from .lazymodules import defer_unused
 
     defer_unused()

@@ -24,6 +24,23 @@ STRAKE = ROOT / "configs" / "hullmod_strake.yaml"
 SAME_BYTES = (".json", ".obj", ".csv")
 
 
+@pytest.fixture(scope="module", autouse=True)
+def no_child_left():
+    """After this module the test process has no child: every cluster's workers are gone,
+    and so is the resource tracker that multiprocessing starts for the first spawned
+    process and keeps for the interpreter's life (tests after this module, e.g.
+    test_renderproc, check that a run leaves no child)."""
+    from multiprocessing import resource_tracker
+
+    tracker = resource_tracker._resource_tracker  # no public way to stop it
+    running = getattr(tracker, "_pid", None) is not None
+    yield
+    if not running and getattr(tracker, "_pid", None) is not None:
+        tracker._stop()
+        with pytest.raises(ChildProcessError):
+            os.waitpid(-1, os.WNOHANG)
+
+
 @pytest.fixture(scope="module")
 def cluster():
     """A LocalCluster of two worker processes and a client to look at it; yields
