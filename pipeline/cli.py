@@ -54,6 +54,14 @@ class _Version(argparse.Action):
         parser.exit(message=f"devflat {number}\n")
 
 
+class _Configs(argparse.Action):
+    """``run``'s configurations: ``config`` the first (what a single run reads), ``configs``
+    all of them (a batch, :mod:`pipeline.batch`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        namespace.config, namespace.configs = values[0], list(values)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="devflat", description="Developable strips from two NURBS curves, "
                                      "unrolled into DXF cutting patterns.")
@@ -61,10 +69,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_Version, help="print devflat's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run every part of a configuration and write the files")
-    run.add_argument("config", type=Path)
+    run.add_argument("config", type=Path, nargs="+", action=_Configs, help="one configuration, or several: a "
+                     "batch, each written into DIR/<its file stem>/ (pipeline.batch)")
     run.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     run.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
     run.add_argument("--jobs", type=int, default=1, help="parts run in parallel processes (default 1)")
+    run.add_argument("--scheduler", help="run the parts on Dask distributed: tcp://host:port of a scheduler, "
+                     "or local[:N] for a local cluster of N processes (pipeline.cluster)")
+    run.add_argument("--scheduler-timeout", type=float, default=10.0,
+                     help="seconds to wait for the scheduler and a worker (default 10)")
     check = sub.add_parser("check", help="validate a configuration without running it")
     check.add_argument("config", type=Path)
     nest = sub.add_parser("nest", help="run the parts and nest them (the config's nesting section): a fabric "
@@ -354,6 +367,8 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     except SystemExit as exc:  # argparse already printed its message
         return EXIT_INPUT if exc.code else EXIT_OK
     args.one_shot = one_shot
+    if args.command == "run" and (len(args.configs) > 1 or args.scheduler is not None):
+        args.command = "batch"  # several configurations or a Dask scheduler: pipeline.batch
     from .lazymodules import defer_unused
 
     defer_unused()
@@ -367,6 +382,12 @@ def main(argv: list[str] | None = None, *, one_shot: bool = False) -> int:
     try:
         if args.command == "run":
             return command_run(args, early)
+        if args.command == "batch":
+            from .batch import command_batch
+
+            if one_shot:
+                imports_done()
+            return command_batch(args, wrote_line)
         if args.command == "nest":
             from .nest.command import command_nest
 
