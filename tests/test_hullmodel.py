@@ -367,3 +367,37 @@ def test_cut_plates_leave_no_steel_outside_the_trim_in_the_fitup_report(tmp_path
     assert coverage["outside_m2"] < 1e-3 * coverage["shell_m2"]
     steel = sum(p["area_m2"] for p in summary["parts"])
     assert steel == pytest.approx(1128.0, rel=5e-3)
+
+
+def test_junctions_tell_a_knuckle_from_a_smooth_join():
+    """A bilge quarter-cylinder of radius 3 m (axis x) meets, tangentially, a flat bottom, and
+    the bottom meets a transverse end plate at 90 degrees: one smooth junction (0 deg), one
+    knuckle (90 deg).
+    KCS's two main-hull faces (DE347 | DE369 at x = 3457 mm) join smoothly; its transom face
+    meets its stern face at a knuckle."""
+    from flatten.surface import nurbs_surface
+    from flatten.closest import SurfaceDistance
+    from pipeline.hull.sewing import junctions_of
+    from pipeline.io.hullmodel import HullFace, HullModel
+
+    r, length = 3000.0, 10000.0
+    w = np.array([1.0, np.sqrt(0.5), 1.0])
+    arc = np.array([[0.0, -r], [r, -r], [r, 0.0]])  # (y, z): from the bottom (z = -r) up the side
+    bilge = nurbs_surface(1, 2, [[[x, y, z] for y, z in arc] for x in (0.0, length)], [0, 0, 1, 1],
+                          [0, 0, 0, 1, 1, 1], np.vstack([w, w]))
+    bottom = nurbs_surface(1, 1, [[[0.0, -4000.0, -r], [0.0, 0.0, -r]], [[length, -4000.0, -r], [length, 0.0, -r]]],
+                           [0, 0, 1, 1], [0, 0, 1, 1])
+    end = nurbs_surface(1, 1, [[[length, -4000.0, -r], [length, -4000.0, 0.0]], [[length, 0.0, -r], [length, 0.0, 0.0]]],
+                        [0, 0, 1, 1], [0, 0, 1, 1])
+    faces = tuple(HullFace(k, s, None, (), float("nan")) for k, s in enumerate((bilge, bottom, end)))
+    model = HullModel(Path("box"), "test", faces)
+    found = {tuple(j["faces"]): j for j in junctions_of(model, [SurfaceDistance(f.surface) for f in faces], 1.0)}
+    assert found[(0, 1)]["max_angle_deg"] < 0.01 and found[(0, 1)]["kind"].startswith("smooth")
+    assert found[(0, 1)]["length_mm"] == pytest.approx(length, rel=0.03)
+    assert found[(1, 2)]["p95_angle_deg"] == pytest.approx(90.0, abs=0.01) and found[(1, 2)]["kind"].startswith("knuckle")
+
+    from pipeline.hull.sewing import sew_report
+
+    kcs = {tuple(j["faces"]): j for j in sew_report(read_hull_model(DATA / "ship_kcs.igs"), 1.0).junctions}
+    assert kcs[(16, 17)]["kind"].startswith("smooth") and kcs[(16, 17)]["p95_angle_deg"] < 0.5
+    assert kcs[(14, 15)]["kind"].startswith("knuckle") and kcs[(14, 15)]["p95_angle_deg"] > 60

@@ -29,6 +29,7 @@ from ..io.hullmodel import HullFace, HullModel, ocp_faces
 SAMPLES = 48  # per parameter direction of each face, for overlaps
 EDGE_SAMPLES = 16  # points of a free edge measured against the faces
 DISTANCE_GRID = 64  # seeds per direction of the closest-point search
+KNUCKLE_DEG = 2.0  # faces meeting at a larger angle between their normals make a knuckle
 SCHEMA = "hull-model/1"
 
 
@@ -60,6 +61,7 @@ class SewingReport:
     degenerated: int
     gaps: list[dict] = field(default_factory=list)  # free edges within gap_limit of another face
     overlaps: list[Overlap] = field(default_factory=list)
+    junctions: list[dict] = field(default_factory=list)  # where two faces meet: length, angle, smooth or knuckle
     notes: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
@@ -91,6 +93,11 @@ class SewingReport:
                        f"(step {o.step_at_cut_mm:.3g} mm)")
         if not self.overlaps:
             out.append("overlaps: none")
+        for j in self.junctions:
+            out.append(f"junction: faces {j['faces'][0]} and {j['faces'][1]} meet along {j['length_mm']:.1f} mm, "
+                       f"x {j['x_mm'][0]:.1f}..{j['x_mm'][1]:.1f}, normals {j['p95_angle_deg']:.3g} deg apart (p95; max "
+                       f"{j['max_angle_deg']:.3g}): "
+                       f"{j['kind']}")
         out.extend(f"note: {n}" for n in self.notes)
         return out
 
@@ -114,10 +121,76 @@ def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0
     distances = [SurfaceDistance(f.surface, grid=DISTANCE_GRID) for f in model.faces]
     gaps = _gaps(sewing, model, distances, tolerance, gap_limit)
     overlaps = overlaps_of(model, tolerance, distances)
+    overlapping = {o.faces for o in overlaps}  # their meeting is an overlap, reported as such
+    junctions = [j for j in junctions_of(model, distances, tolerance) if tuple(j["faces"]) not in overlapping]
     area = sum(f["area_m2"] for f in faces)
     return SewingReport(str(model.path), model.format, float(tolerance), faces, float(area), sewing.NbFreeEdges(),
                         sewing.NbContigousEdges(), sewing.NbMultipleEdges(), sewing.NbDegeneratedShapes(), gaps,
-                        overlaps, notes)
+                        overlaps, junctions, notes)
+
+
+def junctions_of(model: HullModel, distances: list, tolerance: float, knuckle_deg: float = KNUCKLE_DEG) -> list[dict]:
+    """Where two faces meet (a face's boundary within ``tolerance`` of the other face) and
+    how: the largest angle between their normals along the junction. Above ``knuckle_deg`` the
+    shell has a knuckle there, which a plate cannot be rolled across: a seam or a butt must
+    lie on it (or the plate is pressed with a crease); below it the faces join smoothly and
+    a plate may run across (tangent continuity, as across a face boundary inside one hull form)."""
+    faces = model.faces
+    boxes = [_box(f.surface) for f in faces]
+    found = {}
+    for a, face in enumerate(faces):
+        params_a = _boundary_params(face)
+        points = face.surface(params_a[:, 0], params_a[:, 1])
+        segment = np.linalg.norm(np.diff(points, axis=0, append=points[:1]), axis=1)
+        for b in range(len(faces)):
+            lo, hi = boxes[b][0] - tolerance, boxes[b][1] + tolerance
+            if a == b or np.any(boxes[a][1] < lo) or np.any(hi < boxes[a][0]):
+                continue
+            params_b, dist = distances[b].closest(points)
+            on = (dist <= tolerance) & _inside(faces[b], params_b)
+            if on.sum() < 3:
+                continue
+            na = _normals(face.surface, params_a[on])
+            nb = _normals(faces[b].surface, params_b[on])
+            angle = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", na, nb)), 0.0, 1.0)))
+            pair = (min(a, b), max(a, b))
+            length = float(segment[on].sum())
+            if pair in found and found[pair]["length_mm"] >= length:
+                continue
+            # judged on the 95th percentile: a collapsed corner (a pole where the normal is
+            # undefined) must not make a smooth junction a knuckle
+            typical = float(np.percentile(angle, 95))
+            found[pair] = {"faces": list(pair), "length_mm": length,
+                           "x_mm": [float(points[on, 0].min()), float(points[on, 0].max())],
+                           "max_angle_deg": float(angle.max()), "p95_angle_deg": typical,
+                           "kind": "knuckle: a seam or butt must lie on it" if typical > knuckle_deg
+                           else "smooth: a plate may cross it"}
+    return [found[pair] for pair in sorted(found)]
+
+
+def _boundary_params(face: HullFace, per_side: int = 50) -> np.ndarray:
+    """(N, 2) parameters around the face's boundary: its trim's outer loop, or its
+    rectangle's four sides."""
+    if face.outer is not None:
+        return face.outer
+    (u0, u1), (v0, v1) = face.surface.domain_u, face.surface.domain_v
+    s = np.linspace(0.0, 1.0, per_side, endpoint=False)
+    return np.vstack([np.column_stack([u0 + s * (u1 - u0), np.full(per_side, v0)]),
+                      np.column_stack([np.full(per_side, u1), v0 + s * (v1 - v0)]),
+                      np.column_stack([u1 - s * (u1 - u0), np.full(per_side, v1)]),
+                      np.column_stack([np.full(per_side, u0), v1 - s * (v1 - v0)])])
+
+
+def _normals(surface, params: np.ndarray) -> np.ndarray:
+    """Unit normals (N, 3) by central differences inside the domain (one-sided at its edge)."""
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    hu, hv = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
+    u = np.clip(params[:, 0], u0 + hu, u1 - hu)
+    v = np.clip(params[:, 1], v0 + hv, v1 - hv)
+    su = surface(u + hu, v) - surface(u - hu, v)
+    sv = surface(u, v + hv) - surface(u, v - hv)
+    n = np.cross(su, sv)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
 
 
 def _shapes(model: HullModel) -> list:
