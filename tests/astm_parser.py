@@ -73,10 +73,18 @@ def parser_or_reason(cache_dir: Path):
 
 
 @pytest.fixture(scope="module")
-def astm(request):
-    """The open ASTM parser (node), installed once per worker into the pytest cache."""
+def astm_or_none(request):
+    """The open ASTM parser (node), installed once per worker into the pytest cache; None
+    where it cannot be run (for tests whose other readers still have their say)."""
     worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    run, reason = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
-    if run is None:
-        pytest.skip(reason)
+    run, _ = parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))
     return run
+
+
+@pytest.fixture(scope="module")
+def astm(request, astm_or_none):
+    """The parser, or the test skips saying why."""
+    if astm_or_none is None:
+        worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+        pytest.skip(parser_or_reason(request.config.cache.mkdir(f"astm-parser-{worker}"))[1])
+    return astm_or_none

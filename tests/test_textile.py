@@ -14,7 +14,7 @@ from pipeline.textile.aama import read_aama
 from pipeline.cli import main
 from pipeline.io.meshio import read_obj
 
-from .astm_parser import astm  # noqa: F401 (a fixture)
+from .astm_parser import astm, astm_or_none  # noqa: F401 (fixtures)
 
 ROOT = Path(__file__).resolve().parents[1]
 LAMPSHADE = ROOT / "configs" / "lampshade.yaml"
