@@ -401,3 +401,14 @@ def test_junctions_tell_a_knuckle_from_a_smooth_join():
     kcs = {tuple(j["faces"]): j for j in sew_report(read_hull_model(DATA / "ship_kcs.igs"), 1.0).junctions}
     assert kcs[(16, 17)]["kind"].startswith("smooth") and kcs[(16, 17)]["p95_angle_deg"] < 0.5
     assert kcs[(14, 15)]["kind"].startswith("knuckle") and kcs[(14, 15)]["p95_angle_deg"] > 60
+
+
+def test_plates_of_two_faces_meet_at_the_cut_and_are_paired_there(tmp_path):
+    """The two-face cylinder: the plates on either side of the cut plane are neighbours in the
+    fit-up report (pairs across the two faces), and they meet there (the faces are one
+    cylinder: steps at round-off of the plates' own fit)."""
+    assert main(["run", str(two_faces_config(tmp_path)), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    shell = json.loads((tmp_path / "out" / "two_summary.json").read_text())["shell"]
+    across = [p for p in shell["pairs"] if ("_P1_" in p["plates"][0]) != ("_P1_" in p["plates"][1])]
+    assert len(across) >= 2  # every strake meets its continuation on the other face
+    assert all(p["kind"] == "butt" and p["step_max_mm"] < 1.0 for p in across), across

@@ -149,8 +149,9 @@ class ShellFitup:
         worst_strain = self.edge_strains[int(np.argmax(strains))] if len(strains) else None
         return {
             "rule": RULE, "thickness_mm": self.thickness_mm,
-            "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates; "
-                      "plates on different surfaces are not paired. Steps: distances between the two plates' 3D "
+            "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates, "
+                      "or the plane where a plan cut two overlapping surfaces; plates on different surfaces are "
+                      "paired only there. Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs),
@@ -486,14 +487,15 @@ def _thickness(part, default: float) -> float:
 def _neighbours(records: dict) -> list[tuple]:
     """(plate a, plate b, a's side, b's side, kind) for every two plates the plan puts side
     by side: the same seam (equal girth curve, same surface) as a's seam 1 and b's seam 0,
-    or the same butt plane as a's far butt and b's near butt."""
+    or the same butt plane as a's far butt and b's near butt (across two faces at the plane
+    where a plan cut them)."""
     seam_hi, butt_hi = {}, {}
     for name, (_, part) in records.items():
         hull = part.hull
         if hull.girths is not None:
             seam_hi.setdefault((id(hull.surface), hull.girths[1]), []).append(name)
         if hull.butts[1] is not None:
-            butt_hi.setdefault((id(hull.surface), hull.butts[1]), []).append(name)
+            butt_hi.setdefault(_butt_key(hull, hull.butts[1]), []).append(name)
     out = []
     for name, (_, part) in records.items():
         hull = part.hull
@@ -502,7 +504,15 @@ def _neighbours(records: dict) -> list[tuple]:
                 if other != name:
                     out.append((other, name, "seam1", "seam0", "seam"))
         if hull.butts[0] is not None:
-            for other in butt_hi.get((id(hull.surface), hull.butts[0]), []):
+            for other in butt_hi.get(_butt_key(hull, hull.butts[0]), []):
                 if other != name:
                     out.append((other, name, "butt1", "butt0", "butt"))
     return out
+
+
+def _butt_key(hull, plane) -> tuple:
+    """A butt plane on one surface; the plane where a plan cut two overlapping faces
+    (HullPlate.x_limits) is one butt of both faces' plates, whatever their surface."""
+    if plane.offset in tuple(getattr(hull, "x_limits", (None, None))):
+        return ("cut", plane)
+    return (id(hull.surface), plane)
