@@ -115,3 +115,9 @@ def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, 
         "boundary_error_c_mm_per_m": per_metre(flat_c, arc_c),
         "boundary_error_d_mm_per_m": per_metre(flat_d, arc_d),
     }
+
+
+def polygon_area(points: np.ndarray) -> float:
+    """Area of a closed polygon (N, 2), not repeated (shoelace)."""
+    x, y = points[:, 0], points[:, 1]
+    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))

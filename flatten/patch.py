@@ -47,8 +47,13 @@ class PatchGrid:
 
     def boundary(self) -> np.ndarray:
         """Closed boundary polyline (N, 3) around the grid (not repeated)."""
-        p = self.points
-        return np.vstack([p[0, :], p[1:, -1], p[-1, -2::-1], p[-2:0:-1, 0]])
+        return grid_ring(self.points)
+
+
+def grid_ring(values: np.ndarray) -> np.ndarray:
+    """The boundary of a grid (R, C, k) as one closed ring (2 (R + C) - 4, k), not repeated:
+    first row, last column, last row back, first column back."""
+    return np.vstack([values[0, :], values[1:, -1], values[-1, -2::-1], values[-2:0:-1, 0]])
 
 
 def _uv(long_axis: int, s: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -275,10 +275,11 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
     extra = {} if cost is None else {"plan_cost": cost}
     if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
         extra["shell"] = shell.as_dict()
-    if model_sources(config):  # a hull read as a model of faces: what its faces make as a shell
+    models = model_sources(config)
+    if models:  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports
 
-        extra["hull_models"] = model_reports(model_sources(config), config.source.parent)
+        extra["hull_models"] = model_reports(models, config.source.parent)
     write_text(written[1], summary_json(results, extra))
     if edges:  # the shell expansion drawing: every plate in girth x length
         from .hull.expansion import write_expansion

@@ -295,7 +295,8 @@ def test_kcs_flat_bottom_plates_are_cut_at_its_trim_and_cover_it_once(tmp_path):
     up to the trimmed area (our own trim reader's, on a 401 x 401 grid); the plates that reach
     past the trim are cut, the others are whole."""
     from flatten.patch import region_grid
-    from pipeline.hull.trimcut import cut_at_trim, polygon_area
+    from flatten.metrics import polygon_area
+    from pipeline.hull.trimcut import cut_at_trim
     from pipeline.hull.trims import read_trim, trimmed_area
 
     config = kcs_bottom_plan(tmp_path)
@@ -340,7 +341,7 @@ def test_a_plate_cut_at_the_trim_reports_and_cuts_the_part_inside(tmp_path):
     export_part(result, config, tmp_path)
     doc = ezdxf.readfile(tmp_path / f"{part.name}.dxf")
     (outline,) = [e for e in doc.modelspace().query("LWPOLYLINE") if e.dxf.layer == "CUT_OUTER"]
-    from pipeline.hull.trimcut import polygon_area
+    from flatten.metrics import polygon_area
 
     assert polygon_area(np.array(outline.get_points("xy"))) / 1e6 == pytest.approx(cut["area_m2"], rel=1e-6)
 

@@ -19,6 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from flatten.patch import grid_ring, region_grid
+
+from .trims import valid_polygon
+
 AREA_CELLS = 64
 REGION_ROWS, REGION_COLS = 33, 129  # planned region's boundary samples (girth, length)
 
@@ -68,41 +72,21 @@ def surface_area(surface, geom, cells: int = AREA_CELLS) -> float:
     return total
 
 
-def _polygon(uv: np.ndarray):
-    import shapely
-
-    poly = shapely.Polygon(uv)
-    if not poly.is_valid:
-        poly = shapely.make_valid(poly)
-        poly = shapely.union_all([g for g in getattr(poly, "geoms", [poly]) if g.area > 0]) \
-            if poly.geom_type == "GeometryCollection" else poly
-    return poly
-
-
 def planned_region(hull):
     """The plate's region between its seams and butts as a polygon in (u, v) (None if empty)."""
-    from flatten.patch import region_grid
-
     planes = [None if p is None else p.as_tuple() for p in hull.butts]
     grid = region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, REGION_ROWS,
                        REGION_COLS, probe=400)
     if grid is None:
         return None
-    q = grid.params
-    ring = np.vstack([q[0, :], q[1:, -1], q[-1, -2::-1], q[-2:0:-1, 0]])
-    return _polygon(ring)
+    return valid_polygon(grid_ring(grid.params))
 
 
 def _trim_region(surface, trim):
     import shapely
 
-    box = shapely.box(surface.domain_u[0], surface.domain_v[0], surface.domain_u[1], surface.domain_v[1])
-    if trim is None:
-        return box
-    region = box if trim.outer is None else _polygon(trim.outer).intersection(box)
-    for loop in trim.inner:
-        region = region.difference(_polygon(loop))
-    return region
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    return shapely.box(u0, v0, u1, v1) if trim is None else trim.polygon(u0, v0, u1, v1)
 
 
 def _shell_references(parts, config) -> dict:
@@ -199,7 +183,7 @@ def shell_coverage(records: dict, parts, config) -> dict | None:
             distance = SurfaceDistance(surface)
             for name, rec in plates:
                 uv, _ = distance.closest(rec.ring3)
-                poly = _polygon(uv)
+                poly = valid_polygon(uv)
                 trim = next((p.hull.trim for p in parts if p.name == name), None)
                 if trim is not None and rec.klass in ("flat", "formed"):
                     # a patch plate reaching past its face's trim is cut there (pipeline.hull.trimcut)

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from flatten.metrics import polygon_area
+
 from ..io.atomic import atomic_path
 from .cost import PlateEdges
 from .hullplots import CLASS_COLOURS, LABELS, display_class
@@ -288,12 +290,6 @@ def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
     return line[keep]
 
 
-def _area(ring: np.ndarray) -> float:
-    """Area of a closed ring (N, 2) (shoelace)."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
-
-
 def label(plate: ExpandedPlate) -> tuple[str, str]:
     thick = "" if plate.thickness is None else f"t {plate.thickness:g}"
     return plate.name, thick
@@ -325,7 +321,7 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
         centre = _centre(p.outline) * mm
         length = float(np.ptp(p.outline[:, 0])) * mm
-        width = _area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
+        width = polygon_area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
         name, thick = label(p)
         h = max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0)
         heights.append(h)
@@ -394,7 +390,7 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             centre = _centre(p.outline) * mm
             plate_l = float(np.ptp(p.outline[:, 0])) * pt_per_model
             # the mean girth width (area / length): a plate whose seams slope is not as wide as its extent
-            plate_h = _area(p.outline) * pt_per_model ** 2 / max(plate_l, 1e-300)
+            plate_h = polygon_area(p.outline) * pt_per_model ** 2 / max(plate_l, 1e-300)
             name, thick = label(p)
             size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
             ax.text(centre[0], centre[1], f"{name}\n{thick}" if thick else name, fontsize=size, ha="center",

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from flatten.patch import grid_ring
+
 from ..io.atomic import atomic_path
 
 # "developable" is devflat's strip; "patch" a hull patch developed within the tolerance
@@ -48,7 +50,7 @@ def plate_ring(result) -> np.ndarray | None:
         shape = (result.figures.get("region") or {}).get("grid")
         if shape:
             g = result.mesh[0].reshape(shape[0], shape[1], 3)
-            return np.vstack([g[0, :], g[1:, -1], g[-1, -2::-1], g[-2:0:-1, 0]])
+            return grid_ring(g)
     corners = (result.figures.get("region") or {}).get("corners")
     return None if corners is None else np.asarray(corners)
 

@@ -29,7 +29,8 @@ import traceback
 import numpy as np
 
 from flatten.closest import SurfaceDistance
-from flatten.patch import principal_curvatures, region_grid, weld
+from flatten.metrics import polygon_area
+from flatten.patch import grid_ring, principal_curvatures, region_grid, weld
 from flatten.minimax import flattest_plane
 from flatten.patchflat import arap_development, planar_development, streamlines, triangle_maps, triangle_stretches
 from flatten.trim import barycentric
@@ -38,7 +39,7 @@ from ..config import Part, RunConfig
 from ..shop.outline import Outline
 from .bestfit import best_fit, seam_family_far, worth_moving
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
-from .trimcut import cut_at_trim, grid_ring, polygon_area
+from .trimcut import cut_at_trim
 from ..shop.plate import bend_text
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from ..stages import run_part as run_curve_part
@@ -479,7 +480,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     placed = uv_grid_flat @ rot.T + shift
     pg = placed.reshape(shape[0], shape[1], 2)
     sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
-    outline = np.vstack([pg[0, :], pg[1:, -1], pg[-1, -2::-1], pg[-2:0:-1, 0]])
+    outline = grid_ring(pg)
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
     outline = outline[keep]

@@ -26,23 +26,18 @@ class TrimCut:
     inside_faces: np.ndarray
 
 
-def grid_ring(values: np.ndarray) -> np.ndarray:
-    """The boundary of a grid (R, C, k) as one closed ring (2 (R + C) - 4, k): first row,
-    last column, last row back, first column back."""
-    return np.vstack([values[0, :], values[1:, -1], values[-1, -2::-1], values[-2:0:-1, 0]])
-
-
 def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray) -> TrimCut | None:
     """The region of a plate's grid (params (R, C, 2), its developed points ``placed``
     (R C, 2), triangles ``faces`` (F, 3)) cut by ``trim`` (outer loop, holes; (u, v)).
     None when the region lies inside the trim; a TrimCut with an empty outline when outside."""
     from shapely.geometry import Polygon
-    from shapely.ops import unary_union
+
+    from flatten.patch import grid_ring
 
     region = Polygon(grid_ring(params)).buffer(0)
-    kept = region if trim.outer is None else region.intersection(Polygon(trim.outer).buffer(0))
-    if trim.inner:
-        kept = kept.difference(unary_union([Polygon(loop).buffer(0) for loop in trim.inner]))
+    u0, v0, u1, v1 = region.bounds
+    pad = max(u1 - u0, v1 - v0)  # a box around the region: the trim's loops are what cuts it
+    kept = region.intersection(trim.polygon(u0 - pad, v0 - pad, u1 + pad, v1 + pad))
     if kept.area >= region.area * (1.0 - 1e-9):
         return None
     flat_params = params.reshape(-1, 2)
@@ -73,9 +68,3 @@ def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: n
     if missing.any():
         out[missing] = values[cKDTree(params).query(query[missing])[1]]
     return out
-
-
-def polygon_area(points: np.ndarray) -> float:
-    """Area of a closed polygon (N, 2), shoelace."""
-    x, y = points[:, 0], points[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))

@@ -44,6 +44,18 @@ class Trim:
             keep &= ~MplPath(loop).contains_points(pts)
         return keep.reshape(np.shape(u))
 
+    def polygon(self, u0: float, v0: float, u1: float, v1: float):
+        """The trimmed region within the box [u0, u1] x [v0, v1] of (u, v) as a shapely
+        geometry: the box with the outer loop, less the holes."""
+        import shapely
+
+        region = shapely.box(u0, v0, u1, v1)
+        if self.outer is not None:
+            region = valid_polygon(self.outer).intersection(region)
+        for loop in self.inner:
+            region = region.difference(valid_polygon(loop))
+        return region
+
     def covers_rectangle(self, domain_u, domain_v, tol: float = 1e-6) -> bool:
         """The outer loop is the parameter rectangle itself and there is no hole."""
         if self.inner:
@@ -55,6 +67,19 @@ class Trim:
         on_edge = ((np.abs(u - domain_u[0]) <= tol * su) | (np.abs(u - domain_u[1]) <= tol * su)
                    | (np.abs(v - domain_v[0]) <= tol * sv) | (np.abs(v - domain_v[1]) <= tol * sv))
         return bool(on_edge.all())
+
+
+def valid_polygon(points: np.ndarray):
+    """A closed loop (N, 2) as a valid shapely polygon (a self-touching loop made valid,
+    its slivers of no area dropped)."""
+    import shapely
+
+    poly = shapely.Polygon(points)
+    if not poly.is_valid:
+        poly = shapely.make_valid(poly)
+        poly = shapely.union_all([g for g in getattr(poly, "geoms", [poly]) if g.area > 0]) \
+            if poly.geom_type == "GeometryCollection" else poly
+    return poly
 
 
 def _radius(loop: np.ndarray) -> float:

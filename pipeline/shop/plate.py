@@ -325,17 +325,14 @@ def allowance_cut(outline: Outline, hull, settings, per_edge: bool):
     text = "ALLOWANCE MM " + ", ".join(f"{label[k]} {v:g}" for k, v in widths.items() if v > 0)
     if not per_edge:
         text = f"ALLOWANCE {max(widths.values()):g} MM ALL ROUND"
-    net_area, cut_area = _area(outline.points), _area(cut)
+    from flatten.metrics import polygon_area
+
+    net_area, cut_area = polygon_area(outline.points), polygon_area(cut)
     return cut, {"units": "mm", **stated, "per_edge": per_edge, "text": text,
                  "net_area_m2": net_area / 1e6, "cut_area_m2": cut_area / 1e6,
                  "cut_vertices": len(cut), "net_line": "drawn on the net layer (MARK_NET by default)",
                  "note": "" if per_edge else "this plate's outline has no named edges: the largest allowance "
                  f"({max(widths.values()):g} mm) is cut all round"}
-
-
-def _area(points: np.ndarray) -> float:
-    x, y = points[:, 0], points[:, 1]
-    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
 
 
 def stock_check(outline_mm: np.ndarray, stock: list, margin: float) -> dict:

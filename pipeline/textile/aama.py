@@ -36,6 +36,8 @@ import ezdxf
 import numpy as np
 from ezdxf.lldxf.tagwriter import TagWriter
 
+from flatten.metrics import polygon_area
+
 from ..io.atomic import atomic_path
 from .notchtypes import KIND_OF_LAYER, notch_layer
 from .pieces import TextilePiece, label_anchor
@@ -302,11 +304,6 @@ def chain_rings(parts: list[np.ndarray], tol: float) -> list[np.ndarray]:
     return rings
 
 
-def _ring_area(ring: np.ndarray) -> float:
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
-
-
 def _notch(entity) -> ReadNotch:
     if entity.dxftype() == "LINE":  # devflat before AAMA notch points: a slit from the cut line inwards
         a, b = np.array(tuple(entity.dxf.start)[:2]), np.array(tuple(entity.dxf.end)[:2])
@@ -373,14 +370,14 @@ def read_aama(path: str | Path) -> ReadFile:
         size = max((np.ptp(p, axis=0).max() for p in boundary_parts + closed_boundary), default=1.0)
         rings = closed_boundary + chain_rings(boundary_parts, 1e-6 * size + 1e-4)
         if rings:
-            piece.boundary = max(rings, key=_ring_area)
+            piece.boundary = max(rings, key=polygon_area)
         sew_rings = closed_sew + chain_rings(sew_parts, 1e-6 * size + 1e-4)
         if not sew_rings:
             sew_rings = closed_internal
         else:
             piece.internal += closed_internal
         if sew_rings:
-            piece.sew = max(sew_rings, key=_ring_area)
+            piece.sew = max(sew_rings, key=polygon_area)
         if piece.boundary is not None:
             pieces.append(piece)
     return ReadFile(header.get("units", ""), header, pieces, tuple(layer.dxf.name for layer in doc.layers),
