@@ -99,7 +99,7 @@ class NurbsSurface:
         v = np.atleast_1d(np.asarray(v, dtype=np.float64))
         bu = BSpline.design_matrix(np.clip(u, *self.domain_u), self.knots_u, self.degree_u).toarray()
         bv = BSpline.design_matrix(np.clip(v, *self.domain_v), self.knots_v, self.degree_v).toarray()
-        hom = np.einsum("ai,ijk,bj->abk", bu, self._homogeneous, bv)
+        hom = np.einsum("ai,ijk,bj->abk", bu, self._homogeneous, bv, optimize=True)
         return hom[..., :3] / hom[..., 3:]
 
     @cached_property
