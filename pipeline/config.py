@@ -128,10 +128,23 @@ class SurfaceSource(_Strict):
 class ModelSurfaceSource(_Strict):
     """A face of a hull model read through OpenCascade (IGES, STEP) or rhino3dm (Rhino .3dm),
     by its index in the file (``devflat hull inspect FILE`` lists the faces); the path is
-    relative to the config file. The face's trim comes with it."""
+    relative to the config file. The face's trim comes with it. ``faces``: several faces that
+    meet smoothly, expanded as one shell surface (seams, butts and plates cross their boundaries)."""
 
     model: str
     face: StrictInt = Field(0, ge=0)
+    faces: list[StrictInt] | None = Field(
+        None, min_length=2, max_length=64, description="faces expanded as one shell: lofted through their plane "
+        "sections into one surface that plates cross (pipeline.hull.shell); face is then not used")
+
+    @model_validator(mode="after")
+    def _one_way(self):
+        if self.faces is not None and "face" in self.model_fields_set:
+            raise ValueError(f"give face (one face) or faces (a shell of several), not both: face {self.face}, "
+                             f"faces {self.faces}")
+        if self.faces is not None and (min(self.faces) < 0 or len(set(self.faces)) != len(self.faces)):
+            raise ValueError(f"faces must be distinct face indices >= 0, got {self.faces}")
+        return self
 
 
 def _surface_kind(value) -> str:

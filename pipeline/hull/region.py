@@ -139,6 +139,8 @@ def _model_face(spec, base: Path, mm_per_unit: float, scale: float):
         model = read_hull_model(path)
     except HullModelError as exc:
         raise SourceError(str(exc)) from None
+    if getattr(spec, "faces", None):
+        return _model_shell(model, path, spec.faces, mm_per_unit, scale)
     if not spec.face < len(model.faces):
         raise SourceError(f"{path}: face {spec.face} asked for; the model has {len(model.faces)} faces (0 to "
                           f"{len(model.faces) - 1})")
@@ -153,6 +155,59 @@ def _model_face(spec, base: Path, mm_per_unit: float, scale: float):
     return surface, trim, (f"{path.name}: face {spec.face} is trimmed; the trim is honoured by area: plates wholly "
                            f"outside it are not planned, a plate partly outside keeps its untrimmed region and reports "
                            f"the share inside (inside_trim)")
+
+
+SHELL_STATIONS = 250  # stations of a lofted shell over its length
+SHELL_TOLERANCE_MM = 0.5  # at ship scale: the loft's target distance to the faces' sections
+SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another face meets it
+
+
+def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
+    """(surface, None, note) of several faces lofted into one shell surface (pipeline.hull.shell),
+    in config units times ``scale``. Faces that meet at a knuckle are refused: a knuckle is a
+    seam or a butt, not a plate to cross."""
+    from flatten.closest import SurfaceDistance
+    from flatten.surface import nurbs_surface
+
+    from ..io.hullmodel import HullModel
+    from .sewing import junctions_of
+    from .shell import ShellError, shell_surface
+    from .trims import Trim
+
+    missing = [k for k in indices if not 0 <= k < len(model.faces)]
+    if missing:
+        raise SourceError(f"{path}: faces {missing} asked for; the model has {len(model.faces)} faces (0 to "
+                          f"{len(model.faces) - 1})")
+    faces = [model.faces[k] for k in indices]
+    sub = HullModel(path, model.format, tuple(faces))
+    junctions = junctions_of(sub, [SurfaceDistance(f.surface, grid=60) for f in faces], SHELL_JUNCTION_MM)
+    knuckles = [j for j in junctions if j["kind"].startswith("knuckle")]
+    if knuckles:
+        j = knuckles[0]
+        a, b = (indices[k] for k in j["faces"])
+        raise SourceError(f"{path}: faces {a} and {b} meet at a knuckle (normals {j['p95_angle_deg']:.2f} deg apart, "
+                          f"p95, along {j['length_mm']:.0f} mm at x {j['x_mm'][0]:.1f}..{j['x_mm'][1]:.1f}): a seam "
+                          f"or a butt must lie on it; give them as separate surfaces, not as one shell")
+    regions = []
+    for face in faces:
+        s = face.surface
+        regions.append(Trim(face.index, face.outer, face.inner, 0).polygon(
+            s.domain_u[0], s.domain_v[0], s.domain_u[1], s.domain_v[1]) if face.trimmed else None)
+    length = max(float(np.ptp(f.surface.grid(np.linspace(*f.surface.domain_u, 9),
+                                             np.linspace(*f.surface.domain_v, 9))[..., 0])) for f in faces)
+    try:
+        shell = shell_surface([f.surface for f in faces], regions, indices, length / SHELL_STATIONS,
+                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} shell")
+    except ShellError as exc:
+        raise SourceError(f"{path}: {exc}") from None
+    s = shell.surface
+    factor = scale / mm_per_unit
+    surface = nurbs_surface(s.degree_u, s.degree_v, s.poles * factor, s.knots_u * factor, s.knots_v, s.weights,
+                            name=s.name)
+    smooth = [f"faces {indices[j['faces'][0]]} and {indices[j['faces'][1]]} meet smoothly "
+              f"({j['p95_angle_deg']:.2f} deg)" for j in junctions]
+    note = shell.note(path.name, scale) + (f" (model scale 1:{scale:g})" if scale != 1 else "")
+    return surface, None, note + "".join(f"; {line}" for line in smooth)
 
 
 def long_axis_of(surface: NurbsSurface) -> int:

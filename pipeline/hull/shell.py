@@ -1,0 +1,296 @@
+"""Several faces of a hull model expanded as one shell: one surface lofted through the plane
+sections x = const of the faces together, so that seams, butts and frames are laid on the
+shell and a plate crosses the faces' boundaries.
+
+A yard's hull arrives as many faces, split where the designer found it convenient (a station
+amidships, the flat of bottom's trim line) rather than where the steel is joined. Where two
+faces meet smoothly a plate may cross their boundary; the plan should not see it. The shell
+surface is built the way a loftsman fairs a hull, through its stations:
+
+1. each face's section by the plane x = X is the zero contour of x(u, v) - X on a fine grid
+   of the face (any number of pieces, any direction of the face's parameters), each point
+   then put on the plane by Newton steps along the gradient, and the pieces clipped to the
+   face's trim in (u, v);
+2. the pieces of all faces at a station are chained end to end into one girth curve, from the
+   end lowest on the centreline upward; a station whose pieces do not chain into one curve
+   (a bulb beside the stem, a gap wider than ``join``) is outside the shell's range;
+3. each girth curve is resampled at equal arc-length fractions v in [0, 1], and the grid of
+   points (stations x girth) is fitted by least squares with a tensor-product cubic B-spline
+   (knots refined until the fit is within ``tolerance`` of the section points).
+
+The surface's u is x itself (mm, the stations), so butt and frame planes are its iso-u
+curves; its v is the girth fraction. What the loft smooths over is stated, not hidden: the
+surface's distance to the faces' section points (max, p95) is reported with it, and a
+junction of two faces that is a knuckle (normals further apart than the sewing report's
+limit) is refused: a knuckle is a seam or a butt, not a plate to cross.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from flatten.surface import NurbsSurface, nurbs_surface
+
+SECTION_GRID = 161  # samples per parameter direction of a face for its sections
+GIRTH_SAMPLES = 321  # points per station on the girth curve (two per pole at most poles)
+JOIN_MM = 2.0  # pieces of a station whose ends are nearer than this are joined
+MAX_POLES = 160  # per direction of the lofted surface
+
+
+class ShellError(ValueError):
+    """Faces that cannot be lofted into one shell surface (the message says why and where)."""
+
+
+@dataclass(frozen=True)
+class ShellSurface:
+    """A group of faces lofted into one surface.
+
+    surface : u = x (mm, stations from x_range[0] to x_range[1]), v = girth fraction 0..1
+    faces : the face indices lofted
+    stations : (K,) x of the stations fitted (mm)
+    deviation_max, deviation_p95 : the surface's distance to the faces' section points (mm)
+    """
+
+    surface: NurbsSurface
+    faces: tuple[int, ...]
+    stations: np.ndarray
+    deviation_max: float
+    deviation_p95: float
+
+    def note(self, name: str, scale: float = 1.0) -> str:
+        """What was lofted and how near the faces it lies, lengths times ``scale`` (mm)."""
+        x0, x1 = self.stations[0] * scale, self.stations[-1] * scale
+        faces = "+".join(str(k) for k in self.faces)
+        return (f"{name}: faces {faces} lofted as one shell surface through {len(self.stations)} stations, "
+                f"x {x0:.1f}..{x1:.1f} mm; it lies within {self.deviation_max * scale:.3f} mm of the faces' sections "
+                f"(p95 {self.deviation_p95 * scale:.3f} mm): plates may cross the faces' boundaries")
+
+
+def _face_grid(surface: NurbsSurface, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    u = np.linspace(*surface.domain_u, n)
+    v = np.linspace(*surface.domain_v, n)
+    return u, v, surface.grid(u, v)
+
+
+def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -> list[np.ndarray]:
+    """The section of a face by the plane x = ``x``: pieces, each (N, 3) mm, inside the trim.
+
+    trim_region : the face's trimmed region as a shapely geometry in (u, v), or None
+    grid : (u, v, points) of the face from :func:`_face_grid`, to share between stations
+    """
+    import contourpy
+    import shapely
+
+    u, v, pts = grid if grid is not None else _face_grid(surface, SECTION_GRID)
+    xs = pts[..., 0]
+    if not xs.min() <= x <= xs.max():
+        return []
+    lines = contourpy.contour_generator(v, u, xs - x).lines(0.0)
+    pieces = []
+    for line in lines:
+        if len(line) < 2:
+            continue
+        uv = _on_plane(surface, np.column_stack([line[:, 1], line[:, 0]]), x)
+        if trim_region is not None:
+            clipped = shapely.LineString(uv).intersection(trim_region)
+            parts = [np.asarray(g.coords) for g in getattr(clipped, "geoms", [clipped])
+                     if g.geom_type == "LineString" and not g.is_empty]
+        else:
+            parts = [uv]
+        for part in parts:
+            if len(part) >= 2:
+                p3 = surface(part[:, 0], part[:, 1])
+                p3[:, 0] = x
+                pieces.append(p3)
+    return pieces
+
+
+def _on_plane(surface: NurbsSurface, uv: np.ndarray, x: float, steps: int = 3) -> np.ndarray:
+    """Contour points (N, 2) in (u, v) moved onto x(u, v) = x by Newton steps along the gradient."""
+    hu = 1e-6 * np.ptp(surface.domain_u)
+    hv = 1e-6 * np.ptp(surface.domain_v)
+    pu, pv = uv[:, 0].copy(), uv[:, 1].copy()
+    n = len(pu)
+    for _ in range(steps):
+        at = surface(np.concatenate([pu, pu + hu, pu]), np.concatenate([pv, pv, pv + hv]))[:, 0]
+        f = at[:n] - x
+        gu, gv = (at[n:2 * n] - at[:n]) / hu, (at[2 * n:] - at[:n]) / hv
+        g2 = gu**2 + gv**2
+        ok = g2 > 1e-300
+        pu = np.clip(pu - np.where(ok, f * gu / np.where(ok, g2, 1), 0), *surface.domain_u)
+        pv = np.clip(pv - np.where(ok, f * gv / np.where(ok, g2, 1), 0), *surface.domain_v)
+    return np.column_stack([pu, pv])
+
+
+def chain_pieces(pieces: list[tuple[int, np.ndarray]], join: float = JOIN_MM) -> tuple[np.ndarray, list] | None:
+    """Pieces (face index, (N, 3) points) joined end to end into one polyline that starts at
+    its end nearest the centreline (least |y|, then least z). Returns the polyline and, per
+    piece in chain order, (index of its first point in the polyline, face index); None when
+    the pieces do not form one chain. Every piece end is tried as the start, nearest the
+    centreline first: a short piece (a flat of bottom ending in a sliver) has both its ends
+    near its neighbour's, so no end can be told free by distance alone."""
+    pieces = [(f, p) for f, p in pieces if np.linalg.norm(np.diff(p, axis=0), axis=1).sum() > 1e-9]
+    if not pieces:
+        return None
+    ends = sorted(((k, side) for k in range(len(pieces)) for side in (0, -1)),
+                  key=lambda e: (round(abs(pieces[e[0]][1][e[1]][1]), 6), pieces[e[0]][1][e[1]][2]))
+    for k, side in ends:
+        found = _chain_from(pieces, k, side, join)
+        if found is not None:
+            chain, starts = found
+            if (round(abs(chain[-1][1]), 6), chain[-1][2]) < (round(abs(chain[0][1]), 6), chain[0][2]):
+                return _reversed(chain, starts)
+            return chain, starts
+    return None
+
+
+def _chain_from(pieces, k: int, side: int, join: float):
+    chain = pieces[k][1] if side == 0 else pieces[k][1][::-1]
+    starts = [(0, pieces[k][0])]
+    left = set(range(len(pieces))) - {k}
+    while left:
+        tail = chain[-1]
+        gaps = [(np.linalg.norm(pieces[j][1][0] - tail), j, 0) for j in left] + \
+               [(np.linalg.norm(pieces[j][1][-1] - tail), j, -1) for j in left]
+        gap, j, side = min(gaps, key=lambda g: g[0])
+        if gap > join:
+            return None
+        nxt = pieces[j][1] if side == 0 else pieces[j][1][::-1]
+        if starts[-1][1] == pieces[j][0]:
+            chain = np.vstack([chain, nxt[1:] if gap < 1e-9 else nxt])
+        else:
+            starts.append((len(chain) - 1, pieces[j][0]))
+            chain = np.vstack([chain[:-1], 0.5 * (chain[-1] + nxt[0]), nxt[1:]])
+        left.discard(j)
+    return chain, starts
+
+
+def _reversed(chain: np.ndarray, starts: list) -> tuple[np.ndarray, list]:
+    last = len(chain) - 1
+    bounds = [i for i, _ in starts[1:]]
+    faces = [f for _, f in starts]
+    return chain[::-1], [(0, faces[-1])] + [(last - i, f) for i, f in zip(bounds[::-1], faces[-2::-1])]
+
+
+def arc_fractions(chain: np.ndarray, starts: list) -> np.ndarray:
+    """The arc-length fraction (len(starts) - 1,) of the polyline where each face ends and the next begins."""
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(chain, axis=0), axis=1))])
+    return np.array([s[i] / s[-1] for i, _ in starts[1:]])
+
+
+def resample(chain: np.ndarray, v: np.ndarray, at: np.ndarray | None = None, breaks: np.ndarray | None = None) -> np.ndarray:
+    """(len(v), 3) points of the polyline at parameters ``v`` in [0, 1]: arc-length fractions,
+    or, with ``breaks`` (the v where faces meet) and ``at`` (the polyline's own fractions there),
+    arc length mapped piecewise linearly so that each face junction lands on its break."""
+    seg = np.linalg.norm(np.diff(chain, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)]) / max(seg.sum(), 1e-300)
+    if breaks is not None and len(breaks):
+        v = np.interp(v, np.concatenate([[0.0], breaks, [1.0]]), np.concatenate([[0.0], at, [1.0]]))
+    keep = np.concatenate([[True], seg > 1e-12])
+    return np.column_stack([np.interp(v, s[keep], chain[keep, k]) for k in range(3)])
+
+
+def _clamped_knots(lo: float, hi: float, poles: int, breaks=(), degree: int = 3) -> np.ndarray:
+    """Uniform clamped knots for about ``poles`` poles, with a knot of full multiplicity at
+    each break (the surface may turn there: C0 in its parameter, as the faces' junction is)."""
+    inner = np.linspace(lo, hi, max(2, poles - degree + 1 - degree * len(breaks)))
+    gap = 0.5 * (hi - lo) / max(1, len(inner) - 1)
+    inner = [k for k in inner if all(abs(k - b) > gap for b in breaks) or k in (lo, hi)]
+    return np.sort(np.concatenate([[lo] * degree, inner, [hi] * degree, np.repeat(breaks, degree)]))
+
+
+def loft(stations: np.ndarray, v: np.ndarray, grid: np.ndarray, tolerance: float, name: str,
+         breaks=()) -> tuple[NurbsSurface, np.ndarray]:
+    """A cubic B-spline surface u = x (stations (K,)), v (M,) in [0, 1] through the points
+    (K, M, 3), least squares with uniform knots (full multiplicity at ``breaks`` of v), poles
+    doubled in the direction whose misfit varies more until the largest misfit is within
+    ``tolerance`` (mm) or MAX_POLES is reached. Returns the surface and the misfit of every
+    point (K, M)."""
+    k_count, m_count = grid.shape[:2]
+    # at most one pole per two samples: uniform knots keep the least squares well posed
+    top_u, top_v = min(k_count // 2, MAX_POLES), min(m_count // 2, MAX_POLES)
+    nu, nv = min(top_u, 8), min(top_v, 8 + 3 * len(breaks))
+    while True:
+        ku = _clamped_knots(stations[0], stations[-1], nu)
+        kv = _clamped_knots(0.0, 1.0, nv, breaks)
+        bu = BSpline.design_matrix(stations, ku, 3).toarray()
+        bv = BSpline.design_matrix(v, kv, 3).toarray()
+        # separable least squares: along the girth at every station, then across the stations
+        along = np.linalg.lstsq(bv, grid.transpose(1, 0, 2).reshape(m_count, -1), rcond=None)[0]
+        along = along.reshape(bv.shape[1], k_count, 3).transpose(1, 0, 2)
+        poles = np.linalg.lstsq(bu, along.reshape(k_count, -1), rcond=None)[0].reshape(bu.shape[1], bv.shape[1], 3)
+        fitted = np.einsum("ai,ijk,bj->abk", bu, poles, bv, optimize=True)
+        misfit = np.linalg.norm(fitted - grid, axis=2)
+        if misfit.max() <= tolerance or (nu >= top_u and nv >= top_v):
+            break
+        worse_u = misfit.max(axis=1).std() >= misfit.max(axis=0).std()
+        if (worse_u and nu < top_u) or nv >= top_v:
+            nu = min(top_u, 2 * nu)
+        else:
+            nv = min(top_v, 2 * nv)
+    return nurbs_surface(3, 3, poles, ku, kv, name=name), misfit
+
+
+def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM) -> tuple[np.ndarray, list]:
+    """The stations of ``x_values`` (K,) whose sections through all ``faces`` (NurbsSurface)
+    chain into one girth curve, and those chains ((points, starts) of :func:`chain_pieces`);
+    ``regions``: each face's trimmed region in (u, v) (shapely) or None."""
+    grids = [_face_grid(f, SECTION_GRID) for f in faces]
+    kept, chains = [], []
+    for x in x_values:
+        pieces = []
+        for k, (face, region, grid) in enumerate(zip(faces, regions, grids)):
+            pieces.extend((k, p) for p in face_section(face, float(x), region, grid))
+        chain = chain_pieces(pieces, join)
+        if chain is not None:
+            kept.append(float(x))
+            chains.append(chain)
+    return np.array(kept), chains
+
+
+def longest_run(x_values: np.ndarray, kept: np.ndarray) -> tuple[int, int]:
+    """Index range [i, j) of ``kept`` that is the longest run of consecutive ``x_values``."""
+    where = np.searchsorted(x_values, kept)
+    best, start = (0, 0), 0
+    for i in range(1, len(where) + 1):
+        if i == len(where) or where[i] != where[i - 1] + 1:
+            if i - start > best[1] - best[0]:
+                best = (start, i)
+            start = i
+    return best
+
+
+def shell_surface(faces, regions, indices, spacing: float, tolerance: float, name: str) -> ShellSurface:
+    """Faces (NurbsSurface, mm) with their trimmed regions lofted into one :class:`ShellSurface`
+    over the longest x range where every station's sections form one girth curve crossing as
+    many face junctions as most stations do; stations every ``spacing`` mm (at least 12), fitted within
+    ``tolerance`` mm where the poles allow. Where two faces meet, the surface has a girth
+    knot of full multiplicity at the junction's median girth fraction, so that the change of
+    curvature there (a flat of bottom meeting the bilge) is not smoothed over."""
+    lo = min(float(f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].min()) for f in faces)
+    hi = max(float(f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].max()) for f in faces)
+    count = max(12, int(np.ceil((hi - lo) / spacing)) + 1)
+    pad = 1e-6 * (hi - lo)
+    x_values = np.linspace(lo + pad, hi - pad, count)
+    kept, chains = shell_sections(faces, x_values, regions)
+    # stations whose girth curves cross as many face junctions as most do (a face split at a
+    # station changes the faces, not the junctions)
+    counts = [len(starts) for _, starts in chains]
+    common = max(set(counts), key=counts.count) if counts else 0
+    same = np.array([c == common for c in counts], dtype=bool)
+    i, j = longest_run(x_values, kept[same]) if same.any() else (0, 0)
+    if j - i < 4:
+        raise ShellError(f"{name}: faces {list(indices)} do not form one girth curve at 4 consecutive stations of "
+                         f"{count} (x {lo:.1f}..{hi:.1f} mm): they are not one shell (a gap wider than {JOIN_MM} mm "
+                         f"between them, or sections of several pieces)")
+    chains = [c for c, ok in zip(chains, same) if ok][i:j]
+    stations = kept[same][i:j]
+    at = np.array([arc_fractions(points, starts) for points, starts in chains])
+    breaks = np.median(at, axis=0) if at.size else np.array([])
+    v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
+    grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
+    surface, misfit = loft(stations, v, grid, tolerance, name, breaks)
+    return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)))

@@ -1,0 +1,224 @@
+"""Several faces of a hull model expanded as one shell (pipeline/hull/shell.py): a cylinder split
+into two trimmed faces gives the plates of the unsplit cylinder across the split; the loft lies on
+the faces; a knuckle between faces is refused naming the faces; real hull faces loft within
+their stated deviation."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from flatten.surface import nurbs_surface
+from pipeline.cli import main
+from pipeline.hull.shell import chain_pieces, loft, resample
+from pipeline.io.hullmodel import ocp_surface, read_hull_model
+
+DATA = Path(__file__).parent / "data" / "ship"
+RADIUS, LENGTH = 3000.0, 20000.0
+
+
+def bilge_cylinder(x0: float = 0.0, x1: float = LENGTH, radius: float = RADIUS):
+    """A quarter cylinder of axis x, radius ``radius`` (mm), u along x, v around (rational quadratic)."""
+    h = np.radians(45.0)
+    arc = np.array([[-radius * np.sin(h), radius * (1 - np.cos(h))], [0.0, radius - radius / np.cos(h)],
+                    [radius * np.sin(h), radius * (1 - np.cos(h))]])
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[x, y, z] for y, z in arc] for x in (x0, x1)])
+    return nurbs_surface(1, 2, poles, [0, 0, 1, 1], [0, 0, 0, 1, 1, 1], np.vstack([w, w]), name="cylinder")
+
+
+def write_faces_step(path: Path, surface, boxes) -> Path:
+    """One STEP file of faces on ``surface``, each bounded by a (u0, u1, v0, v1) box of its
+    parameters: a trimmed face of the one underlying surface."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    geom = ocp_surface(surface)
+    for u0, u1, v0, v1 in boxes:
+        builder.Add(compound, BRepBuilderAPI_MakeFace(geom, u0, u1, v0, v1, 1e-6).Face())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    assert int(writer.Write(str(path))) == 1
+    return path
+
+
+def cylinder_config(folder: Path, source: dict, name: str) -> Path:
+    data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "steel": {"thickness": 12, "material": "S355"},
+            "strake": {"surface": source, "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "stock": {"max_length": 6000, "max_width": 3000,
+                                                               "min_length": 1000, "min_width": 1000}}}}
+    path = folder / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def plates_of(out: Path, name: str) -> list[tuple]:
+    """(region area m2, class, developed area m2) of every plate from the run's summary, sorted."""
+    rows = json.loads((out / f"{name}_summary.json").read_text())["parts"]
+    return sorted((round(r["region_area_m2"], 3), r["class"], r["area_m2"]) for r in rows)
+
+
+@pytest.fixture(scope="module")
+def cylinder_runs(tmp_path_factory):
+    """The unsplit cylinder and the cylinder split into two trimmed faces (along its girth at
+    v = 0.4, and at the station u = 0.45), each planned and run."""
+    folder = tmp_path_factory.mktemp("shell")
+    surface = bilge_cylinder()
+    write_faces_step(folder / "whole.step", surface, [(0, 1, 0, 1)])
+    write_faces_step(folder / "girth.step", surface, [(0, 1, 0, 0.4), (0, 1, 0.4, 1)])
+    write_faces_step(folder / "station.step", surface, [(0, 0.45, 0, 1), (0.45, 1, 0, 1)])
+    runs = {}
+    for name, source in {"whole": {"model": str(folder / "whole.step")},
+                         "girth": {"model": str(folder / "girth.step"), "faces": [0, 1]},
+                         "station": {"model": str(folder / "station.step"), "faces": [1, 0]}}.items():
+        out = folder / f"out_{name}"
+        assert main(["run", str(cylinder_config(folder, source, name)), "--out", str(out), "--quiet"]) == 0
+        runs[name] = plates_of(out, name)
+    return runs
+
+
+def test_the_split_faces_are_trimmed_faces_of_one_cylinder(tmp_path):
+    model = read_hull_model(write_faces_step(tmp_path / "g.step", bilge_cylinder(), [(0, 1, 0, 0.4), (0, 1, 0.4, 1)]))
+    assert len(model.faces) == 2 and all(f.trimmed for f in model.faces)
+
+
+@pytest.mark.parametrize("split", ["girth", "station"])
+def test_a_cylinder_split_into_two_trimmed_faces_gives_the_unsplit_cylinders_plates(cylinder_runs, split):
+    """Same plates, butts at the same x, same classes and developed areas within 0.1 %: the
+    plan crosses the split, which neither a seam nor a butt follows (girth split at 40 % of the
+    girth, between the uniform plan's seams at 0, 50 and 100 %; station split at x = 9 m, not
+    on a butt at 5, 10, 15 m)."""
+    whole, split_plates = cylinder_runs["whole"], cylinder_runs[split]
+    assert len(whole) == 8 and len(split_plates) == len(whole)
+    for (region_a, cls_a, area_a), (region_b, cls_b, area_b) in zip(whole, split_plates):
+        assert cls_b == cls_a
+        assert region_b == pytest.approx(region_a, rel=1e-3)
+        assert area_b == pytest.approx(area_a, rel=1e-3)
+    expected = RADIUS * np.pi / 2 * LENGTH / 1e6
+    assert sum(r[2] for r in split_plates) == pytest.approx(expected, rel=2e-3)
+
+
+def test_the_loft_lies_on_the_cylinder_and_its_u_is_x(tmp_path):
+    """The two faces lofted: every point of a fine grid of the lofted surface lies on the
+    cylinder (radius 3000 mm about the axis y = 0, z = 3000) within 0.1 mm (the sections are
+    polylines ~30 mm apart along the girth: their chords miss the arc by 0.04 mm), and S(u, v).x = u."""
+    from pipeline.hull.region import load_surface_trimmed
+
+    path = write_faces_step(tmp_path / "g.step", bilge_cylinder(), [(0, 1, 0, 0.4), (0, 1, 0.4, 1)])
+    spec = type("Spec", (), {"model": str(path), "faces": [0, 1]})()
+    surface, trim, note = load_surface_trimmed(spec, tmp_path, 1.0)
+    assert trim is None and "lofted as one shell" in note and "meet smoothly" in note
+    u = np.linspace(*surface.domain_u, 41)
+    points = surface.grid(u, np.linspace(0, 1, 57))
+    radius = np.hypot(points[..., 1], points[..., 2] - RADIUS)
+    assert np.abs(radius - RADIUS).max() <= 0.1
+    assert np.abs(points[..., 0] - u[:, None]).max() <= 1e-6 * LENGTH
+
+
+def test_faces_meeting_at_a_knuckle_are_refused_naming_them(tmp_path, capsys):
+    """A flat face meeting the cylinder's edge at 45 degrees: a knuckle, which a plate cannot
+    cross; the run stops (exit 2) naming both faces and the angle."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    cylinder = bilge_cylinder()
+    edge = cylinder.grid([0.0, 1.0], [1.0])[:, 0]  # the cylinder's upper edge, (2, 3)
+    up = np.array([0.0, 0.0, 1.0])  # 45 degrees off the cylinder's tangent there, (0, 1, 1) / sqrt(2)
+    poles = np.array([[edge[0], edge[0] + 1000 * up], [edge[1], edge[1] + 1000 * up]])
+    flat = nurbs_surface(1, 1, poles, [0, 0, 1, 1], [0, 0, 1, 1], name="flat")
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for s in (cylinder, flat):
+        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(s), 1e-6).Face())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    writer.Write(str(tmp_path / "k.step"))
+    config = cylinder_config(tmp_path, {"model": str(tmp_path / "k.step"), "faces": [0, 1]}, "k")
+    assert main(["run", str(config), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "knuckle" in err and "faces 0 and 1" in err and "k.step" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("bad, needle", [({"faces": [0]}, "faces"), ({"faces": [0, 0]}, "distinct"),
+                                         ({"faces": [0, 7]}, "faces [7] asked for"),
+                                         ({"faces": [0, 1], "face": 1}, "not both")])
+def test_bad_shell_face_lists_exit_2_naming_them(tmp_path, capsys, bad, needle):
+    path = write_faces_step(tmp_path / "g.step", bilge_cylinder(), [(0, 1, 0, 0.4), (0, 1, 0.4, 1)])
+    config = cylinder_config(tmp_path, {"model": str(path), **bad}, "bad")
+    assert main(["run", str(config), "--out", str(tmp_path / "out")]) == 2
+    assert needle in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_chain_joins_pieces_in_girth_order_and_refuses_a_gap():
+    """Three pieces of a section given out of order and reversed chain into one polyline from
+    the centreline up; a gap wider than the join distance breaks the chain."""
+    a = np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]])
+    b = np.array([[0, 2, 0], [0, 3, 1], [0, 3, 2.0]])
+    c = np.array([[0, 3, 2], [0, 3, 3.0]])
+    chain, starts = chain_pieces([(2, c[::-1]), (0, a), (1, b[::-1])])
+    assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 3, 3])
+    assert [f for _, f in starts] == [0, 1, 2]
+    assert chain_pieces([(0, a), (1, b + [0, 0, 10.0])]) is None
+    # a flat of bottom ending in a 0.6 mm sliver beside the side face's lowest point (KVLCC2 at
+    # its stern): both sliver ends lie near the side's end; the chain still starts at the centreline
+    side = np.array([[0, 305.8, 448.3], [0, 100, 50], [0, 0.5, 0.0]])
+    sliver = np.array([[0, 0.0, 0], [0, 0.6, 0.0]])
+    chain, starts = chain_pieces([(0, side), (1, sliver)])
+    assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 305.8, 448.3])
+    assert [f for _, f in starts] == [1, 0]
+
+
+def test_loft_reproduces_a_bicubic_surface_and_keeps_a_junction_knot():
+    """Points of a flat strip meeting a circular arc (curvature 0 then 1/R: a flat of bottom
+    meeting the bilge) lofted with a break at the junction fit within 1e-3 of R; without the
+    break the same poles miss by more (the change of curvature smoothed over)."""
+    r, flat = 100.0, 150.0
+    quarter = np.pi / 2 * r
+    total = flat + quarter
+    s = np.linspace(0, 1, 121) * total
+    y = np.where(s <= flat, s, flat + r * np.sin((s - flat) / r))
+    z = np.where(s <= flat, 0.0, r * (1 - np.cos((s - flat) / r)))
+    stations = np.linspace(0, 1000, 30)
+    chain = np.column_stack([np.zeros_like(s), y, z])
+    at = np.array([flat / total])
+    v = np.union1d(np.linspace(0, 1, 121), at)
+    grid = np.stack([resample(chain + [x, 0, 0], v, at, at) for x in stations])
+    _, with_break = loft(stations, v, grid, 1e-9, "b", at)
+    grid_plain = np.stack([resample(chain + [x, 0, 0], v) for x in stations])
+    _, plain = loft(stations, v, grid_plain, 1e-9, "p")
+    assert with_break.max() <= 1e-3 * r
+    assert plain.max() > 3 * with_break.max()
+
+
+def test_kvlcc2_flat_bottom_and_side_loft_into_one_shell():
+    """KVLCC2's main-hull face and its trimmed flat of bottom (faces 10 and 11, meeting smoothly
+    along 5.1 m of the model) loft at ship scale (1:58) into one surface over x 15-300 m (the
+    faces' 14-312 m, less the ends where they leave gaps of up to 5.5 mm in the model): on a
+    61 x 61 grid of it, the distance to the faces is at most 4 mm, p95 at most 1.5 mm, and the
+    note reports the loft's own misfit."""
+    from flatten.closest import SurfaceDistance
+    from pipeline.hull.region import load_surface_trimmed
+
+    scale = 58.0
+    spec = type("Spec", (), {"model": str(DATA / "ship_kvlcc2.igs"), "faces": [10, 11]})()
+    surface, _, note = load_surface_trimmed(spec, DATA, 1.0, scale)
+    assert "faces 10+11 lofted" in note and "faces 10 and 11 meet smoothly" in note
+    assert surface.domain_u[0] < 16000 and surface.domain_u[1] > 295000
+    grid = surface.grid(np.linspace(*surface.domain_u, 61), np.linspace(0, 1, 61)) / scale
+    model = read_hull_model(DATA / "ship_kvlcc2.igs")
+    faces = SurfaceDistance([model.faces[10].surface, model.faces[11].surface])
+    distance = faces(grid.reshape(-1, 3)) * scale
+    assert distance.max() <= 4.0 and np.percentile(distance, 95) <= 1.5
