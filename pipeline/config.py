@@ -651,6 +651,11 @@ class StrakeSpec(_Strict):
     margin: float = Field(0.1, ge=0, le=1)
     fit_tolerance: float | None = Field(None, gt=0, description="largest distance from the hull surface (config "
                                         "units; default 5 mm whatever the units)")
+    edge_tolerance: float | None = Field(None, gt=0, description="largest distance of a plate's edges from the hull "
+                                         "(config units): a flat or strip plate whose edges leave it further is "
+                                         "developed on the hull instead (a patch), so that two neighbours step by at "
+                                         "most twice it (IACS Rec. 47: 0.15 t, at most 3 mm); default: no limit "
+                                         "beyond the fit tolerance")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "

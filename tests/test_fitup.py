@@ -244,3 +244,31 @@ def test_neighbours_whose_edges_lie_apart_are_reported_apart(bilge):
     assert all(p.step_median == pytest.approx(60.0, abs=1e-3) for p in fit.apart)
     assert len(fit.pairs) == 2 and max(p.step_max for p in fit.pairs) < 1e-3
     assert sum("lie 60 mm apart" in w for w in fit.warnings()) == 2
+
+
+def test_an_edge_tolerance_develops_plates_whose_edges_leave_the_hull_on_the_hull(tmp_path):
+    """strake.edge_tolerance 1 mm on the 160 m hull's strake: its two forward plates' strips
+    leave the hull by ~2 mm at their edges (S1_B1, S2_B1; the other eight by 0.2 mm at most),
+    so those two are developed on the hull as patches (their edges on it) and say why; every
+    flat or strip plate left keeps its edges within 1 mm of the hull, and every shared edge
+    steps by at most twice that."""
+    from pipeline.hull.plates import edge_deviation
+
+    data = yaml.safe_load((ROOT / "configs" / "hullmod_strake.yaml").read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data["strake"]["edge_tolerance"] = 1.0
+    data["output"] = {"png": False}
+    path = tmp_path / "edge.yaml"
+    path.write_text(yaml.safe_dump(data))
+    config = load_run(path, evaluate_plate)
+    results = [run_part(part, config) for part in config.parts]
+    assert all(r.ok for r in results)
+    moved = {r.name: r.figures["edge_fit"] for r in results if r.figures.get("edge_fit")}
+    assert set(moved) == {"hullmod_S1_B1", "hullmod_S2_B1"}
+    for name, record in moved.items():
+        assert record["class_before"] == "developable" and 1.0 < record["edge_deviation_before"] < 3.0
+    for r in results:
+        off = edge_deviation(r)
+        assert (off is None) == (r.name in moved)  # a patch lies on the hull: nothing to measure
+        assert off is None or off <= 1.0
+    assert shell_fitup(results, config).as_dict()["step_mm"]["max"] <= 2.0

@@ -222,3 +222,53 @@ def test_kvlcc2_flat_bottom_and_side_loft_into_one_shell():
     faces = SurfaceDistance([model.faces[10].surface, model.faces[11].surface])
     distance = faces(grid.reshape(-1, 3)) * scale
     assert distance.max() <= 4.0 and np.percentile(distance, 95) <= 1.5
+
+
+def area_inside_trim(part, rows: int = 41, columns: int = 161) -> float:
+    """Area (mm2) of a plate's planned region inside its face's trim: cells of a fine grid of
+    the region counted where their centre lies inside."""
+    from flatten.patch import region_grid
+
+    h = part.hull
+    grid = region_grid(h.surface, h.long_axis, h.girths[0], h.girths[1],
+                       [None if p is None else p.as_tuple() for p in h.butts], rows, columns)
+    p, uv = grid.points, grid.params
+    a = 0.5 * np.linalg.norm(np.cross(p[1:, :-1] - p[:-1, :-1], p[:-1, 1:] - p[:-1, :-1]), axis=2)
+    b = 0.5 * np.linalg.norm(np.cross(p[1:, 1:] - p[1:, :-1], p[1:, 1:] - p[:-1, 1:]), axis=2)
+    if h.trim is None:
+        return float(a.sum() + b.sum())
+    centre = 0.25 * (uv[1:, 1:] + uv[:-1, 1:] + uv[1:, :-1] + uv[:-1, :-1])
+    return float(((a + b) * h.trim.inside(centre[..., 0], centre[..., 1])).sum())
+
+
+def test_faces_beyond_the_loft_are_planned_on_their_own_and_the_shell_is_covered_once(tmp_path):
+    """A cylinder as two trimmed faces: below v = 0.4 over its whole 20 m, above it over
+    x 0-14 m only. Most stations cross both faces, so the loft runs over x 0-14
+    m; beyond it the lower face is planned on its own (its plates end at the loft's end plane).
+    Every plate region added up is the two faces' area (no overlap, no gap), and the lower
+    face's plates all lie beyond x = 14 m."""
+    from pipeline.hull.plan import load_run
+
+    surface = bilge_cylinder()
+    path = write_faces_step(tmp_path / "part.step", surface, [(0, 1, 0, 0.4), (0, 0.7, 0.4, 1)])
+    parts = load_run(cylinder_config(tmp_path, {"model": str(path), "faces": [0, 1]}, "part")).parts
+    shell = sum(f.area_mm2 for f in read_hull_model(path).faces)  # OpenCascade's, inside the trims
+    # a plate partly outside its face's trim is cut at it when delivered: its part inside counts
+    assert sum(area_inside_trim(p) for p in parts) == pytest.approx(shell, rel=2e-3)
+    beyond = [p for p in parts if "beyond the shell's loft" in p.hull.surface_note]
+    assert beyond and all(p.hull.butts[0] is not None and abs(p.hull.butts[0].offset - 14000.0) < 100.0
+                          for p in beyond if p.hull.butts[0] is not None and p.hull.butts[0].offset < 14500.0)
+    lofted = [p for p in parts if "lofted as one shell" in p.hull.surface_note]
+    assert lofted and len(lofted) + len(beyond) == len(parts)
+    # the loft's plates end at x = 14 m on a butt plane (not the hull's end), so fit-up pairs
+    # them with the lower face's plates there: the same cylinder on both sides, no step
+    assert any(p.hull.butts[1] is not None and abs(p.hull.butts[1].offset - 14000.0) < 100.0 for p in lofted)
+    out = tmp_path / "out"
+    assert main(["run", str(cylinder_config(tmp_path, {"model": str(path), "faces": [0, 1]}, "part")), "--out",
+                 str(out), "--quiet"]) == 0
+    shell = json.loads((out / "part_summary.json").read_text())["shell"]
+    across = [p for p in shell["pairs"] if p["kind"] == "butt"
+              and sum("_P1_" in name for name in p["plates"]) == 1]
+    assert across and max(p["step_max_mm"] for p in across) < 1.0
+    assert shell["coverage"]["covered"] == pytest.approx(1.0, abs=2e-3)
+    assert shell["coverage"]["overlap"] <= 1e-3

@@ -89,28 +89,17 @@ def _trim_region(surface, trim):
     return shapely.box(u0, v0, u1, v1) if trim is None else trim.polygon(u0, v0, u1, v1)
 
 
-def _shell_references(parts, config) -> dict:
+def _shell_references(parts) -> dict:
     """id(surface) -> (region in (u, v), what it is) for a planned shell: each surface inside
-    its IGES trim (read again from the file; a trim that cannot be read: the whole surface)."""
-    from .region import load_surface_trimmed
-
-    strake = config.spec.strake
-    surfaces = {id(p.hull.surface): p.hull.surface for p in parts}
+    its trim (the plan's, ``HullPlate.face_trim``), and within the x range a plan keeps of it."""
     out = {}
-    for spec in [strake.surface] + list(strake.plan.surfaces):
-        loaded, trim, _ = load_surface_trimmed(spec, config.source.parent, config.mm_per_unit, strake.scale)
-        probe = (np.array([0.25, 0.5, 0.75]), np.array([0.3, 0.6, 0.9]))
-        for key, surface in surfaces.items():
-            if key in out or surface.domain_u != loaded.domain_u or surface.domain_v != loaded.domain_v:
-                continue
-            u = surface.domain_u[0] + probe[0] * np.ptp(surface.domain_u)
-            v = surface.domain_v[0] + probe[1] * np.ptp(surface.domain_v)
-            if np.allclose(surface(u, v), loaded(u, v), rtol=0, atol=1e-9 * (1 + np.abs(loaded(u, v)).max())):
-                out[key] = (_trim_region(surface, trim), "the surface inside its trim" if trim is not None
-                            else "the whole surface")
-                break
-    for key, surface in surfaces.items():  # not matched (should not happen): the whole surface
-        out.setdefault(key, (_trim_region(surface, None), "the whole surface"))
+    for part in parts:
+        key, hull = id(part.hull.surface), part.hull
+        if key in out:
+            continue
+        trim = hull.face_trim
+        out[key] = (_trim_region(hull.surface, trim), "the surface inside its trim" if trim is not None
+                    else "the whole surface")
     for part in parts:  # a face the plan cut where it overlaps another keeps one side of the cut
         limits, key = part.hull.x_limits, id(part.hull.surface)
         if any(x is not None for x in limits) and "cut" not in out[key][1]:
@@ -162,7 +151,7 @@ def shell_coverage(records: dict, parts, config) -> dict | None:
     mm2 = (config.mm_per_unit / 1e3) ** 2
     planned = config.spec.strake is not None and config.spec.strake.plan is not None
     if planned:
-        references = _shell_references(parts, config)
+        references = _shell_references(parts)
     else:
         regions = {}
         for p in parts:

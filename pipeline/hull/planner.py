@@ -19,6 +19,8 @@ The evaluator (``evaluate(part) -> result``) is given by the caller, so the plan
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from flatten.closest import SurfaceDistance
@@ -26,7 +28,7 @@ from flatten.patch import region_grid
 
 from flatten.plane import Plane
 
-from .region import Girth, load_surface_trimmed, long_axis_of, plate_part, seam_curve
+from .region import Girth, load_plan_surfaces, long_axis_of, plate_part, seam_curve
 from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
 from .splitting import choose_split, sample_region
@@ -129,16 +131,24 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
-    loaded = [load_surface_trimmed(s, path.parent, mm_per_unit, strake.scale) for s in sources]
+    planned = load_plan_surfaces(sources, path.parent, mm_per_unit, strake.scale)
+    loaded = [(p.surface, p.trim, p.note) for p in planned]
     surfaces = [s for s, _, _ in loaded]
     distance = SurfaceDistance(surfaces)
     resolution = float(strake.patch_spacing or 200.0 / mm_per_unit)
     stock = plan.stock
     multi = len(surfaces) > 1
     tolerance = float(strake.fit_tolerance or 5.0 / mm_per_unit)
-    # faces that lie on each other are cut at a transverse plane, each keeping one side
-    limits, overlaps = overlap_cuts(surfaces, [trim for _, trim, _ in loaded], tolerance) if multi else \
-        ([(None, None)], [])
+    # faces that lie on each other are cut at a transverse plane, each keeping one side (a
+    # shell's faces beyond its loft keep the side its end plane gives them)
+    free = [k for k, p in enumerate(planned) if not p.fixed]
+    cut, overlaps = overlap_cuts([surfaces[k] for k in free], [loaded[k][1] for k in free], tolerance) \
+        if len(free) > 1 else ([(None, None)] * len(free), [])
+    overlaps = [replace(o, faces=tuple(free[i] for i in o.faces)) for o in overlaps]
+    limits = [p.x_limits for p in planned]
+    for k, lim in zip(free, cut):  # the tighter of a loft's own ends and an overlap's cut
+        limits[k] = tuple(a if b is None else b if a is None else pick(a, b)
+                          for a, b, pick in zip(limits[k], lim, (max, min)))
     parts = []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)
@@ -173,6 +183,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             part.hull.inside_trim = inside
             part.hull.trim = loaded[k][1] if inside < 1.0 else None
             part.hull.x_limits = limits[k]
+            part.hull.face_trim = loaded[k][1]
             if plan.method == "uniform" or evaluate is None:
                 parts.append(part)
                 continue

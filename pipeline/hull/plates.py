@@ -223,6 +223,14 @@ def run_plate(part: Part, config: RunConfig) -> PartResult:
     result = PartResult(part.name, part)
     try:
         _run_plate(result, config)
+        limit = part.hull.edge_tolerance
+        off = edge_deviation(result) if limit is not None else None
+        if off is not None and off > limit:
+            was = (result.figures.get("plate_class") or {}).get("class")
+            result = PartResult(part.name, part)
+            _run_plate(result, config, patch_only=f"its {was} development's edges leave the hull by {off:.4g} "
+                                                  f"(edge tolerance {limit:g})")
+            result.figures["edge_fit"] = {"edge_tolerance": limit, "edge_deviation_before": off, "class_before": was}
     except Exception as exc:  # one plate never stops the run: report it with the evidence
         result.status = "failed"
         result.reason = f"internal error in plate {part.name}: {type(exc).__name__}: {exc}"
@@ -230,7 +238,25 @@ def run_plate(part: Part, config: RunConfig) -> PartResult:
     return result
 
 
-def _run_plate(result: PartResult, config: RunConfig) -> None:
+def edge_deviation(result: PartResult) -> float | None:
+    """Largest distance (config units) of a flat or strip plate's delivered 3D edges (seams,
+    butts) from the hull; None for a patch (it lies on the hull) or a plate without edges."""
+    from .fitup import plate_edges
+
+    klass = (result.figures.get("plate_class") or {}).get("class")
+    if klass not in ("flat", "developable") or "patch" in str((result.figures.get("plate_class") or {}).get("method")):
+        return None
+    edges = plate_edges(result)
+    if edges is None or not edges.edges:
+        return None
+    hull = result.part.hull
+    distance = hull.distance or SurfaceDistance(hull.surface)
+    return float(max(distance(e.points3).max() for e in edges.edges))
+
+
+def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "") -> None:
+    """The plate's class and development; ``patch_only``: why no flat or strip development is
+    tried (the plate is developed on the hull as a patch)."""
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
@@ -258,6 +284,13 @@ def _run_plate(result: PartResult, config: RunConfig) -> None:
                                                 for b in hull.butts]}
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
+    if patch_only:
+        uv, iterations = arap_development(v3, f3)
+        _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
+                       {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
+                        "strip_not_delivered_because": patch_only, "families": [], "strip_max_deviation": None},
+                       None, (length, width))
+        return
     fit = flattest_plane(v_grid, tol)
     if fit.max_distance <= tol:
         uv = planar_development(v_grid, fit)

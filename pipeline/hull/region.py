@@ -8,7 +8,7 @@ The strake planner (:mod:`.plan`) and the adaptive planner (:mod:`.planner`) bot
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +83,8 @@ class HullPlate:
     inside_trim: float = 1.0  # share of the region's area inside the surface's IGES trim
     trim: object = None  # the face's trim (pipeline.hull.trims.Trim) when the region reaches past it
     x_limits: tuple = (None, None)  # where a plan cut the face (overlapping another): the x range it keeps
+    face_trim: object = None  # the surface's trim whatever the plate's region (a planned shell's coverage)
+    edge_tolerance: float | None = None  # most a flat or strip plate's edges may leave the hull (else a patch)
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
@@ -159,6 +161,7 @@ def _model_face(spec, base: Path, mm_per_unit: float, scale: float):
 
 SHELL_STATIONS = 250  # stations of a lofted shell over its length
 SHELL_TOLERANCE_MM = 0.5  # at ship scale: the loft's target distance to the faces' sections
+SHELL_REMAINDER = 1e-3  # of the loft's length: a face reaching less beyond the loft is not planned on its own
 SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another face meets it
 
 
@@ -208,6 +211,59 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
               f"({j['p95_angle_deg']:.2f} deg)" for j in junctions]
     note = shell.note(path.name, scale) + (f" (model scale 1:{scale:g})" if scale != 1 else "")
     return surface, None, note + "".join(f"; {line}" for line in smooth)
+
+
+@dataclass(frozen=True)
+class PlanSurface:
+    """A surface a plan lays plates on: the surface (config units), its trim (or None), the
+    note the plates carry, and the x range a plan keeps of it (None: its own end)."""
+
+    surface: NurbsSurface
+    trim: object
+    note: str
+    x_limits: tuple = (None, None)
+    fixed: bool = False  # x_limits set by a shell loft (not to be cut again where faces overlap)
+
+
+def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1.0) -> list[PlanSurface]:
+    """Every surface of a plan, in order: each source's surface, and after a shell of several
+    faces (``faces``) those faces' parts beyond the loft's x range (a bulb, a stern where the
+    faces do not chain into one girth curve), each kept beyond the loft's end plane so that the
+    shell is covered once."""
+    out = []
+    for spec in sources:
+        surface, trim, note = load_surface_trimmed(spec, base, mm_per_unit, scale)
+        out.append(PlanSurface(surface, trim, note))
+        if not getattr(spec, "faces", None):
+            continue
+        loft = len(out) - 1
+        x0, x1 = surface.domain_u  # the loft's u is x
+        for k in spec.faces:
+            face, face_trim, face_note = load_surface_trimmed(type(spec)(model=spec.model, face=k), base,
+                                                              mm_per_unit, scale)
+            lo, hi = _x_extent(face, face_trim)
+            gap = SHELL_REMAINDER * (x1 - x0)  # the loft's first station is this near the faces' end
+            for keep, beyond in (((None, x0), lo < x0 - gap), ((x1, None), hi > x1 + gap)):
+                if beyond:
+                    where = f"x < {x0:.0f}" if keep[1] is not None else f"x > {x1:.0f}"
+                    out.append(PlanSurface(face, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
+                                           f"the face" + (f"; {face_note}" if face_note else ""), keep, True))
+                    # the loft ends at the same plane: a butt of both sides, not the hull's end
+                    ends = list(out[loft].x_limits)
+                    ends[0 if keep[1] is not None else 1] = x0 if keep[1] is not None else x1
+                    out[loft] = replace(out[loft], x_limits=tuple(ends))
+    return out
+
+
+def _x_extent(surface: NurbsSurface, trim, n: int = 65) -> tuple[float, float]:
+    """The x range of a surface inside its trim (an n x n grid of it)."""
+    u, v = np.linspace(*surface.domain_u, n), np.linspace(*surface.domain_v, n)
+    x = surface.grid(u, v)[..., 0]
+    if trim is not None:
+        uu, vv = np.meshgrid(u, v, indexing="ij")
+        inside = trim.inside(uu, vv)
+        x = x[inside] if inside.any() else x
+    return float(x.min()), float(x.max())
 
 
 def long_axis_of(surface: NurbsSurface) -> int:
@@ -328,4 +384,5 @@ def plate_part(name, surface, axis, girths, curves, planes, spec_steel, strake, 
     frames = frames_between(strake.frames, *plate_x_range(planes, surface, axis, girths), name) if strake.frames else []
     hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
                      tuple(girths), distance, developable, note, resolution, None, surface_note)
+    hull.edge_tolerance = getattr(strake, "edge_tolerance", None)
     return Part(name, c, d, spec_steel, ("c", "d"), {}, hull)

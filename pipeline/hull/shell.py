@@ -16,7 +16,9 @@ surface is built the way a loftsman fairs a hull, through its stations:
    (a bulb beside the stem, a gap wider than ``join``) is outside the shell's range;
 3. each girth curve is resampled at equal arc-length fractions v in [0, 1], and the grid of
    points (stations x girth) is fitted by least squares with a tensor-product cubic B-spline
-   (knots refined until the fit is within ``tolerance`` of the section points).
+   (knots refined until the fit is within ``tolerance`` of the section points); stations the
+   fit misses by more than OUTLIER tolerances (a section changing shape faster than the
+   stations follow) are left out and the longest run of the rest lofted again.
 
 The surface's u is x itself (mm, the stations), so butt and frame planes are its iso-u
 curves; its v is the girth fraction. What the loft smooths over is stated, not hidden: the
@@ -38,6 +40,8 @@ SECTION_GRID = 161  # samples per parameter direction of a face for its sections
 GIRTH_SAMPLES = 321  # points per station on the girth curve (two per pole at most poles)
 JOIN_MM = 2.0  # pieces of a station whose ends are nearer than this are joined
 MAX_POLES = 160  # per direction of the lofted surface
+REFITS = 3  # lofts again over the stations it fits, at most
+OUTLIER = 10.0  # a station missed by more than this many tolerances is outside the loft's range
 
 
 class ShellError(ValueError):
@@ -288,9 +292,21 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"between them, or sections of several pieces)")
     chains = [c for c, ok in zip(chains, same) if ok][i:j]
     stations = kept[same][i:j]
-    at = np.array([arc_fractions(points, starts) for points, starts in chains])
-    breaks = np.median(at, axis=0) if at.size else np.array([])
-    v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
-    grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
-    surface, misfit = loft(stations, v, grid, tolerance, name, breaks)
+    for _ in range(REFITS + 1):
+        at = np.array([arc_fractions(points, starts) for points, starts in chains])
+        breaks = np.median(at, axis=0) if at.size else np.array([])
+        v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
+        grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
+        surface, misfit = loft(stations, v, grid, tolerance, name, breaks)
+        # where a section changes its shape faster than stations can follow (a stern whose
+        # sections start on the skeg, then on the flat of bottom's edge), the loft misses it:
+        # keep the longest run of stations it fits and loft again
+        worst = misfit.max(axis=1)
+        good = worst <= OUTLIER * max(tolerance, float(np.median(worst)))
+        if good.all():
+            break
+        a, b = longest_run(np.arange(len(stations)), np.flatnonzero(good))
+        if b - a < 4:
+            break
+        chains, stations = chains[a:b], stations[a:b]
     return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)))
