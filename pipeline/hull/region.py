@@ -173,7 +173,8 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
     from flatten.surface import nurbs_surface
 
     from ..io.hullmodel import HullModel
-    from .sewing import junctions_of
+    from .coverage import x_range_region
+    from .sewing import junctions_of, overlap_cuts
     from .shell import ShellError, shell_surface
     from .trims import Trim
 
@@ -183,7 +184,23 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
                           f"{len(model.faces) - 1})")
     faces = [model.faces[k] for k in indices]
     sub = HullModel(path, model.format, tuple(faces))
-    junctions = junctions_of(sub, [SurfaceDistance(f.surface, grid=60) for f in faces], SHELL_JUNCTION_MM)
+    regions = []
+    for face in faces:
+        s = face.surface
+        regions.append(Trim(face.index, face.outer, face.inner, 0).polygon(
+            s.domain_u[0], s.domain_v[0], s.domain_u[1], s.domain_v[1]) if face.trimmed else None)
+    # faces lying on each other (DTMB 5415's bow and main hull) are cut where their sections
+    # come closest, each keeping its side, before they are lofted: every station then crosses one
+    limits, overlaps = overlap_cuts([f.surface for f in faces], [Trim(f.index, f.outer, f.inner, 0) if f.trimmed
+                                                                 else None for f in faces], SHELL_JUNCTION_MM)
+    for k, (face, lim) in enumerate(zip(faces, limits)):
+        if any(x is not None for x in lim):
+            s = face.surface
+            kept = x_range_region(s, long_axis_of(s), lim)
+            regions[k] = kept if regions[k] is None else regions[k].intersection(kept)
+    overlapping = {tuple(o.faces) for o in overlaps}  # their meeting is the overlap, cut above
+    junctions = [j for j in junctions_of(sub, [SurfaceDistance(f.surface, grid=60) for f in faces], SHELL_JUNCTION_MM)
+                 if tuple(j["faces"]) not in overlapping]
     knuckles = [j for j in junctions if j["kind"].startswith("knuckle")]
     if knuckles:
         j = knuckles[0]
@@ -191,11 +208,9 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
         raise SourceError(f"{path}: faces {a} and {b} meet at a knuckle (normals {j['p95_angle_deg']:.2f} deg apart, "
                           f"p95, along {j['length_mm']:.0f} mm at x {j['x_mm'][0]:.1f}..{j['x_mm'][1]:.1f}): a seam "
                           f"or a butt must lie on it; give them as separate surfaces, not as one shell")
-    regions = []
-    for face in faces:
-        s = face.surface
-        regions.append(Trim(face.index, face.outer, face.inner, 0).polygon(
-            s.domain_u[0], s.domain_v[0], s.domain_u[1], s.domain_v[1]) if face.trimmed else None)
+    cuts = [f"faces {indices[o.faces[0]]} and {indices[o.faces[1]]} lie on each other over x "
+            f"{o.x_range_mm[0] * scale:.0f}..{o.x_range_mm[1] * scale:.0f} mm: cut at x = {o.cut_x_mm * scale:.0f} mm "
+            f"before lofting (step {o.step_at_cut_mm * scale:.3g} mm there, which the loft smooths)" for o in overlaps]
     length = max(float(np.ptp(f.surface.grid(np.linspace(*f.surface.domain_u, 9),
                                              np.linspace(*f.surface.domain_v, 9))[..., 0])) for f in faces)
     try:
@@ -210,7 +225,7 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
     smooth = [f"faces {indices[j['faces'][0]]} and {indices[j['faces'][1]]} meet smoothly "
               f"({j['p95_angle_deg']:.2f} deg)" for j in junctions]
     note = shell.note(path.name, scale) + (f" (model scale 1:{scale:g})" if scale != 1 else "")
-    return surface, None, note + "".join(f"; {line}" for line in smooth)
+    return surface, None, note + "".join(f"; {line}" for line in smooth + cuts)
 
 
 @dataclass(frozen=True)
@@ -236,22 +251,31 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
         out.append(PlanSurface(surface, trim, note))
         if not getattr(spec, "faces", None):
             continue
+        from .sewing import overlap_cuts
+
         loft = len(out) - 1
         x0, x1 = surface.domain_u  # the loft's u is x
-        for k in spec.faces:
-            face, face_trim, face_note = load_surface_trimmed(type(spec)(model=spec.model, face=k), base,
-                                                              mm_per_unit, scale)
+        faces = [load_surface_trimmed(type(spec)(model=spec.model, face=k), base, mm_per_unit, scale)
+                 for k in spec.faces]
+        # faces the loft cut where they lie on each other keep their side of the cut here too
+        cut, _ = overlap_cuts([f for f, _, _ in faces], [t for _, t, _ in faces],
+                              SHELL_JUNCTION_MM * scale / mm_per_unit)
+        for k, (face, face_trim, face_note), (cut_lo, cut_hi) in zip(spec.faces, faces, cut):
             lo, hi = _x_extent(face, face_trim)
+            lo, hi = max(lo, cut_lo if cut_lo is not None else lo), min(hi, cut_hi if cut_hi is not None else hi)
             gap = SHELL_REMAINDER * (x1 - x0)  # the loft's first station is this near the faces' end
-            for keep, beyond in (((None, x0), lo < x0 - gap), ((x1, None), hi > x1 + gap)):
-                if beyond:
-                    where = f"x < {x0:.0f}" if keep[1] is not None else f"x > {x1:.0f}"
-                    out.append(PlanSurface(face, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
-                                           f"the face" + (f"; {face_note}" if face_note else ""), keep, True))
-                    # the loft ends at the same plane: a butt of both sides, not the hull's end
-                    ends = list(out[loft].x_limits)
-                    ends[0 if keep[1] is not None else 1] = x0 if keep[1] is not None else x1
-                    out[loft] = replace(out[loft], x_limits=tuple(ends))
+            aft = (cut_lo, x0 if cut_hi is None else min(x0, cut_hi))
+            fore = (x1 if cut_lo is None else max(x1, cut_lo), cut_hi)
+            for keep, beyond, is_aft in ((aft, lo < x0 - gap, True), (fore, hi > x1 + gap, False)):
+                if not beyond or (None not in keep and keep[0] >= keep[1]):
+                    continue
+                where = f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}"
+                out.append(PlanSurface(face, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
+                                       f"the face" + (f"; {face_note}" if face_note else ""), keep, True))
+                # the loft ends at the same plane: a butt of both sides, not the hull's end
+                ends = list(out[loft].x_limits)
+                ends[0 if is_aft else 1] = x0 if is_aft else x1
+                out[loft] = replace(out[loft], x_limits=tuple(ends))
     return out
 
 

@@ -292,21 +292,28 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"between them, or sections of several pieces)")
     chains = [c for c, ok in zip(chains, same) if ok][i:j]
     stations = kept[same][i:j]
-    for _ in range(REFITS + 1):
-        at = np.array([arc_fractions(points, starts) for points, starts in chains])
-        breaks = np.median(at, axis=0) if at.size else np.array([])
-        v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
-        grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
-        surface, misfit = loft(stations, v, grid, tolerance, name, breaks)
+    for round_ in range(REFITS + 1):
+        surface, misfit = _loft_chains(stations, chains, tolerance, name)
         # where a section changes its shape faster than stations can follow (a stern whose
         # sections start on the skeg, then on the flat of bottom's edge), the loft misses it:
         # keep the longest run of stations it fits and loft again
+        # (a lone station whose section went wrong, a sliver of a cut face, is left out alone)
         worst = misfit.max(axis=1)
         good = worst <= OUTLIER * max(tolerance, float(np.median(worst)))
-        if good.all():
+        bridged = good | (np.convolve(good, [1, 0, 1], mode="same") == 2)  # a bad station between two good
+        a, b = longest_run(np.arange(len(stations)), np.flatnonzero(bridged))
+        if good.all() or b - a < 4 or round_ == REFITS:
             break
-        a, b = longest_run(np.arange(len(stations)), np.flatnonzero(good))
-        if b - a < 4:
-            break
-        chains, stations = chains[a:b], stations[a:b]
+        keep = [k for k in range(a, b) if good[k]]
+        chains, stations = [chains[k] for k in keep], stations[keep]
     return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)))
+
+
+def _loft_chains(stations: np.ndarray, chains: list, tolerance: float, name: str):
+    """The loft (surface, misfit) through the stations' girth curves, a girth knot at the
+    median arc fraction of each face junction."""
+    at = np.array([arc_fractions(points, starts) for points, starts in chains])
+    breaks = np.median(at, axis=0) if at.size else np.array([])
+    v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
+    grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
+    return loft(stations, v, grid, tolerance, name, breaks)
