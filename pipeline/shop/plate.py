@@ -287,6 +287,10 @@ def shop_layout(result, config, part_data: list[str]):
         from .marks import strain_areas
 
         areas = [(kind, ring * scale) for kind, ring, _ in strain_areas(strain, region["grid"], result.pattern.vertices)]
+    from .heating import layout_marks  # a formed plate's heating lines (MARK_HEAT) and its groups' texts
+
+    heat_lines, heat_texts = layout_marks(result.figures.get("heating"))
+    areas, part_data = areas + heat_lines, part_data + heat_texts
     layout = plate_layout(net, cut, edges, bends, frames, part_data, settings.text_height, butts,
                           settings.frame_clearance, areas)
     stock = stock_check(cut, settings.stock, settings.stock_margin)
