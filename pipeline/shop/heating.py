@@ -238,10 +238,14 @@ def _ring_seeds(ring: np.ndarray, sample, spacing_of, threshold: float, step: fl
         if n < 1:
             continue
         want = (np.arange(n) + 0.5) * phi[-1] / n
+        # each sample carries its demand over [i - 1/2, i + 1/2]: place seeds between samples
         pos = np.interp(want, phi, np.arange(len(run) + 1) - 0.5).clip(0, len(run) - 1)
+        lo = np.floor(pos).astype(int)
+        hi = np.minimum(lo + 1, len(run) - 1)
+        frac = (pos - lo)[:, None]
         pick = run[np.round(pos).astype(int)]
         d = t[pick] * np.sign(np.einsum("ij,ij->i", t[pick], inward[pick]))[:, None]
-        points.append(pts[pick])
+        points.append(pts[run[lo]] + frac * (pts[run[hi]] - pts[run[lo]]))
         dirs.append(d)
         levels.append(_levels(n))
     if not points:
@@ -258,7 +262,7 @@ def _trace(seeds, dirs, sample, inside, near, spacing_of, threshold, step, max_s
     p = np.array(seeds, float)
     prev = np.array(dirs, float)
     first = prev.copy()
-    paths = [[q] for q in p]
+    paths = [[q.copy()] for q in p]
     alive = np.ones(len(p), bool)
     for _ in range(max_steps):
         idx = np.flatnonzero(alive)
@@ -381,8 +385,9 @@ def heating_lines(v3: np.ndarray, uv: np.ndarray, faces: np.ndarray, outline: np
                         spacing_of, threshold, step, max_steps)
         traced.append(np.vstack([halves[1][::-1], halves[0][1:]]))
         cand, ce = cand[i + 1:][free[i + 1:]], ce[i + 1:][free[i + 1:]]
+    # a stroke shorter than half the closest spacing is no line a plater runs
     lines = [line for line in traced if len(line) >= 2 and np.linalg.norm(np.diff(line, axis=0), axis=1).sum()
-             >= min_spacing]
+             >= 0.5 * min_spacing]
     lines = [np.asarray(shapely.simplify(shapely.LineString(line), 1.0).coords) for line in lines]
     if not lines:
         figures["note"] = "the shrink areas are too small or too near the edges for a line"
