@@ -122,6 +122,9 @@ def test_spherical_cap_heating_lines_are_radial_and_rotation_symmetric(cap, meth
     assert [g["shape"] for g in heat.groups] == ["dome"]
     assert heat.groups[0]["side"] == ("drawn" if centre_on_drawn_side else "other")
     assert heat.groups[0]["lines"] == len(lines)
+    # a plate the caller found rollable keeps its figures and gets no line
+    rolled = heating_lines(v, uv, f, ring, model, method=method, scale=scale, rollable=True)
+    assert not rolled.lines and rolled.figures["max_required_strain"] == heat.figures["max_required_strain"] > 1e-3
 
 
 def test_cylinder_plate_gets_no_heating_lines():

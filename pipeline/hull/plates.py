@@ -580,14 +580,9 @@ def _heating(v_grid, placed, faces, outline, steel, config, info, scale) -> dict
 
     shop, mm = config.spec.shop, config.mm_per_unit
     model = LineModel(steel.thickness, shop.heat_input, shop.heat_shrinkage)
-    heating = heating_lines(v_grid * mm, placed * mm, faces, outline * mm, model, shop.workshop_method,
-                            shop.heat_strain, shop.heat_spacing, shop.heat_margin, scale)
-    figures = heating.figures
-    if info.get("rolling_only") and figures["lines"]:
-        figures.update(lines=0, total_length_mm=0.0, groups=[], polylines=[], line_group=[],
-                       note="rolling only: the plate's strain times its size is within the fit tolerance, "
-                            "no heating lines")
-    return figures
+    return heating_lines(v_grid * mm, placed * mm, faces, outline * mm, model, shop.workshop_method,
+                         shop.heat_strain, shop.heat_spacing, shop.heat_margin, scale,
+                         bool(info.get("rolling_only"))).figures
 
 
 def _clipped(rolls, frames, labels, outline):

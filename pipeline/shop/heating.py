@@ -286,12 +286,14 @@ def _trace(seeds, dirs, sample, inside, near, spacing_of, threshold, step, max_s
 
 def heating_lines(v3: np.ndarray, uv: np.ndarray, faces: np.ndarray, outline: np.ndarray, model: LineModel,
                   method: str = "none", threshold: float = 1e-3, min_spacing: float = 100.0, margin: float = 50.0,
-                  scale: float = 1.0) -> Heating:
+                  scale: float = 1.0, rollable: bool = False) -> Heating:
     """Heating lines of a formed plate (every length in mm).
 
     v3 : (V, 3) the hull patch; uv : (V, 2) its development as drawn (already scaled by the
     workshop method's ``scale``, which is only reported here); faces : (F, 3); outline : (M, 2)
-    the plate's net outline. Returns a :class:`Heating`."""
+    the plate's net outline; rollable: the caller found the whole plate formed by rolling
+    alone (its strain times its size within the fit tolerance): figures, no lines. Returns a
+    :class:`Heating`."""
     import shapely
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -318,6 +320,10 @@ def heating_lines(v3: np.ndarray, uv: np.ndarray, faces: np.ndarray, outline: np
         return Heating(figures=figures)
     if not (need > 0).any():
         figures["note"] = "no shrink beyond the threshold: no heating lines"
+        return Heating(figures=figures)
+    if rollable:
+        figures["note"] = ("rolling only: the plate's strain times its size is within the fit tolerance, no heating "
+                           "lines")
         return Heating(figures=figures)
     p = uv[faces]
     signed = 0.5 * ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
