@@ -258,12 +258,25 @@ def test_formed_sphere_plate_heating_in_dxf_and_report(tmp_path):
     assert heat["model"]["shrinkage_per_line_mm"] == pytest.approx(1.2e-5 * 2000 / (4.7e-3 * 12), rel=1e-9)
     doc = ezdxf.readfile(dxf)
     msp = doc.modelspace()
-    marks = [e for e in msp if e.dxf.layer == "MARK_HEAT"]
+    marks = [e for e in msp if e.dxf.layer == "MARK_HEAT" and e.dxftype() != "TEXT"]
     assert len(marks) == heat["lines"] == len(heat["polylines"])
     assert sum(len(g["text"]) > 0 for g in heat["groups"]) == len(heat["groups"]) >= 1
     texts = [t.dxf.text for t in msp.query("TEXT")]
     for g in heat["groups"]:
         assert g["text"] in texts and ("THIS SIDE" in g["text"] or "OTHER SIDE" in g["text"])
+    # each group named beside its lines on the heat layer, clear of every other text
+    labels = [t for t in msp.query("TEXT") if t.dxf.layer == "MARK_HEAT"]
+    assert sorted(t.dxf.text for t in labels) == sorted(f"G{g['group']}" for g in heat["groups"])
+    from pipeline.shop.layout import Text
+
+    boxes = [Text("", t.dxf.text, tuple(t.dxf.align_point)[:2], t.dxf.height, t.dxf.rotation).box()
+             for t in msp.query("TEXT")]
+    for i, t in enumerate(msp.query("TEXT")):
+        if t.dxf.layer == "MARK_HEAT":
+            assert not any(boxes[i].intersects(b) for j, b in enumerate(boxes) if j != i)
+            g = int(t.dxf.text[1:])
+            own = [np.asarray(line) for line, k in zip(heat["polylines"], heat["line_group"]) if k == g]
+            assert min(shapely.LineString(line).distance(boxes[i]) for line in own) <= 2 * t.dxf.height
     outline = shapely.Polygon(np.array(next(iter(msp.query("LWPOLYLINE[layer=='CUT_OUTER']"))).get_points("xy")))
     for e in marks:
         pts = (np.array([e.dxf.start, e.dxf.end])[:, :2] if e.dxftype() == "LINE"

@@ -458,3 +458,53 @@ def layout_marks(figures: dict | None) -> tuple[list, list[str]]:
         return [], []
     return ([("heat", np.asarray(line, float)) for line in figures["polylines"]],
             [g["text"] for g in figures.get("groups", [])])
+
+
+def label_groups(layout, figures: dict | None, net: np.ndarray, smallest: float) -> list[str]:
+    """Name each group of heating lines on the plate ('G1' on the heat layer, as its part-data
+    text calls it): beside one of its lines, along it, inside the net outline (N, 2) and
+    clear of every line and text already laid out (mm). Adds the texts to ``layout``; returns
+    findings for a group with no room."""
+    import shapely
+    from shapely.geometry import LineString, Polygon
+
+    from .layout import Text, readable
+
+    if not figures or not figures.get("polylines"):
+        return []
+    lines = [np.asarray(line, float) for line in figures["polylines"]]
+    which = np.asarray(figures.get("line_group", [1] * len(lines)))
+    plate = Polygon(net).buffer(-0.2 * smallest)
+    obstacles = [LineString(line) for _, line in layout.lines if len(line) >= 2] + [t.box() for t in layout.texts]
+    tree = shapely.STRtree(obstacles)
+    findings = []
+    for g in sorted(set(which.tolist())):
+        text, placed = f"G{g}", False
+        for h in (layout.text_height, smallest) if layout.text_height > smallest else (smallest,):
+            for k in np.flatnonzero(which == g)[np.argsort([-len(lines[i]) for i in np.flatnonzero(which == g)],
+                                                             kind="stable")]:
+                line = lines[k]
+                d = line[-1] - line[0]
+                d = d / max(np.linalg.norm(d), 1e-300)
+                normal = np.array([-d[1], d[0]])
+                angle = readable(float(np.degrees(np.arctan2(d[1], d[0]))))
+                for f in (0.5, 0.3, 0.7):
+                    at = line[0] + f * (line[-1] - line[0])
+                    for side in (1.0, -1.0):
+                        label = Text("heat", text, tuple(at + side * 0.9 * h * normal), h, angle)
+                        box = label.box()
+                        if plate.contains(box) and not len(tree.query(box, predicate="intersects")):
+                            layout.texts.append(label)
+                            obstacles.append(box)
+                            tree = shapely.STRtree(obstacles)
+                            placed = True
+                            break
+                    if placed:
+                        break
+                if placed:
+                    break
+            if placed:
+                break
+        if not placed:
+            findings.append(f"heating group label {text!r}: no room beside its lines")
+    return findings

@@ -293,6 +293,10 @@ def shop_layout(result, config, part_data: list[str]):
     areas, part_data = areas + heat_lines, part_data + heat_texts
     layout = plate_layout(net, cut, edges, bends, frames, part_data, settings.text_height, butts,
                           settings.frame_clearance, areas)
+    if heat_lines:  # each group of heating lines named beside its lines, as its text calls it
+        from .heating import label_groups
+
+        layout.findings += label_groups(layout, result.figures.get("heating"), net, settings.text_height[0])
     stock = stock_check(cut, settings.stock, settings.stock_margin)
     result.figures["stock"] = stock
     if stock["fits_on"] is None:
