@@ -274,8 +274,9 @@ class Layers(_Strict):
     net: str = "MARK_NET"  # the net line when an excess / shrinkage allowance is cut outside it
     shrink: str = "MARK_SHRINK"  # formed plates: areas to shrink (heat) when forming
     stretch: str = "MARK_STRETCH"  # formed plates: areas to stretch when forming
+    heat: str = "MARK_HEAT"  # formed plates: heating lines (pipeline.shop.heating)
 
-    @field_validator("cut", "bend", "text", "frame", "edge", "net", "shrink", "stretch")
+    @field_validator("cut", "bend", "text", "frame", "edge", "net", "shrink", "stretch", "heat")
     @classmethod
     def _layer_name(cls, value: str) -> str:
         bad = set('<>/\\":;?*|=`') & set(value)
@@ -468,6 +469,20 @@ class Shop(_Strict):
         0.0, description="mm added outside the net line per edge (one number: every edge), trimmed at erection")
     shrinkage: Annotated[float, Field(ge=0, le=1000)] | EdgeLengths = Field(
         0.0, description="mm added outside the net line per edge for weld shrinkage")
+    # formed plates (pipeline.shop.heating): AVEVA Hull's workshop method Contraction / Expansion /
+    # NoDeformation as the development's scale; "none" keeps the minimal-strain development as
+    # it was (every formed plate's outline unchanged), "contraction" is AVEVA's default
+    workshop_method: Literal["contraction", "expansion", "none"] = Field(
+        "none", description="formed plates: developed larger (forming only shrinks), smaller (only stretches) or "
+        "as the minimal-strain development")
+    heat_input: float = Field(2000.0, gt=0, le=100000, description="J/mm: net heat a heating line puts into the "
+                              "plate per mm of line (its shrinkage: alpha Q / (c rho h))")
+    heat_shrinkage: float | None = Field(None, gt=0, le=10, description="mm a heating line shrinks the plate across "
+                                         "it, measured by the yard (replaces the model)")
+    heat_strain: float = Field(1e-3, gt=0, le=0.1, description="required shrink strain above which a formed plate "
+                               "gets heating lines")
+    heat_spacing: float = Field(100.0, ge=20, le=5000, description="mm: closest heating lines")
+    heat_margin: float = Field(50.0, ge=0, le=1000, description="mm: heating lines end this far inside the edges")
 
     def allowance(self) -> dict:
         """{edge key: excess + shrinkage in mm} for c, d, start, end."""

@@ -14,7 +14,9 @@ developable devflat's strip fits the hull within the tolerance and covers the wh
             of a corner is solved again between the seams extended far past the butts;
 formed      neither: the region's own fine mesh flattened with minimal strain (libigl LSCM
             seed, then ARAP), with a strain map, shrink/stretch areas and roll lines;
-            ``rolling_only`` when its strain is small enough to be rolled without heating.
+            ``rolling_only`` when its strain is small enough to be rolled without heating;
+            sized by the workshop method (``shop.workshop_method``) and given heating lines
+            where it must shrink (:mod:`pipeline.shop.heating`).
 
 A plate is complete only when its delivered 3D shape holds its four corners and its whole
 region on the hull; any exception inside one plate makes that plate fail with the reason,
@@ -506,9 +508,14 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
     shape = grid.shape
-    uv_grid = uv_grid_flat.reshape(shape[0], shape[1], 2)
     v_grid = grid.points.reshape(-1, 3)
     f_grid = grid.faces()
+    welded = index[f_grid]
+    valid = (welded[:, 0] != welded[:, 1]) & (welded[:, 1] != welded[:, 2]) & (welded[:, 0] != welded[:, 2])
+    scale = 1.0
+    if kind == "patch" and config.spec.profile == "steel":  # the workshop method sizes the development
+        uv_grid_flat, scale = _workshop_scaled(v_grid, uv_grid_flat, f_grid, valid, config.spec.shop.workshop_method)
+    uv_grid = uv_grid_flat.reshape(shape[0], shape[1], 2)
     rot, shift = place_flat(uv_grid_flat, uv_grid[0])
     placed = uv_grid_flat @ rot.T + shift
     pg = placed.reshape(shape[0], shape[1], 2)
@@ -517,8 +524,6 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
     outline = outline[keep]
-    welded = index[f_grid]
-    valid = (welded[:, 0] != welded[:, 1]) & (welded[:, 1] != welded[:, 2]) & (welded[:, 0] != welded[:, 2])
     strains = strain_map(v_grid, placed, f_grid, shape, (size[0] * mm, size[1] * mm), mm, valid)
     misfit = strains["max_abs_strain"] * max(size)
     if kind == "patch":
@@ -576,6 +581,8 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     if not check["passed"]:
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
         return
+    if kind == "formed" and config.spec.profile == "steel":
+        result.figures["heating"] = _heating(v_grid, placed, f_grid, outline, part.steel, config, info, scale)
     finish_part(result, config)
     if cut is not None:
         _cut_figures(result, cut, placed, grid, config)
@@ -583,6 +590,32 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         from ..shop.plate import hull_templates
 
         hull_templates(result, config, grid.params, pg, outline, "double")
+
+
+def _workshop_scaled(v_grid, uv_flat, faces, valid, method: str):
+    """The patch development sized by the workshop method (:func:`pipeline.shop.heating.method_scale`:
+    contraction larger, every strain >= 0; expansion smaller, every strain <= 0; none as it
+    is), about its centroid; returns (uv, scale)."""
+    from ..shop.heating import method_scale, principal_strains
+
+    strains = principal_strains(v_grid, uv_flat, faces[valid])
+    scale = method_scale(strains.strain, strains.valid, method)
+    if scale == 1.0:
+        return uv_flat, 1.0
+    centre = uv_flat.mean(axis=0)
+    return centre + scale * (uv_flat - centre), scale
+
+
+def _heating(v_grid, placed, faces, outline, steel, config, info, scale) -> dict:
+    """The report's ``heating`` section of a formed plate (mm), its lines (placed flat plate,
+    mm) under ``polylines``: none when the plate rolls without heating (``rolling_only``)."""
+    from ..shop.heating import LineModel, heating_lines
+
+    shop, mm = config.spec.shop, config.mm_per_unit
+    model = LineModel(steel.thickness, shop.heat_input, shop.heat_shrinkage)
+    return heating_lines(v_grid * mm, placed * mm, faces, outline * mm, model, shop.workshop_method,
+                         shop.heat_strain, shop.heat_spacing, shop.heat_margin, scale,
+                         bool(info.get("rolling_only"))).figures
 
 
 def _clipped(rolls, frames, labels, outline):

@@ -4,7 +4,7 @@ Writes a :class:`pipeline.layout.Layout`: one closed LWPOLYLINE on the cut layer
 net line on its own layer when an allowance is cut), bending lines and their marks on the
 bend layer, frame lines and names on the frame layer, edge names and bevels on the edge
 layer, the part data on the text layer, a formed plate's shrink and stretch areas as
-closed outlines on their layers; $EXTMIN / $EXTMAX set to the drawing. The one
+closed outlines on their layers, its heating lines on the heat layer; $EXTMIN / $EXTMAX set to the drawing. The one
 module that talks to ezdxf for steel.
 """
 
@@ -20,7 +20,8 @@ from ezdxf.enums import TextEntityAlignment
 from ..io.atomic import atomic_path
 
 # red, blue, green, magenta, cyan, yellow, orange, blue-green
-LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6, "edge": 4, "net": 2, "shrink": 30, "stretch": 140}
+LAYER_COLOURS = {"cut": 1, "bend": 5, "text": 3, "frame": 6, "edge": 4, "net": 2, "shrink": 30, "stretch": 140,
+                 "heat": 10}  # heat: red-orange, the heating lines of a formed plate
 AREAS = ("shrink", "stretch")  # closed outlines of marked areas (formed plates)
 
 

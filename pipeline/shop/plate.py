@@ -287,8 +287,16 @@ def shop_layout(result, config, part_data: list[str]):
         from .marks import strain_areas
 
         areas = [(kind, ring * scale) for kind, ring, _ in strain_areas(strain, region["grid"], result.pattern.vertices)]
+    from .heating import layout_marks  # a formed plate's heating lines (MARK_HEAT) and its groups' texts
+
+    heat_lines, heat_texts = layout_marks(result.figures.get("heating"))
+    areas, part_data = areas + heat_lines, part_data + heat_texts
     layout = plate_layout(net, cut, edges, bends, frames, part_data, settings.text_height, butts,
                           settings.frame_clearance, areas)
+    if heat_lines:  # each group of heating lines named beside its lines, as its text calls it
+        from .heating import label_groups
+
+        layout.findings += label_groups(layout, result.figures.get("heating"), net, settings.text_height[0])
     stock = stock_check(cut, settings.stock, settings.stock_margin)
     result.figures["stock"] = stock
     if stock["fits_on"] is None:
