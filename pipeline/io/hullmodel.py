@@ -371,22 +371,42 @@ def brep_face(brep, face, scale: float, tolerance: float, index: int, name: str)
             outer = params
         else:
             inner.append(params)
-    if outer is not None and _is_rectangle(outer, surface):
+    if outer is not None and _is_rectangle(outer, surface) and _fills_rectangle(outer, surface):
         outer = None
     note = f"loops not read: {', '.join(skipped)}" if skipped else ""
     return HullFace(index, surface, outer, tuple(inner), trimmed_area(surface, outer, inner), note)
 
 
+def _fills_rectangle(loop: np.ndarray, surface: NurbsSurface, tol: float = 1e-7) -> bool:
+    """The loop's polygon has the parameter rectangle's area: a loop with few points (a
+    quadrilateral of straight edges) may have every point on the rectangle's sides and still
+    cut a corner off."""
+    from flatten.metrics import polygon_area
+
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    return polygon_area(loop) >= (1.0 - tol) * (u1 - u0) * (v1 - v0)
+
+
 def _loop_points(brep, loop, scale: float) -> np.ndarray:
-    """(N, 3) points around a Brep loop, mm: each trim's edge sampled in the trim's sense (a
+    """(N, 3) points around a Brep loop, mm: each trim's edge sampled in the trim's sense, a
+    curved edge at RHINO_SAMPLES_PER_EDGE points, a straight one (a polyline trim gives one
+    per segment) at the spacing of that many over the Brep's size, at least its two ends (a
     singular trim, at a collapsed side of the surface, has no edge and adds no point)."""
+    box = brep.GetBoundingBox()
+    spacing = float(np.linalg.norm(np.subtract(_xyz_rhino(box.Max), _xyz_rhino(box.Min)))) / RHINO_SAMPLES_PER_EDGE
     pieces = []
     for trim in loop.Trims:
         if trim.EdgeIndex < 0:
             continue
         edge = brep.Edges[trim.EdgeIndex]
         domain = edge.Domain
-        t = np.linspace(domain.T0, domain.T1, RHINO_SAMPLES_PER_EDGE)
+        count = RHINO_SAMPLES_PER_EDGE
+        if edge.IsLinear():
+            # its image in (u, v) is straight on a plane, and nearly so on any surface holding
+            # a straight line: a polyline of many short sides needs no 200 points a side
+            length = float(np.linalg.norm(np.subtract(_xyz_rhino(edge.PointAtEnd), _xyz_rhino(edge.PointAtStart))))
+            count = int(np.clip(np.ceil(length / max(spacing, 1e-300)) + 1, 2, RHINO_SAMPLES_PER_EDGE))
+        t = np.linspace(domain.T0, domain.T1, count)
         xyz = np.array([_xyz_rhino(edge.PointAt(float(s))) for s in t]) * scale
         pieces.append(xyz[::-1] if trim.IsReversed else xyz)
     return np.concatenate(pieces) if pieces else np.empty((0, 3))
