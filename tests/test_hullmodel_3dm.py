@@ -55,11 +55,17 @@ def ocp_area(face) -> float:
     return props.Mass()
 
 
-def test_a_trimmed_disc_reads_back_as_its_circle_and_area(tmp_path):
+@pytest.mark.parametrize("domain", [None, ((100.0, 200.0), (-7.0, -6.0))])
+def test_a_trimmed_disc_reads_back_as_its_circle_and_area(tmp_path, domain):
     """A plane trimmed by a circle of radius 5 m (the file in metres): the face is trimmed, its
     outer loop lies on the circle in 3D (mm), and its area is pi r^2 within 0.5 % (the loop is a
-    polygon of the sampled edge: 0.02 % short)."""
-    path = write_breps(tmp_path / "disc.3dm", [disc()], "Meters")
+    polygon of the sampled edge: 0.02 % short). The same with the face's parameters moved to
+    other intervals (the loop is found in whatever parameters the surface has)."""
+    brep = disc()
+    if domain is not None:
+        for direction, (lo, hi) in enumerate(domain):
+            assert brep.Faces[0].SetDomain(direction, rhino3dm.Interval(lo, hi))
+    path = write_breps(tmp_path / "disc.3dm", [brep], "Meters")
     (face,) = read_hull_model(path).faces
     assert face.trimmed and face.outer is not None and face.inner == () and face.trim_note == ""
     points = face.surface(face.outer[:, 0], face.outer[:, 1])
@@ -72,6 +78,24 @@ def test_a_trimmed_disc_reads_back_as_its_circle_and_area(tmp_path):
     assert face.area_mm2 == pytest.approx(exact, rel=5e-3)
     assert face.area_mm2 < exact  # the inscribed polygon, not the untrimmed square (100 m2)
     assert ocp_area(face) == pytest.approx(face.area_mm2, rel=1e-6)
+    if domain is not None:
+        assert (face.surface.domain_u, face.surface.domain_v) == domain
+
+
+def test_a_curved_untrimmed_brep_face_is_its_surface_and_area(tmp_path):
+    """The 160 m hull's side (one curved NURBS surface) as a Brep of one face, in metres: its
+    four edges project onto the surface's sides, so the face is untrimmed; its area is
+    OpenCascade's of the IGES face (3816.4 m2) within 1e-4."""
+    from pipeline.io.hullmodel import rhino_surface
+
+    iges = read_hull_model(DATA / "test_1_hull_exported.igs").faces[0]
+    s = iges.surface
+    metres = type(s)(s.degree_u, s.degree_v, s.poles / 1000.0, s.weights, s.knots_u, s.knots_v)
+    brep = rhino3dm.Brep.CreateFromSurface(rhino_surface(metres))
+    (face,) = read_hull_model(write_breps(tmp_path / "side.3dm", [brep], "Meters")).faces
+    assert not face.trimmed and face.trim_note == ""
+    assert face.area_mm2 == pytest.approx(iges.area_mm2, rel=1e-4)
+    assert face.area_mm2 * 1e-6 == pytest.approx(3816.4, rel=1e-3)
 
 
 def test_a_clockwise_polygon_s_reversed_trims_are_followed_in_their_sense(tmp_path):
