@@ -98,6 +98,24 @@ def test_a_curved_untrimmed_brep_face_is_its_surface_and_area(tmp_path):
     assert face.area_mm2 * 1e-6 == pytest.approx(3816.4, rel=1e-3)
 
 
+def test_a_patch_with_a_side_collapsed_to_a_point_is_untrimmed(tmp_path):
+    """A curved bow-like patch (degree 2 x 2) whose side u = 1 is one point (a stem): rhino3dm's
+    Brep has a singular trim there and its neighbours' edges end at the pole, where any v is
+    the closest point. The face reads untrimmed (the ends take v from their own edge), its
+    area OpenCascade's of the surface."""
+    from flatten.surface import nurbs_surface
+    from pipeline.io.hullmodel import rhino_surface
+
+    poles = np.array([[(1000.0 * i, 800.0 * j * (1 - i / 2), 100.0 * (j - 1) ** 2 * (1 - i / 2) + 50 * i)
+                       for j in range(3)] for i in range(3)])
+    surface = nurbs_surface(2, 2, poles, [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1])
+    brep = rhino3dm.Brep.CreateFromSurface(rhino_surface(surface))
+    assert -1 in [t.EdgeIndex for t in brep.Faces[0].OuterLoop.Trims]  # the singular trim
+    (face,) = read_hull_model(write_breps(tmp_path / "bow.3dm", [brep])).faces
+    assert not face.trimmed and face.trim_note == ""
+    assert face.area_mm2 == pytest.approx(ocp_area(face), rel=1e-4)
+
+
 def test_a_clockwise_polygon_s_reversed_trims_are_followed_in_their_sense(tmp_path):
     """A trapezoid given clockwise: rhino3dm's trims then run against their edges (IsReversed).
     The loop must go round the trapezoid without jumping (the edges taken in their own sense

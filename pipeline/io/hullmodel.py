@@ -29,7 +29,7 @@ EDGE_ON_FACE_MM = 1.0  # a .3dm Brep edge further off its face (and off Rhino's 
 # a .3dm edge is sampled finer than an OCP trim's 2D curve: the (u, v) loop is the polygon of
 # these points (a circle's polygon of 200 keeps 0.02 % less area than the circle)
 RHINO_SAMPLES_PER_EDGE = 200
-PROJECTION_STEPS = 100  # at most, of the closest-point search that finds a .3dm edge's (u, v)
+PROJECTION_STEPS = 100  # of the closest-point search for a .3dm edge's points not on the face after 12
 AREA_CELLS = 128  # per parameter direction, for the area of a .3dm face inside its trim
 CORNER_DEG = 20.0  # a .3dm loop turning more between samples has a corner: an edge ends there for sewing
 # Rhino's model units (rhino3dm.UnitSystem names) in millimetres
@@ -356,13 +356,17 @@ def brep_face(brep, face, scale: float, tolerance: float, index: int, name: str)
         if kind not in ("Outer", "Inner"):
             skipped.append(kind)
             continue
-        points = _loop_points(brep, loop, scale)
+        pieces = _loop_points(brep, loop, scale, tolerance)
+        points = np.concatenate(pieces) if pieces else np.empty((0, 3))
         if len(points) < 3:
             skipped.append(f"{kind} of {len(points)} points")
             continue
+        params, dist = distance.closest(points)
         # an edge point on the rectangle's side (clamped there) may take Gauss-Newton more than
         # the default 12 steps (the 160 m hull's stern corner: 10.5 mm off after 12, 1e-10 after 20)
-        params, dist = distance.closest(points, iterations=PROJECTION_STEPS, converged=1e-12)
+        slow = dist > 1e-3 * tolerance
+        if slow.any():
+            params[slow], dist[slow] = distance.closest(points[slow], iterations=PROJECTION_STEPS)
         worst = int(np.argmax(dist))
         if dist[worst] > tolerance:
             x, y, z = points[worst]
@@ -370,6 +374,7 @@ def brep_face(brep, face, scale: float, tolerance: float, index: int, name: str)
                             f"its {kind.lower()} loop's edges lie up to {dist[worst]:.4g} mm off the face (at "
                             f"({x:.1f}, {y:.1f}, {z:.1f}) mm; tolerance {tolerance:g} mm): the trim is not read, "
                             f"the untrimmed surface")
+        params = np.concatenate(_pin_poles(surface, np.split(params, np.cumsum([len(p) for p in pieces])[:-1])))
         if kind == "Outer":
             outer = params
         else:
@@ -390,11 +395,13 @@ def _fills_rectangle(loop: np.ndarray, surface: NurbsSurface, tol: float = 1e-7)
     return polygon_area(loop) >= (1.0 - tol) * (u1 - u0) * (v1 - v0)
 
 
-def _loop_points(brep, loop, scale: float) -> np.ndarray:
-    """(N, 3) points around a Brep loop, mm: each trim's edge sampled in the trim's sense, a
+def _loop_points(brep, loop, scale: float, tolerance: float) -> list[np.ndarray]:
+    """Points (M, 3) of each trim of a Brep loop, mm: its edge sampled in the trim's sense, a
     curved edge at RHINO_SAMPLES_PER_EDGE points, a straight one (a polyline trim gives one
-    per segment) at the spacing of that many over the Brep's size, at least its two ends (a
-    singular trim, at a collapsed side of the surface, has no edge and adds no point)."""
+    per segment) at the spacing of that many over the Brep's size, at least its two ends. A
+    singular trim (no edge) and an edge shorter than ``tolerance`` (a side of the surface
+    collapsed to a point: the stem of a bow patch) add no points: their (u, v) is a whole
+    side of the rectangle, which the neighbouring trims' ends give (:func:`_pin_poles`)."""
     box = brep.GetBoundingBox()
     spacing = float(np.linalg.norm(np.subtract(_xyz_rhino(box.Max), _xyz_rhino(box.Min)))) / RHINO_SAMPLES_PER_EDGE
     pieces = []
@@ -411,8 +418,37 @@ def _loop_points(brep, loop, scale: float) -> np.ndarray:
             count = int(np.clip(np.ceil(length / max(spacing, 1e-300)) + 1, 2, RHINO_SAMPLES_PER_EDGE))
         t = np.linspace(domain.T0, domain.T1, count)
         xyz = np.array([_xyz_rhino(edge.PointAt(float(s))) for s in t]) * scale
+        if np.linalg.norm(np.diff(xyz, axis=0), axis=1).sum() <= tolerance:
+            continue
         pieces.append(xyz[::-1] if trim.IsReversed else xyz)
-    return np.concatenate(pieces) if pieces else np.empty((0, 3))
+    return pieces
+
+
+def _pin_poles(surface: NurbsSurface, pieces: list[np.ndarray]) -> list[np.ndarray]:
+    """Each trim's (u, v) (M, 2) with its ends at a pole mended: where a side of the surface
+    is collapsed to a point, every parameter along that side is the point, and the closest-
+    point search returns any of them; the end takes that parameter from its neighbour on
+    the trim (the trim's own direction into the pole)."""
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    size = float(np.ptp(surface.poles.reshape(-1, 3), axis=0).max())
+    out = []
+    for uv in pieces:
+        uv = uv.copy()
+        if len(uv) >= 2:
+            ends = uv[[0, -1]]
+            hu, hv = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
+            u = np.clip(ends[:, 0], u0 + hu, u1 - hu)
+            v = np.clip(ends[:, 1], v0 + hv, v1 - hv)
+            # how far the point moves over the whole domain of each parameter, there
+            along_u = np.linalg.norm(surface(u + hu, v) - surface(u - hu, v), axis=1) / (2e-6)
+            along_v = np.linalg.norm(surface(u, v + hv) - surface(u, v - hv), axis=1) / (2e-6)
+            for k, (end, near) in enumerate(((0, 1), (-1, -2))):
+                if along_u[k] <= 1e-6 * size:
+                    uv[end, 0] = uv[near, 0]
+                if along_v[k] <= 1e-6 * size:
+                    uv[end, 1] = uv[near, 1]
+        out.append(uv)
+    return out
 
 
 def _xyz_rhino(point) -> tuple[float, float, float]:
