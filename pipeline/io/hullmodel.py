@@ -5,6 +5,8 @@ Every face becomes a :class:`HullFace`: its underlying surface as a
 :class:`flatten.surface.NurbsSurface` in millimetres, its trim as loops in the surface's
 parameters, and its area inside the trim. OpenCascade gives IGES and STEP geometry in
 millimetres whatever the file's unit; a .3dm file's model unit is read from its settings.
+rhino3dm gives a Brep's trims no parameter curves: a .3dm face's loops are rebuilt from its
+edges (3D curves) projected onto its surface, and its area is measured over them.
 
 OCP is ~150 MB and takes a second or more to import: it is imported only here, only when a
 model file is read. Our own IGES reader (:mod:`.iges`) stays for picking single entities
@@ -48,7 +50,8 @@ class HullFace:
     surface : the face's underlying NURBS surface, mm
     outer : (N, 2) the trim's outer loop in (u, v), or None when it is the whole rectangle
     inner : holes, each (M, 2) in (u, v)
-    area_mm2 : the face's area inside its trim (OpenCascade's, or the surface's for .3dm)
+    area_mm2 : the face's area inside its trim (OpenCascade's; for .3dm, the surface's over
+        the loops, :func:`trimmed_area`)
     """
 
     index: int
@@ -412,8 +415,9 @@ def _loop_points(brep, loop, scale: float, tolerance: float) -> list[np.ndarray]
         domain = edge.Domain
         count = RHINO_SAMPLES_PER_EDGE
         if edge.IsLinear():
-            # its image in (u, v) is straight on a plane, and nearly so on any surface holding
-            # a straight line: a polyline of many short sides needs no 200 points a side
+            # a polyline trim of many short sides (one edge each) needs no 200 points a side;
+            # a long straight side keeps the spacing (its (u, v) image is straight only where
+            # the surface is parametrised evenly along it)
             length = float(np.linalg.norm(np.subtract(_xyz_rhino(edge.PointAtEnd), _xyz_rhino(edge.PointAtStart))))
             count = int(np.clip(np.ceil(length / max(spacing, 1e-300)) + 1, 2, RHINO_SAMPLES_PER_EDGE))
         t = np.linspace(domain.T0, domain.T1, count)
