@@ -498,6 +498,8 @@ def surface_from_rhino(surface, scale: float, name: str) -> NurbsSurface:
     """A rhino3dm NurbsSurface as ours, coordinates times ``scale`` (to mm). OpenNURBS keeps
     no end knots beyond the degree's: one is added at each end (clamped or not, the spline
     on its domain does not depend on it)."""
+    if surface is None:  # ToNurbsSurface() of a surface OpenNURBS cannot convert
+        raise HullModelError(f"{name}: rhino3dm gives no NURBS form of the surface")
     nu, nv = surface.Points.CountU, surface.Points.CountV
     poles, weights = np.empty((nu, nv, 3)), np.empty((nu, nv))
     for i in range(nu):
