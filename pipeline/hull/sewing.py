@@ -194,14 +194,13 @@ def _normals(surface, params: np.ndarray) -> np.ndarray:
 
 
 def _shapes(model: HullModel) -> list:
-    """The model's OpenCascade faces; a .3dm model's are built from its surfaces."""
+    """The model's OpenCascade faces; a .3dm model's are built from its surfaces, bounded by
+    their trims' loops."""
     if model.shape is not None:
         return ocp_faces(model.shape)
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from ..io.hullmodel import ocp_trimmed_face
 
-    from ..io.hullmodel import ocp_surface
-
-    return [BRepBuilderAPI_MakeFace(ocp_surface(f.surface), 1e-6).Face() for f in model.faces]
+    return [ocp_trimmed_face(f.surface, f.outer, f.inner) for f in model.faces]
 
 
 def _face_summary(face: HullFace) -> dict:
