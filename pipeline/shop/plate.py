@@ -376,7 +376,8 @@ def shop_drawing(result, config, layout, target):
     from .drawing import write_shop_drawing
 
     plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
-    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b, b.station)
+             for b in plate.bending]
     steel = result.figures.get("steel") or {}
     data = [f"PART {result.name}   THK {steel.get('thickness_mm', 0):g} MM   MAT {steel.get('material', '')}",
             f"NET AREA {steel.get('area_m2', 0):.3f} M2   WEIGHT {steel.get('weight_kg', 0):.1f} KG",
@@ -401,6 +402,7 @@ def shop_drawing(result, config, layout, target):
         names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
         names.update(edge_names(result, config.spec.shop))
         edges = {text: plate.outline.edge_points(key) for key, text in names.items()}
-    info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges)
+    info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges,
+                              result.templates)
     result.figures["layout"].setdefault("drawings", []).append(info)
     return target
