@@ -419,13 +419,16 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     columns = _table_columns(rows) if rows else np.zeros(len(TABLE_HEAD))
     data = [f"SCALE 1:{{scale}}   {{paper}} LANDSCAPE   DIMENSIONS IN MM   "
             "PLATE LAID LENGTHWISE, EDGE D UP, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
-    if rows:
-        data.append("BENDING LINE TABLE ON PAGE 2")  # room for the line, whether or not it is said
+    if rows:  # room for these lines, whether or not they are said
+        data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) "
+                 + ", ".join(["B00-B00: 00 x 000 = 00000"] * 2)]
     sheet = choose_sheet(span, bands, len(rows), float(columns.sum()), data)
     scale, pw, ph, title_h = sheet.scale, sheet.width, sheet.height, sheet.title_height
     data[0] = data[0].format(scale=scale, paper=sheet.paper)
-    if rows and sheet.table_rows:
+    if rows:
         data.pop()
+        if sheet.table_rows:
+            data.pop()
     page = Page(pw, ph)
     page.add("rule", [np.array([[MARGIN, MARGIN], [pw - MARGIN, MARGIN], [pw - MARGIN, ph - MARGIN],
                                 [MARGIN, ph - MARGIN], [MARGIN, MARGIN]])])
@@ -499,18 +502,18 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     for p in page.circles:
         placer.boxes = np.vstack([placer.boxes, [p[0] - p[2], p[1] - p[2], p[0] + p[2], p[1] + p[2]]])
     length_text, width_text = f"{span[0]:.0f}", f"{span[1]:.0f}"
-    slide = np.array([0.0, 0.25, -0.25, 0.4, -0.4])
-    for text, centres, angle in (
-            (length_text, np.column_stack([0.5 * (plo[0] + phi[0]) + slide * (phi[0] - plo[0]),
-                                           np.full(5, y_dim - GAP - 0.5 * em - 0.01)]), 0),
-            (width_text, np.column_stack([np.full(5, x_dim - GAP - 0.5 * em - 0.01),
-                                          0.5 * (plo[1] + phi[1]) + slide * (phi[1] - plo[1])]), 90)):
-        label = placer.place(text, centres, angle)
+    for text, axis, across, lo_, hi_ in ((length_text, 0, y_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[0], phi[0]),
+                                         (width_text, 1, x_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[1], phi[1])):
+        # in the middle, slid along, or beyond the extension lines where the plate is narrow
+        half = 0.5 * text_width(text) + 1.5
+        along = 0.5 * (lo_ + hi_) + np.array([0.0, 0.25, -0.25, 0.4, -0.4]) * (hi_ - lo_)
+        along = np.concatenate([along, [hi_ + half, lo_ - half]])
+        centres = np.column_stack([along, np.full(len(along), across)])[:, ::(1 if axis == 0 else -1)]
+        label = placer.place(text, centres, 90 * axis)
         if label is None:
             findings.append(f"overall dimension {text}: no room")
         else:
             page.labels.append(label)
-    offsets = GAP + 0.05 + np.arange(4)[:, None] * 0.0
     # B-numbers beyond the d ends, rows further out where the lines are close
     for bend, row in zip(bends, rows):
         a, b = paper(bend[2]), paper(bend[3])
@@ -519,7 +522,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         text = f"B{row.number}"
         size = _size(text, H_LABEL, angle)
         step = abs(u[0]) * size[0] + abs(u[1]) * size[1] + GAP
-        offsets = GAP + 0.05 + step * np.arange(4)
+        offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 4)])
         label = placer.place(text, _beyond(b, u, text, angle, offsets), angle, style="tab:blue")
         if label is None:  # beyond the c end
             label = placer.place(text, _beyond(a, -u, text, angle, offsets), angle, style="tab:blue")
@@ -536,7 +539,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         angle = _axis_angle(u)
         size = _size(name, H_LABEL, angle)
         step = abs(u[0]) * size[0] + abs(u[1]) * size[1] + GAP
-        offsets = GAP + 0.05 + step * np.arange(3)
+        offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 3)])
         label = placer.place(name, _beyond(p[0], u, name, angle, offsets), angle, style="dimgrey")
         if label is None:
             label = placer.place(name, _beyond(p[-1], -u, name, angle, offsets), angle, style="dimgrey")
@@ -580,6 +583,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         else:
             page.labels.append(label)
     # the spacing chain's figures along the centre line
+    chain_notes = []
     if len(mids) >= 2 and rows:
         steps = np.diff([r.station for r in rows])
         runs, k = [], 0
@@ -609,8 +613,8 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
                 continue
             placer.boxes = placer.boxes[:kept]
             label = _chain_label(placer, text, mids[k], mids[j + 1], mids, near=False)
-            if label is None:
-                findings.append(f"spacing {text}: no room along the centre line")
+            if label is None:  # said in the title block (its room kept)
+                chain_notes.append(f"B{rows[k].number}-B{rows[j + 1].number}: {text}")
             else:
                 page.labels.append(label)
     # texts of mark kinds the drawing does not know (their module's), near where they are
@@ -626,6 +630,8 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             findings.append(f"{t.kind} text {t.text!r}: no room")
         else:
             page.labels.append(label)
+    if chain_notes:
+        data.insert(1, "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) " + ", ".join(chain_notes))
     pages = [page]
     left = list(rows)
     note = PAGE_NUMBER
