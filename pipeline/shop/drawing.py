@@ -419,6 +419,9 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     columns = _table_columns(rows) if rows else np.zeros(len(TABLE_HEAD))
     data = [f"SCALE 1:{{scale}}   {{paper}} LANDSCAPE   DIMENSIONS IN MM   "
             "PLATE LAID LENGTHWISE, EDGE D UP, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
+    if rows and np.isfinite(rows[0].on_c):
+        data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "
+                    "AT CL: STATION ALONG THE CENTRE LINE")
     if rows:  # room for these lines, whether or not they are said
         data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) "
                  + ", ".join(["B00-B00: 00 x 000 = 00000"] * 2)]
@@ -471,11 +474,12 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             t = np.array([u[0] - u[1], u[0] + u[1]]) * 0.9  # an oblique tick (45 degrees) on the line
             ticks.append(np.array([m - t, m + t]))
         page.add("dim", ticks)
-    if len(edges) >= 2 and rows and np.isfinite(rows[0].on_c):
+    if rows and np.isfinite(rows[0].on_c):
         c, d = (paper(edges[n]) for n in list(edges)[:2])
         if np.linalg.norm(d[-1] - c[0]) < np.linalg.norm(d[0] - c[0]):
             d = d[::-1]
         page.circles += [(float(c[0][0]), float(c[0][1]), 1.0), (float(d[0][0]), float(d[0][1]), 1.0)]
+
     # overall dimensions outside the bands
     plo, phi = pcut.min(axis=0), pcut.max(axis=0)
     em = H_LABEL / CAP
@@ -501,6 +505,14 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
                          + [a[2] for a in page.areas])
     for p in page.circles:
         placer.boxes = np.vstack([placer.boxes, [p[0] - p[2], p[1] - p[2], p[0] + p[2], p[1] + p[2]]])
+    for x, y, r in page.circles:  # the ordinates' origins
+        ring8 = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
+        around = np.array([x, y]) + (r + GAP + 2.2) * np.column_stack([np.cos(ring8), np.sin(ring8)])
+        label = placer.place("0", np.vstack([around, np.array([x, y]) + 2.0 * (around - [x, y])]), 0)
+        if label is None:
+            findings.append("ordinates' origin 0: no room")
+        else:
+            page.labels.append(label)
     length_text, width_text = f"{span[0]:.0f}", f"{span[1]:.0f}"
     for text, axis, across, lo_, hi_ in ((length_text, 0, y_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[0], phi[0]),
                                          (width_text, 1, x_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[1], phi[1])):
@@ -676,8 +688,12 @@ def _chain_label(placer: PaperPlacer, text: str, a: np.ndarray, b: np.ndarray, m
 
 
 def _frame_names(layout) -> list[str]:
-    """The name of each frame line of the layout (its text 'FR X' where the layout placed
-    one, else the nearest frame text; 'FR' when none)."""
+    """The name of each frame line of the layout (its ``frame_names``; for a layout without
+    them the nearest frame text, 'FR' when none)."""
+    count = sum(1 for kind, _ in layout.lines if kind == "frame")
+    named = list(getattr(layout, "frame_names", []) or [])
+    if len(named) == count:
+        return named
     texts = [t for t in layout.texts if t.kind == "frame"]
     names = []
     for kind, line in layout.lines:
