@@ -418,7 +418,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     bands = _bands(rows, frame_names, list(edges))
     columns = _table_columns(rows) if rows else np.zeros(len(TABLE_HEAD))
     data = [f"SCALE 1:{{scale}}   {{paper}} LANDSCAPE   DIMENSIONS IN MM   "
-            "PLATE LAID LENGTHWISE, EDGE D UP, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
+            "PLATE LAID LENGTHWISE, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
     if rows and np.isfinite(rows[0].on_c):
         data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "
                     "AT CL: STATION ALONG THE CENTRE LINE")

@@ -368,6 +368,7 @@ def mirrored(layout, side_of_model: str):
     out.net = None if layout.net is None else flip(layout.net)[::-1]
     out.lines = [(k, flip(line)) for k, line in layout.lines]
     out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle)) for t in layout.texts]
+    out.mirror_width = width  # the drawing flips the plate's own marks (bending lines, edges) the same way
     return out
 
 
@@ -402,6 +403,13 @@ def shop_drawing(result, config, layout, target):
         names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
         names.update(edge_names(result, config.spec.shop))
         edges = {text: plate.outline.edge_points(key) for key, text in names.items()}
+    width = getattr(layout, "mirror_width", None)
+    if width is not None:  # the other side's plate: its marks where the mirrored layout has them
+        def flip(p):
+            return np.array([width - p[..., 0], p[..., 1]]).T if np.ndim(p) == 2 else np.array([width - p[0], p[1]])
+
+        bends = [(n, m, flip(np.asarray(a)), flip(np.asarray(b)), s) for n, m, a, b, s in bends]
+        edges = {k: flip(np.asarray(v)) for k, v in edges.items()}
     info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges,
                               result.templates)
     result.figures["layout"].setdefault("drawings", []).append(info)
