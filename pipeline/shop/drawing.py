@@ -847,10 +847,32 @@ def _render(target, pages: list[Page], title: str) -> None:
                                                      linewidths=0.4))
                 for x, y, r in page.circles:
                     ax.add_patch(_circle(x, y, r))
-                for lb in page.labels:
-                    ax.text(lb.x, lb.y, lb.text, fontsize=lb.h / CAP * PT, rotation=lb.angle, rotation_mode="anchor",
-                            ha="left", va="baseline", color=lb.style)
+                ax.add_artist(_labels_artist(page.labels, ax))
                 pdf.savefig(fig)
+
+
+def _labels_artist(labels: list, ax):
+    """One artist that writes every label straight through the renderer (baseline start at
+    the anchor, turned by its angle): a matplotlib Text per label would lay each out again,
+    at several times the cost, to the same place."""
+    from matplotlib.artist import Artist
+    from matplotlib.font_manager import FontProperties
+
+    class Labels(Artist):
+        def draw(self, renderer):
+            gc = renderer.new_gc()
+            props = {}
+            xy = ax.transData.transform(np.array([(lb.x, lb.y) for lb in labels]).reshape(-1, 2))
+            for lb, (x, y) in zip(labels, xy):
+                size = lb.h / CAP * PT
+                prop = props.get(size)
+                if prop is None:
+                    prop = props[size] = FontProperties(family="sans-serif", size=size)
+                gc.set_foreground(lb.style)
+                renderer.draw_text(gc, float(x), float(y), lb.text, prop, lb.angle)
+            gc.restore()
+
+    return Labels()
 
 
 def _circle(x, y, r):
