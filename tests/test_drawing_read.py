@@ -215,3 +215,21 @@ def test_a_long_table_continues_on_the_next_page(tmp_path):
     assert all(table[k][0] == pytest.approx(xs[k - 1] + 15.0, abs=0.5) for k in table)
     assert {f"R{96076 - 1000 * k}" for k in range(60)} <= set().union(*words)
     assert {f"{x:g}" for x in np.arange(2500.0, 20000.0, 2500.0)} <= words[0]
+
+
+@pytest.mark.parametrize("fault", ["overlap", "on a line", "too small", "outside"])
+def test_the_reader_finds_each_fault(tmp_path, fault):
+    """The checks above fail on a page that breaks their rule (drawn by the same renderer)."""
+    from pipeline.shop.drawing import Label, Page, draw_pages
+
+    page = Page(297.0, 210.0)
+    page.add("cut", [np.array([[50.0, 50.0], [150.0, 50.0]])])
+    page.labels.append(Label("B12", 100.0, 100.0))
+    page.labels.append({"overlap": Label("FR 2500", 102.0, 100.5, angle=90), "on a line": Label("B7", 60.0, 49.5),
+                        "too small": Label("B7", 60.0, 150.0, h=1.8), "outside": Label("B7", 5.0, 150.0)}[fault])
+    draw_pages(tmp_path / "f.pdf", [page], "FAULT")
+    with pytest.raises(AssertionError):
+        check_readable(tmp_path / "f.pdf")
+    page.labels.pop()
+    draw_pages(tmp_path / "ok.pdf", [page], "FAULT")
+    assert {"B12"} <= check_readable(tmp_path / "ok.pdf")[0]
