@@ -413,4 +413,6 @@ def shop_drawing(result, config, layout, target):
     info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges,
                               result.templates)
     result.figures["layout"].setdefault("drawings", []).append(info)
+    if info.get("not_placed"):  # a label the drawing found no room for is a finding, never drawn across
+        result.warnings.append(f"{info['file']}: " + "; ".join(info["not_placed"]))
     return target
