@@ -288,10 +288,11 @@ def _bands(rows: list[BendRow], frames: list[str], edge_names: list[str]) -> np.
     longest_b = max((text_width(f"B{r.number}") for r in rows), default=0.0)
     longest_f = max((text_width(f) for f in frames), default=0.0)
     edge = em + 2 * GAP if edge_names else 0.0
-    top = 3 * (longest_b + GAP) + GAP + edge
-    bottom = longest_f + 2 * GAP + edge + em + 4 * GAP + 2.0
-    side = em + 2 * GAP + em + 4 * GAP + 2.0
-    return np.array([side + edge, bottom, edge + 2 * GAP, top])
+    dim = em + 4 * GAP + 2.0  # an overall dimension with its figure, on either side
+    top = 3 * (longest_b + GAP) + GAP + edge + dim
+    bottom = longest_f + 2 * GAP + edge + dim
+    side = em + 2 * GAP + edge + dim
+    return np.array([side, bottom, side, top])
 
 
 def _table_columns(rows: list[BendRow]) -> np.ndarray:
@@ -480,27 +481,36 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             d = d[::-1]
         page.circles += [(float(c[0][0]), float(c[0][1]), 1.0), (float(d[0][0]), float(d[0][1]), 1.0)]
 
-    # overall dimensions outside the bands
+    # overall dimensions outside the bands, each on the side its extension lines are shortest
     plo, phi = pcut.min(axis=0), pcut.max(axis=0)
     em = H_LABEL / CAP
-    y_dim = plo[1] - bands[1] + em + 3 * GAP + 1.0
-    x_dim = plo[0] - bands[0] + em + 3 * GAP + 1.0
-    left_x = pcut[np.argmin(pcut[:, 0])]
-    right_x = pcut[np.argmax(pcut[:, 0])]
-    bottom_y = pcut[np.argmin(pcut[:, 1])]
-    top_y = pcut[np.argmax(pcut[:, 1])]
-    page.add("dim", [np.array([[plo[0], y_dim], [phi[0], y_dim]]),
-                     np.array([[left_x[0], left_x[1] - GAP], [left_x[0], y_dim - 1.0]]),
-                     np.array([[right_x[0], right_x[1] - GAP], [right_x[0], y_dim - 1.0]]),
-                     np.array([[x_dim, plo[1]], [x_dim, phi[1]]]),
-                     np.array([[bottom_y[0] - GAP, bottom_y[1]], [x_dim - 1.0, bottom_y[1]]]),
-                     np.array([[top_y[0] - GAP, top_y[1]], [x_dim - 1.0, top_y[1]]])])
-    ends = []
-    for x in (plo[0], phi[0]):
-        ends.append(np.array([[x - 0.7, y_dim - 0.7], [x + 0.7, y_dim + 0.7]]))
-    for y in (plo[1], phi[1]):
-        ends.append(np.array([[x_dim - 0.7, y - 0.7], [x_dim + 0.7, y + 0.7]]))
-    page.add("dim", ends)
+    inset = em + 3 * GAP + 1.0  # from the band's outer edge to the dimension line
+    dims = []  # (text, axis, line position, side)
+    for axis in (0, 1):
+        other = 1 - axis
+        near_lo = pcut[pcut[:, axis] <= plo[axis] + 0.3]  # the extreme points at each end of the span
+        near_hi = pcut[pcut[:, axis] >= phi[axis] - 0.3]
+        best = None
+        for side in (-1, 1):  # below / left, above / right
+            pick = np.argmin if side < 0 else np.argmax
+            ends = [near_lo[pick(near_lo[:, other])], near_hi[pick(near_hi[:, other])]]
+            line = (plo[other] - bands[0 if other == 0 else 1] + inset if side < 0
+                    else phi[other] + bands[2 if other == 0 else 3] - inset)
+            cost = sum(abs(e[other] - line) for e in ends)
+            if best is None or cost < best[0]:
+                best = (cost, side, line, ends)
+        _, side, line, ends = best
+        segs = []
+        for e, v in zip(ends, (plo[axis], phi[axis])):
+            start = e[other] + side * GAP
+            stop = line + side * 1.0
+            ext = np.array([[v, start], [v, stop]]) if axis == 0 else np.array([[start, v], [stop, v]])
+            tick = np.array([[v - 0.7, line - 0.7], [v + 0.7, line + 0.7]])
+            segs += [ext, tick if axis == 0 else tick[:, ::-1]]
+        main = np.array([[plo[axis], line], [phi[axis], line]])
+        segs.append(main if axis == 0 else main[:, ::-1])
+        page.add("dim", segs)
+        dims.append((f"{span[axis]:.0f}", axis, line, side))
     placer = PaperPlacer(area, [p for style in page.lines.values() for p in style]
                          + [a[2] for a in page.areas])
     for p in page.circles:
@@ -513,9 +523,9 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             findings.append("ordinates' origin 0: no room")
         else:
             page.labels.append(label)
-    length_text, width_text = f"{span[0]:.0f}", f"{span[1]:.0f}"
-    for text, axis, across, lo_, hi_ in ((length_text, 0, y_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[0], phi[0]),
-                                         (width_text, 1, x_dim - 1.0 - GAP - 0.5 * em - 0.01, plo[1], phi[1])):
+    for text, axis, line, side in dims:
+        lo_, hi_ = plo[axis], phi[axis]
+        across = line + side * (1.0 + GAP + 0.5 * em + 0.01)
         # in the middle, slid along, or beyond the extension lines where the plate is narrow
         half = 0.5 * text_width(text) + 1.5
         along = 0.5 * (lo_ + hi_) + np.array([0.0, 0.25, -0.25, 0.4, -0.4]) * (hi_ - lo_)
@@ -748,8 +758,8 @@ def template_pages(title: str, templates, pw: float, ph: float) -> list[Page]:
         prof = np.asarray(t.profile, dtype=float)
         h_all = np.concatenate([prof[:, 1], [0.0], np.nan_to_num(np.asarray(t.sight, float))])
         lo_h, hi_h = float(h_all.min()) / scale, float(h_all.max()) / scale
-        figures = [f"{v:.0f}" for v in t.heights]
-        stations = [f"{v:.0f}" for v in t.stations]
+        figures = [f"{round(float(v)) + 0:.0f}" for v in t.heights]  # no "-0"
+        stations = [f"{round(float(v)) + 0:.0f}" for v in t.stations]
         cell = max([text_width(s) for s in figures + stations] + [1.0]) + 2.0
         per_row = max(int((width - text_width("HEIGHT  ")) // cell), 1)
         table_rows = 2 * int(np.ceil(len(figures) / per_row))
