@@ -129,15 +129,19 @@ class Page:
 
 class PaperPlacer:
     """Places label boxes inside ``bounds`` (x0, y0, x1, y1 paper mm), each GAP clear of the
-    boxes placed before and of every segment of ``polylines``."""
+    boxes placed before, of every segment of ``polylines`` and of the ``areas`` (rings,
+    their insides included)."""
 
-    def __init__(self, bounds, polylines):
+    def __init__(self, bounds, polylines, areas=()):
         import shapely
 
         self.bounds = np.asarray(bounds, dtype=float)
         segs = [np.stack([p[:-1], p[1:]], axis=1) for p in polylines if len(p) >= 2]
         segs = np.concatenate(segs) if segs else np.zeros((0, 2, 2))
-        self.tree = shapely.STRtree(shapely.linestrings(segs)) if len(segs) else None
+        # hatched areas whole: a text on their hatching is not read
+        geoms = list(shapely.linestrings(segs)) if len(segs) else []
+        geoms += [shapely.Polygon(ring).buffer(0) for ring in areas if len(ring) >= 3]
+        self.tree = shapely.STRtree(geoms) if geoms else None
         self.boxes = np.zeros((0, 4))
 
     def first_free(self, boxes: np.ndarray) -> int | None:
@@ -425,7 +429,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
                     "AT CL: STATION ALONG THE CENTRE LINE")
     if rows:  # room for these lines, whether or not they are said
         data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) "
-                 + ", ".join(["B00-B00: 00 x 000 = 00000"] * 2)]
+                 + ", ".join([f"B{r.number}-B{r.number}: 00000" for r in rows[1:]] or ["B0-B0: 0"])]
     sheet = choose_sheet(span, bands, len(rows), float(columns.sum()), data)
     scale, pw, ph, title_h = sheet.scale, sheet.width, sheet.height, sheet.title_height
     data[0] = data[0].format(scale=scale, paper=sheet.paper)
@@ -511,8 +515,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         segs.append(main if axis == 0 else main[:, ::-1])
         page.add("dim", segs)
         dims.append((f"{span[axis]:.0f}", axis, line, side))
-    placer = PaperPlacer(area, [p for style in page.lines.values() for p in style]
-                         + [a[2] for a in page.areas])
+    placer = PaperPlacer(area, [p for style in page.lines.values() for p in style], [a[2] for a in page.areas])
     for p in page.circles:
         placer.boxes = np.vstack([placer.boxes, [p[0] - p[2], p[1] - p[2], p[0] + p[2], p[1] + p[2]]])
     for x, y, r in page.circles:  # the ordinates' origins
@@ -620,9 +623,12 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             n, value = j - k + 1, round(float(steps[k]))
             text = f"{value:g}" if n == 1 else f"{n} x {value:g} = {n * value:g}"
             texts.append((text, k, j))
+        # each step's figure between its two lines, or a run's "n x s = total" beside it; where
+        # one finds no room there, the chain's only run goes beyond the chain's ends, and a chain
+        # of several runs is written in the title block (figures away from their steps mislead)
+        chain_start = len(placer.boxes)
+        chain_labels = []
         for text, k, j in texts:
-            # each step's figure between its two lines where all of the run's fit, else the run's
-            # "n x s = total" beside the chain or beyond its ends, on the centre line
             kept = len(placer.boxes)
             single = []
             for i in range(k, j + 1) if j > k else ():
@@ -631,14 +637,18 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
                     break
                 single.append(label)
             if j > k and len(single) == j - k + 1:
-                page.labels += single
+                chain_labels += single
                 continue
             placer.boxes = placer.boxes[:kept]
-            label = _chain_label(placer, text, mids[k], mids[j + 1], mids, near=False)
-            if label is None:  # said in the title block (its room kept)
-                chain_notes.append(f"B{rows[k].number}-B{rows[j + 1].number}: {text}")
-            else:
-                page.labels.append(label)
+            label = _chain_label(placer, text, mids[k], mids[j + 1], mids, near=len(texts) > 1)
+            if label is None:
+                break
+            chain_labels.append(label)
+        if len(chain_labels) and (label is not None):
+            page.labels += chain_labels
+        else:  # said in the title block (its room kept)
+            placer.boxes = placer.boxes[:chain_start]
+            chain_notes = [f"B{rows[k].number}-B{rows[j + 1].number}: {text}" for text, k, j in texts]
     # texts of mark kinds the drawing does not know (their module's), near where they are
     for t in layout.texts:
         if t.kind in ("text", "edge", "bend", "frame"):
