@@ -6,7 +6,7 @@ standard scale that draws it largest; orientation, paper and scale are chosen to
 with the room the labels and the bending-line table need. Every text is written at a fixed
 paper height (ISO 3098: 2.5 mm capital height for labels and tables, 3.5 and 5 mm for
 headings), upright or turned 90 degrees, and placed on the paper clear of every other text
-and every drawn line (:class:`PaperPlacer`): B-numbers beyond the d end of their lines,
+and every drawn line (:class:`pipeline.shop.paper.PaperPlacer`): B-numbers beyond the d end of their lines,
 frame names beyond the c end, edge names outside their edges, in as many rows as their
 spacing needs. The bending lines' spacing is dimensioned along the centre line where it is
 defined (a chain line through the lines' middles); the table (B-number, radius, CVX/CCV, the
@@ -22,7 +22,6 @@ One ``Figure`` per page with the PDF canvas and the 14 core fonts (nothing embed
 
 from __future__ import annotations
 
-import functools
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,15 +30,13 @@ import numpy as np
 
 from ..io.atomic import atomic_path
 from ..renderproc import render
+from .paper import (CAP, DESCENT, GAP, H_HEAD, H_LABEL, H_TITLE, PITCH, Label, PaperPlacer, axis_angle, beyond,
+                    label_in, size_of, text_width, unit)
 
 PAPERS = (("A4", 297.0, 210.0), ("A3", 420.0, 297.0))  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 5000)
 MARGIN = 10.0  # mm of paper outside the frame
 PAD = 3.0  # mm between the frame (or a block's rule) and what is inside
-H_LABEL, H_HEAD, H_TITLE = 2.5, 3.5, 5.0  # capital heights (ISO 3098), paper mm
-CAP, DESCENT = 0.718, 0.207  # Helvetica's capital height and descent per em (its AFM)
-PITCH = 1.45  # rows of a block or table, baseline to baseline, in em
-GAP = 0.8  # paper mm kept between a text and any other text or line
 PT = 72.0 / 25.4  # points per mm
 CORE_FONTS = {"pdf.use14corefonts": True, "font.family": "sans-serif", "font.sans-serif": ["Helvetica"],
               "path.simplify": False}  # every vertex of the cut line drawn
@@ -50,65 +47,6 @@ STYLES = {"cut": ("black", 0.9, None), "net": ("black", 0.4, (0, (6, 3))), "fram
           "sight": ("tab:red", 0.4, (0, (6, 2))), "station": ("grey", 0.25, None)}
 OTHER_COLOURS = ("tab:red", "tab:purple", "tab:brown", "tab:olive")  # mark kinds the drawing does not know
 PAGE_NUMBER = "PAGE 00 OF 00"  # stands for the page number until the pages are counted
-
-
-@functools.lru_cache(maxsize=1)
-def _advances() -> dict:
-    """Helvetica's advance widths per character (em), read from matplotlib's copy of the
-    core font's AFM file (found without importing matplotlib)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("matplotlib")
-    path = Path(spec.submodule_search_locations[0]) / "mpl-data" / "fonts" / "pdfcorefonts" / "Helvetica.afm"
-    widths = {}
-    for line in path.read_text(encoding="latin-1").splitlines():
-        if line.startswith("C "):
-            fields = dict(f.strip().split(" ", 1) for f in line.split(";") if f.strip())
-            code = int(fields["C"])
-            if 32 <= code < 127:
-                widths[chr(code)] = float(fields["WX"]) / 1000.0
-    return widths
-
-
-def text_width(text: str, h: float = H_LABEL) -> float:
-    """Paper mm a one-line Helvetica text of capital height h takes along its baseline."""
-    widths = _advances()
-    return sum(widths.get(ch, 0.75) for ch in text) * h / CAP
-
-
-@dataclass(frozen=True)
-class Label:
-    """A one-line text on the paper: anchor (baseline start) at x, y mm, capital height h,
-    angle 0 or 90 degrees."""
-
-    text: str
-    x: float
-    y: float
-    h: float = H_LABEL
-    angle: int = 0
-    style: str = "black"
-
-    def box(self) -> tuple[float, float, float, float]:
-        """(x0, y0, x1, y1): the glyphs' em box as a PDF reader reports it."""
-        em, w = self.h / CAP, text_width(self.text, self.h)
-        if self.angle == 0:
-            return self.x, self.y - DESCENT * em, self.x + w, self.y + (1 - DESCENT) * em
-        return self.x - (1 - DESCENT) * em, self.y, self.x + DESCENT * em, self.y + w
-
-
-def label_in(text: str, box_centre, h: float = H_LABEL, angle: int = 0, style: str = "black") -> Label:
-    """The label whose box is centred at box_centre (2,)."""
-    em, w = h / CAP, text_width(text, h)
-    cx, cy = float(box_centre[0]), float(box_centre[1])
-    if angle == 0:
-        return Label(text, cx - 0.5 * w, cy - (0.5 - DESCENT) * em, h, 0, style)
-    return Label(text, cx + (0.5 - DESCENT) * em, cy - 0.5 * w, h, 90, style)
-
-
-def _size(text: str, h: float, angle: int) -> np.ndarray:
-    """(width, height) of a label's box on the paper."""
-    em, w = h / CAP, text_width(text, h)
-    return np.array([w, em]) if angle == 0 else np.array([em, w])
 
 
 @dataclass
@@ -125,73 +63,6 @@ class Page:
 
     def add(self, style: str, polylines) -> None:
         self.lines.setdefault(style, []).extend(np.asarray(p, dtype=float) for p in polylines if len(p) >= 2)
-
-
-class PaperPlacer:
-    """Places label boxes inside ``bounds`` (x0, y0, x1, y1 paper mm), each GAP clear of the
-    boxes placed before, of every segment of ``polylines`` and of the ``areas`` (rings,
-    their insides included)."""
-
-    def __init__(self, bounds, polylines, areas=()):
-        import shapely
-
-        self.bounds = np.asarray(bounds, dtype=float)
-        segs = [np.stack([p[:-1], p[1:]], axis=1) for p in polylines if len(p) >= 2]
-        segs = np.concatenate(segs) if segs else np.zeros((0, 2, 2))
-        # hatched areas whole: a text on their hatching is not read
-        geoms = list(shapely.linestrings(segs)) if len(segs) else []
-        geoms += [shapely.Polygon(ring).buffer(0) for ring in areas if len(ring) >= 3]
-        self.tree = shapely.STRtree(geoms) if geoms else None
-        self.boxes = np.zeros((0, 4))
-
-    def first_free(self, boxes: np.ndarray) -> int | None:
-        """Index of the first free box of boxes (C, 4), which is taken; None when none is."""
-        import shapely
-
-        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        b = self.bounds
-        ok = (boxes[:, 0] >= b[0]) & (boxes[:, 1] >= b[1]) & (boxes[:, 2] <= b[2]) & (boxes[:, 3] <= b[3])
-        if len(self.boxes):
-            p = self.boxes
-            hit = ((boxes[:, None, 0] < p[None, :, 2] + GAP) & (boxes[:, None, 2] > p[None, :, 0] - GAP)
-                   & (boxes[:, None, 1] < p[None, :, 3] + GAP) & (boxes[:, None, 3] > p[None, :, 1] - GAP))
-            ok &= ~hit.any(axis=1)
-        idx = np.flatnonzero(ok)
-        if idx.size and self.tree is not None:
-            grown = boxes[idx] + np.array([-GAP, -GAP, GAP, GAP])
-            hits = self.tree.query(shapely.box(grown[:, 0], grown[:, 1], grown[:, 2], grown[:, 3]),
-                                   predicate="intersects")[0]
-            idx = np.delete(idx, np.unique(hits))
-        if not idx.size:
-            return None
-        self.boxes = np.vstack([self.boxes, boxes[idx[0]]])
-        return int(idx[0])
-
-    def place(self, text: str, centres: np.ndarray, angle: int, h: float = H_LABEL, style: str = "black"):
-        """The label centred at the first free one of centres (C, 2), None when none is."""
-        half = 0.5 * _size(text, h, angle)
-        centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-        i = self.first_free(np.hstack([centres - half, centres + half]))
-        return None if i is None else label_in(text, centres[i], h, angle, style)
-
-
-def _beyond(point, direction, text: str, angle: int, offsets, h: float = H_LABEL) -> np.ndarray:
-    """Centres (len(offsets), 2) of a label's box just beyond ``point`` along the unit
-    ``direction``, its near side offsets (paper mm) away."""
-    size = _size(text, h, angle)
-    d = np.asarray(direction, dtype=float)
-    reach = 0.5 * (abs(d[0]) * size[0] + abs(d[1]) * size[1])
-    return np.asarray(point, dtype=float) + (np.asarray(offsets, dtype=float)[:, None] + reach) * d
-
-
-def _axis_angle(direction) -> int:
-    """The label angle (0 or 90) nearest a line's direction."""
-    return 0 if abs(direction[0]) >= abs(direction[1]) else 90
-
-
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
-    return v / max(float(np.linalg.norm(v)), 1e-300)
 
 
 # --- the plate's data, in plate mm ------------------------------------------------------
@@ -470,12 +341,12 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     mids = np.array([paper(0.5 * (np.asarray(b[2], float) + np.asarray(b[3], float))) for b in bends]).reshape(-1, 2)
     chain = []
     if len(mids) >= 2:
-        u0, u1 = _unit(mids[1] - mids[0]), _unit(mids[-1] - mids[-2])
+        u0, u1 = unit(mids[1] - mids[0]), unit(mids[-1] - mids[-2])
         chain = [np.vstack([mids[0] - 3.0 * u0, mids, mids[-1] + 3.0 * u1])]
         page.add("centre", chain)
         ticks = []
         for k, m in enumerate(mids):
-            u = _unit(mids[min(k + 1, len(mids) - 1)] - mids[max(k - 1, 0)])
+            u = unit(mids[min(k + 1, len(mids) - 1)] - mids[max(k - 1, 0)])
             t = np.array([u[0] - u[1], u[0] + u[1]]) * 0.9  # an oblique tick (45 degrees) on the line
             ticks.append(np.array([m - t, m + t]))
         page.add("dim", ticks)
@@ -542,15 +413,15 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     # B-numbers beyond the d ends, rows further out where the lines are close
     for bend, row in zip(bends, rows):
         a, b = paper(bend[2]), paper(bend[3])
-        u = _unit(b - a)
-        angle = _axis_angle(u)
+        u = unit(b - a)
+        angle = axis_angle(u)
         text = f"B{row.number}"
-        size = _size(text, H_LABEL, angle)
+        size = size_of(text, H_LABEL, angle)
         step = abs(u[0]) * size[0] + abs(u[1]) * size[1] + GAP
         offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 4)])
-        label = placer.place(text, _beyond(b, u, text, angle, offsets), angle, style="tab:blue")
+        label = placer.place(text, beyond(b, u, text, angle, offsets), angle, style="tab:blue")
         if label is None:  # beyond the c end
-            label = placer.place(text, _beyond(a, -u, text, angle, offsets), angle, style="tab:blue")
+            label = placer.place(text, beyond(a, -u, text, angle, offsets), angle, style="tab:blue")
         if label is None:
             findings.append(f"bending line B{row.number}: no room for its number")
         else:
@@ -560,14 +431,14 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         p = paper(line)
         if p[0][1] > p[-1][1]:
             p = p[::-1]
-        u = _unit(p[0] - p[min(1, len(p) - 1)]) if len(p) > 1 else np.array([0.0, -1.0])
-        angle = _axis_angle(u)
-        size = _size(name, H_LABEL, angle)
+        u = unit(p[0] - p[min(1, len(p) - 1)]) if len(p) > 1 else np.array([0.0, -1.0])
+        angle = axis_angle(u)
+        size = size_of(name, H_LABEL, angle)
         step = abs(u[0]) * size[0] + abs(u[1]) * size[1] + GAP
         offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 3)])
-        label = placer.place(name, _beyond(p[0], u, name, angle, offsets), angle, style="dimgrey")
+        label = placer.place(name, beyond(p[0], u, name, angle, offsets), angle, style="dimgrey")
         if label is None:
-            label = placer.place(name, _beyond(p[-1], -u, name, angle, offsets), angle, style="dimgrey")
+            label = placer.place(name, beyond(p[-1], -u, name, angle, offsets), angle, style="dimgrey")
         if label is None:
             findings.append(f"frame {name}: no room for its name")
         else:
@@ -586,16 +457,16 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         for f in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8):
             i = int(np.clip(np.searchsorted(s, f * s[-1]) - 1, 0, len(p) - 2))
             q = p[i] + (f * s[-1] - s[i]) / max(s[i + 1] - s[i], 1e-300) * (p[i + 1] - p[i])
-            d = _unit(p[i + 1] - p[i])
+            d = unit(p[i + 1] - p[i])
             n = np.array([-d[1], d[0]])
             if shapely.contains_xy(poly, *(q + 0.3 * n)):
                 n = -n
-            angle = _axis_angle(d)
+            angle = axis_angle(d)
             out = np.array([0.0, np.sign(n[1]) or 1.0]) if angle == 0 else np.array([np.sign(n[0]) or 1.0, 0.0])
-            size = _size(name, H_LABEL, angle)
+            size = size_of(name, H_LABEL, angle)
             gap = float(np.max(np.abs((ring - q) @ out) * (np.abs((ring - q) @ out[::-1]) < 0.5 * size.max())
                                * ((ring - q) @ out > 0), initial=0.0))
-            centres.append(_beyond(q + gap * out, out, name, angle,
+            centres.append(beyond(q + gap * out, out, name, angle,
                                    GAP + 0.05 + np.array([0.0, 2.0, 4.0, 7.0, 10.0, 14.0, 18.0, 24.0])))
             centres[-1] = (centres[-1], angle)
         label = None
@@ -693,16 +564,16 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
 def _chain_label(placer: PaperPlacer, text: str, a: np.ndarray, b: np.ndarray, mids: np.ndarray, near: bool):
     """A spacing figure for the stretch of the centre line chain from a to b (paper mm):
     beside the chain between them; unless near, also beyond the chain's ends."""
-    u = _unit(b - a)
-    angle = _axis_angle(u)
+    u = unit(b - a)
+    angle = axis_angle(u)
     n = np.array([-u[1], u[0]]) if u[0] >= 0 else np.array([u[1], -u[0]])
-    size = _size(text, H_LABEL, angle)
+    size = size_of(text, H_LABEL, angle)
     reach = 0.5 * (abs(n[0]) * size[0] + abs(n[1]) * size[1]) + GAP + 0.05
     centres = [0.5 * (a + b) + s * (reach + off) * n for off in (0.0, 1.5, 3.0) for s in (1, -1)]
     if not near:
-        first, last = _unit(mids[0] - mids[1]), _unit(mids[-1] - mids[-2])
+        first, last = unit(mids[0] - mids[1]), unit(mids[-1] - mids[-2])
         for end, d in ((mids[0] + 3.5 * first, first), (mids[-1] + 3.5 * last, last)):
-            along = _beyond(end, d, text, angle, GAP + np.array([0.0, 3.0, 8.0, 14.0, 20.0, 28.0, 36.0]))
+            along = beyond(end, d, text, angle, GAP + np.array([0.0, 3.0, 8.0, 14.0, 20.0, 28.0, 36.0]))
             centres += list(along) + [c + s * (reach + 1.0) * n for c in along for s in (1, -1)]
     return placer.place(text, np.array(centres), angle, style="tab:blue")
 
