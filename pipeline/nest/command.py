@@ -10,6 +10,7 @@ is written (bad input: exit 2, no files).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -98,6 +99,7 @@ def build_job(results, config: RunConfig) -> NestJob:
         outline = r.pattern.outline
         bend = r.pattern.bend_lines
         frames = list(getattr(r.pattern, "frame_lines", ()) or ())
+        layout = plate_marks(r, config)  # every mark of the part's own DXF (mm)
         sides = [("", False)]
         if spec.pairs:
             own, other = ("SB", "PS") if spec.developed_side == "starboard" else ("PS", "SB")
@@ -107,10 +109,11 @@ def build_job(results, config: RunConfig) -> NestJob:
             if mirror:  # the other side of the ship: the mirror image, cut with the marked side up
                 flip = np.array([-1.0, 1.0])
                 ring = (outline * flip)[::-1]
-                marks = {"bend": bend * flip, "frames": [(x, line * flip) for x, line in frames]}
+                marks = {"bend": bend * flip, "frames": [(x, line * flip) for x, line in frames],
+                         "layout": _mirrored_marks(layout)}
             else:
                 ring = outline
-                marks = {"bend": bend, "frames": frames}
+                marks = {"bend": bend, "frames": frames, "layout": layout}
             job.groups.setdefault(key, []).append(NestItem(ident, ring, wanted[r.name], orients))
             job.marks[ident] = marks
     return job
@@ -218,11 +221,100 @@ def write_marker(path: Path, result: NestResult, job: NestJob, style: str, scale
         gerber_D6673.export_file(doc, tmp)
 
 
+def plate_marks(result, config: RunConfig):
+    """The part's shop layout (:func:`pipeline.shop.plate.shop_layout`, mm) as its own DXF
+    has it: bending lines with their numbers, radii and CVX/CCV, frame lines and names, edge
+    names, marked areas and any other mark kind, and the part data; plus ``id_at``: where a
+    nest's part id fits on the plate clear of every line and text (None: no room). The
+    part's report figures are left as they were."""
+    import copy
+
+    from ..export import steel_texts
+    from ..shop.plate import shop_layout
+
+    figures, warnings = copy.copy(result.figures), list(result.warnings)
+    try:
+        layout = shop_layout(result, config, steel_texts(result))
+    finally:
+        result.figures, result.warnings = figures, warnings
+    layout.id_at = _id_spot(layout, f"{result.name}_XX#00")
+    return layout
+
+
+def _id_spot(layout, text: str):
+    """(centre (2,), height) for a one-line text as long as ``text`` on the plate, clear of
+    its lines and texts (their boxes), at the layout's text height or smaller; None."""
+    import shapely
+
+    from ..shop.layout import CHAR_WIDTH, Placer, grid_points, heights, text_corners
+
+    plate = shapely.Polygon(layout.net if layout.net is not None else layout.cut).buffer(0)
+    boxes = [np.vstack([c, c[:1]]) for c in text_corners(layout.texts)] if layout.texts else []
+    lines = [line for _, line in layout.lines] + boxes
+    smallest = max(min(layout.text_height, 5.0), 1.0)
+    clearance = 0.2 * smallest
+    room = plate.buffer(-clearance)
+    if room.is_empty or room.geom_type != "Polygon":
+        return None
+    placer = Placer(room, lines, clearance)
+    centres, _ = grid_points(room, placer.obstacles)
+    for h in heights(max(layout.text_height, smallest), smallest):
+        i = placer.place(centres, CHAR_WIDTH * h * len(text), 1.3 * h, 0.0)
+        if i is not None:
+            return centres[i], h
+    return None
+
+
+def _mirrored_marks(layout):
+    """The layout of the other side's part as the nest flips it (x -> -x)."""
+    from ..shop.plate import mirrored
+
+    out = mirrored(layout, "")
+    width = float(layout.cut[:, 0].max() + layout.cut[:, 0].min())
+    shift = np.array([-width, 0.0])  # mirrored() reflects about the plate's middle; the nest about x = 0
+    out.cut = out.cut + shift
+    out.net = None if out.net is None else out.net + shift
+    out.lines = [(k, line + shift) for k, line in out.lines]
+    out.texts = [dataclasses.replace(t, at=tuple(np.asarray(t.at) + shift)) for t in out.texts]
+    out.id_at = None if layout.id_at is None else (np.array([-layout.id_at[0][0], layout.id_at[0][1]]), layout.id_at[1])
+    return out
+
+
+def _layout_on_sheet(msp, layout, p, scale: float, layers) -> None:
+    """Every mark of a part's layout (mm) moved with its placement p (model units), each
+    kind on its layer (the configured one, else MARK_<KIND>: kinds of other modules show)."""
+    from ezdxf.enums import TextEntityAlignment
+
+    def layer(kind):
+        name = getattr(layers, kind, None) or f"MARK_{kind.upper()}"
+        if name not in msp.doc.layers:
+            msp.doc.layers.add(name, color=7)
+        return name
+
+    def place(points):
+        return p.place(np.asarray(points, dtype=float).reshape(-1, 2) / scale) * scale
+
+    if layout.net is not None:
+        msp.add_lwpolyline([tuple(q) for q in place(layout.net)], close=True, dxfattribs={"layer": layer("net")})
+    for kind, line in layout.lines:
+        msp.add_lwpolyline([tuple(q) for q in place(line)], format="xy", dxfattribs={"layer": layer(kind)})
+    for t in layout.texts:
+        msp.add_text(t.text, height=t.height, rotation=(t.angle + p.rotation) % 360.0,
+                     dxfattribs={"layer": layer(t.kind)}).set_placement(tuple(place(t.at)[0]),
+                                                                        align=TextEntityAlignment.MIDDLE_CENTER)
+
+
+def place_mm(p, at, scale: float) -> np.ndarray:
+    """A point (2,) of a part's layout (mm) on the sheet (mm) by the placement p."""
+    return p.place(np.asarray(at, dtype=float)[None] / scale)[0] * scale
+
+
 def write_stock_dxf(path: Path, sheet, result: NestResult, job: NestJob, info: dict, layers, scale: float) -> int:
     """One stock plate: its edges (STOCK), every part's cut contour, bending and frame lines
     moved with it, part ids and the plate's data. R2000, mm. Returns the audit errors."""
     import ezdxf
     from ezdxf import units
+    from ezdxf.enums import TextEntityAlignment
 
     doc = ezdxf.new("R2000", setup=False)
     doc.units = units.MM
@@ -242,15 +334,26 @@ def write_stock_dxf(path: Path, sheet, result: NestResult, job: NestJob, info: d
         ring = p.place(item.outline) * scale
         msp.add_lwpolyline([tuple(q) for q in ring], close=True, dxfattribs={"layer": layers.cut})
         marks = job.marks.get(p.item, {})
-        for a, b in marks.get("bend", ()):
-            msp.add_line(tuple(p.place(a[None])[0] * scale), tuple(p.place(b[None])[0] * scale),
-                         dxfattribs={"layer": layers.bend})
-        for _, line in marks.get("frames", ()):
-            msp.add_lwpolyline([tuple(q) for q in p.place(line) * scale], format="xy",
-                               dxfattribs={"layer": layers.frame})
-        centre = ring.mean(axis=0)
-        msp.add_text(f"{p.item}#{p.copy + 1}", height=height, dxfattribs={"layer": layers.text}).set_placement(
-            tuple(centre))
+        layout = marks.get("layout")
+        if layout is not None:  # the part's own DXF's marks, texts and all
+            _layout_on_sheet(msp, layout, p, scale, layers)
+        else:
+            for a, b in marks.get("bend", ()):
+                msp.add_line(tuple(p.place(a[None])[0] * scale), tuple(p.place(b[None])[0] * scale),
+                             dxfattribs={"layer": layers.bend})
+            for _, line in marks.get("frames", ()):
+                msp.add_lwpolyline([tuple(q) for q in p.place(line) * scale], format="xy",
+                                   dxfattribs={"layer": layers.frame})
+        spot = None if layout is None else layout.id_at
+        if spot is not None:  # where it crosses no line nor text of the part
+            at, h = spot
+            msp.add_text(f"{p.item}#{p.copy + 1}", height=h, rotation=p.rotation % 360.0,
+                         dxfattribs={"layer": layers.text}).set_placement(
+                tuple(place_mm(p, at, scale)), align=TextEntityAlignment.MIDDLE_CENTER)
+        else:
+            centre = ring.mean(axis=0)
+            msp.add_text(f"{p.item}#{p.copy + 1}", height=height, dxfattribs={"layer": layers.text}).set_placement(
+                tuple(centre))
     texts = [f"STOCK {sheet.id} {sheet.stock} {length:.0f} X {width:.0f} MM",
              f"THK {info['thickness_mm']:g} MM {info['material']}",
              f"UTILISATION {100 * row['utilisation']:.1f} %", f"PARTS {len(sheet.placements)}"]

@@ -41,6 +41,7 @@ class Layout:
     cut : (N, 2) closed cut contour; net : (M, 2) net line when an allowance is cut, else None
     lines : [(kind, (K, 2) polyline)], kind in 'bend', 'frame'
     texts : placed texts; findings : what could not be placed, and skipped frames
+    frame_names : the frame lines' names ('FR 92500'), in the order of the 'frame' lines
     """
 
     cut: np.ndarray
@@ -49,6 +50,7 @@ class Layout:
     texts: list = field(default_factory=list)
     findings: list = field(default_factory=list)
     text_height: float = 0.0
+    frame_names: list = field(default_factory=list)  # the name of each 'frame' line, in their order
 
     def extents(self) -> tuple[np.ndarray, np.ndarray]:
         pts = [self.cut] + [line for _, line in self.lines]
@@ -533,6 +535,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
             continue
         frame_lines += [(name, p) for p in parts]
     layout.lines = [("bend", p) for _, p in bend_lines] + [("frame", p) for _, p in frame_lines]
+    layout.frame_names = [name for name, _ in frame_lines]
     layout.lines += [(kind, np.asarray(ring)) for kind, ring in areas]
     placer = Placer(room, [p for _, p in layout.lines], clearance)
     obstacles = placer.obstacles

@@ -376,6 +376,7 @@ def mirrored(layout, side_of_model: str):
     out.net = None if layout.net is None else flip(layout.net)[::-1]
     out.lines = [(k, flip(line)) for k, line in layout.lines]
     out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle)) for t in layout.texts]
+    out.mirror_width = width  # the drawing flips the plate's own marks (bending lines, edges) the same way
     return out
 
 
@@ -384,7 +385,8 @@ def shop_drawing(result, config, layout, target):
     from .drawing import write_shop_drawing
 
     plate = result.shop if result.shop is not None else _fallback(result, config.mm_per_unit)
-    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b) for b in plate.bending]
+    bends = [(b.number, bend_text(b) if not np.isnan(b.radius) else f"R{b.number}", b.a, b.b, b.station)
+             for b in plate.bending]
     steel = result.figures.get("steel") or {}
     data = [f"PART {result.name}   THK {steel.get('thickness_mm', 0):g} MM   MAT {steel.get('material', '')}",
             f"NET AREA {steel.get('area_m2', 0):.3f} M2   WEIGHT {steel.get('weight_kg', 0):.1f} KG",
@@ -409,6 +411,16 @@ def shop_drawing(result, config, layout, target):
         names = {key: f"EDGE {key.upper()}" for key in ("c", "d", "start", "end")}
         names.update(edge_names(result, config.spec.shop))
         edges = {text: plate.outline.edge_points(key) for key, text in names.items()}
-    info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges)
+    width = getattr(layout, "mirror_width", None)
+    if width is not None:  # the other side's plate: its marks where the mirrored layout has them
+        def flip(p):
+            return np.array([width - p[..., 0], p[..., 1]]).T if np.ndim(p) == 2 else np.array([width - p[0], p[1]])
+
+        bends = [(n, m, flip(np.asarray(a)), flip(np.asarray(b)), s) for n, m, a, b, s in bends]
+        edges = {k: flip(np.asarray(v)) for k, v in edges.items()}
+    info = write_shop_drawing(target, layout, f"{result.name}: SHOP DRAWING", data, bends, spacing, notes, edges,
+                              result.templates)
     result.figures["layout"].setdefault("drawings", []).append(info)
+    if info.get("not_placed"):  # a label the drawing found no room for is a finding, never drawn across
+        result.warnings.append(f"{info['file']}: " + "; ".join(info["not_placed"]))
     return target
