@@ -17,8 +17,10 @@ equal butt spacing chosen so that every plate, offsets included, stays within
 Stealers: where the girth shrinks toward the ends, an end plate narrower than
 ``stock.min_width`` (its largest girth width) is merged with its narrower neighbour (the seam
 between them ends at a butt: a drop strake) while the merged plate stays within
-``stock.max_width``; a merged end plate ends at the first butt moved towards the end by the
-stagger, so that its butt is staggered from both neighbours (offsets 0 and +stagger).
+``stock.max_width``; a merged end plate's butt is the strakes' first (last) butt moved aft by the
+stagger (two staggers inward when the merged plate beside it took that one), so that it is
+staggered from both neighbours (offsets 0 and +stagger); no plate is longer than the spacing
+plus two staggers.
 """
 
 from __future__ import annotations
@@ -42,7 +44,8 @@ def stagger_of(plan, mm_per_unit: float) -> float:
 def strake_butts(x0: float, x1: float, max_length: float, stagger: float, joints, offset: float) -> list[float]:
     """Interior butts (x, ascending) of a strake between x0 and x1: the block joints inside,
     and between consecutive joints an equal spacing shifted by ``offset`` (0 or +-stagger),
-    the spacing chosen so that a plate lengthened by two staggers stays within max_length."""
+    the spacing chosen so that a plate lengthened by two staggers (its own offset and a
+    stealer's end plate's) stays within max_length."""
     inner = sorted(float(j) for j in joints if x0 < j < x1)
     cuts = [x0] + inner + [x1]
     butts = []
@@ -81,9 +84,18 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
         if not base:
             break
         x_base = base[0] if end == 0 else base[-1]
-        shifted = x_base if x_base in joint_set else x_base + (-stagger if end == 0 else stagger)
-        plane_end = ends[end]
-        groups[end] = _stealers(n_strakes, butts, end, shifted, plane_end, stock, width_of)
+        # the strakes beside a merged end plate butt at x_base or x_base + stagger: its butt
+        # goes one stagger aft of x_base; a second merged plate beside it two staggers
+        # inward (aft end: x_base + 2 staggers; fore end: x_base - 2 staggers)
+        shifted = x_base if x_base in joint_set else x_base - stagger
+        found = _stealers(n_strakes, butts, end, shifted, ends[end], stock, width_of)
+        groups[end], previous = {}, None
+        for lo, hi in sorted(found):
+            x_g = shifted
+            if previous is not None and previous[0][1] == lo and x_base not in joint_set and previous[1] == shifted:
+                x_g = x_base + (2.0 if end == 0 else -2.0) * stagger
+            groups[end][(lo, hi)] = x_g
+            previous = ((lo, hi), x_g)
     plates = []
     for i in range(n_strakes):
         planes = [ends[0]] + list(butts[i]) + [ends[1]]
@@ -91,10 +103,11 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
             for lo, hi in found:
                 if lo <= i < hi:  # the group's end plate replaces this strake's end plate(s)
                     x_g = found[(lo, hi)]
+                    # the strake's butt nearest the end moves to the merged plate's
                     if end == 0:
-                        planes = [ends[0], x_g] + [x for x in planes[1:-1] if x > x_g] + [ends[1]]
+                        planes = [ends[0], x_g] + planes[2:]
                     else:
-                        planes = [ends[0]] + [x for x in planes[1:-1] if x < x_g] + [x_g, ends[1]]
+                        planes = planes[:-2] + [x_g, ends[1]]
         for j in range(len(planes) - 1):
             group = _group_at(groups, i, j, len(planes) - 1)
             if group is None:
@@ -114,7 +127,7 @@ def _group_at(groups: dict, i: int, j: int, n_plates: int):
 
 
 def _stealers(n: int, butts, end: int, x_group: float, plane_end, stock, width_of) -> dict:
-    """Groups {(lo, hi): butt x} of strakes whose end plates merge (drop strakes)."""
+    """Seam ranges (lo, hi) of strakes whose end plates merge (drop strakes)."""
     def end_plate(lo, hi, x_at):
         return (plane_end, x_at) if end == 0 else (x_at, plane_end)
 
@@ -145,7 +158,7 @@ def _stealers(n: int, butts, end: int, x_group: float, plane_end, stock, width_o
             break
         if not changed:
             break
-    return {(lo, hi): x_group for lo, hi in groups if hi - lo > 1}
+    return [(lo, hi) for lo, hi in groups if hi - lo > 1]
 
 
 # ------------------------------------------------------------ the rule, checked on a plan
