@@ -53,7 +53,7 @@ class PlanRecord:
     def pareto(self) -> list[PlanPoint]:
         """The points no other point beats in both (more share, less weld), by weld length."""
         front = []
-        for p in sorted(self.points, key=lambda q: (q.weld_m, -q.flat_strip, q.round)):
+        for p in sorted(self.points, key=lambda q: (q.weld_m, -q.flat_strip, not q.kept, q.round)):
             if not front or p.flat_strip > front[-1].flat_strip + 1e-12:
                 front.append(p)
         return front
