@@ -139,6 +139,8 @@ class Cell:
     part: object = None
     result: object = None
     settled: str = ""  # why it is split no further (the plan record's "stopped")
+    parent: object = None  # the cell it was split from (an objective's plan may undo the split)
+    weld_m: float = 0.0  # the weld its split from the parent added (m)
 
 
 @dataclass
@@ -359,6 +361,34 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     return kept
 
 
+def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False) -> tuple[list, float]:
+    """Undo the look-ahead splits whose plates, all split as far as they will be (``final``:
+    whatever their state), deliver no flat or strip area: the plate they came from comes back
+    whole. Returns the leaves and the weld (m) given back."""
+    refund = 0.0
+    while True:
+        families: dict = {}
+        for cell in leaves:
+            if cell.parent is not None:
+                families.setdefault(id(cell.parent), (cell.parent, []))[1].append(cell)
+        undone = False
+        for parent, kids in families.values():
+            if len(kids) != 2 or (not final and any(id(k) not in done for k in kids)) or any(_fits(k) for k in kids):
+                continue  # a half still splitting, a half split further, or a half that pays
+            first = leaves.index(kids[0])
+            leaves = [c for c in leaves if c not in kids]
+            leaves.insert(first, parent)
+            parent.part.hull.result = parent.result
+            _settle(parent, "split undone by the objective (its halves did not pay for the weld)", ctx.plan.method)
+            done.add(id(parent))
+            refund += sum(k.weld_m for k in kids)
+            ctx.record.splits_rejected += 1
+            ctx.record.splits_taken -= 1
+            undone = True
+        if not undone:
+            return leaves, refund
+
+
 def _split_for(cells: list, build, ctx: _Context) -> list:
     """With an objective (:mod:`.objective`): rounds of splits, best first, within the weld
     budget or while they lower the weighted cost; each round's new plates evaluated as one
@@ -409,7 +439,12 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
                     for other in sides.get(id(girth), (None, [], []))[1] + sides.get(id(girth), (None, [], []))[2]:
                         blocked.update(id(c) for c in leaves if c.part is other)
         if not taken:
-            break
+            leaves, refund = _undo(leaves, objective, done, ctx, final=True)
+            if refund <= 0:
+                break
+            weld -= refund  # weld given back: the budget may take splits it could not before
+            ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
+            continue
         families = [(cell, split, cost, _children(cell, split)) for cell, split, cost in taken]
         _evaluate([child for *_, kids in families for child in kids], build, ctx)
         trial = []
@@ -421,7 +456,12 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
         for cell, split, cost, kids in families:
             kids = [k for k in kids if k.part is not None]
             gained = sum(_area(k) for k in kids if _fits(k))
-            if kids and worth(objective, gained, cost) > 0:
+            # a split that gains nothing yet is kept while its halves may still split (the
+            # plan looks ahead); undone at the end if its halves never pay (_undo)
+            ahead = objective.weights is None and cell.depth + 1 < plan.max_splits and len(kids) == 2
+            if kids and (worth(objective, gained, cost) > 0 or ahead):
+                for kid in kids:
+                    kid.parent, kid.weld_m = cell, cost / len(kids)
                 accepted[id(cell)] = kids
                 weld += cost
                 ctx.record.splits_taken += 1
@@ -432,6 +472,10 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
                 ctx.record.splits_rejected += 1
         leaves = [k for c in leaves for k in accepted.get(id(c), [c])]
         ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
+        leaves, refund = _undo(leaves, objective, done, ctx)
+        weld -= refund
+        if refund:
+            ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
     for cell in leaves:
         if not cell.settled:
             _settle(cell, "fits" if _fits(cell) else "no split within the objective", plan.method)
