@@ -25,8 +25,6 @@ plus two staggers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 DEFAULT_STAGGER_MM = 300.0
@@ -57,17 +55,6 @@ def strake_butts(x0: float, x1: float, max_length: float, stagger: float, joints
         if k < len(inner):
             butts.append(inner[k])
     return butts
-
-
-@dataclass
-class Band:
-    """A run of plates of the yard layout: seams ``lo`` .. ``hi`` (indices into the seam
-    list), planes (x, None for the hull's end or the face's cut) from one end to the other."""
-
-    lo: int
-    hi: int
-    planes: list = field(default_factory=list)
-    first_plate: int = 0  # B number of the band's first plate
 
 
 def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagger: float, joints,
