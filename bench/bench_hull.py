@@ -3,7 +3,8 @@ formed, per hull, with the plain seam layout (``plan.method: uniform``) and with
 plan, iso-parameter or least-curvature seams.
 
     python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
-                               [--seams iso least_curvature] [--out DIR]
+                               [--seams iso least_curvature] [--objectives none weld1.5 ...]
+                               [--jobs N] [--out DIR]
 
 Per hull, method and seams: plates, shares of the shell area (plate regions inside the IGES
 trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
@@ -17,6 +18,15 @@ in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --ou
 Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell), developed
 length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
 neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm.
+
+Objectives (``plan.objective``, adaptive plans only): ``none`` (split every misfit plate),
+``weldF`` ({maximise: flat_strip, weld_factor: F}, e.g. weld1.5), ``cost`` (weights: 1 per weld
+metre, 5 per plate, 5 per m^2 not flat or strip). One plate evaluator per hull serves every
+method and objective (``--jobs`` workers; a plate is evaluated once, whatever plan asks): a
+second objective on a hull costs only the plates the first did not ask for. Per row: the
+plan's time (wall and CPU seconds, the workers' included) and the plates it evaluated and
+found in the cache; after each adaptive row its Pareto front (the candidate plans the planner
+evaluated that no other beats in both flat + strip share and weld length).
 """
 
 from __future__ import annotations
@@ -40,16 +50,31 @@ HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kv
          "kcs": "kcs_shell.yaml"}
 
 
-def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
+OBJECTIVES = {"cost": {"weights": {"weld_m": 1.0, "plate": 5.0, "formed_m2": 5.0}}}
+
+
+def objective_of(name: str) -> dict | None:
+    if name == "none":
+        return None
+    if name.startswith("weld"):
+        return {"maximise": "flat_strip", "weld_factor": float(name[4:])}
+    return OBJECTIVES[name]
+
+
+def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = "none", evaluator=None) -> dict:
     from pipeline.hull.hullplots import class_hull_png, display_class, shell_area
     from pipeline.hull.plan import load_run
     from pipeline.hull.planout import write_plan_dxf
-    from pipeline.hull.plates import evaluate_plate, run_part
+    from pipeline.hull.plates import run_part
+    from pipeline.runner import plate_evaluator
 
+    evaluator = evaluator or plate_evaluator(1)
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data = copy.deepcopy(data)
     data["strake"]["plan"]["method"] = method
     data["strake"]["plan"]["seams"] = seams
+    if objective_of(objective) is not None:
+        data["strake"]["plan"]["objective"] = objective_of(objective)
     for key in ("surface",):
         data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
@@ -57,10 +82,14 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))
-        start = time.perf_counter()
-        config = load_run(path, evaluate_plate)
+        start, cpu = time.perf_counter(), time.process_time()
+        before = (evaluator.requested, evaluator.computed, evaluator.cpu_seconds - evaluator.local_cpu_seconds)
+        config = load_run(path, evaluator)
         results = [run_part(part, config) for part in config.parts]
         seconds = time.perf_counter() - start
+        # this process's CPU and the evaluator's workers' (they report theirs with each plate)
+        cpu = time.process_time() - cpu + (evaluator.cpu_seconds - evaluator.local_cpu_seconds - before[2])
+        asked, computed = evaluator.requested - before[0], evaluator.computed - before[1]
         from pipeline.hull.fitup import shell_fitup
 
         fit = shell_fitup(results, config).as_dict()  # not timed: the run's report, not the plan
@@ -83,7 +112,8 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     edges = shell_edges(results)
     cost = plan_cost(results, edges, config.mm_per_unit)
     out.mkdir(parents=True, exist_ok=True)
-    tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}")
+    tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
+                                                                         f"_{objective}")
     class_hull_png(out / f"{tag}_classes.png", results, config.spec.units, config.mm_per_unit,
                    f"{hull}, {method} plan, {seams} seams: {len(results)} plates")
     write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
@@ -91,8 +121,27 @@ def run(hull: str, method: str, out: Path, seams: str = "iso") -> dict:
     return {"hull": hull, "method": method, "plates": len(results), "area_m2": total,
             "shares": {k: v / total for k, v in areas.items()},
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
+            "cpu_seconds": cpu, "evaluated": computed, "cached": asked - computed,
             "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m"),
-            "fitup": fit}
+            "fitup": fit, "record": config.plan_record, "objective": objective}
+
+
+def front_lines(record, area_m2: float) -> list[str]:
+    """The Pareto front of the candidate plans (weld m, weld m/m^2, plates, flat + strip %)."""
+    if record is None or not record.points:
+        return []
+    lines = [f"  pareto ({len(record.points)} candidate plans; uniform weld {record.uniform_weld_m:.0f} m"
+             + ("" if record.weld_budget_m is None else f", budget {record.weld_budget_m:.0f} m")
+             + f"; splits taken {record.splits_taken}, rejected {record.splits_rejected}):"]
+    for p in record.pareto():
+        lines.append(f"    round {p.round:>2}  plates {p.plates:>4}  weld {p.weld_m:>7.0f} m  "
+                     f"{p.weld_m / area_m2 if area_m2 else float('nan'):.3f} m/m2  flat+strip {100 * p.flat_strip:5.1f} %"
+                     + ("  <- plan" if p.kept else ""))
+    plan = next((p for p in record.points if p.kept), None)
+    if plan is not None and plan not in record.pareto():
+        lines.append(f"    the plan: plates {plan.plates}, weld {plan.weld_m:.0f} m, flat+strip {100 * plan.flat_strip:.1f} % "
+                     "(dominated: a plan it evaluated earlier had as much share for less weld)")
+    return lines
 
 
 def fitup_columns(fit: dict) -> str:
@@ -115,22 +164,33 @@ def main(argv=None) -> int:
     parser.add_argument("--methods", nargs="+", default=["uniform", "adaptive"], choices=["uniform", "adaptive"])
     parser.add_argument("--seams", nargs="+", default=["iso"], choices=["iso", "least_curvature"],
                         help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
+    parser.add_argument("--objectives", nargs="+", default=["none"],
+                        help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
+    parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
     args = parser.parse_args(argv)
+    from pipeline.runner import plate_evaluator
+
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
           f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'weld m':>8}{'weld m/m2':>10}{'narrowest m':>12}"
-          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'covered %':>10}{'overlap %':>10}"
-          f"{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}")
+          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'CPU s':>7}{'eval/cached':>12}"
+          f"{'covered %':>10}{'overlap %':>10}{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}  objective")
     for hull in args.hulls:
-        for method, seams in [(m, s) for m in args.methods for s in args.seams]:
-            r = run(hull, method, args.out, seams)
+        evaluator = plate_evaluator(args.jobs)  # one cache per hull: every plan of it shares the plates
+        runs = [(m, s, o) for m in args.methods for s in args.seams for o in (args.objectives if m == "adaptive"
+                                                                               else ["none"])]
+        for method, seams, objective in runs:
+            r = run(hull, method, args.out, seams, objective, evaluator)
             s = r["shares"]
             print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}"
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
                   f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
                   f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
-                  f"{fitup_columns(r['fitup'])}", flush=True)
+                  f"{r['cpu_seconds']:>7.0f}{r['evaluated']:>6}/{r['cached']:<5}"
+                  f"{fitup_columns(r['fitup'])}  {objective}", flush=True)
+            for line in front_lines(r["record"], r["area_m2"]):
+                print(line, flush=True)
     print(f"pictures, plan DXFs and shell expansions in {args.out}")
     return 0
 

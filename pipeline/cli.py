@@ -118,11 +118,15 @@ def _run(args, early) -> int:
     from .export import export_summary, export_textile, printout_line, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
-    from .hull.plates import evaluate_plate
-    from .runner import guarded_export, run_parts
+    import time
+
+    from .runner import guarded_export, plate_evaluator, run_parts, stage_line
 
     check_jobs(args.jobs)
-    config = validate(args.config, evaluate_plate)
+    clock = (time.perf_counter(), time.process_time())
+    evaluator = plate_evaluator(args.jobs)  # an adaptive plan's candidates: over the workers, cached
+    config = validate(args.config, evaluator)
+    planned = (time.perf_counter(), time.process_time())
     check_plan(config, args.out)
     parts = config.parts
     textile = config.spec.profile == "textile"
@@ -144,6 +148,7 @@ def _run(args, early) -> int:
             keep_geometry = config.spec.output.png and len(parts) > 1
             results = run_parts(config, None if textile else folder.staging, args.out, args.jobs, progress,
                                 keep_geometry)
+            ran = (time.perf_counter(), time.process_time())
             if progress is not None:
                 progress.close()
             printed: dict = {}  # the printouts' page counts, for the console
@@ -160,6 +165,7 @@ def _run(args, early) -> int:
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
             n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
             folder.commit([r.name for r in results])
+            exported = (time.perf_counter(), time.process_time())
     except OutputError:
         raise
     except OSError as exc:
@@ -174,8 +180,25 @@ def _run(args, early) -> int:
             print(printout_line(printed, run_name(config)))
         if shell is not None:
             print(shell.one_line())
+        print(stage_line(_stages(evaluator, clock, planned, ran, exported, results)))
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
+
+
+def _stages(evaluator, clock, planned, ran, exported, results) -> dict:
+    """{stage: (wall s, CPU s)}: the plan's own geometry, its candidates' evaluation (workers'
+    CPU included), the final plates (their run and, in the same workers, their shop files)
+    and the run's export (fit-up, plan cost, expansion drawing, summary, commit)."""
+    per_part = [r.figures.get("stage_seconds") or {} for r in results]
+    cpu_plates = sum(p.get("plates_cpu", 0.0) + p.get("shop_cpu", 0.0) for p in per_part)
+    wall_plan = planned[0] - clock[0] - evaluator.seconds
+    stages = {"plan": (wall_plan, planned[1] - clock[1] - evaluator.local_cpu_seconds)}
+    if evaluator.requested:
+        stages[f"evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached)"] = \
+            (evaluator.seconds, evaluator.cpu_seconds)
+    stages["plates + shop files"] = (ran[0] - planned[0], cpu_plates)
+    stages["export"] = (exported[0] - ran[0], exported[1] - ran[1])
+    return stages
 
 
 def image_modules(config: RunConfig, warm: bool = False) -> tuple[str, ...]:

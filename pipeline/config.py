@@ -636,6 +636,37 @@ class StockSpec(_Strict):
         return self
 
 
+class ObjectiveWeights(_Strict):
+    """A weighted cost of a plan (any consistent currency): per metre of weld (seams and
+    butts between plates), per plate, per m^2 of shell not delivered flat or as devflat's
+    strip (rolled, formed or failed). A split is taken when it lowers the cost."""
+
+    weld_m: float = Field(0.0, ge=0)
+    plate: float = Field(0.0, ge=0)
+    formed_m2: float = Field(0.0, ge=0)
+
+
+class ObjectiveSpec(_Strict):
+    """What the adaptive plan optimises: ``{maximise: flat_strip, weld_factor: F}`` (the flat +
+    strip area, with the weld length at most F times the plan's uniform layout's), or
+    ``{weights: {weld_m, plate, formed_m2}}`` (the least weighted cost)."""
+
+    maximise: Literal["flat_strip"] | None = None
+    weld_factor: float | None = Field(None, ge=1.0, le=10.0)
+    weights: ObjectiveWeights | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.maximise is None) == (self.weights is None):
+            raise ValueError("an objective gives either maximise (with weld_factor) or weights")
+        if self.maximise is not None and self.weld_factor is None:
+            raise ValueError("maximise: flat_strip needs weld_factor (the weld length allowed, times the uniform "
+                             "layout's)")
+        if self.weights is not None and self.weld_factor is not None:
+            raise ValueError("weld_factor belongs to maximise, not to weights")
+        return self
+
+
 class PlanSpec(_Strict):
     """Seams and butts chosen by devflat. ``uniform``: strakes of equal girth at the widest
     section and equally spaced butt planes within the stock sizes; ``adaptive``: the same,
@@ -649,6 +680,11 @@ class PlanSpec(_Strict):
     max_splits: int = Field(3, ge=0, le=6, description="depth of the adaptive splitting")
     seams: Literal["iso", "least_curvature"] = Field("iso", description="seams along iso-parameter lines, or "
                                                      "traced along the hull's direction of least curvature")
+    objective: ObjectiveSpec | None = None
+    block_joints: list[float] = Field(default_factory=list, max_length=256, description="x of the block joints "
+                                      "(config units): butts of neighbouring strakes may align only there")
+    butt_stagger: float | None = Field(None, gt=0, description="least distance between butts of neighbouring "
+                                       "strakes off the block joints (config units; default 300 mm)")
 
 
 class StrakeSpec(_Strict):
@@ -793,6 +829,7 @@ class RunConfig:
     def __init__(self, spec: RunSpec, parts: list[Part], source: Path, lines: dict | None = None):
         self.spec, self.parts, self.source = spec, parts, source
         self.lines = lines or {}  # key path -> line of the YAML source, for later messages
+        self.plan_record = None  # what an adaptive plan evaluated (pipeline.hull.planner.PlanRecord)
 
     @property
     def mm_per_unit(self) -> float:

@@ -82,12 +82,29 @@ def slim(result: PartResult, keep_geometry: bool) -> PartResult:
 
 def process_part(index: int, config: RunConfig, staging: Path | None, out: Path | None,
                  keep_geometry: bool) -> PartResult:
-    """Compute part ``index``; with a staging folder also write it there (and slim it)."""
+    """Compute part ``index``; with a staging folder also write it there (and slim it). The
+    wall and CPU seconds of each step go into ``figures["stage_seconds"]`` (no output file
+    names it: the console's per-stage line adds them up)."""
+    import time
+
+    wall, cpu = time.perf_counter(), time.process_time()
     result = guarded_run(config.parts[index], config)
+    seconds = {"plates": time.perf_counter() - wall, "plates_cpu": time.process_time() - cpu}
     if staging is None:
+        result.figures["stage_seconds"] = seconds
         return result
+    wall, cpu = time.perf_counter(), time.process_time()
     result = guarded_export(result, config, staging / f"part-{index:06d}", out)
-    return slim(result, keep_geometry)
+    seconds.update(shop=time.perf_counter() - wall, shop_cpu=time.process_time() - cpu)
+    result = slim(result, keep_geometry)
+    result.figures["stage_seconds"] = seconds
+    return result
+
+
+def stage_line(stages: dict) -> str:
+    """The console's line of where the time went: ``stages`` {name: (wall s, CPU s)}."""
+    return "time: " + ", ".join(f"{name} {wall:.1f} s" + (f" ({cpu:.1f} CPU s)" if cpu is not None else "")
+                                for name, (wall, cpu) in stages.items())
 
 
 class _Worker:
@@ -222,3 +239,196 @@ def _shutdown(pool) -> None:
             process.kill()
     for process in processes:
         process.join(timeout=5)
+
+
+# ------------------------------------------------------------ an adaptive plan's candidates
+class PlateEvaluator:
+    """``evaluate(part, config)`` for the candidate plates of an adaptive plan: each plate
+    evaluated once (cached by its geometry, :func:`pipeline.hull.planner.plate_key`, whatever
+    plan asks: a second plan of the same hull reuses the first one's plates) and a batch of
+    plates spread over ``jobs`` worker processes.
+
+    The workers are forked when the first batch arrives, after the plan loaded its surfaces:
+    a plate is sent as a pickle in which the objects every plate shares (the hull surface,
+    its distance structure, its trim) are references to the copies the worker inherited, and
+    its result comes back without its part (the parent re-attaches it). A worker that dies
+    leaves its plates to the parent, which evaluates them itself. Figures (not in any output
+    file, so that ``--jobs`` never changes a byte): ``requested`` plates, ``computed`` ones
+    (the rest came from the cache), ``seconds`` of wall time in :meth:`many` and the CPU
+    seconds of the evaluations (``cpu_seconds``, this process's and the workers' together)."""
+
+    def __init__(self, evaluate, jobs: int = 1):
+        self.evaluate, self.jobs = evaluate, jobs
+        self.cache: dict = {}
+        self.requested = self.computed = 0
+        self.seconds = self.cpu_seconds = self.local_cpu_seconds = 0.0
+        self._pool = None
+        self._shared: list = []
+        self._index: dict = {}
+
+    def __call__(self, part, config):
+        return self.many([part], config)[0]
+
+    def many(self, parts: list, config) -> list:
+        import time
+
+        from .hull.planner import plate_key
+
+        start = time.perf_counter()
+        self.requested += len(parts)
+        keys = [plate_key(part, config) for part in parts]
+        todo: dict = {}
+        for key, part in zip(keys, parts):
+            if key not in self.cache and key not in todo:
+                todo[key] = part
+        for key, result in zip(todo, self._compute(list(todo.values()), config)):
+            self.cache[key] = _pristine(result)
+        self.computed += len(todo)
+        out = [_renamed(self.cache[key], part) for key, part in zip(keys, parts)]
+        self.seconds += time.perf_counter() - start
+        return out
+
+    def _compute(self, parts: list, config) -> list:
+        import time
+
+        if not parts:
+            return []
+        workers = worker_count(self.jobs, len(parts))
+        if workers == 1:
+            cpu = time.process_time()
+            results = [self.evaluate(part, config) for part in parts]
+            self.cpu_seconds += time.process_time() - cpu
+            self.local_cpu_seconds += time.process_time() - cpu
+            return results
+        return self._in_pool(parts, config, workers)
+
+    def _in_pool(self, parts: list, config, workers: int) -> list:
+        import gc
+        import multiprocessing
+        import time
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
+        shared = [obj for part in parts for obj in (part.hull.surface, part.hull.distance, part.hull.trim)
+                  if obj is not None]
+        if self._pool is not None and any(id(obj) not in self._index for obj in shared):
+            self.close()  # a surface the workers never saw: fork them again with it
+        if self._pool is None:
+            self._shared = list({id(obj): obj for obj in shared}.values())
+            self._index = {id(obj): k for k, obj in enumerate(self._shared)}
+            frozen_before = gc.get_freeze_count()
+            gc.freeze()  # the forked workers never walk (and so copy) the parent's pages
+            try:
+                self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
+                                                 initializer=_init_evaluator,
+                                                 initargs=(os.getpid(), config, self.evaluate, self._shared,
+                                                           self._index))
+                # start the workers now, while the parent's objects are frozen
+                list(self._pool.map(_ping, range(workers)))
+            finally:
+                if not frozen_before:
+                    gc.unfreeze()
+        futures = [self._pool.submit(_evaluate_blob, _dumps(part, self._index)) for part in parts]
+        results = []
+        for part, future in zip(parts, futures):
+            try:
+                blob, cpu = future.result()
+                result = _loads(blob, self._shared)
+                result.part = part
+                self.cpu_seconds += cpu
+            except BrokenProcessPool:
+                self.close()
+                cpu = time.process_time()
+                result = self.evaluate(part, config)
+                self.cpu_seconds += time.process_time() - cpu
+                self.local_cpu_seconds += time.process_time() - cpu
+            results.append(result)
+        return results
+
+    def close(self) -> None:
+        """Stop the workers (the cache stays for the next plan)."""
+        if self._pool is not None:
+            _shutdown(self._pool)
+            self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class _Evaluating:
+    """A plan evaluator's worker state, set once by the pool initializer."""
+
+    config = None
+    evaluate = None
+    shared: list = []
+    index: dict = {}
+
+
+def _init_evaluator(parent: int, config, evaluate, shared: list, index: dict) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent(parent)
+    _Evaluating.config, _Evaluating.evaluate, _Evaluating.shared, _Evaluating.index = config, evaluate, shared, index
+
+
+def _ping(_) -> int:
+    return os.getpid()
+
+
+def _evaluate_blob(blob: bytes) -> tuple[bytes, float]:
+    import time
+
+    cpu = time.process_time()
+    part = _loads(blob, _Evaluating.shared)
+    result = _Evaluating.evaluate(part, _Evaluating.config)
+    result.part = None
+    return _dumps(result, _Evaluating.index), time.process_time() - cpu
+
+
+def _dumps(obj, index: dict) -> bytes:
+    """A pickle in which the objects of ``index`` (id -> number) are sent as their number."""
+    import io
+    import pickle
+
+    buffer = io.BytesIO()
+    pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+    pickler.persistent_id = lambda o: index.get(id(o))
+    pickler.dump(obj)
+    return buffer.getvalue()
+
+
+def _loads(blob: bytes, shared: list):
+    import io
+    import pickle
+
+    unpickler = pickle.Unpickler(io.BytesIO(blob))
+    unpickler.persistent_load = lambda number: shared[number]
+    return unpickler.load()
+
+
+def _pristine(result):
+    """The cache's copy: its own figures and warnings (a plan writes its record into them)."""
+    import copy
+
+    return replace(result, figures=copy.deepcopy(result.figures), warnings=list(result.warnings))
+
+
+def _renamed(result, part):
+    """A cached result for ``part`` (the same geometry, maybe another name)."""
+    import copy
+
+    old = result.name
+    out = replace(result, name=part.name, part=part, figures=copy.deepcopy(result.figures),
+                  warnings=[w.replace(old, part.name) for w in result.warnings],
+                  reason=result.reason.replace(old, part.name))
+    return out
+
+
+def plate_evaluator(jobs: int = 1) -> PlateEvaluator:
+    """The evaluator ``devflat run`` hands an adaptive plan: the full plate run."""
+    from .hull.plates import evaluate_plate
+
+    return PlateEvaluator(evaluate_plate, jobs)

@@ -75,15 +75,41 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
+    record = None
     try:
         if spec.strake.plan is not None:
+            from .objective import PlanRecord
             from .planner import plan_hull
 
-            judge = None if evaluate is None else (lambda part: evaluate(part, config))
-            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge)
+            judge = None if evaluate is None else _Judge(evaluate, config)
+            record = PlanRecord() if judge is not None and spec.strake.plan.method == "adaptive" else None
+            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record)
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
-    return RunConfig(spec, parts, path, config.lines)
+    finally:
+        close = getattr(evaluate, "close", None)
+        if close is not None:
+            close()  # an evaluator's workers end with the plan (its cache stays)
+    run = RunConfig(spec, parts, path, config.lines)
+    run.plan_record = record
+    return run
+
+
+class _Judge:
+    """The plan's evaluator: ``evaluate(part, config)`` bound to the configuration; ``many``
+    hands a batch to an evaluator that has one (workers, cache), else runs it in turn."""
+
+    def __init__(self, evaluate, config):
+        self.evaluate, self.config = evaluate, config
+
+    def __call__(self, part):
+        return self.evaluate(part, self.config)
+
+    def many(self, parts: list) -> list:
+        batch = getattr(self.evaluate, "many", None)
+        if batch is not None:
+            return batch(parts, self.config)
+        return [self.evaluate(part, self.config) for part in parts]

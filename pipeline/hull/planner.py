@@ -14,12 +14,20 @@ adaptive : the uniform layout, then every plate that is neither flat nor devflat
           their seams. A patch development within the tolerance does not stop the splitting:
           only flat and strip plates count as fitting here.
 
-The evaluator (``evaluate(part) -> result``) is given by the caller, so the plan knows no stage.
+With ``plan.objective`` (:mod:`.objective`) the splits are chosen for it: best flat/strip area
+per weld metre first within a weld budget, or by a weighted cost; the layout then follows the
+yard's rules (:mod:`.yardrules`: staggered butts, stealers at the ends) and a butt split keeps
+both the stagger and the minimum width.
+
+The evaluator (``evaluate(part) -> result``, or an object with ``many(parts) -> results``) is
+given by the caller, so the plan knows no stage; each depth (or round) of candidate plates is
+handed to it as one batch, which a caller spreads over worker processes and caches
+(``pipeline/runner.py``: :class:`PlateEvaluator`).
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -31,7 +39,9 @@ from flatten.plane import Plane
 from .region import Girth, load_plan_surfaces, long_axis_of, plate_part, seam_curve
 from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
+from .objective import PlanPoint, PlanRecord, split_priority, worth
 from .splitting import choose_split, sample_region
+from .yardrules import butt_allowed, seam_sides, stagger_of, yard_layout, yard_rules_on
 
 
 def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
@@ -55,14 +65,9 @@ def uniform_layout(surface, axis: int, stock, x_limits: tuple = (None, None)) ->
     n_strakes = max(1, int(np.ceil(total / stock.max_width - 1e-9)))
     seams = list(np.interp(np.linspace(0, total, n_strakes + 1), cum[widest], g))
     seams[0], seams[-1] = float(g[0]), float(g[-1])
-    gdom = surface.domain_v if axis == 0 else surface.domain_u
-    pts = surface.grid(np.linspace(*surface.domain_u, 65), np.linspace(*surface.domain_v, 65))
-    x0, x1 = float(pts[..., 0].min()), float(pts[..., 0].max())
-    x0 = x0 if x_limits[0] is None else max(x0, x_limits[0])
-    x1 = x1 if x_limits[1] is None else min(x1, x_limits[1])
+    x0, x1 = x_range(surface, x_limits)
     n_butts = max(1, int(np.ceil((x1 - x0) / stock.max_length - 1e-9)))
     butts = list(np.linspace(x0, x1, n_butts + 1)[1:-1])
-    del gdom
     return [float(v) for v in seams], [float(x) for x in butts], s_widest
 
 
@@ -120,14 +125,39 @@ def is_strip(klass: dict) -> bool:
     return "strip" in method and not method.startswith("isometric") and "patch" not in method
 
 
-def _keep(parts: list, part, result, record: dict) -> None:
-    """A plate the adaptive plan keeps, with why it stopped splitting (``figures['plan']``)."""
-    if getattr(result, "figures", None) is not None:
-        result.figures["plan"] = record
-    parts.append(part)
+@dataclass
+class Cell:
+    """A candidate plate: surface ``k``, name, seams (Girth pair) and their names, butt planes,
+    split depth; its part and result once built and evaluated."""
+
+    k: int
+    name: str
+    girths: tuple
+    seam_names: tuple
+    pair: tuple
+    depth: int
+    part: object = None
+    result: object = None
+    settled: str = ""  # why it is split no further (the plan record's "stopped")
+    parent: object = None  # the cell it was split from (an objective's plan may undo the split)
+    weld_m: float = 0.0  # the weld its split from the parent added (m)
 
 
-def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> list:
+@dataclass
+class _Face:
+    """What the plan knows of one surface while it plans it."""
+
+    surface: object
+    axis: int
+    trim: object
+    note: str
+    limits: tuple
+
+
+def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record: PlanRecord | None = None) -> list:
+    """The plates of a planned hull. ``evaluate``: ``evaluate(part) -> result``, or an object
+    whose ``many(parts)`` evaluates a batch (spread over workers, cached); ``record``: filled
+    with what an adaptive plan evaluated."""
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
@@ -139,6 +169,8 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
     stock = plan.stock
     multi = len(surfaces) > 1
     tolerance = float(strake.fit_tolerance or 5.0 / mm_per_unit)
+    yard = yard_rules_on(plan)
+    stagger = stagger_of(plan, mm_per_unit)
     # faces that lie on each other are cut at a transverse plane, each keeping one side (a
     # shell's faces beyond its loft keep the side its end plane gives them)
     free = [k for k, p in enumerate(planned) if not p.fixed]
@@ -149,7 +181,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
     for k, lim in zip(free, cut):  # the tighter of a loft's own ends and an overlap's cut
         limits[k] = tuple(a if b is None else b if a is None else pick(a, b)
                           for a, b, pick in zip(limits[k], lim, (max, min)))
-    parts = []
+    faces, cells = [], []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)
         seams, butts, s_widest = uniform_layout(surface, axis, stock, limits[k])
@@ -157,58 +189,329 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None) -> lis
             seam_lines = least_curvature_seams(surface, axis, seams, s_widest)
         else:
             seam_lines = [Girth.iso(g) for g in seams]
-        ends = [None if x is None else Plane((1.0, 0.0, 0.0), x) for x in limits[k]]
-        planes = [ends[0]] + [Plane((1.0, 0.0, 0.0), x) for x in butts] + [ends[1]]
         cut_note = "; ".join(f"faces {o.faces[0] + 1} and {o.faces[1] + 1} overlap over x {o.x_range_mm[0]:.0f}.."
                              f"{o.x_range_mm[1]:.0f} ({o.median_distance_mm:.3g} apart, median): cut at x = "
                              f"{o.cut_x_mm:.0f}, step {o.step_at_cut_mm:.3g} there" for o in overlaps if k in o.faces)
+        faces.append(_Face(surface, axis, loaded[k][1], "; ".join(n for n in (loaded[k][2], cut_note) if n),
+                           limits[k]))
         prefix = f"{spec.name}_P{k + 1}" if multi else spec.name
-        queue = []
+        names = [f"SEAM {i + 1}" for i in range(len(seam_lines))]
+        if yard:
+            x0, x1 = x_range(surface, limits[k])
+
+            def width_of(lo, hi, a, b, surface=surface, axis=axis, seam_lines=seam_lines):
+                return region_size(surface, axis, (seam_lines[lo], seam_lines[hi]), (_plane(a), _plane(b)))[1]
+
+            for lo, hi, xs, j in yard_layout(len(seams) - 1, x0, x1, limits[k], stock, stagger, plan.block_joints,
+                                             width_of):
+                label = f"S{lo + 1:02d}" if hi == lo + 1 else f"S{lo + 1:02d}-{hi:02d}"
+                cells.append(Cell(k, f"{prefix}_{label}_B{j:02d}", (seam_lines[lo], seam_lines[hi]),
+                                  (names[lo], names[hi]), (_plane(xs[0]), _plane(xs[1])), 0))
+            continue
+        ends = [None if x is None else Plane((1.0, 0.0, 0.0), x) for x in limits[k]]
+        planes = [ends[0]] + [Plane((1.0, 0.0, 0.0), x) for x in butts] + [ends[1]]
         for i in range(len(seams) - 1):
             for j in range(len(planes) - 1):
-                queue.append((f"{prefix}_S{i + 1:02d}_B{j + 1:02d}", (seam_lines[i], seam_lines[i + 1]),
-                              (f"SEAM {i + 1}", f"SEAM {i + 2}"), tuple(planes[j:j + 2]), 0))
-        while queue:
-            name, girths, seam_names, pair, depth = queue.pop(0)
-            length, width, xa, xb = region_size(surface, axis, girths, pair)
-            if length <= 0:
-                continue  # the region misses this surface (e.g. a butt beyond a short strake)
-            butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in pair)
-            curves = [seam_curve(surface, axis, g, f"{name}.{n}") for g, n in zip(girths, seam_names)]
-            inside = 1.0 if loaded[k][1] is None else inside_share(surface, axis, girths, pair, loaded[k][1])
-            if inside <= 0.0:
-                continue  # wholly outside the surface's trim: not shell (another surface covers it)
-            part = plate_part(name, surface, axis, girths, curves, pair, spec.steel, strake, distance, seam_names,
-                          butt_names, resolution, "; ".join(n for n in (loaded[k][2], cut_note) if n))
-            part.hull.inside_trim = inside
-            part.hull.trim = loaded[k][1] if inside < 1.0 else None
-            part.hull.x_limits = limits[k]
-            part.hull.face_trim = loaded[k][1]
-            if plan.method == "uniform" or evaluate is None:
-                parts.append(part)
+                cells.append(Cell(k, f"{prefix}_S{i + 1:02d}_B{j + 1:02d}", (seam_lines[i], seam_lines[i + 1]),
+                                  (names[i], names[i + 1]), tuple(planes[j:j + 2]), 0))
+
+    def build(cell: Cell):
+        """The cell's part, or None when its region misses the surface or its trim."""
+        face = faces[cell.k]
+        length, width, xa, xb = region_size(face.surface, face.axis, cell.girths, cell.pair)
+        if length <= 0:
+            return None  # the region misses this surface (e.g. a butt beyond a short strake)
+        butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in cell.pair)
+        curves = [seam_curve(face.surface, face.axis, g, f"{cell.name}.{n}") for g, n in zip(cell.girths,
+                                                                                              cell.seam_names)]
+        inside = 1.0 if face.trim is None else inside_share(face.surface, face.axis, cell.girths, cell.pair,
+                                                            face.trim)
+        if inside <= 0.0:
+            return None  # wholly outside the surface's trim: not shell (another surface covers it)
+        part = plate_part(cell.name, face.surface, face.axis, cell.girths, curves, cell.pair, spec.steel, strake,
+                          distance, cell.seam_names, butt_names, resolution, face.note)
+        part.hull.inside_trim = inside
+        part.hull.trim = face.trim if inside < 1.0 else None
+        part.hull.x_limits = face.limits
+        part.hull.face_trim = face.trim
+        cell.part = part
+        return part
+
+    if plan.method == "uniform" or evaluate is None:
+        return [c.part for c in cells if build(c) is not None]
+    many = getattr(evaluate, "many", None) or (lambda parts: [evaluate(p) for p in parts])
+    record = record if record is not None else PlanRecord()
+    context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger)
+    if plan.objective is None:
+        kept = _split_all(cells, build, context)
+    else:
+        kept = _split_for(cells, build, context)
+    return [c.part for c in sorted(kept, key=lambda c: c.k)]  # stable: each face's plates in plan order
+
+
+def _plane(x):
+    return None if x is None else Plane((1.0, 0.0, 0.0), float(x))
+
+
+def x_range(surface, x_limits: tuple) -> tuple[float, float]:
+    """The x range the face's plates span: its own extent within the cuts (model units)."""
+    pts = surface.grid(np.linspace(*surface.domain_u, 65), np.linspace(*surface.domain_v, 65))
+    x0, x1 = float(pts[..., 0].min()), float(pts[..., 0].max())
+    x0 = x0 if x_limits[0] is None else max(x0, x_limits[0])
+    x1 = x1 if x_limits[1] is None else min(x1, x_limits[1])
+    return x0, x1
+
+
+@dataclass
+class _Context:
+    faces: list
+    plan: object
+    stock: object
+    tolerance: float
+    many: object
+    record: PlanRecord
+    mm_per_unit: float
+    yard: bool
+    stagger: float
+
+
+def _evaluate(cells: list, build, ctx: _Context) -> list:
+    """Build and evaluate the cells in one batch; the cells that are plates, in order."""
+    built = [c for c in cells if build(c) is not None]
+    results = ctx.many([c.part for c in built])
+    ctx.record.evaluations += len(built)
+    for cell, result in zip(built, results):
+        cell.result = result
+        cell.part.hull.result = result
+    return built
+
+
+def _fits(cell: Cell) -> bool:
+    return honest_class(cell.result) in ("flat", "developable")
+
+
+def _area(cell: Cell) -> float:
+    from .hullplots import shell_area
+
+    return shell_area(cell.result)
+
+
+def _share(cells) -> float:
+    total = sum(_area(c) for c in cells)
+    return sum(_area(c) for c in cells if _fits(c)) / total if total > 0 else 0.0
+
+
+def _uniform_weld_m(cells, ctx: _Context) -> float:
+    """Metres of weld between the plates of the starting layout (seams and butts, on the hull)."""
+    from .cost import plate_edges, weld_lengths
+
+    edges = [e for e in (plate_edges(c.name, c.part.hull, (17, 65)) for c in cells) if e is not None]
+    w = weld_lengths(edges)
+    return (w.seams + w.butts) * ctx.mm_per_unit / 1000.0
+
+
+def _split_of(cell: Cell, ctx: _Context, allow=None):
+    face = ctx.faces[cell.k]
+    sample = sample_region(face.surface, face.axis, cell.girths, cell.pair)
+    if sample is None:
+        return None
+    return choose_split(sample, ctx.tolerance, ctx.stock.min_length, ctx.stock.min_width, allow, ctx.yard)
+
+
+def _children(cell: Cell, split) -> list[Cell]:
+    if split.kind == "length":
+        cut = Plane((1.0, 0.0, 0.0), split.at)
+        return [Cell(cell.k, f"{cell.name}-1", cell.girths, cell.seam_names, (cell.pair[0], cut), cell.depth + 1),
+                Cell(cell.k, f"{cell.name}-2", cell.girths, cell.seam_names, (cut, cell.pair[1]), cell.depth + 1)]
+    middle = cell.girths[0].between(cell.girths[1], split.at)
+    label = f"{cell.seam_names[0]}+{round(100 * split.at)}%"
+    return [Cell(cell.k, f"{cell.name}-1", (cell.girths[0], middle), (cell.seam_names[0], label), cell.pair,
+                 cell.depth + 1),
+            Cell(cell.k, f"{cell.name}-2", (middle, cell.girths[1]), (label, cell.seam_names[1]), cell.pair,
+                 cell.depth + 1)]
+
+
+def _settle(cell: Cell, why: str, method: str) -> Cell:
+    """A plate the adaptive plan keeps, with why it stopped splitting (``figures['plan']``)."""
+    record = {"depth": cell.depth, "class_for_plan": honest_class(cell.result), "method": method, "stopped": why}
+    if getattr(cell.result, "figures", None) is not None:
+        cell.result.figures["plan"] = record
+    cell.settled = why
+    return cell
+
+
+def _split_all(cells: list, build, ctx: _Context) -> list:
+    """Without an objective: every plate that does not fit is split while it may, breadth
+    first (each depth's plates evaluated as one batch, so the workers share them). The record
+    gets the plan after each depth: the plates kept so far and that depth's plates whole."""
+    plan = ctx.plan
+    kept, wave, round_, weld = [], cells, 0, None
+    while wave:
+        built = _evaluate(wave, build, ctx)
+        if weld is None:
+            weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
+        ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
+        nxt = []
+        for cell in built:
+            fits = _fits(cell)
+            if fits or cell.depth >= plan.max_splits:
+                kept.append(_settle(cell, "fits" if fits else f"max_splits = {plan.max_splits}", plan.method))
                 continue
-            result = evaluate(part)
-            part.hull.result = result
-            klass = honest_class(result)
-            record = {"depth": depth, "class_for_plan": klass, "method": plan.method}
-            if klass in ("flat", "developable") or depth >= plan.max_splits:
-                record["stopped"] = "fits" if klass in ("flat", "developable") else f"max_splits = {plan.max_splits}"
-                _keep(parts, part, result, record)
-                continue
-            sample = sample_region(surface, axis, girths, pair)
-            split = None if sample is None else choose_split(sample, strake.fit_tolerance, stock.min_length,
-                                                             stock.min_width)
+            split = _split_of(cell, ctx)
             if split is None:
-                record["stopped"] = "no split keeps both halves within the minimum stock sizes"
-                _keep(parts, part, result, record)
+                kept.append(_settle(cell, "no split keeps both halves within the minimum stock sizes", plan.method))
                 continue
-            if split.kind == "length":
-                cut = Plane((1.0, 0.0, 0.0), split.at)
-                queue += [(f"{name}-1", girths, seam_names, (pair[0], cut), depth + 1),
-                          (f"{name}-2", girths, seam_names, (cut, pair[1]), depth + 1)]
+            weld += split.weld * ctx.mm_per_unit / 1000.0
+            ctx.record.splits_taken += 1
+            nxt += _children(cell, split)
+        wave, round_ = nxt, round_ + 1
+    last = ctx.record.points[-1]
+    ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, True)
+    return kept
+
+
+def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False) -> tuple[list, float]:
+    """Undo the look-ahead splits whose plates, all split as far as they will be (``final``:
+    whatever their state), deliver no flat or strip area: the plate they came from comes back
+    whole. Returns the leaves and the weld (m) given back."""
+    refund = 0.0
+    while True:
+        families: dict = {}
+        for cell in leaves:
+            if cell.parent is not None:
+                families.setdefault(id(cell.parent), (cell.parent, []))[1].append(cell)
+        undone = False
+        for parent, kids in families.values():
+            if len(kids) != 2 or (not final and any(id(k) not in done for k in kids)) or any(_fits(k) for k in kids):
+                continue  # a half still splitting, a half split further, or a half that pays
+            first = leaves.index(kids[0])
+            leaves = [c for c in leaves if c not in kids]
+            leaves.insert(first, parent)
+            parent.part.hull.result = parent.result
+            _settle(parent, "split undone by the objective (its halves did not pay for the weld)", ctx.plan.method)
+            done.add(id(parent))
+            refund += sum(k.weld_m for k in kids)
+            ctx.record.splits_rejected += 1
+            ctx.record.splits_taken -= 1
+            undone = True
+        if not undone:
+            return leaves, refund
+
+
+def _split_for(cells: list, build, ctx: _Context) -> list:
+    """With an objective (:mod:`.objective`): rounds of splits, best first, within the weld
+    budget or while they lower the weighted cost; each round's new plates evaluated as one
+    batch; a split that does not pay once evaluated is undone."""
+    plan, objective, metre = ctx.plan, ctx.plan.objective, ctx.mm_per_unit / 1000.0
+    leaves = _evaluate(cells, build, ctx)
+    weld = ctx.record.uniform_weld_m = _uniform_weld_m(leaves, ctx)
+    budget = weld * objective.weld_factor if objective.weights is None else float("inf")
+    ctx.record.weld_budget_m = budget if objective.weights is None else None
+    ctx.record.add(0, len(leaves), weld, _share(leaves), False)
+    done: set = set()  # ids of cells split no further
+    round_ = 0
+    while True:
+        round_ += 1
+        sides = seam_sides([c.part for c in leaves]) if ctx.yard else None
+        options = []
+        for cell in leaves:
+            if id(cell) in done:
+                continue
+            if _fits(cell):
+                _settle(cell, "fits", plan.method)
+                done.add(id(cell))
+                continue
+            if cell.depth >= plan.max_splits:
+                _settle(cell, f"max_splits = {plan.max_splits}", plan.method)
+                done.add(id(cell))
+                continue
+            allow = None if sides is None else (
+                lambda x, part=cell.part: butt_allowed(x, part, sides, ctx.stagger, plan.block_joints))
+            split = _split_of(cell, ctx, allow)
+            if split is None:
+                _settle(cell, "no split keeps both halves within the minimum stock sizes and the butt rule",
+                        plan.method)
+                done.add(id(cell))
+                continue
+            gain, cost = split.fitting_share * _area(cell), split.weld * metre
+            options.append((split_priority(objective, gain, cost), len(options), cell, split, gain, cost))
+        options.sort(key=lambda o: (-o[0], o[1]))
+        taken, reserved, blocked = [], 0.0, set()
+        for _, _, cell, split, gain, cost in options:
+            if id(cell) in blocked or weld + reserved + cost > budget + 1e-9 or worth(objective, gain, cost) <= 0:
+                continue
+            taken.append((cell, split, cost))
+            reserved += cost
+            if split.kind == "length" and sides is not None:
+                # its new butt is not yet in ``sides``: the plates across its seams wait a round
+                for girth in cell.girths:
+                    for other in sides.get(id(girth), (None, [], []))[1] + sides.get(id(girth), (None, [], []))[2]:
+                        blocked.update(id(c) for c in leaves if c.part is other)
+        if not taken:
+            leaves, refund = _undo(leaves, objective, done, ctx, final=True)
+            if refund <= 0:
+                break
+            weld -= refund  # weld given back: the budget may take splits it could not before
+            ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
+            continue
+        families = [(cell, split, cost, _children(cell, split)) for cell, split, cost in taken]
+        _evaluate([child for *_, kids in families for child in kids], build, ctx)
+        trial = []
+        for cell in leaves:
+            family = next((f for f in families if f[0] is cell), None)
+            trial += [cell] if family is None else [k for k in family[3] if k.part is not None]
+        ctx.record.add(round_, len(trial), weld + reserved, _share(trial), False)
+        accepted = {}
+        for cell, split, cost, kids in families:
+            kids = [k for k in kids if k.part is not None]
+            gained = sum(_area(k) for k in kids if _fits(k))
+            # a split that gains nothing yet is kept while its halves may still split (the
+            # plan looks ahead); undone at the end if its halves never pay (_undo)
+            ahead = objective.weights is None and cell.depth + 1 < plan.max_splits and len(kids) == 2
+            if kids and (worth(objective, gained, cost) > 0 or ahead):
+                for kid in kids:
+                    kid.parent, kid.weld_m = cell, cost / len(kids)
+                accepted[id(cell)] = kids
+                weld += cost
+                ctx.record.splits_taken += 1
             else:
-                middle = girths[0].between(girths[1], split.at)
-                label = f"{seam_names[0]}+{round(100 * split.at)}%"
-                queue += [(f"{name}-1", (girths[0], middle), (seam_names[0], label), pair, depth + 1),
-                          (f"{name}-2", (middle, girths[1]), (label, seam_names[1]), pair, depth + 1)]
-    return parts
+                _settle(cell, "split rejected by the objective (its halves did not pay for the weld)", plan.method)
+                cell.part.hull.result = cell.result
+                done.add(id(cell))
+                ctx.record.splits_rejected += 1
+        leaves = [k for c in leaves for k in accepted.get(id(c), [c])]
+        ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
+        leaves, refund = _undo(leaves, objective, done, ctx)
+        weld -= refund
+        if refund:
+            ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
+    for cell in leaves:
+        if not cell.settled:
+            _settle(cell, "fits" if _fits(cell) else "no split within the objective", plan.method)
+    last = ctx.record.points[-1]
+    ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, True)
+    return leaves
+
+
+def plate_key(part, config=None) -> str:
+    """What a plate's evaluation depends on, as a digest: the hull surface (its control net,
+    knots and weights), the plate's seams (in the surface's parameters), butt planes, seam and
+    butt names, the plate's settings and the run's settings other than the plan. Two plans
+    that ask for the same plate get one evaluation (:class:`pipeline.runner.PlateEvaluator`)."""
+    import hashlib
+
+    hull = part.hull
+    digest = hashlib.sha256()
+    surface = hull.surface
+    for array in (surface.poles, surface.weights, surface.knots_u, surface.knots_v):
+        digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+    digest.update(repr((surface.degree_u, surface.degree_v, hull.long_axis,
+                        tuple((g.s, g.g) for g in hull.girths),
+                        tuple(None if p is None else p.as_tuple() for p in hull.butts),
+                        hull.seam_names, hull.butt_names, hull.fit_tolerance, hull.resolution, repr(hull.frames),
+                        hull.inside_trim, hull.x_limits, hull.surface_note, hull.developable, hull.note,
+                        part.steel)).encode())
+    if config is not None:
+        spec = config.spec
+        digest.update(spec.model_dump_json(exclude={"strake": {"plan"}, "name": True}).encode())
+    return digest.hexdigest()

@@ -104,6 +104,7 @@ class Split:
     at: float
     estimates: tuple[float, float]
     fitting_share: float
+    weld: float = 0.0  # length of the new butt (its girth width) or seam (its length), model units
 
 
 def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
@@ -116,10 +117,14 @@ def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
     return tuple(est), good / total
 
 
-def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float) -> Split | None:
+def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float, allow=None,
+                 strict_width: bool = False) -> Split | None:
     """The best split of the plate within the minimum sizes, or None when none is allowed.
     Candidates: a butt plane through each interior grid column (x = its mean x), a seam
-    along each interior grid row; the halves share that column or row."""
+    along each interior grid row; the halves share that column or row. ``allow(x)``: whether
+    a butt at x keeps the yard's stagger rule (:mod:`.yardrules`); ``strict_width``: each half
+    of a butt split keeps a girth width of at least ``min_width`` somewhere (a plate tapering
+    to the stem is not cut into a sliver)."""
     candidates = []
     x = s.points[..., 0]
     row_len = s.along[:, -1]
@@ -129,13 +134,17 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         cut = np.array([np.interp(X, *(_monotone(x[i], s.along[i]))) for i in range(n_rows)])
         if cut.min() < min_length or (row_len - cut).min() < min_length:
             continue
+        if allow is not None and not allow(X):
+            continue
+        if strict_width and (s.across[-1, :j + 1].max() < min_width or s.across[-1, j:].max() < min_width):
+            continue
         lengths = (np.broadcast_to(cut[:, None], x.shape), np.broadcast_to((row_len - cut)[:, None], x.shape))
         widths = (np.broadcast_to(s.across[-1:, :], x.shape),) * 2
         sign = 1.0 if x[:, -1].mean() >= x[:, 0].mean() else -1.0
         lower = sign * (x - X) <= 1e-9 * np.ptp(x)
         upper = sign * (x - X) >= -1e-9 * np.ptp(x)
         est, share = _half_scores(s, (lower, upper), lengths, widths, tol)
-        candidates.append(Split("length", X, est, share))
+        candidates.append(Split("length", X, est, share, float(s.across[-1, j])))
     col_w = s.across[-1, :]
     for i in range(1, n_rows - 1):
         cut = s.across[i, :]
@@ -146,7 +155,7 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         below = np.broadcast_to((np.arange(n_rows) <= i)[:, None], x.shape)
         above = np.broadcast_to((np.arange(n_rows) >= i)[:, None], x.shape)
         est, share = _half_scores(s, (below, above), lengths, widths, tol)
-        candidates.append(Split("girth", float(s.rows[i]), est, share))
+        candidates.append(Split("girth", float(s.rows[i]), est, share, float(s.along[i, -1])))
     if not candidates:
         return None
     x_mid = 0.5 * (float(np.mean(x[:, 0])) + float(np.mean(x[:, -1])))

@@ -1,0 +1,196 @@
+"""The plan a yard would build (``plan.objective``): the weld budget against the uniform layout,
+stealers where the girth shrinks (no plate narrower than the stock), the butt stagger rule,
+the plate cache (a plate evaluated once, whatever plan asks) and --jobs 2 writing the bytes
+--jobs 1 writes."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.hull.cost import plate_edges, weld_lengths
+from pipeline.hull.yardrules import butt_violations
+from tests.hull_shapes import cylinder_sphere_iges, write_iges_surface
+
+SAME_BYTES = (".json", ".obj", ".csv")
+
+
+def tapered_iges(path: Path, r_aft=8000.0, r_fore=1200.0, length=20000.0, angle_deg=90.0) -> Path:
+    """A bilge whose radius shrinks linearly along x (a cone of axis x): the girth at x is
+    r(x) * angle, 12.6 m aft and 1.9 m at the fore end; u along x, v around the arc."""
+    h = np.radians(angle_deg) / 2
+
+    def arc(r, x):
+        return [[x, -r * np.sin(h), r * (1 - np.cos(h))], [x, 0.0, r - r / np.cos(h)],
+                [x, r * np.sin(h), r * (1 - np.cos(h))]]
+
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([arc(r_aft, 0.0), arc(r_fore, length)])
+    return write_iges_surface(path, 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
+
+
+def _config(tmp_path: Path, name: str, iges: Path, plan: dict, **strake) -> Path:
+    data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "strake": {"surface": {"iges": str(iges)}, "margin": 0.2, "fit_tolerance": 5.0, "plan": plan, **strake}}
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+TAPER_STOCK = {"max_length": 6000, "max_width": 3500, "min_length": 1000, "min_width": 1500}
+
+
+def _widest(part) -> float:
+    """The plate's largest girth width on the hull (what stock width it needs), mm."""
+    return float(plate_edges(part.name, part.hull).widths().max())
+
+
+def test_stealers_keep_every_plate_at_least_the_stock_minimum_wide(tmp_path):
+    """Four strakes of 3.1 m at the aft end narrow to 0.5 m at the fore end: the plain
+    layout's fore plates are 1.1 m at their widest (below the 1.5 m minimum); with the yard's
+    rules the fore end plates merge in pairs (two drop strakes) and every plate is at least
+    1.5 m wide somewhere, none wider than the stock."""
+    from pipeline.hull.plan import load_run
+
+    iges = tapered_iges(tmp_path / "taper.igs")
+    plain = load_run(_config(tmp_path, "plain", iges, {"method": "uniform", "stock": TAPER_STOCK})).parts
+    yard = load_run(_config(tmp_path, "yard", iges, {"method": "uniform", "stock": TAPER_STOCK,
+                                                    "butt_stagger": 300})).parts
+    assert min(_widest(p) for p in plain) < 1500.0  # the control: the plain layout has slivers
+    widths = {p.name: _widest(p) for p in yard}
+    assert min(widths.values()) >= 1500.0, widths
+    assert max(widths.values()) <= 3500.0 + 1.0
+    merged = [p for p in yard if "-" in p.name.split("_")[1]]
+    assert len(merged) == 2 and all(p.hull.butts[1] is None for p in merged)  # the fore end plates
+    # a merged plate spans two strakes: its seams are two apart in the layout
+    assert {p.hull.seam_names for p in merged} == {("SEAM 1", "SEAM 3"), ("SEAM 3", "SEAM 5")}
+
+
+def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_path):
+    """The rule on a plan: butts meeting a seam from either side are 300 mm apart or more, or
+    meet on a block joint. The plain layout breaks it (every strake butts at the same x: a
+    cross joint at each); the yard layout keeps it, and a block joint at x = 10000 is a butt of
+    every strake (aligned there, allowed)."""
+    from pipeline.hull.plan import load_run
+
+    iges = tapered_iges(tmp_path / "taper.igs")
+    plain = load_run(_config(tmp_path, "plain", iges, {"method": "uniform", "stock": TAPER_STOCK})).parts
+    assert butt_violations(plain, 300.0)  # the control: the check finds cross joints
+    yard = load_run(_config(tmp_path, "yard", iges, {"method": "uniform", "stock": TAPER_STOCK,
+                                                    "block_joints": [10000.0], "butt_stagger": 300})).parts
+    assert butt_violations(yard, 300.0, [10000.0]) == []
+    assert butt_violations(yard, 300.0) != []  # the block joint is where they align
+    strakes = {(f"SEAM {i}", f"SEAM {i + 1}") for i in range(1, 5)}  # the merged end plates lie fore of it
+    at_joint = {p.hull.seam_names for p in yard if any(b is not None and abs(b.offset - 10000.0) < 1e-6
+                                                      for b in p.hull.butts)}
+    assert at_joint == strakes
+    # every plate within the stock length: the stagger and the stealers lengthen none beyond it
+    for p in yard:
+        lengths = plate_edges(p.name, p.hull).lengths()
+        assert lengths.max() <= 6000.0 + 1.0, (p.name, lengths.max())
+
+
+def _cs(tmp_path: Path, name: str, method: str, objective=None, max_splits: int = 1) -> Path:
+    iges = tmp_path / "cs.igs"
+    if not iges.exists():
+        cylinder_sphere_iges(iges, 10000.0, 60.0, 1500.0, 3000.0, 0.3)
+    plan = {"method": method, "max_splits": max_splits,
+            "stock": {"max_length": 4000, "max_width": 5000, "min_length": 1000, "min_width": 1000}}
+    if objective is not None:
+        plan["objective"] = objective
+    return _config(tmp_path, name, iges, plan)
+
+
+def _weld_m(parts) -> float:
+    w = weld_lengths([e for e in (plate_edges(p.name, p.hull) for p in parts) if e is not None])
+    return (w.seams + w.butts) / 1000.0
+
+
+@pytest.fixture(scope="module")
+def counted(tmp_path_factory):
+    """One evaluator for every plan of the cylinder-sphere strake, counting the plate runs."""
+    from pipeline.hull.plates import evaluate_plate
+    from pipeline.runner import PlateEvaluator
+
+    calls = []
+
+    def evaluate(part, config):
+        calls.append(part.name)
+        return evaluate_plate(part, config)
+
+    return tmp_path_factory.mktemp("cs"), PlateEvaluator(evaluate, 1), calls
+
+
+def test_the_weld_budget_holds_and_each_plate_is_evaluated_once(counted):
+    """Uniform: three plates, two butts of 4.5 m (9 m of weld). The adaptive plan without an
+    objective splits all three (about 19 m); with {maximise: flat_strip, weld_factor: 1.5} it
+    takes the one split that pays best within 13.5 m (the seam at the cylinder-sphere
+    junction, which delivers the cylinder part as a strip) and stays within 1.5 x the uniform
+    weld, measured on the hull. The second plan asks for plates the first evaluated: the cache
+    answers, and a third identical plan computes nothing."""
+    from pipeline.hull.planner import honest_class
+    from pipeline.hull.plan import load_run
+
+    tmp, evaluator, calls = counted
+    uniform = load_run(_cs(tmp, "u", "uniform")).parts
+    free = load_run(_cs(tmp, "free", "adaptive"), evaluator)
+    n_free = len(calls)
+    assert n_free == len(set(calls)) == 9  # three plates, then their six halves
+    budget = load_run(_cs(tmp, "b", "adaptive", {"maximise": "flat_strip", "weld_factor": 1.5}), evaluator)
+    w_uniform, w_free, w_budget = _weld_m(uniform), _weld_m(free.parts), _weld_m(budget.parts)
+    assert w_uniform == pytest.approx(9.0, rel=0.01)
+    assert w_free > 1.5 * w_uniform  # the control: splitting everything breaks the budget
+    assert w_budget <= 1.5 * w_uniform
+    assert budget.plan_record.weld_budget_m == pytest.approx(1.5 * budget.plan_record.uniform_weld_m)
+    fits = [p for p in budget.parts if honest_class(p.hull.result) in ("flat", "developable")]
+    assert len(budget.parts) == 4 and len(fits) == 1
+    assert len(calls) == n_free  # every plate the budget plan asked for was evaluated already
+    assert evaluator.requested > evaluator.computed == len(set(calls))
+    again = load_run(_cs(tmp, "b2", "adaptive", {"maximise": "flat_strip", "weld_factor": 1.5}), evaluator)
+    assert len(calls) == n_free and [p.name for p in again.parts] == [p.name.replace("b_", "b2_", 1)
+                                                                        for p in budget.parts]
+    # the Pareto front of what the plan tried: more share costs more weld
+    front = budget.plan_record.pareto()
+    assert [p.weld_m for p in front] == sorted(p.weld_m for p in front)
+    assert [p.flat_strip for p in front] == sorted(p.flat_strip for p in front)
+
+
+def test_a_weighted_cost_splits_only_where_the_area_pays_for_the_weld(counted):
+    """{weights}: a split costs weld_m per metre and plate per plate, and earns formed_m2 per
+    m^2 it delivers flat or strip. The junction split adds a seam of about 3.5 m and one plate
+    and delivers a few m^2 as a strip: at formed_m2 = 1 the plate's 10 alone outweighs that
+    area, at formed_m2 = 100 it pays."""
+    from pipeline.hull.plan import load_run
+
+    tmp, evaluator, calls = counted
+    cheap = load_run(_cs(tmp, "w1", "adaptive", {"weights": {"weld_m": 1.0, "plate": 10.0, "formed_m2": 1.0}}),
+                     evaluator)
+    dear = load_run(_cs(tmp, "w2", "adaptive", {"weights": {"weld_m": 1.0, "plate": 10.0, "formed_m2": 100.0}}),
+                    evaluator)
+    assert len(cheap.parts) == 3 and cheap.plan_record.splits_taken == 0
+    assert len(dear.parts) > 3 and dear.plan_record.splits_taken >= 1
+
+
+def test_a_bad_objective_is_named(tmp_path):
+    from pipeline.config import ConfigError, load_config
+
+    path = _cs(tmp_path, "bad", "adaptive", {"maximise": "flat_strip"})
+    with pytest.raises(ConfigError, match="weld_factor"):
+        load_config(path)
+
+
+def test_jobs_2_writes_the_bytes_jobs_1_writes_for_an_adaptive_plan(tmp_path):
+    """The candidates evaluated in two worker processes: the same plan and the same files."""
+    from pipeline.cli import main
+
+    config = _cs(tmp_path, "cs", "adaptive", {"maximise": "flat_strip", "weld_factor": 3.0})
+    for jobs in (1, 2):
+        assert main(["run", str(config), "--out", str(tmp_path / f"j{jobs}"), "--jobs", str(jobs), "--quiet"]) == 0
+    one = {p.relative_to(tmp_path / "j1"): p for p in sorted((tmp_path / "j1").rglob("*")) if p.is_file()}
+    two = {p.relative_to(tmp_path / "j2"): p for p in sorted((tmp_path / "j2").rglob("*")) if p.is_file()}
+    assert sorted(one) == sorted(two)
+    compared = [name for name in one if name.suffix in SAME_BYTES]
+    assert {n.suffix for n in compared} == set(SAME_BYTES) and len(compared) > 10
+    for name in compared:
+        assert one[name].read_bytes() == two[name].read_bytes(), name
