@@ -52,3 +52,28 @@ def test_every_frame_crossing_a_plate_is_marked_end_plates_included(shell):
         assert not [f for f in rep["layout"]["findings"] if "from a butt" in f], name
         ends += "HULL END" in json.dumps(rep)
     assert ends >= 2  # the plates at both ends of the hull are among them
+
+
+def test_an_end_plate_reaches_as_far_as_its_surface_end_does_between_the_girth_lines():
+    """A hull end whose edge bulges aft between two of the nine girth lines the end plate's
+    x range is sampled on (a raised pole of the end row, at 1/16 of the girth): the range
+    reaches the edge's true farthest x (a 20001-point search) within 0.01 mm; the nine lines
+    alone stop short of it by more than 1 mm."""
+    from flatten.plane import Plane
+    from flatten.surface import nurbs_surface
+    from pipeline.hull.region import Girth, plate_x_range
+
+    nv = 17
+    v = np.linspace(0.0, 1.0, nv)
+    poles = np.zeros((2, nv, 3))
+    poles[0, :, 0], poles[1, :, 0] = 0.0, 10000.0
+    poles[:, :, 1] = 3000.0 * v
+    poles[1, 1, 0] += 300.0  # the end edge bulges aft near v = 1/16
+    knots_v = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nv - 2), [1.0] * 3])
+    surface = nurbs_surface(1, 3, poles, [0, 0, 1, 1], knots_v, name="bulged end")
+    girths = (Girth.iso(0.0), Girth.iso(1.0))
+    lo, hi = plate_x_range((Plane((1.0, 0.0, 0.0), 5000.0), None), surface, 0, girths)
+    truth = float(surface(np.ones(20001), np.linspace(0.0, 1.0, 20001))[:, 0].max())
+    nine = float(surface(np.ones(9), np.linspace(0.0, 1.0, 9))[:, 0].max())
+    assert lo == 5000.0 and abs(hi - truth) <= 0.01
+    assert truth - nine > 1.0

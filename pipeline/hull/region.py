@@ -375,14 +375,21 @@ def plate_x_range(planes, surface=None, long_axis: int = 0, girths=None) -> tupl
     """The x range a plate spans: between its butt planes; an end plate (a None plane: the
     hull's end before or after its butt) from its butt to the farthest x its region reaches
     on that side (the stem or the stern; sampled on 9 girth lines across the region, 801
-    points each: a transom can reach farther aft between the seams than on them), so its
-    frames are marked like any plate's."""
+    points each, and on the surface's end edges between the seams, 401 points each: a transom
+    can reach farther aft between the seams than on them), so its frames are marked like any
+    plate's."""
     if all(p is not None for p in planes):
         xs = [p.offset for p in planes]
         return min(xs), max(xs)
     s = np.linspace(*(surface.domain_u if long_axis == 0 else surface.domain_v), 801)
     lines = [girths[0].between(girths[1], f)(s) for f in np.linspace(0.0, 1.0, 9)]
     x = np.concatenate([surface(*((s, g) if long_axis == 0 else (g, s)))[:, 0] for g in lines])
+    # and across the surface's two ends between the seams, densely: a sloped transom or stem
+    # reaches its farthest x between two of the girth lines (12 mm past a frame on the 160 m hull)
+    for end in s[[0, -1]]:
+        g = np.linspace(girths[0](end), girths[1](end), 401)
+        e = np.full_like(g, end)
+        x = np.concatenate([x, surface(*((e, g) if long_axis == 0 else (g, e)))[:, 0]])
     if all(p is None for p in planes):
         return float(x.min()), float(x.max())
     butt = next(p for p in planes if p is not None)
