@@ -131,30 +131,42 @@ def load_surface_trimmed(spec, base: Path, mm_per_unit: float, scale: float = 1.
 def _model_face(spec, base: Path, mm_per_unit: float, scale: float):
     """(surface, trim or None, note) of a hull model's face (IGES, STEP, .3dm), read through
     OpenCascade or rhino3dm: the model is in mm, the surface in config units times ``scale``."""
-    from flatten.surface import nurbs_surface
+    path, model = _read_model(spec, base)
+    if getattr(spec, "faces", None):
+        surface, note, _ = _model_shell(model, path, spec.faces, mm_per_unit, scale)
+        return surface, None, note
+    return _face_of(model, path, spec.face, mm_per_unit, scale)
 
+
+def _read_model(spec, base: Path):
+    """(path, HullModel) of a model source; an unreadable file is a SourceError."""
     from ..io.hullmodel import HullModelError, read_hull_model
-    from .trims import Trim
 
     path = source_path(base, spec.model)
     try:
-        model = read_hull_model(path)
+        return path, read_hull_model(path)
     except HullModelError as exc:
         raise SourceError(str(exc)) from None
-    if getattr(spec, "faces", None):
-        return _model_shell(model, path, spec.faces, mm_per_unit, scale)
-    if not spec.face < len(model.faces):
-        raise SourceError(f"{path}: face {spec.face} asked for; the model has {len(model.faces)} faces (0 to "
+
+
+def _face_of(model, path: Path, index: int, mm_per_unit: float, scale: float):
+    """(surface, trim or None, note) of face ``index`` of a read model, in config units times ``scale``."""
+    from flatten.surface import nurbs_surface
+
+    from .trims import Trim
+
+    if not index < len(model.faces):
+        raise SourceError(f"{path}: face {index} asked for; the model has {len(model.faces)} faces (0 to "
                           f"{len(model.faces) - 1})")
-    face = model.faces[spec.face]
+    face = model.faces[index]
     s = face.surface
     factor = scale / mm_per_unit
     surface = nurbs_surface(s.degree_u, s.degree_v, s.poles * factor, s.knots_u, s.knots_v, s.weights,
-                            name=f"hull {path.name} face {spec.face}")
+                            name=f"hull {path.name} face {index}")
     if not face.trimmed:
-        return surface, None, (f"{path.name}: face {spec.face}: {face.trim_note}" if face.trim_note else "")
-    trim = Trim(spec.face, face.outer, face.inner, 0)
-    return surface, trim, (f"{path.name}: face {spec.face} is trimmed; the trim is honoured by area: plates wholly "
+        return surface, None, (f"{path.name}: face {index}: {face.trim_note}" if face.trim_note else "")
+    trim = Trim(index, face.outer, face.inner, 0)
+    return surface, trim, (f"{path.name}: face {index} is trimmed; the trim is honoured by area: plates wholly "
                            f"outside it are not planned, a plate partly outside keeps its untrimmed region and reports "
                            f"the share inside (inside_trim)")
 
@@ -166,9 +178,10 @@ SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another fa
 
 
 def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
-    """(surface, None, note) of several faces lofted into one shell surface (pipeline.hull.shell),
-    in config units times ``scale``. Faces that meet at a knuckle are refused: a knuckle is a
-    seam or a butt, not a plate to cross."""
+    """(surface, note, limits) of several faces lofted into one shell surface (pipeline.hull.shell),
+    in config units times ``scale``; ``limits``: each face's (lo, hi) x range kept where faces
+    lying on each other were cut (None: no cut), config units. Faces that meet at a knuckle
+    are refused: a knuckle is a seam or a butt, not a plate to cross."""
     from flatten.closest import SurfaceDistance
     from flatten.surface import nurbs_surface
 
@@ -184,15 +197,12 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
                           f"{len(model.faces) - 1})")
     faces = [model.faces[k] for k in indices]
     sub = HullModel(path, model.format, tuple(faces))
-    regions = []
-    for face in faces:
-        s = face.surface
-        regions.append(Trim(face.index, face.outer, face.inner, 0).polygon(
-            s.domain_u[0], s.domain_v[0], s.domain_u[1], s.domain_v[1]) if face.trimmed else None)
+    trims = [Trim(f.index, f.outer, f.inner, 0) if f.trimmed else None for f in faces]
+    regions = [None if t is None else t.polygon(f.surface.domain_u[0], f.surface.domain_v[0], f.surface.domain_u[1],
+                                                f.surface.domain_v[1]) for f, t in zip(faces, trims)]
     # faces lying on each other (DTMB 5415's bow and main hull) are cut where their sections
     # come closest, each keeping its side, before they are lofted: every station then crosses one
-    limits, overlaps = overlap_cuts([f.surface for f in faces], [Trim(f.index, f.outer, f.inner, 0) if f.trimmed
-                                                                 else None for f in faces], SHELL_JUNCTION_MM)
+    limits, overlaps = overlap_cuts([f.surface for f in faces], trims, SHELL_JUNCTION_MM)
     for k, (face, lim) in enumerate(zip(faces, limits)):
         if any(x is not None for x in lim):
             s = face.surface
@@ -225,7 +235,8 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
     smooth = [f"faces {indices[j['faces'][0]]} and {indices[j['faces'][1]]} meet smoothly "
               f"({j['p95_angle_deg']:.2f} deg)" for j in junctions]
     note = shell.note(path.name, scale) + (f" (model scale 1:{scale:g})" if scale != 1 else "")
-    return surface, None, note + "".join(f"; {line}" for line in smooth + cuts)
+    kept = [tuple(None if x is None else x * factor for x in lim) for lim in limits]
+    return surface, note + "".join(f"; {line}" for line in smooth + cuts), kept
 
 
 @dataclass(frozen=True)
@@ -247,19 +258,16 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
     shell is covered once."""
     out = []
     for spec in sources:
-        surface, trim, note = load_surface_trimmed(spec, base, mm_per_unit, scale)
-        out.append(PlanSurface(surface, trim, note))
         if not getattr(spec, "faces", None):
+            out.append(PlanSurface(*load_surface_trimmed(spec, base, mm_per_unit, scale)))
             continue
-        from .sewing import overlap_cuts
-
+        path, model = _read_model(spec, base)
+        surface, note, cut = _model_shell(model, path, spec.faces, mm_per_unit, scale)
+        out.append(PlanSurface(surface, None, note))
         loft = len(out) - 1
         x0, x1 = surface.domain_u  # the loft's u is x
-        faces = [load_surface_trimmed(type(spec)(model=spec.model, face=k), base, mm_per_unit, scale)
-                 for k in spec.faces]
+        faces = [_face_of(model, path, k, mm_per_unit, scale) for k in spec.faces]
         # faces the loft cut where they lie on each other keep their side of the cut here too
-        cut, _ = overlap_cuts([f for f, _, _ in faces], [t for _, t, _ in faces],
-                              SHELL_JUNCTION_MM * scale / mm_per_unit)
         for k, (face, face_trim, face_note), (cut_lo, cut_hi) in zip(spec.faces, faces, cut):
             lo, hi = _x_extent(face, face_trim)
             lo, hi = max(lo, cut_lo if cut_lo is not None else lo), min(hi, cut_hi if cut_hi is not None else hi)

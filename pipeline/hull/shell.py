@@ -274,8 +274,9 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     ``tolerance`` mm where the poles allow. Where two faces meet, the surface has a girth
     knot of full multiplicity at the junction's median girth fraction, so that the change of
     curvature there (a flat of bottom meeting the bilge) is not smoothed over."""
-    lo = min(float(f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].min()) for f in faces)
-    hi = max(float(f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].max()) for f in faces)
+    xs = np.concatenate([f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].ravel()
+                         for f in faces])
+    lo, hi = float(xs.min()), float(xs.max())
     count = max(12, int(np.ceil((hi - lo) / spacing)) + 1)
     pad = 1e-6 * (hi - lo)
     x_values = np.linspace(lo + pad, hi - pad, count)
