@@ -275,6 +275,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
     extra = {} if cost is None else {"plan_cost": cost}
     if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
         extra["shell"] = shell.as_dict()
+        if getattr(config, "fitup_repair", None) is not None:
+            extra["shell"]["repair"] = config.fitup_repair.as_dict()
     models = model_sources(config)
     if models:  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports

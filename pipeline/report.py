@@ -87,6 +87,8 @@ def part_report(result: PartResult, units: str) -> dict:
         report["templates"] = result.figures["templates"]
     if result.figures.get("pinjig") is not None:
         report["pinjig"] = result.figures["pinjig"]
+    if result.figures.get("edge_fit") is not None:  # developed on the hull for its edges' fit-up
+        report["edge_fit"] = result.figures["edge_fit"]
     if result.figures.get("heating") is not None:  # formed steel plates (pipeline.shop.heating)
         report["heating"] = result.figures["heating"]
     return report

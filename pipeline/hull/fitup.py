@@ -94,6 +94,8 @@ class SharedEdge:
     length2: tuple  # (a, b) developed length of the common part
     isometric: bool  # both plates flat or strip
     limit: float  # the step limit min(0.15 t, 3 mm) of this pair
+    side_a: str = ""  # which edge of plate a (one of SIDES) ...
+    side_b: str = ""  # ... meets which of plate b
 
     @property
     def mismatch(self) -> float:
@@ -217,10 +219,7 @@ def plate_edges(result) -> PlateEdges | None:
         if len(shape) != 2 or shape[0] * shape[1] != len(v3):
             return None
         if name == "flat":  # the cut plate is planar: its 3D shape is the region on its plane
-            from flatten.patchflat import fit_plane
-
-            fit = fit_plane(v3)
-            v3 = v3 - np.outer(fit.distances, fit.normal)
+            v3 = _on_plane(v3, klass)
         ring, labels = _grid_ring(v3.reshape(*shape, 3), hull, hull.fit_tolerance)
         borrow = {"butt0": (0, 1), "butt1": (0, 1)}  # the grid's rows hold the corners, its end columns borrow them
     else:
@@ -240,6 +239,20 @@ def plate_edges(result) -> PlateEdges | None:
         if keep.sum() >= 2:
             edges.append(Edge(side, names[side], p3[keep], p2[keep]))
     return PlateEdges(result.name, name, bool(isometric), tuple(edges), v3[ring])
+
+
+def _on_plane(v3: np.ndarray, klass: dict) -> np.ndarray:
+    """A flat plate's region (N, 3) projected on the plane it was developed on (its normal and
+    a point of it, as the plate's class records them; the least-squares plane for a plate
+    that does not record its point)."""
+    normal, point = klass.get("normal"), klass.get("plane_point")
+    if normal is None or point is None:
+        from flatten.patchflat import fit_plane
+
+        fit = fit_plane(v3)
+        return v3 - np.outer(fit.distances, fit.normal)
+    normal = np.asarray(normal, dtype=np.float64)
+    return v3 - np.outer((v3 - np.asarray(point, dtype=np.float64)) @ normal, normal)
 
 
 def _butt_codes(points_by_end, hull) -> list[int]:
@@ -433,6 +446,28 @@ def shell_fitup(results, config) -> ShellFitup | None:
         else:
             records[r.name] = (rec, r.part)
     thickness = float(config.spec.steel.thickness)
+    pairs, apart = shared_edges(records, mm, thickness)
+    strains = []
+    for rec, _ in records.values():
+        if rec.klass != "formed":
+            continue
+        for e in rec.edges:
+            d = _dense(e, SAMPLE_MM / mm)
+            strains.append((rec.name, e.label, float((d.s2[-1] - d.s3[-1]) / d.s3[-1])))
+    from .coverage import shell_coverage
+
+    try:
+        coverage = shell_coverage(records, [r.part for r in hull_results], config)
+    except Exception as exc:  # noqa: BLE001 - the run's plates are written; the report says why it has no coverage
+        coverage = {"error": f"{type(exc).__name__}: {exc}"}
+    return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured), tuple(apart))
+
+
+def shared_edges(records: dict, mm: float, thickness: float) -> tuple[list, list]:
+    """(pairs, apart): every shared edge of the plates in ``records`` ({plate name:
+    (PlateEdges, part)}) measured (:class:`SharedEdge`), and the neighbours by the plan whose
+    edges lie apart. ``mm``: millimetres per model unit; ``thickness``: the run's plate
+    thickness (mm), for plates that do not give their own."""
     pairs, apart = [], []
     dense = {}  # (plate, side) -> its edge sampled: each edge is asked for by several candidates
 
@@ -455,21 +490,8 @@ def shell_fitup(results, config) -> ShellFitup | None:
         (apart if far else pairs).append(SharedEdge(
             na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
-            ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM)))
-    strains = []
-    for rec, _ in records.values():
-        if rec.klass != "formed":
-            continue
-        for e in rec.edges:
-            d = _dense(e, SAMPLE_MM / mm)
-            strains.append((rec.name, e.label, float((d.s2[-1] - d.s3[-1]) / d.s3[-1])))
-    from .coverage import shell_coverage
-
-    try:
-        coverage = shell_coverage(records, [r.part for r in hull_results], config)
-    except Exception as exc:  # noqa: BLE001 - the run's plates are written; the report says why it has no coverage
-        coverage = {"error": f"{type(exc).__name__}: {exc}"}
-    return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured), tuple(apart))
+            ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM), side_a, side_b))
+    return pairs, apart
 
 
 def _near(a: Edge, b: Edge, margin: float) -> bool:

@@ -75,7 +75,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
-    record = None
+    record = repair = None
     try:
         if spec.strake.plan is not None:
             from .objective import PlanRecord
@@ -86,6 +86,11 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record)
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
+        if spec.strake.fit_up == "repair" and evaluate is not None:
+            from .repair import repair_fitup
+
+            repair = repair_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
+                                  float(spec.steel.thickness))
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
@@ -95,6 +100,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             close()  # an evaluator's workers end with the plan (its cache stays)
     run = RunConfig(spec, parts, path, config.lines)
     run.plan_record = record
+    run.fitup_repair = repair
     return run
 
 

@@ -509,7 +509,7 @@ def plate_key(part, config=None) -> str:
                         tuple((g.s, g.g) for g in hull.girths),
                         tuple(None if p is None else p.as_tuple() for p in hull.butts),
                         hull.seam_names, hull.butt_names, hull.fit_tolerance, hull.resolution, repr(hull.frames),
-                        hull.inside_trim, hull.x_limits, hull.surface_note, hull.developable, hull.note,
+                        hull.inside_trim, hull.x_limits, hull.surface_note, hull.developable, hull.note, hull.held,
                         part.steel)).encode())
     if config is not None:
         spec = config.spec

@@ -223,7 +223,12 @@ def _labels(outline_sides, hull, points):
 def run_plate(part: Part, config: RunConfig) -> PartResult:
     """Flat, developable or formed: every hull plate gets a development and a class."""
     result = PartResult(part.name, part)
+    held = part.hull.held
     try:
+        if held:
+            _run_plate(result, config, patch_only=held["reason"], edge_limit=held.get("edge_limit"))
+            result.figures["edge_fit"] = dict(held)
+            return result
         _run_plate(result, config)
         limit = part.hull.edge_tolerance
         off = edge_deviation(result) if limit is not None else None
@@ -256,9 +261,10 @@ def edge_deviation(result: PartResult) -> float | None:
     return float(max(distance(e.points3).max() for e in edges.edges))
 
 
-def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "") -> None:
+def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge_limit: float | None = None) -> None:
     """The plate's class and development; ``patch_only``: why no flat or strip development is
-    tried (the plate is developed on the hull as a patch)."""
+    tried (the plate is developed on the hull as a patch); ``edge_limit``: with it, a plate that
+    is flat on a plane keeping its edges within this of the hull stays flat (else a patch)."""
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
@@ -286,6 +292,17 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "") -> N
                                                 for b in hull.butts]}
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
+    fit = flattest_plane(v_grid, tol)
+    if edge_limit is not None and fit.max_distance <= tol:
+        # held for its fit-up: flat only on the plane that keeps its edges nearest the hull
+        from flatten.edgeplane import edge_held_plane
+
+        held = edge_held_plane(v_grid, _grid_edge(shape), tol, start=fit)
+        if held is not None and held.edge_max_distance <= edge_limit:
+            _deliver_flat(result, config, grid, v3, f3, index, held, tol, (length, width),
+                          f"orthogonal projection on the plane within the tolerance of the region that keeps its "
+                          f"edges nearest the hull ({held.edge_max_distance:.3g} off, limit {edge_limit:.3g})")
+            return
     if patch_only:
         uv, iterations = arap_development(v3, f3)
         _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
@@ -293,17 +310,11 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "") -> N
                         "strip_not_delivered_because": patch_only, "families": [], "strip_max_deviation": None},
                        None, (length, width))
         return
-    fit = flattest_plane(v_grid, tol)
     if fit.max_distance <= tol:
-        uv = planar_development(v_grid, fit)
-        _deliver_patch(result, config, grid, uv, v3, f3, index, "flat",
-                       {"method": "orthogonal projection on the minimax (Chebyshev) plane of the region",
-                        "plane_max_distance": fit.max_distance, "normal": fit.normal.tolist(),
-                        "plane_lower_bound": fit.lower_bound, "plane_proven_minimax": fit.proven,
-                        "least_squares_max_distance": fit.least_squares_max}, None, (length, width))
-        result.figures["hull_fit"] = {"max_distance": fit.max_distance,
-                                      "rms_distance": float(np.sqrt(np.mean(fit.distances ** 2))),
-                                      "tolerance": tol, "passed": True}
+        _deliver_flat(result, config, grid, v3, f3, index, fit, tol, (length, width),
+                      "orthogonal projection on the minimax (Chebyshev) plane of the region",
+                      {"plane_lower_bound": fit.lower_bound, "plane_proven_minimax": fit.proven,
+                       "least_squares_max_distance": fit.least_squares_max})
         return
     attempt = PartResult(part.name, part)
     why = hull.note
@@ -385,6 +396,26 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "") -> N
                     "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                     "strip_max_deviation": best[0]},
                    roll_strip, (length, width))
+
+
+def _grid_edge(shape) -> np.ndarray:
+    """(R*C,) bool: the region grid's boundary points (first and last row and column)."""
+    edge = np.zeros(shape, dtype=bool)
+    edge[0] = edge[-1] = edge[:, 0] = edge[:, -1] = True
+    return edge.ravel()
+
+
+def _deliver_flat(result, config, grid, v3, f3, index, fit, tol, size, method, extra=None) -> None:
+    """A flat plate: the region projected on the plane ``fit`` (within ``tol`` of it)."""
+    v_grid = grid.points.reshape(-1, 3)
+    uv = planar_development(v_grid, fit)
+    _deliver_patch(result, config, grid, uv, v3, f3, index, "flat",
+                   dict({"method": method, "plane_max_distance": fit.max_distance, "normal": fit.normal.tolist(),
+                         "plane_point": np.asarray(fit.centroid, dtype=float).tolist()}, **(extra or {})),
+                   None, size)
+    result.figures["hull_fit"] = {"max_distance": fit.max_distance,
+                                  "rms_distance": float(np.sqrt(np.mean(fit.distances ** 2))),
+                                  "tolerance": tol, "passed": True}
 
 
 def _moved(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:

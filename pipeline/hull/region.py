@@ -85,6 +85,9 @@ class HullPlate:
     x_limits: tuple = (None, None)  # where a plan cut the face (overlapping another): the x range it keeps
     face_trim: object = None  # the surface's trim whatever the plate's region (a planned shell's coverage)
     edge_tolerance: float | None = None  # most a flat or strip plate's edges may leave the hull (else a patch)
+    # a fit-up repair's verdict: developed on the hull as a patch (its edges on it) because its
+    # edge stepped from a neighbour's ({reason, class_before, edge_deviation_before, ...})
+    held: dict | None = None
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:

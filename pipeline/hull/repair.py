@@ -1,0 +1,135 @@
+"""Fit-up repair: neighbours whose edges step further than a weld may be misaligned are
+brought onto the hull, one plate at a time.
+
+A flat or strip plate is delivered within the fit tolerance of the hull, its edges too: two
+neighbours off the hull in opposite directions step by up to twice the tolerance at their
+shared edge, more than a butt or seam may be misaligned by (IACS Rec. 47: 0.15 t, at most
+3 mm). A plate developed on the hull as a patch has its edges on it, so its step with any
+neighbour is the neighbour's own distance from the hull there.
+
+The repair takes every misfit pair of the measured fit-up (:func:`.fitup.shared_edges`): the
+plate whose edge lies further from the hull is developed on the hull; when the other's edge is
+still further from it than the pair's limit, that plate too. A pair whose developed lengths
+disagree (two isometric plates) is repaired the same way: a patch is not held to its
+neighbour's length. The plates held change their other edges too (they now lie on the hull),
+so the pairs are measured again, for a few rounds. A pair of which neither plate can be held
+(both patches already: plates on two faces that do not meet) stays as the fit-up reports it.
+
+Compared with ``strake.edge_tolerance``, which holds every plate whose edges leave the hull
+further than a set distance, only plates that step from a neighbour lose their flat or strip
+development, and only the worse of two when the other is close enough.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flatten.closest import SurfaceDistance
+
+from .fitup import plate_edges, shared_edges
+
+ROUNDS = 4  # measure, hold, evaluate again: rounds at most
+HOLDABLE = ("flat", "developable")  # classes whose edges may leave the hull (a patch's lie on it)
+RULE = ("a plate whose edge steps from a neighbour's by more than min(0.15 t, 3 mm), or two flat/strip "
+        "neighbours whose developed lengths differ by more than 1 mm: the plate whose edge lies further from the "
+        "hull is developed on the hull (a patch), and the other too when its edge is still further from the hull "
+        "than the pair's limit; measured again after each round")
+
+
+@dataclass
+class RepairReport:
+    """What the repair did: per round the misfit pairs found and the plates held (their
+    names and why), and the misfit pairs it could not repair."""
+
+    rounds: list = field(default_factory=list)
+    unrepaired: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
+
+    @property
+    def held(self) -> list:
+        return [name for r in self.rounds for name in r["held"]]
+
+    def as_dict(self) -> dict:
+        return {"rule": RULE, "plates_held": len(self.held), "rounds": self.rounds,
+                "unrepaired": [{"plates": [a, b], "edge": label, "step_max_mm": step}
+                               for a, b, label, step in self.unrepaired]}
+
+    def one_line(self) -> str:
+        misfits = self.rounds[0]["misfits"] if self.rounds else 0
+        return (f"fit-up repair: {misfits} misfit pair(s) found, {len(self.held)} plate(s) developed on the hull in "
+                f"{sum(1 for r in self.rounds if r['held'])} round(s), {len(self.unrepaired)} pair(s) left")
+
+
+def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float) -> RepairReport:
+    """Hold plates on the hull until no shared edge misfits (or ROUNDS rounds). ``parts``:
+    the run's parts; hull plates without an evaluated result are evaluated first
+    (``evaluate_many(parts) -> results``, spread over the workers). Each held plate is
+    evaluated again with ``part.hull.held`` set, and ``part.hull.result`` is its new result."""
+    plates = [p for p in parts if getattr(p, "hull", None) is not None]
+    _evaluate([p for p in plates if p.hull.result is None], evaluate_many)
+    report = RepairReport()
+    for round_no in range(1, ROUNDS + 1):
+        records = {}
+        for part in plates:
+            edges = plate_edges(part.hull.result) if part.hull.result is not None else None
+            if edges is not None:
+                records[part.name] = (edges, part)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+        misfits = [q for q in pairs if q.misfit]
+        chosen: dict = {}
+        report.unrepaired = []
+        for pair in sorted(misfits, key=lambda q: -q.step_max):
+            picked = _to_hold(pair, records, mm_per_unit, round_no)
+            if not picked:
+                report.unrepaired.append((pair.a, pair.b, pair.label, pair.step_max))
+            for name, held in picked:
+                chosen.setdefault(name, held)
+        report.rounds.append({"round": round_no, "misfits": len(misfits), "held": sorted(chosen)})
+        if not chosen:
+            break
+        by_name = {p.name: p for p in plates}
+        for name, held in chosen.items():
+            by_name[name].hull.held = held
+            by_name[name].hull.result = None
+        _evaluate([by_name[name] for name in chosen], evaluate_many)
+    return report
+
+
+def _evaluate(parts: list, evaluate_many) -> None:
+    if parts:
+        for part, result in zip(parts, evaluate_many(parts)):
+            part.hull.result = result
+
+
+def _to_hold(pair, records: dict, mm: float, round_no: int) -> list:
+    """[(plate name, held record)] of the misfit pair: the plate whose edge is further from
+    the hull; the other too when its edge is further than the pair's limit (a step misfit)."""
+    sides = []
+    for name, side, other in ((pair.a, pair.side_a, pair.b), (pair.b, pair.side_b, pair.a)):
+        edges, part = records[name]
+        edge = edges.edge(side)
+        held = part.hull.held
+        if edges.klass not in HOLDABLE or edge is None or (held and held.get("edge_limit") is None):
+            continue  # a patch already, or held on the hull as one
+        distance = part.hull.distance or SurfaceDistance(part.hull.surface)
+        off = float(np.max(distance(edge.points3))) * mm
+        sides.append((off, name, edge.label, other, edges.klass))
+    sides.sort(reverse=True)
+    stepped = pair.step_max > pair.limit
+    keep = sides[:1] + [s for s in sides[1:] if stepped and s[0] > pair.limit]
+    why = (f"step {pair.step_max:.2f} mm (limit {pair.limit:.2f} mm)" if stepped else
+           f"developed lengths differ by {pair.mismatch:.2f} mm")
+    out = []
+    for off, name, label, other, klass in keep:
+        held = {"rule": "strake.fit_up: repair", "round": round_no, "class_before": klass,
+                "edge_deviation_before_mm": off, "edge": label, "neighbour": other, "step_mm": pair.step_max,
+                "step_limit_mm": pair.limit,
+                "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
+                          f"{other}'s with a {why}"}
+        if klass == "flat" and not records[name][1].hull.held:
+            # a flat plate first tries the plane that keeps its edges nearest the hull: within
+            # half the pair's limit, two such neighbours stay within it
+            held["edge_limit"] = 0.5 * pair.limit / mm
+        out.append((name, held))
+    return out
