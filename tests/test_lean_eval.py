@@ -57,42 +57,57 @@ def _files(result, config, folder: Path) -> dict:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
-@pytest.mark.parametrize("name", list(PLATES))
-def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, name, tmp_path, monkeypatch):
+@pytest.fixture(scope="module")
+def evaluated(hull160):
+    """The plates evaluated lean by two worker processes, as a plan's evaluator does: the
+    results come back to this process, whose own parts never ran (their curves are cold)."""
     config, parts = hull160
-    part = parts[name]
+    evaluator = PlateEvaluator(evaluate_plate, 2)
+    try:
+        results = evaluator.many([parts[name] for name in PLATES], config)
+    finally:
+        evaluator.close()
+    assert evaluator.computed == len(PLATES)
+    return evaluator, dict(zip(PLATES, results))
+
+
+@pytest.mark.parametrize("name", list(PLATES))
+def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, evaluated, name, tmp_path, monkeypatch):
+    config, parts = hull160
+    evaluator, lean_results = evaluated
+    part, lean = parts[name], lean_results[name]
     klass, how = PLATES[name]
-    full = run_part(part, config)  # part.hull.result is None: the full plate run
+    # what the plan reads is there; the shop data are not
+    assert lean.ok and lean.shop_work is not None and lean.figures["plate_class"]["class"] == klass
+    assert lean.shop is None and lean.templates == () and lean.pinjig is None
+    assert not [k for k in SHOP_FIGURES if lean.figures.get(k)]
+    if how != "seam":  # no marks yet (a seam strip's pattern is its solver's rulings until shop.plate)
+        assert not len(lean.pattern.bend_lines) and lean.pattern.frame_lines == () and lean.pattern.labels == ()
+    # a second plan asks again: the cache's copy, sent to a worker (pickled) and completed
+    # there, before this process runs the plate itself
+    requested = evaluator.requested
+    again = evaluator.many([part], config)[0]
+    assert evaluator.computed == len(PLATES) and evaluator.requested == requested + 1
+    sent = pickle.loads(pickle.dumps(again))
+    monkeypatch.setattr(sent.part.hull, "result", sent)
+    completed = run_part(sent.part, config)
+    assert completed.shop_work is None and evaluator.cache[next(k for k in evaluator.cache if evaluator.cache[k].name
+                                                                == name)].shop_work is not None  # the cache stays lean
+    assert completed.figures["fitup_edges"] is not None
+    monkeypatch.setattr(part.hull, "result", None)
+    full = run_part(part, config)  # the full plate run
     assert full.ok and full.figures["plate_class"]["class"] == klass
     # the delivery this plate stands for: a seam-to-seam strip keeps its strip (its shop data
     # from shop.plate.stage_shop), a trimmed strip and a patch their region mesh
     assert (full.strip is not None) == (how == "seam")
     assert ("mapped onto the strip" in full.figures["plate_class"]["method"]) == (how == "trimmed")
-
-    evaluator = PlateEvaluator(evaluate_plate, 1)
-    lean = evaluator.many([part], config)[0]
-    # what the plan reads is there, and equal to the full run's
-    assert lean.ok and lean.shop_work is not None
+    # the plan judged the lean result as it would have judged the full one
     assert honest_class(lean) == honest_class(full)
     assert shell_area(lean) == shell_area(full)
     assert lean.figures["plate_class"] == full.figures["plate_class"]
     assert lean.figures["region"] == full.figures["region"]
-    # and the shop data are not
-    assert lean.shop is None and lean.templates == () and lean.pinjig is None
-    assert not [k for k in SHOP_FIGURES if lean.figures.get(k)]
-    if how != "seam":  # no marks yet (a seam strip's pattern is its solver's rulings until shop.plate)
-        assert not len(lean.pattern.bend_lines) and lean.pattern.frame_lines == () and lean.pattern.labels == ()
     if klass != "flat":  # a flat plate gets frame lines and names only
         assert [k for k in SHOP_FIGURES if full.figures.get(k)]
-    # a second plan asks again: the cache's copy, through a worker's pickle, completed there
-    again = evaluator.many([part], config)[0]
-    assert evaluator.computed == 1 and evaluator.requested == 2
-    sent = pickle.loads(pickle.dumps(again))
-    monkeypatch.setattr(sent.part.hull, "result", sent)
-    completed = run_part(sent.part, config)
-    assert completed.shop_work is None and evaluator.cache  # the cached result stays lean
-    assert next(iter(evaluator.cache.values())).shop_work is not None
-    assert completed.figures["fitup_edges"] is not None
     if how == "seam":  # the exact outline replaced the ruling polygon at completion
         assert not np.array_equal(completed.pattern.outline, lean.pattern.outline)
     full_files = _files(full, config, tmp_path / "full")

@@ -50,33 +50,44 @@ def is_lean(config) -> bool:
 class ShopWork:
     """The shop data a lean-evaluated plate still owes: ``fn(result, config, *args)``, with
     ``args`` the geometry its evaluation computed (read, never changed: a cached result
-    shares them with the copies a plan hands out)."""
+    shares them with the copies a plan hands out) and ``part`` the part it was evaluated as.
+
+    The evaluation's own part, not the plan's copy of it: its seam curves carry what the
+    evaluation cached on them (power-basis coefficients, arc-length tables), which the
+    strip's development also refers to; the plan's copy, never evaluated, would compute
+    the shop data from cold curves and move their last digits."""
 
     fn: object
     args: tuple = ()
+    part: object = None
 
 
 def owe(result, config, fn, *args) -> None:
     """``fn(result, config, *args)`` now, or, in a lean run, left on the result."""
     if is_lean(config):
-        result.shop_work = ShopWork(fn, args)
+        result.shop_work = ShopWork(fn, args, result.part)
     else:
         fn(result, config, *args)
 
 
 def complete(result, config: RunConfig):
-    """The result with its owed shop data computed (as the full plate run computes them);
-    an exception fails the plate with the reason, as one inside the plate run does."""
+    """The result with its owed shop data computed (as the full plate run computes them, on
+    the part it was evaluated as); an exception fails the plate with the reason, as one
+    inside the plate run does."""
     work = result.shop_work
     if work is None:
         return result
     result.shop_work = None
+    plan_part = result.part
+    result.part = plan_part if work.part is None else work.part
     try:
         work.fn(result, config, *work.args)
     except Exception as exc:  # one plate never stops the run: report it with the evidence
         result.status = "failed"
         result.reason = f"internal error in plate {result.name}: {type(exc).__name__}: {exc}"
         result.figures["traceback"] = traceback.format_exc(limit=6)
+    finally:
+        result.part = plan_part
     return result
 
 
