@@ -27,6 +27,15 @@ second objective on a hull costs only the plates the first did not ask for. Per 
 plan's time (wall and CPU seconds, the workers' included) and the plates it evaluated and
 found in the cache; after each adaptive row its Pareto front (the candidate plans the planner
 evaluated that no other beats in both flat + strip share and weld length).
+
+    python bench/bench_hull.py --lean-every 4 [--hulls hull160]
+
+prints instead, per hull, the CPU per plate of a candidate's lean evaluation (what an
+adaptive plan runs: class, fit, area; pipeline/hull/plateshop.py) beside the full plate
+run (the baseline: what every candidate cost before), on every 4th plate of its uniform
+layout, in this process, interleaved plate by plate, per class and in all; and the
+completion a kept plate gets (its shop data), so that lean + completion / full shows that
+a kept plate pays nothing twice.
 """
 
 from __future__ import annotations
@@ -126,6 +135,55 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
             "fitup": fit, "record": config.plan_record, "objective": objective}
 
 
+def lean_vs_full(hull: str, every: int) -> None:
+    """CPU per plate, full plate run vs lean evaluation (and its completion), every
+    ``every``-th plate of the hull's uniform layout."""
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.planner import honest_class
+    from pipeline.hull.plates import evaluate_plate, run_plate
+    from pipeline.hull.plateshop import complete
+
+    data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
+    data["strake"]["plan"]["method"] = "uniform"
+    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    for s in data["strake"]["plan"].get("surfaces", []):
+        s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{hull}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        config = load_run(path)
+    parts = config.parts[::every]
+    evaluate_plate(parts[0], config)  # untimed: the lazy imports
+    rows: dict = {}
+    for part in parts:
+        cpu = time.process_time()
+        full = run_plate(part, config)
+        t_full = time.process_time() - cpu
+        cpu = time.process_time()
+        lean = evaluate_plate(part, config)
+        t_lean = time.process_time() - cpu
+        cpu = time.process_time()
+        complete(lean, config)
+        t_done = time.process_time() - cpu
+        if honest_class(lean) != honest_class(full):
+            sys.exit(f"bench_hull: {part.name}: lean class {honest_class(lean)}, full {honest_class(full)}")
+        klass = honest_class(full)
+        for key in (klass, "all"):
+            row = rows.setdefault(key, [0, 0.0, 0.0, 0.0])
+            row[0] += 1
+            row[1] += t_full
+            row[2] += t_lean
+            row[3] += t_done
+    print(f"{hull}: {len(parts)} plates (every {every}th of {len(config.parts)} of the uniform layout), CPU ms per "
+          f"plate, load average {os.getloadavg()[0]:.1f}")
+    print(f"  {'class':<12}{'plates':>7}{'full':>9}{'lean':>9}{'lean/full':>10}{'shop (completion)':>19}"
+          f"{'(lean+shop)/full':>18}")
+    for key in sorted(rows, key=lambda k: (k == "all", k)):
+        n, full, lean, done = rows[key]
+        print(f"  {key:<12}{n:>7}{1000 * full / n:>9.0f}{1000 * lean / n:>9.0f}{lean / full:>10.2f}"
+              f"{1000 * done / n:>19.0f}{(lean + done) / full:>18.2f}")
+
+
 def front_lines(record, area_m2: float) -> list[str]:
     """The Pareto front of the candidate plans (weld m, weld m/m^2, plates, flat + strip %)."""
     if record is None or not record.points:
@@ -168,7 +226,13 @@ def main(argv=None) -> int:
                         help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
+    parser.add_argument("--lean-every", type=int, default=0,
+                        help="instead: lean vs full evaluation CPU per plate on every n-th uniform plate")
     args = parser.parse_args(argv)
+    if args.lean_every > 0:
+        for hull in args.hulls:
+            lean_vs_full(hull, args.lean_every)
+        return 0
     from pipeline.runner import plate_evaluator
 
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"

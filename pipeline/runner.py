@@ -251,7 +251,8 @@ class PlateEvaluator:
     The workers are forked when the first batch arrives, after the plan loaded its surfaces:
     a plate is sent as a pickle in which the objects every plate shares (the hull surface,
     its distance structure, its trim) are references to the copies the worker inherited, and
-    its result comes back without its part (the parent re-attaches it). A worker that dies
+    its result comes back without its part (the parent re-attaches it). A lean result (its
+    shop data owed) stays lean in the cache: each copy handed out is completed on its own. A worker that dies
     leaves its plates to the parent, which evaluates them itself. Figures (not in any output
     file, so that ``--jobs`` never changes a byte): ``requested`` plates, ``computed`` ones
     (the rest came from the cache), ``seconds`` of wall time in :meth:`many` and the CPU
@@ -428,7 +429,9 @@ def _renamed(result, part):
 
 
 def plate_evaluator(jobs: int = 1) -> PlateEvaluator:
-    """The evaluator ``devflat run`` hands an adaptive plan: the full plate run."""
+    """The evaluator ``devflat run`` hands an adaptive plan: the lean plate run (class, fit,
+    area; no shop data: the plates the plan keeps get theirs when they are run, from the
+    geometry cached here, :mod:`pipeline.hull.plateshop`)."""
     from .hull.plates import evaluate_plate
 
     return PlateEvaluator(evaluate_plate, jobs)

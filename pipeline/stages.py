@@ -60,6 +60,8 @@ class PartResult:
     shop: object = None  # a pipeline.shop.ShopPlate for steel plates
     templates: tuple = ()  # pipeline.shop.templates.Template: what checks a curved steel plate's shape
     pinjig: object = None  # a pipeline.shop.pinjig.PinJig of a rolled or formed hull plate
+    # a lean-evaluated hull plate's shop data still to compute (pipeline.hull.plateshop.ShopWork)
+    shop_work: object = None
 
     @property
     def ok(self) -> bool:

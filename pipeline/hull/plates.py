@@ -32,17 +32,15 @@ import numpy as np
 
 from flatten.closest import SurfaceDistance
 from flatten.metrics import polygon_area
-from flatten.patch import grid_ring, principal_curvatures, region_grid, weld
+from flatten.patch import grid_ring, region_grid, weld
 from flatten.minimax import flattest_plane
-from flatten.patchflat import arap_development, planar_development, streamlines, triangle_maps, triangle_stretches
-from flatten.trim import barycentric
+from flatten.patchflat import arap_development, planar_development, triangle_stretches
 
 from ..config import Part, RunConfig
-from ..shop.outline import Outline
 from .bestfit import best_fit, seam_family_far, worth_moving
+from .plateshop import LeanRun, PatchGeometry, complete, is_lean, owe, patch_shop, trimmed_shop
 from .platestrip import BUTT_TO_BUTT, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
 from .trimcut import cut_at_trim
-from ..shop.plate import bend_text
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from ..stages import run_part as run_curve_part
 
@@ -56,8 +54,10 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     """Any part: curve pairs through the stages, hull plates through :func:`run_plate`."""
     if part.hull is None:
         return run_curve_part(part, config)
-    # an adaptive plan evaluated it already
+    # an adaptive plan evaluated it already (lean: its shop data are computed here, in the
+    # worker that writes its files, from the geometry the evaluation kept)
     result = part.hull.result if part.hull.result is not None else run_plate(part, config)
+    result = complete(result, config)
     if "fitup_edges" not in result.figures:
         # the run's fit-up report needs each plate's edges after the worker has dropped the
         # plate's geometry; figures not named by the part report are not written to its JSON
@@ -72,8 +72,10 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
 
 
 def evaluate_plate(part: Part, config: RunConfig) -> PartResult:
-    """The evaluator an adaptive plan uses: the full plate run."""
-    return run_plate(part, config)
+    """The evaluator an adaptive plan uses: the plate run, lean (class, development, fit,
+    area; its shop data left owed, :mod:`.plateshop`: only the plates the plan keeps get
+    them, in :func:`run_part`)."""
+    return run_plate(part, LeanRun(config))
 
 
 def _grid(part: Part, config: RunConfig):
@@ -137,59 +139,6 @@ def strain_map(v3, uv, faces, shape, size_mm: tuple[float, float], mm_per_unit: 
             "stretch_area_m2": stretch_area * (mm_per_unit / 1e3) ** 2}
 
 
-def _frame_lines(points, uv_grid, frames):
-    """Frame planes x = X across the patch: per grid row the crossing between columns,
-    interpolated linearly in the grid (2D image of the exact-on-hull grid)."""
-    lines = []
-    for x in frames:
-        pts = []
-        for row3, row2 in zip(points, uv_grid):
-            xs = row3[:, 0] - x
-            idx = np.flatnonzero(np.sign(xs[:-1]) * np.sign(xs[1:]) <= 0)
-            if len(idx):
-                i = idx[0]
-                f = xs[i] / (xs[i] - xs[i + 1]) if xs[i] != xs[i + 1] else 0.0
-                pts.append(row2[i] + f * (row2[i + 1] - row2[i]))
-        if len(pts) >= 2:
-            lines.append((float(x), np.array(pts)))
-    return lines
-
-
-def _roll_lines(strip, v3, uv, faces, grid_shape, points, uv_grid, spacing: float):
-    """Roll lines: rulings of devflat's strip between the same seams (the best-fit
-    developable the solver found), projected onto the patch and mapped into the flat
-    plate (unplaced); none when there is no usable strip."""
-    import igl
-
-    lines = []
-    if strip is not None and strip.n_rulings >= 2:
-        m = len(strip.samples)
-        k = np.arange(strip.n_rulings) * m
-        a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
-        mid = 0.5 * (a3 + b3)
-        d2, _, _ = igl.point_mesh_squared_distance(mid, v3, faces)
-        inside = np.sqrt(d2) <= 0.05 * float(np.linalg.norm(b3 - a3, axis=1).mean())
-        order = np.flatnonzero(inside)
-        if len(order) >= 2:
-            along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(mid[order], axis=0), axis=1)])
-            picks = order[np.unique(np.searchsorted(along, np.arange(0.0, along[-1] + 1e-9, spacing)))
-                          .clip(0, len(order) - 1)]
-            s = np.linspace(0.0, 1.0, 21)
-            for i in picks:
-                seg = a3[i] + s[:, None] * (b3[i] - a3[i])
-                d2, fi, closest = igl.point_mesh_squared_distance(seg, v3, faces)
-                tri = v3[faces[fi]]
-                bary = barycentric(closest, tri)
-                flat = np.einsum("nk,nkd->nd", bary, uv[faces[fi]])
-                keep = np.sqrt(d2) <= 0.02 * float(np.linalg.norm(b3[i] - a3[i]))
-                if keep.sum() >= 2:
-                    lines.append(np.array([flat[keep][0], flat[keep][-1]]))
-        if lines:
-            return np.array(lines), "rulings of devflat's strip between the same seams (best-fit developable), " \
-                                    "projected onto the hull patch"
-    return np.zeros((0, 2, 2)), ""
-
-
 def completeness(v3: np.ndarray, faces: np.ndarray, grid, tolerance: float, corner_tolerance: float) -> dict:
     """Is the whole region (grid points, corners) within reach of the delivered 3D plate?"""
     import igl
@@ -204,20 +153,6 @@ def completeness(v3: np.ndarray, faces: np.ndarray, grid, tolerance: float, corn
             "max_region_gap": float(np.sqrt(d2[worst])), "worst_region_point": pts[worst].tolist(),
             "tolerance": tolerance,
             "passed": bool(gaps.max() <= corner_tolerance and np.sqrt(d2[worst]) <= tolerance)}
-
-
-def _labels(outline_sides, hull, points):
-    """Seam names along the first and last grid rows, butt names along the end columns,
-    each butt named by where its column lies in 3D (columns run along s, which may run
-    towards -x)."""
-    first, last = (0, 1) if points[:, 0, 0].mean() <= points[:, -1, 0].mean() else (1, 0)
-    labels = []
-    for text, line in zip((hull.seam_names[0], hull.seam_names[1], hull.butt_names[first], hull.butt_names[last]),
-                          outline_sides):
-        mid = line[len(line) // 2] if len(line) > 2 else line.mean(axis=0)
-        direction = line[-1] - line[0]
-        labels.append((text, mid, float(np.degrees(np.arctan2(direction[1], direction[0])))))
-    return tuple(labels)
 
 
 def run_plate(part: Part, config: RunConfig) -> PartResult:
@@ -374,7 +309,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
             "area_3d_m2": area3 * (mm / 1e3) ** 2, "complete": True,
             "other_family": _other(BUTT_TO_BUTT, butt.reason or (f"fits within {butt.deviation:.4g}, the seam family "
                                                                  f"within {seam_deviation:.4g}"))}
-        finish_part(result, config)
+        if is_lean(config):  # finish_part's verdict (it fails only by raising); its shop data owed
+            result.status = "ok"
+        owe(result, config, finish_part)
         return
     fitting = sorted((t for t in (seam, butt) if t.ok), key=lambda t: t.deviation)
     if fitting:
@@ -445,34 +382,17 @@ def _other(family: str, why: str, deviation=None) -> dict:
 def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     """A plate delivered as a strip trimmed by its region (:mod:`pipeline.platestrip`): its
     3D shape is the strip at the closest points of the hull's patch grid, its cut outline
-    the developed region boundary, its bending lines the strip's own rulings."""
-    from ..shop.bending import lines_on_rulings
-    from ..shop.plate import ShopPlate, _scaled, roll_setup
-
-    part, hull = result.part, result.part.hull
-    mm = config.mm_per_unit
+    the developed region boundary, its bending lines the strip's own rulings (shop data:
+    :func:`.plateshop.trimmed_shop`, owed in a lean run)."""
     rows, cols = grid.shape
     flat = trim.grid_flat
     uv_grid = flat.reshape(rows, cols, 2)
     rot, shift = place_flat(flat, uv_grid[0])
     placed = flat @ rot.T + shift
-    pg = placed.reshape(rows, cols, 2)
-    sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
     outline = trim.outline_flat @ rot.T + shift
-    a2, b2, a3, b3 = trim.rulings
-    a2, b2 = a2 @ rot.T + shift, b2 @ rot.T + shift
-    spacing = config.spec.shop.bend_spacing / mm
-    lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
-    rolling = None
-    if lines and config.spec.profile == "steel":  # only the lines the plate is rolled at (shop.rolling)
-        kept, rolling = roll_setup([dataclasses.replace(b, radius=b.radius * mm) for b in lines], part.steel,
-                                   config.spec.shop)
-        lines = [dataclasses.replace(b, radius=b.radius / mm) for b in kept]
-    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
-    bends = np.array([[b.a, b.b] for b in lines]).reshape(-1, 2, 2)
     result.strip, result.solution, result.development, result.developed = None, None, None, None
     result.mesh = (trim.grid_3d, grid.faces())
-    result.pattern = Pattern(outline, bends, placed, (rot, shift), tuple(frames), _labels(sides, hull, grid.points))
+    result.pattern = Pattern(outline, np.zeros((0, 2, 2)), placed, (rot, shift))
     attempt = trim.attempt
     for key in ("coverage", "rulings", "developability", "unroll"):
         if key in attempt.figures:
@@ -488,47 +408,16 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
                    "devflat strip between the plate's seams (rulings seam to seam), trimmed by its butt and the "
                    "hull's end") + " (the region's boundary mapped onto the strip and developed)",
         "best_fit": trim.figures.get("best_fit"), "seams_extended": trim.figures.get("seams_extended"),
-        "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (mm / 1e3) ** 2,
+        "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (config.mm_per_unit / 1e3) ** 2,
         "complete": True, "other_family": other}
     finish_part(result, config)
-    if config.spec.profile != "steel":
-        return
-    edges = trim.edges
-    n = len(outline)
-    tolerance = config.spec.shop.outline_tolerance / mm
-    net = Outline(outline, tuple(edges), trim.outline_deviation, tolerance, 0.0)
-    outline_mm = _scaled(net, mm)
-    lines_mm = [dataclasses.replace(b, a=b.a * mm, b=b.b * mm, station=b.station * mm, radius=b.radius * mm)
-                for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm, rolling)
-    result.figures["bending"] = {
-        "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
-        "centre_line_length": centre * mm, "family": trim.family,
-        **({"rolling": rolling.figures()} if rolling is not None else {}),
-        "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
-        "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
-                   "length": float(np.linalg.norm(b.b - b.a)), "radius": b.radius if np.isfinite(b.radius) else None,
-                   "convex_on_drawn_side": b.convex_on_drawn_side, "mark": bend_text(b)} for b in lines_mm]}
-    result.figures["outline"] = {
-        "units": "mm", "vertices": n, "tolerance": outline_mm.tolerance, "max_deviation": outline_mm.max_deviation,
-        "deviation_measured_at": "estimated from the boundary points' distance to their neighbours' chords",
-        "alignment_error": 0.0, "area_m2": outline_mm.area() / 1e6,
-        "edges": {name: int(edges.count(name)) for name in sorted(set(edges))}}
-    if outline_mm.max_deviation > outline_mm.tolerance:
-        result.warnings.append(f"cut outline deviates about {outline_mm.max_deviation:.3g} mm from the exact "
-                               f"development (tolerance {outline_mm.tolerance:g} mm)")
-    from ..shop.plate import hull_templates  # the hull's own sections check the rolled plate
-
-    hull_templates(result, config, grid.params, pg, outline,
-                   "none" if rolling is None or not rolling.needs_rolling else "single")
-    if lines_mm:
-        from ..shop.templates import checked_by
-
-        checked_by(result.figures["bending"]["lines"], result.templates)
+    # the trim without its strip attempt (solution, development): the shop data need its rulings
+    owe(result, config, trimmed_shop, grid, dataclasses.replace(trim, attempt=None))
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
-    """Pattern, strain map, completeness and class of a plate developed from its hull patch.
+    """Pattern, strain map, completeness and class of a plate developed from its hull patch
+    (its marks, heating lines and templates: :func:`.plateshop.patch_shop`, owed in a lean run).
 
     kind "flat" (planar projection) or "patch" (minimal-strain development, class formed):
     developable means devflat's strip fits, never a patch. A formed patch whose largest
@@ -550,7 +439,6 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     rot, shift = place_flat(uv_grid_flat, uv_grid[0])
     placed = uv_grid_flat @ rot.T + shift
     pg = placed.reshape(shape[0], shape[1], 2)
-    sides = (pg[0], pg[-1], pg[:, 0], pg[:, -1])
     outline = grid_ring(pg)
     keep = np.ones(len(outline), dtype=bool)
     keep[1:] = np.hypot(*np.diff(outline, axis=0).T) > 1e-9 * max(size)
@@ -563,22 +451,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
                     rolling_only_rule="largest principal strain x largest plate dimension <= fit tolerance: bent "
                     "onto the hull without stretching, no edge point lands farther than the tolerance from its "
                     "place, so rolling alone forms it (no line heating); no developable strip fits it")
-    spacing = 500.0 / mm
-    if kind == "flat":
-        rolls, roll_method = np.zeros((0, 2, 2)), "none (flat plate)"
-    elif strip is not None:
-        rolls, roll_method = _roll_lines(strip, v3, _uv_on_welded(uv_grid_flat, index, len(v3)), f3, shape,
-                                         grid.points, uv_grid, spacing)
-        rolls = rolls @ rot.T + shift if len(rolls) else rolls
-    else:
-        rolls, roll_method = np.zeros((0, 2, 2)), ""
-    if not len(rolls) and kind != "flat":
-        rolls, roll_method = least_bending_lines(hull.surface, grid, placed, f_grid, outline, spacing)
-    rolling = None
-    if kind != "flat" and len(rolls) and config.spec.profile == "steel":
-        rolls, rolling = _rolled(rolls, hull.surface, grid, placed, f_grid, outline, part.steel, config)
-    frames = [(x, pts @ rot.T + shift) for x, pts in _frame_lines(grid.points, uv_grid, hull.frames)]
-    labels = _labels(sides, hull, grid.points)
+    region_faces, region_outline = f_grid, outline
     cut = None if hull.trim is None else cut_at_trim(hull.trim, grid.params, placed, f_grid)
     if cut is not None:  # the plate reaches past its face's trim: the shop cuts the part inside it
         if not len(cut.outline):
@@ -586,7 +459,6 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
             result.figures["plate_class"] = {"class": "failed"}
             return
         outline, f_grid = cut.outline, f_grid[cut.inside_faces]
-        rolls, frames, labels = _clipped(rolls, frames, labels, outline)
     check = completeness(v3, f3, grid, tol, min(tol, 1e-6 * max(size) + 1e-9))
     if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
         fit = info["plane_max_distance"]
@@ -594,13 +466,9 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         check["passed"] = bool(fit <= tol)
     result.strip = None
     result.mesh = (v_grid, f_grid)
-    result.pattern = Pattern(outline, rolls, placed, (rot, shift), tuple(frames), labels)
+    result.pattern = Pattern(outline, np.zeros((0, 2, 2)), placed, (rot, shift))
     result.figures["strain"] = strains
     result.figures["completeness"] = check
-    result.figures["forming"] = {"roll_lines": len(rolls), "roll_line_method": roll_method,
-                                 "shrink_area_m2": strains["shrink_area_m2"],
-                                 "stretch_area_m2": strains["stretch_area_m2"],
-                                 **(rolling or {})} if kind != "flat" else None
     area3 = float(result.figures["region"]["area_m2"])
     result.figures["plate_class"] = dict(
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
@@ -609,18 +477,16 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         result.figures["hull_fit"] = {"max_distance": 0.0, "tolerance": tol, "passed": True,
                                       "note": "developed from the hull patch itself: its 3D shape is the hull's; its "
                                               "error is the in-plane strain (see strain)"}
+    geometry = PatchGeometry(kind, strip, v3, f3, index, uv_grid_flat, region_faces, region_outline, cut, info, scale,
+                             bool(check["passed"]))
     if not check["passed"]:
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
+        owe(result, config, patch_shop, grid, geometry)  # its marks still go into its report
         return
-    if kind == "formed" and config.spec.profile == "steel":
-        result.figures["heating"] = _heating(v_grid, placed, f_grid, outline, part.steel, config, info, scale)
     finish_part(result, config)
     if cut is not None:
         _cut_figures(result, cut, placed, grid, config)
-    if kind == "formed" and config.spec.profile == "steel":  # double curvature: templates at every frame
-        from ..shop.plate import hull_templates
-
-        hull_templates(result, config, grid.params, pg, outline, "double")
+    owe(result, config, patch_shop, grid, geometry)
 
 
 def _workshop_scaled(v_grid, uv_flat, faces, valid, method: str):
@@ -635,36 +501,6 @@ def _workshop_scaled(v_grid, uv_flat, faces, valid, method: str):
         return uv_flat, 1.0
     centre = uv_flat.mean(axis=0)
     return centre + scale * (uv_flat - centre), scale
-
-
-def _heating(v_grid, placed, faces, outline, steel, config, info, scale) -> dict:
-    """The report's ``heating`` section of a formed plate (mm), its lines (placed flat plate,
-    mm) under ``polylines``: none when the plate rolls without heating (``rolling_only``)."""
-    from ..shop.heating import LineModel, heating_lines
-
-    shop, mm = config.spec.shop, config.mm_per_unit
-    model = LineModel(steel.thickness, shop.heat_input, shop.heat_shrinkage)
-    return heating_lines(v_grid * mm, placed * mm, faces, outline * mm, model, shop.workshop_method,
-                         shop.heat_strain, shop.heat_spacing, shop.heat_margin, scale,
-                         bool(info.get("rolling_only"))).figures
-
-
-def _clipped(rolls, frames, labels, outline):
-    """Roll lines, frame lines and edge names of a plate cut at its trim: the parts inside
-    the cut outline (a label whose place is outside it is dropped)."""
-    from shapely.geometry import LineString, Point, Polygon
-
-    plate = Polygon(outline).buffer(1e-9 * float(np.ptp(outline, axis=0).max()))
-
-    def inside(line):
-        piece = plate.intersection(LineString(line))
-        pieces = [g for g in getattr(piece, "geoms", [piece]) if g.geom_type == "LineString" and not g.is_empty]
-        return [np.asarray(g.coords) for g in pieces]
-
-    rolls = np.array([pts[[0, -1]] for a, b in rolls for pts in inside([a, b])]).reshape(-1, 2, 2)
-    frames = [(x, pts) for x, line in frames for pts in inside(line)]
-    labels = tuple(label for label in labels if plate.contains(Point(label[1])))
-    return rolls, frames, labels
 
 
 def _cut_figures(result, cut, placed, grid, config) -> None:
@@ -683,55 +519,3 @@ def _cut_figures(result, cut, placed, grid, config) -> None:
         outline = np.vstack([cut.outline, cut.outline[:1]])
         steel.update(area_m2=area_m2, weight_kg=area_m2 * steel["thickness_mm"] / 1000.0 * steel["density_kg_m3"],
                      outline_length=float(np.linalg.norm(np.diff(outline, axis=0), axis=1).sum()))
-
-
-def _rolled(rolls, surface, grid, placed, faces, outline, steel, config):
-    """The roll lines of a patch-developed plate that it must be rolled at (the radius across
-    each, the hull's largest principal radius along it, below the plate's no-roll radius:
-    :mod:`pipeline.shop.rolling`) and the report's roll figures (mm)."""
-    from ..shop.rolling import line_radii, plate_limit
-
-    radii = line_radii(surface, grid.params.reshape(-1, 2), placed, faces, outline, rolls) * config.mm_per_unit
-    setup = plate_limit(steel.thickness, steel.material, config.spec.shop.no_roll_radius)
-    keep = radii < setup.limit
-    finite = radii[np.isfinite(radii)]
-    setup = dataclasses.replace(setup, rolled=int(keep.sum()), dropped=int((~keep).sum()),
-                                smallest_radius=float(finite.min()) if finite.size else float("inf"))
-    return rolls[keep], {"roll_line_radii": [float(r) for r in radii[keep]], "rolling": setup.figures(),
-                         "roll_line_radius": "the hull's largest principal radius along the line (5 points), mm"}
-
-
-def least_bending_lines(surface, grid, placed, faces, outline, spacing):
-    """Roll lines along the direction of least normal curvature of the hull (the rulings
-    of a developable surface), traced as streamlines across the flat plate from seeds
-    ``spacing`` apart on the line through its centre, each replaced by its chord."""
-    uvp = grid.params.reshape(-1, 2)[faces].mean(axis=1)
-    _, d3 = principal_curvatures(surface, uvp[:, 0], uvp[:, 1])
-    maps = triangle_maps(grid.points.reshape(-1, 3), placed, faces)
-    d2 = np.einsum("fij,fj->fi", maps, d3)
-    norm = np.linalg.norm(d2, axis=1)
-    good = norm > 0
-    d2 = d2[good] / norm[good, None]
-    centres = placed[faces].mean(axis=1)[good]
-    if not len(d2):
-        return np.zeros((0, 2, 2)), "none"
-    # mean axis of the sign-free field: principal eigenvector of sum d d^T
-    w, vecs = np.linalg.eigh(d2.T @ d2)
-    axis = vecs[:, -1]
-    across = np.array([-axis[1], axis[0]])
-    centre = outline.mean(axis=0)
-    extent = np.abs((outline - centre) @ across).max()
-    seeds = centre + np.arange(-extent, extent + 1e-9, spacing)[:, None] * across
-    from matplotlib.path import Path as MplPath
-
-    seeds = seeds[MplPath(outline).contains_points(seeds)]
-    lines = streamlines(centres, d2, outline, seeds, step=spacing / 5)
-    segs = np.array([[line[0], line[-1]] for line in lines if np.linalg.norm(line[-1] - line[0]) > spacing])
-    return segs.reshape(-1, 2, 2), ("chords of streamlines of the hull's direction of least normal curvature "
-                                    "(principal directions of the design surface)")
-
-
-def _uv_on_welded(uv_grid_flat, index, n):
-    uv = np.zeros((n, 2))
-    uv[index] = uv_grid_flat
-    return uv
