@@ -168,15 +168,19 @@ def test_chain_joins_pieces_in_girth_order_and_refuses_a_gap():
     a = np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]])
     b = np.array([[0, 2, 0], [0, 3, 1], [0, 3, 2.0]])
     c = np.array([[0, 3, 2], [0, 3, 3.0]])
-    chain, starts = chain_pieces([(2, c[::-1]), (0, a), (1, b[::-1])])
+    chain, starts, gap = chain_pieces([(2, c[::-1]), (0, a), (1, b[::-1])])
     assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 3, 3])
-    assert [f for _, f in starts] == [0, 1, 2]
+    assert [f for _, f in starts] == [0, 1, 2] and gap == 0.0
     assert chain_pieces([(0, a), (1, b + [0, 0, 10.0])]) is None
+    # a gap within the join distance is bridged and reported: 1.5 across, or none where one
+    # face's end lies on the other (faces overlapping by 0.5 along the section)
+    assert chain_pieces([(0, a), (1, b + [0, 0, 1.5])])[2] == pytest.approx(1.5)
+    assert chain_pieces([(0, a), (1, np.vstack([[0, 1.5, 0], b]))])[2] == pytest.approx(0.0, abs=1e-12)
     # a flat of bottom ending in a 0.6 mm sliver beside the side face's lowest point (KVLCC2 at
     # its stern): both sliver ends lie near the side's end; the chain still starts at the centreline
     side = np.array([[0, 305.8, 448.3], [0, 100, 50], [0, 0.5, 0.0]])
     sliver = np.array([[0, 0.0, 0], [0, 0.6, 0.0]])
-    chain, starts = chain_pieces([(0, side), (1, sliver)])
+    chain, starts, _ = chain_pieces([(0, side), (1, sliver)])
     assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 305.8, 448.3])
     assert [f for _, f in starts] == [1, 0]
 

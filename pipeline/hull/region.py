@@ -175,6 +175,9 @@ SHELL_STATIONS = 250  # stations of a lofted shell over its length
 SHELL_TOLERANCE_MM = 0.5  # at ship scale: the loft's target distance to the faces' sections
 SHELL_REMAINDER = 1e-3  # of the loft's length: a face reaching less beyond the loft is not planned on its own
 SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another face meets it
+# at ship scale: the loft ends where its end stations bridge a wider gap between faces (the
+# chord across a gap lies up to half of it off each face: 3 mm, the step a butt may have)
+SHELL_GAP_MM = 6.0
 
 
 def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
@@ -225,7 +228,7 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
                                              np.linspace(*f.surface.domain_v, 9))[..., 0])) for f in faces)
     try:
         shell = shell_surface([f.surface for f in faces], regions, indices, length / SHELL_STATIONS,
-                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} shell")
+                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} shell", SHELL_GAP_MM / scale)
     except ShellError as exc:
         raise SourceError(f"{path}: {exc}") from None
     s = shell.surface
