@@ -92,6 +92,8 @@ def _trim_region(surface, trim):
 def _shell_references(parts) -> dict:
     """id(surface) -> (region in (u, v), what it is) for a planned shell: each surface inside
     its trim (the plan's, ``HullPlate.face_trim``), and within the x range a plan keeps of it."""
+    import shapely
+
     out = {}
     for part in parts:
         key, hull = id(part.hull.surface), part.hull
@@ -100,12 +102,19 @@ def _shell_references(parts) -> dict:
         trim = hull.face_trim
         out[key] = (_trim_region(hull.surface, trim), "the surface inside its trim" if trim is not None
                     else "the whole surface")
-    for part in parts:  # a face the plan cut where it overlaps another keeps one side of the cut
-        limits, key = part.hull.x_limits, id(part.hull.surface)
-        if any(x is not None for x in limits) and "cut" not in out[key][1]:
-            region, what = out[key]
-            out[key] = (region.intersection(x_range_region(part.hull.surface, part.hull.long_axis, limits)),
-                        f"{what}, cut at x = {' and '.join(f'{x:.0f}' for x in limits if x is not None)}")
+    # a face the plan cut where it overlaps another keeps one side of the cut; a face planned
+    # beyond both ends of a loft keeps both its ends (the union of the x ranges its plates keep)
+    kept = {}
+    for part in parts:
+        limits, key = tuple(part.hull.x_limits), id(part.hull.surface)
+        if any(x is not None for x in limits):
+            kept.setdefault(key, {})[limits] = part.hull
+    for key, ranges in kept.items():
+        region, what = out[key]
+        hull = next(iter(ranges.values()))
+        keep = shapely.union_all([x_range_region(hull.surface, hull.long_axis, lim) for lim in ranges])
+        cuts = sorted({x for lim in ranges for x in lim if x is not None})
+        out[key] = (region.intersection(keep), f"{what}, cut at x = {' and '.join(f'{x:.0f}' for x in cuts)}")
     return out
 
 
