@@ -442,3 +442,22 @@ def test_a_face_beyond_both_ends_of_the_loft_is_covered_at_both(tmp_path):
     assert shell["coverage"]["shell_m2"] == pytest.approx(area, rel=2e-3)
     assert shell["coverage"]["covered"] == pytest.approx(1.0, abs=2e-3)
     assert shell["coverage"]["outside_m2"] <= 1e-3 * area
+
+
+def test_coverage_areas_split_cells_at_a_surfaces_c0_knots():
+    """A surface that turns at a C0 girth knot (v = 0.3, not a cell edge of the 64 x 64 grid:
+    a 100 mm flat then 7000 mm of side, as a loft's girth knot at a narrow flat of bottom):
+    its area is L (a + b) to round-off, whole (Gauss cells) or as a polygon a hair inside
+    (cut cells); Gauss points straddling the knot counted the side's area element over the
+    flat's part of its cell (0.4 % too much)."""
+    import shapely
+
+    from pipeline.hull.coverage import surface_area
+
+    length, a, b = 10000.0, 100.0, 7000.0
+    poles = np.array([[[0, 0, 0], [0, a, 0], [0, a, b]], [[length, 0, 0], [length, a, 0], [length, a, b]]])
+    surface = nurbs_surface(1, 1, poles, [0, 0, 1, 1], [0, 0, 0.3, 1, 1], name="kinked")
+    whole = surface_area(surface, shapely.box(0, 0, 1, 1))
+    inside = surface_area(surface, shapely.box(1e-9, 1e-9, 1 - 1e-9, 1 - 1e-9))
+    assert whole == pytest.approx(length * (a + b), rel=1e-9)
+    assert inside == pytest.approx(length * (a + b), rel=1e-6)
