@@ -168,15 +168,19 @@ def test_chain_joins_pieces_in_girth_order_and_refuses_a_gap():
     a = np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]])
     b = np.array([[0, 2, 0], [0, 3, 1], [0, 3, 2.0]])
     c = np.array([[0, 3, 2], [0, 3, 3.0]])
-    chain, starts = chain_pieces([(2, c[::-1]), (0, a), (1, b[::-1])])
+    chain, starts, gap = chain_pieces([(2, c[::-1]), (0, a), (1, b[::-1])])
     assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 3, 3])
-    assert [f for _, f in starts] == [0, 1, 2]
+    assert [f for _, f in starts] == [0, 1, 2] and gap == 0.0
     assert chain_pieces([(0, a), (1, b + [0, 0, 10.0])]) is None
+    # a gap within the join distance is bridged and reported: 1.5 across, or none where one
+    # face's end lies on the other (faces overlapping by 0.5 along the section)
+    assert chain_pieces([(0, a), (1, b + [0, 0, 1.5])])[2] == pytest.approx(1.5)
+    assert chain_pieces([(0, a), (1, np.vstack([[0, 1.5, 0], b]))])[2] == pytest.approx(0.0, abs=1e-12)
     # a flat of bottom ending in a 0.6 mm sliver beside the side face's lowest point (KVLCC2 at
     # its stern): both sliver ends lie near the side's end; the chain still starts at the centreline
     side = np.array([[0, 305.8, 448.3], [0, 100, 50], [0, 0.5, 0.0]])
     sliver = np.array([[0, 0.0, 0], [0, 0.6, 0.0]])
-    chain, starts = chain_pieces([(0, side), (1, sliver)])
+    chain, starts, _ = chain_pieces([(0, side), (1, sliver)])
     assert np.allclose(chain[0], [0, 0, 0]) and np.allclose(chain[-1], [0, 305.8, 448.3])
     assert [f for _, f in starts] == [1, 0]
 
@@ -272,3 +276,188 @@ def test_faces_beyond_the_loft_are_planned_on_their_own_and_the_shell_is_covered
     assert across and max(p["step_max_mm"] for p in across) < 1.0
     assert shell["coverage"]["covered"] == pytest.approx(1.0, abs=2e-3)
     assert shell["coverage"]["overlap"] <= 1e-3
+
+
+# ------------------------------------------------ the loft's end planes (issue 26: KVLCC2's 178 mm step)
+def write_step(path: Path, faces) -> Path:
+    """One STEP file of faces, each (surface, (u0, u1, v0, v1)): the surface trimmed to that
+    box of its parameters (the face keeps the whole surface underneath)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for surface, (u0, u1, v0, v1) in faces:
+        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(surface), u0, u1, v0, v1, 1e-6).Face())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    assert int(writer.Write(str(path))) == 1
+    return path
+
+
+FLAT_Y, PLANE_Y, BILGE_R = 2000.0, 5000.0, 3000.0
+
+
+def flat_and_bilge(lift: float = 0.0, length: float = 20000.0, lift_from: float = 0.7, factor: float = 1.0):
+    """A flat of bottom (the plane z = 0, x 0..length, y 0..PLANE_Y, u along x, v across) and a
+    bilge meeting it tangentially at y = FLAT_Y (a quarter circle of radius BILGE_R centred at
+    y = FLAT_Y, z = BILGE_R, up to y = FLAT_Y + BILGE_R), both times ``factor`` (a model at
+    1 : 1/factor). With ``lift`` the bilge rises off the flat by up to ``lift`` (z, times factor)
+    from u = ``lift_from`` to its end, linearly: the faces part there."""
+    corners = np.array([[[0, 0, 0], [0, PLANE_Y, 0]], [[length, 0, 0], [length, PLANE_Y, 0]]])
+    flat = nurbs_surface(1, 1, factor * corners, [0, 0, 1, 1], [0, 0, 1, 1], name="flat")
+    arc = np.array([[FLAT_Y, 0.0], [FLAT_Y + BILGE_R, 0.0], [FLAT_Y + BILGE_R, BILGE_R]])
+    xs, dz = [0.0, lift_from * length, length], [0.0, 0.0, lift]
+    poles = factor * np.array([[[x, y, z + d] for y, z in arc] for x, d in zip(xs, dz)])
+    w = np.tile([1.0, np.sqrt(0.5), 1.0], (3, 1))
+    bilge = nurbs_surface(1, 2, poles, [0, 0, lift_from, 1, 1], [0, 0, 0, 1, 1, 1], w, name="bilge")
+    return flat, bilge
+
+
+def test_sub_surface_is_the_surface_over_its_box():
+    """The exact piece of a rational surface over a box of its parameters: the same points
+    (to round-off) at 500 random parameters inside the box, and the box as its domain."""
+    from pipeline.hull.trims import sub_surface
+
+    _, bilge = flat_and_bilge(lift=300.0)
+    part = sub_surface(bilge, (0.13, 0.91), (0.2, 0.65))
+    assert part.domain_u == pytest.approx((0.13, 0.91)) and part.domain_v == pytest.approx((0.2, 0.65))
+    rng = np.random.default_rng(7)
+    u, v = rng.uniform(0.13, 0.91, 500), rng.uniform(0.2, 0.65, 500)
+    assert np.abs(part(u, v) - bilge(u, v)).max() <= 1e-9 * 20000
+
+
+def end_plane_config(folder: Path, model: Path, name: str, scale: float = 1.0) -> Path:
+    data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "steel": {"thickness": 20, "material": "S355"},
+            "strake": {"surface": {"model": str(model), "faces": [0, 1]}, "scale": scale, "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "stock": {"max_length": 6000, "max_width": 3000,
+                                                               "min_length": 1000, "min_width": 1000}}}}
+    path = folder / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture(scope="module")
+def flat_beyond_loft(tmp_path_factory):
+    """The flat of bottom trimmed to y <= FLAT_Y over x 0..20 m, the bilge over x 0..14 m only:
+    the loft runs over x 0..14 m and the flat is planned on its own beyond it (KVLCC2's stern,
+    where the flat of bottom keeps 33 mm of its face's 26.6 m girth). Planned and run."""
+    folder = tmp_path_factory.mktemp("endplane")
+    flat, bilge = flat_and_bilge()
+    model = write_step(folder / "fb.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 0.7, 0, 1))])
+    config = end_plane_config(folder, model, "fb")
+    out = folder / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    from pipeline.hull.plan import load_run
+
+    fits = {f.stem: json.loads(f.read_text())["hull_fit"]["max_distance"] for f in out.glob("fb_P*.json")}
+    return load_run(config).parts, json.loads((out / "fb_summary.json").read_text())["shell"], fits
+
+
+def test_a_trimmed_face_beyond_the_loft_is_planned_inside_its_trim(flat_beyond_loft):
+    """The flat's plates beyond the loft cover its trimmed part (y <= 2000 mm, x 14..20 m), not
+    the untrimmed plane around it (y up to 5000 mm, where the bilge is): every point of their
+    regions lies within 1 mm of the trim, and they add up to its 6 m x 2 m."""
+    parts, _, _ = flat_beyond_loft
+    beyond = [p for p in parts if "beyond the shell's loft" in p.hull.surface_note]
+    assert beyond and all("trimmed region's parameter box" in p.hull.surface_note for p in beyond)
+    from flatten.patch import region_grid
+
+    area = 0.0
+    for p in beyond:
+        h = p.hull
+        grid = region_grid(h.surface, h.long_axis, h.girths[0], h.girths[1],
+                           [None if b is None else b.as_tuple() for b in h.butts], 21, 41)
+        assert grid.points[..., 1].max() <= FLAT_Y + 1.0 and grid.points[..., 0].min() >= 14000.0 - 100.0
+        area += area_inside_trim(p)
+    loft_end = max(b.offset for p in parts if "lofted as one shell" in p.hull.surface_note for b in p.hull.butts
+                   if b is not None)
+    assert area == pytest.approx((20000.0 - loft_end) * FLAT_Y, rel=2e-3)
+
+
+def test_plates_on_both_sides_of_the_loft_end_plane_meet(flat_beyond_loft):
+    """Across the loft's end plane (x = 14 m) the flat's plates and the loft's share their butt
+    edge: every pair there steps by no more than the two plates' own departure from the hull
+    (a flat plate on its minimax plane, a strip within the fit tolerance; 0.05 mm for the
+    samples), within the 3 mm a butt may step; none is reported apart; the shell (flat
+    20 m x 2 m, bilge 14 m x pi R / 2) is covered once. Planned on the untrimmed plane, the
+    flat's plate reached y = 2500 mm at z = 0 under the bilge: 41.4 mm below the loft's second
+    strake there, 5.4 mm off its first (KVLCC2: 178.5 mm)."""
+    parts, shell, fits = flat_beyond_loft
+    across = [p for p in shell["pairs"] if p["kind"] == "butt" and sum("_P1_" in n for n in p["plates"]) == 1]
+    assert across and any("_P2_" in n for p in across for n in p["plates"])
+    for p in across:
+        assert p["step_max_mm"] <= max(fits[n] for n in p["plates"]) + 0.05 and p["step_max_mm"] < 3.0
+    assert not shell["apart"]
+    area = 20000.0 * FLAT_Y + 14000.0 * np.pi / 2 * BILGE_R
+    assert shell["coverage"]["shell_m2"] == pytest.approx(area / 1e6, rel=2e-3)
+    assert shell["coverage"]["covered"] == pytest.approx(1.0, abs=2e-3)
+    assert shell["coverage"]["overlap"] <= 1e-3
+
+
+def test_the_loft_ends_where_the_faces_part(tmp_path):
+    """A 1:10 model whose bilge rises off the flat from x = 14 m (ship) to 15 mm (ship) at
+    x = 20 m: every station's sections still chain (the join is 2 mm of the model, 20 mm of
+    the ship), but the loft ends where the gap passes 6 mm (ship), x = 14 + 6 * 6 / 15 =
+    16.4 m: its end section is the faces' own within 3 mm (half the gap) plus the loft's
+    tolerance, not a chord across 15 mm; the note says where the faces part and by how much;
+    beyond it both faces are planned on their own."""
+    from flatten.closest import SurfaceDistance
+    from pipeline.hull.region import load_plan_surfaces
+
+    factor = 0.1
+    flat, bilge = flat_and_bilge(lift=15.0, factor=factor)
+    model = write_step(tmp_path / "p.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 1, 0, 1))])
+    spec = type("Spec", (), {"model": str(model), "faces": [0, 1]})()
+    surfaces = load_plan_surfaces([spec], tmp_path, 1.0, 1 / factor)
+    loft = surfaces[0]
+    x0, x1 = loft.surface.domain_u
+    assert x0 == pytest.approx(0.0, abs=100.0)
+    assert 16400.0 - 100.0 <= x1 <= 16400.0
+    assert "the faces part beyond x = " in loft.note and "a gap in the model" in loft.note
+    gap = float(loft.note.split("a gap in the model: ")[1].split(" mm")[0])
+    assert 14.0 <= gap <= 15.0  # the widest the sections chained across, near x = 20 m
+    beyond = surfaces[1:]
+    assert len(beyond) == 2 and all(s.x_limits == (x1, None) for s in beyond)
+    # the loft's end section against the two faces (ship scale)
+    section = loft.surface(np.full(401, x1), np.linspace(0, 1, 401))
+    faces = SurfaceDistance([flat, bilge])
+    assert (faces(section * factor) / factor).max() <= 3.0 + 1.0
+
+
+def test_a_face_beyond_both_ends_of_the_loft_is_covered_at_both(tmp_path):
+    """The lower face of a cylinder over its whole 20 m, the upper over x 3-14 m: the loft runs
+    over 3-14 m and the lower face is planned beyond both of its ends, on one surface. The
+    shell's reference is both faces' area (OpenCascade's), covered once: the plates beyond the
+    fore end are shell, not steel outside it."""
+    path = write_faces_step(tmp_path / "both.step", bilge_cylinder(), [(0, 1, 0, 0.4), (0.15, 0.7, 0.4, 1)])
+    out = tmp_path / "out"
+    assert main(["run", str(cylinder_config(tmp_path, {"model": str(path), "faces": [0, 1]}, "both")), "--out",
+                 str(out), "--quiet"]) == 0
+    shell = json.loads((out / "both_summary.json").read_text())["shell"]
+    area = sum(f.area_mm2 for f in read_hull_model(path).faces) / 1e6
+    assert shell["coverage"]["shell_m2"] == pytest.approx(area, rel=2e-3)
+    assert shell["coverage"]["covered"] == pytest.approx(1.0, abs=2e-3)
+    assert shell["coverage"]["outside_m2"] <= 1e-3 * area
+
+
+def test_coverage_areas_split_cells_at_a_surfaces_c0_knots():
+    """A surface that turns at a C0 girth knot (v = 0.3, not a cell edge of the 64 x 64 grid:
+    a 100 mm flat then 7000 mm of side, as a loft's girth knot at a narrow flat of bottom):
+    its area is L (a + b) to round-off, whole (Gauss cells) or as a polygon a hair inside
+    (cut cells); Gauss points straddling the knot counted the side's area element over the
+    flat's part of its cell (0.4 % too much)."""
+    import shapely
+
+    from pipeline.hull.coverage import surface_area
+
+    length, a, b = 10000.0, 100.0, 7000.0
+    poles = np.array([[[0, 0, 0], [0, a, 0], [0, a, b]], [[length, 0, 0], [length, a, 0], [length, a, b]]])
+    surface = nurbs_surface(1, 1, poles, [0, 0, 1, 1], [0, 0, 0.3, 1, 1], name="kinked")
+    whole = surface_area(surface, shapely.box(0, 0, 1, 1))
+    inside = surface_area(surface, shapely.box(1e-9, 1e-9, 1 - 1e-9, 1 - 1e-9))
+    assert whole == pytest.approx(length * (a + b), rel=1e-9)
+    assert inside == pytest.approx(length * (a + b), rel=1e-6)

@@ -45,31 +45,47 @@ def surface_area(surface, geom, cells: int = AREA_CELLS) -> float:
 
     if geom is None or geom.is_empty:
         return 0.0
-    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
-    ue, ve = np.linspace(u0, u1, cells + 1), np.linspace(v0, v1, cells + 1)
+    ue, ve = _cell_edges(surface.domain_u, surface.knots_u, surface.degree_u, cells), \
+        _cell_edges(surface.domain_v, surface.knots_v, surface.degree_v, cells)
     bu0, bv0, bu1, bv1 = geom.bounds
-    iu = np.arange(max(0, np.searchsorted(ue, bu0, "right") - 1), min(cells, np.searchsorted(ue, bu1, "left") + 1))
-    iv = np.arange(max(0, np.searchsorted(ve, bv0, "right") - 1), min(cells, np.searchsorted(ve, bv1, "left") + 1))
+    iu = np.arange(max(0, np.searchsorted(ue, bu0, "right") - 1),
+                   min(len(ue) - 1, np.searchsorted(ue, bu1, "left") + 1))
+    iv = np.arange(max(0, np.searchsorted(ve, bv0, "right") - 1),
+                   min(len(ve) - 1, np.searchsorted(ve, bv1, "left") + 1))
     if not len(iu) or not len(iv):
         return 0.0
     i, j = np.meshgrid(iu, iv, indexing="ij")
-    boxes = shapely.box(ue[i.ravel()], ve[j.ravel()], ue[i.ravel() + 1], ve[j.ravel() + 1])
+    i, j = i.ravel(), j.ravel()
+    boxes = shapely.box(ue[i], ve[j], ue[i + 1], ve[j + 1])
     pieces = shapely.intersection(boxes, geom)
     area = shapely.area(pieces)
-    cell = (ue[1] - ue[0]) * (ve[1] - ve[0])
+    du, dv = ue[i + 1] - ue[i], ve[j + 1] - ve[j]
+    cell = du * dv
     full = area >= cell * (1.0 - 1e-12)
     part = (area > 0) & ~full
     total = 0.0
     if full.any():  # whole cells: 2 x 2 Gauss points (exact for a bicubic area element)
         g = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
-        cu = ue[i.ravel()[full]][:, None, None] + (ue[1] - ue[0]) * g[None, :, None]
-        cv = ve[j.ravel()[full]][:, None, None] + (ve[1] - ve[0]) * g[None, None, :]
+        cu = ue[i[full]][:, None, None] + du[full][:, None, None] * g[None, :, None]
+        cv = ve[j[full]][:, None, None] + dv[full][:, None, None] * g[None, None, :]
         cu, cv = np.broadcast_arrays(cu, cv)
-        total += 0.25 * cell * float(area_element(surface, cu.ravel(), cv.ravel()).sum())
+        elements = area_element(surface, cu.ravel(), cv.ravel()).reshape(-1, 4)
+        total += 0.25 * float((cell[full] * elements.sum(axis=1)).sum())
     if part.any():  # cut cells: the area element at the piece's centroid
         centre = shapely.centroid(pieces[part])
         total += float(np.sum(area[part] * area_element(surface, shapely.get_x(centre), shapely.get_y(centre))))
     return total
+
+
+def _cell_edges(domain, knots, degree: int, cells: int) -> np.ndarray:
+    """Cell edges along one parameter: ``cells`` equal cells, split at the surface's knots of
+    full multiplicity (where it may turn, C0: its area element jumps there, which Gauss points
+    straddling it would smooth over; a lofted shell's girth knot at its faces' junction sits
+    where KVLCC2's loft crowds 42 % of its girth parameter on a flat 29 mm wide)."""
+    lo, hi = domain
+    values, counts = np.unique(np.asarray(knots, dtype=float), return_counts=True)
+    breaks = values[(counts >= degree) & (values > lo) & (values < hi)]
+    return np.union1d(np.linspace(lo, hi, cells + 1), breaks)
 
 
 def planned_region(hull):
@@ -92,6 +108,8 @@ def _trim_region(surface, trim):
 def _shell_references(parts) -> dict:
     """id(surface) -> (region in (u, v), what it is) for a planned shell: each surface inside
     its trim (the plan's, ``HullPlate.face_trim``), and within the x range a plan keeps of it."""
+    import shapely
+
     out = {}
     for part in parts:
         key, hull = id(part.hull.surface), part.hull
@@ -100,12 +118,19 @@ def _shell_references(parts) -> dict:
         trim = hull.face_trim
         out[key] = (_trim_region(hull.surface, trim), "the surface inside its trim" if trim is not None
                     else "the whole surface")
-    for part in parts:  # a face the plan cut where it overlaps another keeps one side of the cut
-        limits, key = part.hull.x_limits, id(part.hull.surface)
-        if any(x is not None for x in limits) and "cut" not in out[key][1]:
-            region, what = out[key]
-            out[key] = (region.intersection(x_range_region(part.hull.surface, part.hull.long_axis, limits)),
-                        f"{what}, cut at x = {' and '.join(f'{x:.0f}' for x in limits if x is not None)}")
+    # a face the plan cut where it overlaps another keeps one side of the cut; a face planned
+    # beyond both ends of a loft keeps both its ends (the union of the x ranges its plates keep)
+    kept = {}
+    for part in parts:
+        limits, key = tuple(part.hull.x_limits), id(part.hull.surface)
+        if any(x is not None for x in limits):
+            kept.setdefault(key, {})[limits] = part.hull
+    for key, ranges in kept.items():
+        region, what = out[key]
+        hull = next(iter(ranges.values()))
+        keep = shapely.union_all([x_range_region(hull.surface, hull.long_axis, lim) for lim in ranges])
+        cuts = sorted({x for lim in ranges for x in lim if x is not None})
+        out[key] = (region.intersection(keep), f"{what}, cut at x = {' and '.join(f'{x:.0f}' for x in cuts)}")
     return out
 
 

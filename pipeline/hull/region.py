@@ -178,6 +178,9 @@ SHELL_STATIONS = 250  # stations of a lofted shell over its length
 SHELL_TOLERANCE_MM = 0.5  # at ship scale: the loft's target distance to the faces' sections
 SHELL_REMAINDER = 1e-3  # of the loft's length: a face reaching less beyond the loft is not planned on its own
 SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another face meets it
+# at ship scale: the loft ends where its end stations bridge a wider gap between faces (the
+# chord across a gap lies up to half of it off each face: 3 mm, the step a butt may have)
+SHELL_GAP_MM = 6.0
 
 
 def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
@@ -228,7 +231,7 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
                                              np.linspace(*f.surface.domain_v, 9))[..., 0])) for f in faces)
     try:
         shell = shell_surface([f.surface for f in faces], regions, indices, length / SHELL_STATIONS,
-                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} shell")
+                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} shell", SHELL_GAP_MM / scale)
     except ShellError as exc:
         raise SourceError(f"{path}: {exc}") from None
     s = shell.surface
@@ -281,13 +284,49 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
                 if not beyond or (None not in keep and keep[0] >= keep[1]):
                     continue
                 where = f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}"
-                out.append(PlanSurface(face, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
-                                       f"the face" + (f"; {face_note}" if face_note else ""), keep, True))
+                part, part_note = _trimmed_part(face, face_trim, keep, f"{face.name} ({where})")
+                out.append(PlanSurface(part, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
+                                       f"the face" + part_note + (f"; {face_note}" if face_note else ""), keep, True))
                 # the loft ends at the same plane: a butt of both sides, not the hull's end
                 ends = list(out[loft].x_limits)
                 ends[0 if is_aft else 1] = x0 if is_aft else x1
                 out[loft] = replace(out[loft], x_limits=tuple(ends))
     return out
+
+
+TRIMMED_PART_PAD = 0.01  # of a face's parameter range along the hull: its part beyond a loft reaches past the end plane
+
+
+def _trimmed_part(face: NurbsSurface, trim, keep: tuple, name: str) -> tuple[NurbsSurface, str]:
+    """(surface, note) a trimmed face is planned on beyond a loft's end plane: the face cut
+    down (exactly) to the parameter box of its trimmed region within ``keep`` (x range, None
+    open), so that its plates cover that region and not the untrimmed surface around it.
+    KVLCC2's flat of bottom (face 11) keeps 33 mm of its 26.6 m girth aft of x = 15090 mm:
+    planned on the whole face, its plate there was a 3.8 m strip of the bottom's plane cut to
+    33 mm only in its flat outline, its 3D edge running flat under the bilge (178 mm below the
+    lofted plates' edge at the end plane). Along the hull the box reaches TRIMMED_PART_PAD of
+    the range past the region (the end plane's butt cuts it exactly). An untrimmed face, or a
+    region filling the rectangle, is the face itself."""
+    from .coverage import x_range_region
+    from .trims import sub_surface
+
+    if trim is None:
+        return face, ""
+    (u0, u1), (v0, v1) = face.domain_u, face.domain_v
+    axis = long_axis_of(face)
+    region = trim.polygon(u0, v0, u1, v1).intersection(x_range_region(face, axis, keep))
+    if region.is_empty:
+        return face, ""
+    bu0, bv0, bu1, bv1 = region.bounds
+    pad_u, pad_v = (TRIMMED_PART_PAD, 1e-6) if axis == 0 else (1e-6, TRIMMED_PART_PAD)
+    bu0, bu1 = max(u0, bu0 - pad_u * (u1 - u0)), min(u1, bu1 + pad_u * (u1 - u0))
+    bv0, bv1 = max(v0, bv0 - pad_v * (v1 - v0)), min(v1, bv1 + pad_v * (v1 - v0))
+    share = (bu1 - bu0) * (bv1 - bv0) / ((u1 - u0) * (v1 - v0))
+    if share > 1.0 - 1e-9:
+        return face, ""
+    return sub_surface(face, (bu0, bu1), (bv0, bv1), name), (
+        f" cut down to its trimmed region's parameter box (u {bu0:.6g}..{bu1:.6g}, v {bv0:.6g}..{bv1:.6g}, "
+        f"{100 * share:.3g} % of its rectangle)")
 
 
 def _x_extent(surface: NurbsSurface, trim, n: int = 65) -> tuple[float, float]:

@@ -18,7 +18,14 @@ surface is built the way a loftsman fairs a hull, through its stations:
    points (stations x girth) is fitted by least squares with a tensor-product cubic B-spline
    (knots refined until the fit is within ``tolerance`` of the section points); stations the
    fit misses by more than OUTLIER tolerances (a section changing shape faster than the
-   stations follow) are left out and the longest run of the rest lofted again.
+   stations follow) are left out and the longest run of the rest lofted again;
+4. the run ends where the faces part: a station at either end of it whose pieces are joined
+   across a gap wider than ``max_gap`` (the chain bridges it with a chord, so the loft's
+   section there is up to half the gap off each face) is left out, so that the loft's end
+   plane, a butt of the loft's plates and of the faces' plates beyond it, is a section of the
+   faces themselves (KVLCC2's flat of bottom and side part from x = 296 m: 109 mm apart at the
+   old end plane x = 299.7 m, which the loft bridged). Gaps inside the run are bridged as before
+   and reported.
 
 The surface's u is x itself (mm, the stations), so butt and frame planes are its iso-u
 curves; its v is the girth fraction. What the loft smooths over is stated, not hidden: the
@@ -63,14 +70,24 @@ class ShellSurface:
     stations: np.ndarray
     deviation_max: float
     deviation_p95: float
+    gap_max: float = 0.0  # the widest gap between faces the loft bridges at a station (mm)
+    # per end (aft, fore): (x of the farthest station left out, the widest gap there) where the
+    # faces part beyond the loft's end (None: the stations end there)
+    parted: tuple = (None, None)
 
     def note(self, name: str, scale: float = 1.0) -> str:
         """What was lofted and how near the faces it lies, lengths times ``scale`` (mm)."""
         x0, x1 = self.stations[0] * scale, self.stations[-1] * scale
         faces = "+".join(str(k) for k in self.faces)
-        return (f"{name}: faces {faces} lofted as one shell surface through {len(self.stations)} stations, "
+        text = (f"{name}: faces {faces} lofted as one shell surface through {len(self.stations)} stations, "
                 f"x {x0:.1f}..{x1:.1f} mm; it lies within {self.deviation_max * scale:.3f} mm of the faces' sections "
                 f"(p95 {self.deviation_p95 * scale:.3f} mm): plates may cross the faces' boundaries")
+        for end, x in zip(self.parted, (x0, x1)):
+            if end is not None:
+                text += (f"; the faces part beyond x = {x:.0f} mm (a gap in the model: {end[1] * scale:.1f} mm between "
+                         f"their sections at x = {end[0] * scale:.0f} mm): the loft ends there, each face beyond is "
+                         f"planned on its own and the gap between them is not covered")
+        return text
 
 
 def _face_grid(surface: NurbsSurface, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,10 +146,12 @@ def _on_plane(surface: NurbsSurface, uv: np.ndarray, x: float, steps: int = 3) -
     return np.column_stack([pu, pv])
 
 
-def chain_pieces(pieces: list[tuple[int, np.ndarray]], join: float = JOIN_MM) -> tuple[np.ndarray, list] | None:
+def chain_pieces(pieces: list[tuple[int, np.ndarray]], join: float = JOIN_MM) -> tuple[np.ndarray, list, float] | None:
     """Pieces (face index, (N, 3) points) joined end to end into one polyline that starts at
-    its end nearest the centreline (least |y|, then least z). Returns the polyline and, per
-    piece in chain order, (index of its first point in the polyline, face index); None when
+    its end nearest the centreline (least |y|, then least z). Returns the polyline, per
+    piece in chain order (index of its first point in the polyline, face index), and the
+    widest gap bridged between two faces' pieces (the smaller distance of either end to the
+    other piece: faces that overlap a little, one's end lying on the other, have none); None when
     the pieces do not form one chain. Every piece end is tried as the start, nearest the
     centreline first: a short piece (a flat of bottom ending in a sliver) has both its ends
     near its neighbour's, so no end can be told free by distance alone."""
@@ -144,10 +163,10 @@ def chain_pieces(pieces: list[tuple[int, np.ndarray]], join: float = JOIN_MM) ->
     for k, side in ends:
         found = _chain_from(pieces, k, side, join)
         if found is not None:
-            chain, starts = found
+            chain, starts, bridged = found
             if (round(abs(chain[-1][1]), 6), chain[-1][2]) < (round(abs(chain[0][1]), 6), chain[0][2]):
-                return _reversed(chain, starts)
-            return chain, starts
+                return (*_reversed(chain, starts), bridged)
+            return chain, starts, bridged
     return None
 
 
@@ -155,6 +174,7 @@ def _chain_from(pieces, k: int, side: int, join: float):
     chain = pieces[k][1] if side == 0 else pieces[k][1][::-1]
     starts = [(0, pieces[k][0])]
     left = set(range(len(pieces))) - {k}
+    last, bridged = chain, 0.0  # the piece the chain ends with; the widest gap between faces
     while left:
         tail = chain[-1]
         gaps = [(np.linalg.norm(pieces[j][1][0] - tail), j, 0) for j in left] + \
@@ -165,11 +185,23 @@ def _chain_from(pieces, k: int, side: int, join: float):
         nxt = pieces[j][1] if side == 0 else pieces[j][1][::-1]
         if starts[-1][1] == pieces[j][0]:
             chain = np.vstack([chain, nxt[1:] if gap < 1e-9 else nxt])
+            last = np.vstack([last, nxt])
         else:
+            bridged = max(bridged, min(_to_polyline(tail, nxt), _to_polyline(nxt[0], last)))
             starts.append((len(chain) - 1, pieces[j][0]))
             chain = np.vstack([chain[:-1], 0.5 * (chain[-1] + nxt[0]), nxt[1:]])
+            last = nxt
         left.discard(j)
-    return chain, starts
+    return chain, starts, bridged
+
+
+def _to_polyline(point: np.ndarray, polyline: np.ndarray) -> float:
+    """Distance of a point (3,) to a polyline (N, 3)."""
+    if len(polyline) < 2:
+        return float(np.linalg.norm(polyline[0] - point))
+    a, ab = polyline[:-1], np.diff(polyline, axis=0)
+    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    return float(np.linalg.norm(a + t[:, None] * ab - point, axis=1).min())
 
 
 def _reversed(chain: np.ndarray, starts: list) -> tuple[np.ndarray, list]:
@@ -238,12 +270,13 @@ def loft(stations: np.ndarray, v: np.ndarray, grid: np.ndarray, tolerance: float
     return nurbs_surface(3, 3, poles, ku, kv, name=name), misfit
 
 
-def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM) -> tuple[np.ndarray, list]:
+def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM) -> tuple[np.ndarray, list, np.ndarray]:
     """The stations of ``x_values`` (K,) whose sections through all ``faces`` (NurbsSurface)
-    chain into one girth curve, and those chains ((points, starts) of :func:`chain_pieces`);
-    ``regions``: each face's trimmed region in (u, v) (shapely) or None."""
+    chain into one girth curve, those chains ((points, starts) of :func:`chain_pieces`) and
+    the widest gap each bridges between faces (K,); ``regions``: each face's trimmed region
+    in (u, v) (shapely) or None."""
     grids = [_face_grid(f, SECTION_GRID) for f in faces]
-    kept, chains = [], []
+    kept, chains, gaps = [], [], []
     for x in x_values:
         pieces = []
         for k, (face, region, grid) in enumerate(zip(faces, regions, grids)):
@@ -251,8 +284,22 @@ def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM) 
         chain = chain_pieces(pieces, join)
         if chain is not None:
             kept.append(float(x))
-            chains.append(chain)
-    return np.array(kept), chains
+            chains.append(chain[:2])
+            gaps.append(chain[2])
+    return np.array(kept), chains, np.array(gaps)
+
+
+def parted_ends(gaps: np.ndarray, max_gap: float | None) -> tuple[int, int]:
+    """Index range [i, j) of a run of stations less the stations at either end whose sections
+    bridge a gap wider than ``max_gap`` (gaps (K,)): where the faces part, the loft ends."""
+    i, j = 0, len(gaps)
+    if max_gap is None:
+        return i, j
+    while i < j and gaps[i] > max_gap:
+        i += 1
+    while j > i and gaps[j - 1] > max_gap:
+        j -= 1
+    return i, j
 
 
 def longest_run(x_values: np.ndarray, kept: np.ndarray) -> tuple[int, int]:
@@ -267,20 +314,23 @@ def longest_run(x_values: np.ndarray, kept: np.ndarray) -> tuple[int, int]:
     return best
 
 
-def shell_surface(faces, regions, indices, spacing: float, tolerance: float, name: str) -> ShellSurface:
+def shell_surface(faces, regions, indices, spacing: float, tolerance: float, name: str,
+                  max_gap: float | None = None) -> ShellSurface:
     """Faces (NurbsSurface, mm) with their trimmed regions lofted into one :class:`ShellSurface`
     over the longest x range where every station's sections form one girth curve crossing as
     many face junctions as most stations do; stations every ``spacing`` mm (at least 12), fitted within
     ``tolerance`` mm where the poles allow. Where two faces meet, the surface has a girth
     knot of full multiplicity at the junction's median girth fraction, so that the change of
-    curvature there (a flat of bottom meeting the bilge) is not smoothed over."""
+    curvature there (a flat of bottom meeting the bilge) is not smoothed over. The run ends
+    where the faces part (:func:`parted_ends`: a gap wider than ``max_gap`` mm at its end
+    stations; None: wherever the sections chain)."""
     xs = np.concatenate([f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].ravel()
                          for f in faces])
     lo, hi = float(xs.min()), float(xs.max())
     count = max(12, int(np.ceil((hi - lo) / spacing)) + 1)
     pad = 1e-6 * (hi - lo)
     x_values = np.linspace(lo + pad, hi - pad, count)
-    kept, chains = shell_sections(faces, x_values, regions)
+    kept, chains, gaps = shell_sections(faces, x_values, regions)
     # stations whose girth curves cross as many face junctions as most do (a face split at a
     # station changes the faces, not the junctions)
     counts = [len(starts) for _, starts in chains]
@@ -292,7 +342,15 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"{count} (x {lo:.1f}..{hi:.1f} mm): they are not one shell (a gap wider than {JOIN_MM} mm "
                          f"between them, or sections of several pieces)")
     chains = [c for c, ok in zip(chains, same) if ok][i:j]
-    stations = kept[same][i:j]
+    stations, gaps = kept[same][i:j], gaps[same][i:j]
+    a, b = parted_ends(gaps, max_gap)
+    if b - a < 4:
+        raise ShellError(f"{name}: faces {list(indices)} leave gaps wider than {max_gap:.3g} mm between their sections "
+                         f"at all but {b - a} of the {len(stations)} stations that chain (x {lo:.1f}..{hi:.1f} mm): "
+                         f"they are not one shell")
+    widest = [None if not len(k) else int(k[np.argmax(gaps[k])]) for k in (np.arange(a), np.arange(b, len(gaps)))]
+    parted = tuple(None if k is None else (float(stations[k]), float(gaps[k])) for k in widest)
+    chains, stations, gaps = chains[a:b], stations[a:b], gaps[a:b]
     for round_ in range(REFITS + 1):
         surface, misfit = _loft_chains(stations, chains, tolerance, name)
         # where a section changes its shape faster than stations can follow (a stern whose
@@ -306,8 +364,9 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
         if good.all() or b - a < 4 or round_ == REFITS:
             break
         keep = [k for k in range(a, b) if good[k]]
-        chains, stations = [chains[k] for k in keep], stations[keep]
-    return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)))
+        chains, stations, gaps = [chains[k] for k in keep], stations[keep], gaps[keep]
+    return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)),
+                        float(gaps.max()), parted)
 
 
 def _loft_chains(stations: np.ndarray, chains: list, tolerance: float, name: str):
