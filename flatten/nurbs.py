@@ -61,6 +61,24 @@ def ppoly_from_spline(spline: BSpline) -> PPoly:
     return PPoly(coef.reshape(k + 1, len(x) - 1), x, extrapolate=spline.extrapolate)
 
 
+def spline_piece(spline: BSpline, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """(coefficients, knots) of the exact piece of a B-spline over [a, b] inside its domain:
+    knots inserted to full multiplicity (the degree) at the cuts, the coefficients between
+    them kept, the knot vector clamped at a and b. The coefficients keep any trailing axes
+    (homogeneous points, a surface's rows)."""
+    p, t = spline.k, np.asarray(spline.t)
+    lo, hi = t[p], t[-p - 1]
+    for x in (a, b):
+        have = int(np.count_nonzero(spline.t == x))
+        if lo < x < hi and have < p:
+            spline = insert(x, spline, m=p - have)
+    t = spline.t
+    first = int(np.flatnonzero(t == a)[-1]) - p
+    last = int(np.flatnonzero(t == b)[0]) - 1
+    knots = np.concatenate([np.full(p + 1, a), t[(t > a) & (t < b)], np.full(p + 1, b)])
+    return spline.c[first:last + 1], knots
+
+
 def _readonly(array: np.ndarray) -> np.ndarray:
     array = np.array(array, dtype=np.float64, copy=True, order="C")  # one layout, pickled or not
     array.setflags(write=False)
@@ -145,17 +163,7 @@ class NurbsCurve:
         if not lo <= a < b <= hi:
             raise InvalidCurveError(f"{self.name}: segment [{a}, {b}] is not inside the domain [{lo}, {hi}]")
         p = self.degree
-        spline = self.homogeneous
-        for x in (a, b):
-            have = int(np.count_nonzero(spline.t == x))
-            if lo < x < hi and have < p:
-                spline = insert(x, spline, m=p - have)
-        t = spline.t
-        first_a = int(np.flatnonzero(t == a)[-1]) - p
-        first_b = int(np.flatnonzero(t == b)[0]) - 1
-        pw = spline.c[first_a:first_b + 1]
-        inner = t[(t > a) & (t < b)]
-        knots = np.concatenate([np.full(p + 1, a), inner, np.full(p + 1, b)])
+        pw, knots = spline_piece(self.homogeneous, a, b)
         return NurbsCurve(p, _readonly(pw[:, :3] / pw[:, 3:]), _readonly(pw[:, 3]), _readonly(knots), self.name)
 
     # -------------------------------------------------------------- evaluation

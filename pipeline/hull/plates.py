@@ -227,7 +227,8 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                                 for b in hull.butts]}
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
-    fit = flattest_plane(v_grid, tol)
+    # a plate held on the hull for its edges is a patch: no plane to fit unless it may stay flat
+    fit = None if patch_only and edge_limit is None else flattest_plane(v_grid, tol)
     if edge_limit is not None and fit.max_distance <= tol:
         # held for its fit-up: flat only on the plane that keeps its edges nearest the hull
         from flatten.edgeplane import edge_held_plane

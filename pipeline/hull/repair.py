@@ -69,10 +69,17 @@ def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     _evaluate([p for p in plates if p.hull.result is None], evaluate_many)
     report = RepairReport()
+    by_name = {p.name: p for p in plates}
+    measured: dict = {}  # plate name -> (its result, its edges): only plates held since are measured again
     for round_no in range(1, ROUNDS + 1):
         records = {}
         for part in plates:
-            edges = plate_edges(part.hull.result) if part.hull.result is not None else None
+            result = part.hull.result
+            if result is None:
+                continue
+            if part.name not in measured or measured[part.name][0] is not result:
+                measured[part.name] = (result, plate_edges(result))
+            edges = measured[part.name][1]
             if edges is not None:
                 records[part.name] = (edges, part)
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
@@ -88,7 +95,6 @@ def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         report.rounds.append({"round": round_no, "misfits": len(misfits), "held": sorted(chosen)})
         if not chosen:
             break
-        by_name = {p.name: p for p in plates}
         for name, held in chosen.items():
             by_name[name].hull.held = held
             by_name[name].hull.result = None

@@ -73,8 +73,9 @@ def sub_surface(surface, u_range, v_range, name: str | None = None):
     """The exact piece of a NURBS surface over [u0, u1] x [v0, v1] of its parameters (knot
     insertion to full multiplicity at the cuts), with the same parameters: a trim's loops in
     (u, v) hold on it unchanged."""
-    from scipy.interpolate import BSpline, insert
+    from scipy.interpolate import BSpline
 
+    from flatten.nurbs import spline_piece
     from flatten.surface import nurbs_surface
 
     hom = np.concatenate([surface.poles * surface.weights[..., None], surface.weights[..., None]], axis=-1)
@@ -83,18 +84,9 @@ def sub_surface(surface, u_range, v_range, name: str | None = None):
                                  (1, v_range, surface.knots_v, surface.degree_v)):
         rows = np.moveaxis(hom, axis, 0)
         shape = rows.shape
-        spline = BSpline(t, rows.reshape(shape[0], -1), p)
-        d0, d1 = t[p], t[-p - 1]
-        for x in (lo, hi):
-            have = int(np.count_nonzero(spline.t == x))
-            if d0 < x < d1 and have < p:
-                spline = insert(x, spline, m=p - have)
-        tt = spline.t
-        first = int(np.flatnonzero(tt == lo)[-1]) - p
-        last = int(np.flatnonzero(tt == hi)[0]) - 1
-        rows = spline.c[first:last + 1].reshape(-1, *shape[1:])
-        hom = np.moveaxis(rows, 0, axis)
-        knots.append(np.concatenate([np.full(p + 1, lo), tt[(tt > lo) & (tt < hi)], np.full(p + 1, hi)]))
+        coefficients, piece_knots = spline_piece(BSpline(t, rows.reshape(shape[0], -1), p), lo, hi)
+        hom = np.moveaxis(coefficients.reshape(-1, *shape[1:]), 0, axis)
+        knots.append(piece_knots)
     return nurbs_surface(surface.degree_u, surface.degree_v, hom[..., :3] / hom[..., 3:], knots[0], knots[1],
                          hom[..., 3], name=name or surface.name)
 
