@@ -12,6 +12,7 @@ from flatten.nurbs import nurbs_curve
 from flatten.strip import build_strip, choose_rulings
 
 SHIP = Path(__file__).parent / "data" / "ship"
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_rulings_by_chord_tolerance_on_a_seam_with_a_zero_speed_end_are_finite():
@@ -57,6 +58,44 @@ def test_the_curvature_check_ignores_round_off_on_the_160m_hull_keel_plate(tmp_p
     assert check["passed"] and check["max_residual"] < 1e-12
     assert check["mesh"]["max_angle_defect"] < 1e-9  # round-off, not curvature
     assert check["mesh"]["max_abs_gaussian_curvature_raw"] * size**2 > 1e-6  # what the check used to see
+
+
+def test_a_butt_corner_the_strip_does_not_reach_keeps_its_ruling_on_the_strip(tmp_path):
+    """The keel plate S01_B08 of the 160 m hull's uniform shell plan (seams v = 0 and 0.6337,
+    butts 93.3 m and 106.7 m): the seams' strip ends at t = -5.99 (its rulings lean), short of
+    the aft butt's crossing of c at -5.86, while the butt crosses d inside the path. Newton on
+    f(., T) from the path's t there left the domain (t = 3.6e11: f is nearly flat in t over the
+    flat keel) and the corner ruling evaluated the curves at it: a divide by zero, NaN
+    points, and the family reported as raised. The corner now keeps the path's t."""
+    import warnings
+
+    import yaml
+
+    from pipeline.hull.plan import load_run
+    from pipeline.stages import PartResult, develop_part
+    from pipeline.hull.strake import corner_rulings
+
+    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
+    data["strake"]["plan"]["method"] = "uniform"
+    data["strake"]["surface"]["iges"] = str(SHIP / "test_1_hull_exported.igs")
+    path = tmp_path / "hull160.yaml"
+    path.write_text(yaml.safe_dump(data))
+    config = load_run(path)
+    part = next(p for p in config.parts if p.name.endswith("S01_B08"))
+    solutions = []
+
+    def corners(solution):
+        solutions.append(solution)
+        return corner_rulings(solution, part.c, part.d, part.hull.butts)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        develop_part(PartResult(part.name, part), config, corners, 0.0)
+        extra = corners(solutions[0])
+    path_t = solutions[0].path.points[:, 0]
+    assert path_t.max() < -5.9  # the strip stops short of the aft butt on c
+    assert np.isfinite(extra).all()
+    assert (extra[:, 0] >= path_t.min()).all() and (extra[:, 0] <= path_t.max()).all()
 
 
 def test_the_curvature_check_still_fails_a_strip_that_is_not_developable():
