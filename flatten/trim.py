@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .develop import develop
+from .develop import DevelopedStrip
 from .nurbs import NurbsCurve
 from .solution import SolutionSet
-from .strip import grid_faces, sample_path
+from .strip import PathSampler, grid_faces
 
 NEWTON_STEPS = 4
 
@@ -48,15 +48,28 @@ class StripMap:
     """
 
     def __init__(self, solution: SolutionSet, c: NurbsCurve, d: NurbsCurve, n_rulings: int = 801):
+        from scipy.interpolate import PchipInterpolator
+
         self.solution, self.c, self.d = solution, c, d
+        self.sampler = PathSampler(solution)
         self.lam = np.linspace(0.0, 1.0, max(int(n_rulings), 3))
-        self.rulings = sample_path(solution, self.lam)
+        self.rulings = self.sampler(self.lam)
         self.a3, self.b3 = c(self.rulings[:, 0]), d(self.rulings[:, 1])
+        # the search's rulings between the exact ones: monotone cubics in lam (t and T only
+        # grow along a path, so they stay inside the curves' domains, fans and kinks too)
+        self._between = PchipInterpolator(self.lam, self.rulings, axis=0)
+        self._developed = None
 
     def ends(self, lam: np.ndarray):
         """Rulings (N, 2) at path fractions lam and their 3D ends on c and d."""
-        r = sample_path(self.solution, np.clip(lam, 0.0, 1.0))
+        r = self.sampler(np.clip(lam, 0.0, 1.0))
         return r, self.c(r[:, 0]), self.d(r[:, 1])
+
+    def _ends_between(self, lam: np.ndarray):
+        """3D ends of the rulings at path fractions lam interpolated between the map's exact
+        rulings (no polish: what the search needs, a few ulps of lam from the exact ones)."""
+        r = self._between(np.clip(lam, 0.0, 1.0))
+        return self.c(r[:, 0]), self.d(r[:, 1])
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
         import igl
@@ -73,15 +86,17 @@ class StripMap:
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
-        seed on the coarse mesh, then Newton on the squared distance to the exact ruling line
-        (central differences in lam). v is not clipped: a point beyond the strip's boundary
+        seed on the coarse mesh, then Newton on the squared distance to the ruling line
+        (central differences in lam) on rulings interpolated between the map's exact ones, and
+        the exact ruling at the lam found (an error e in lam moves the distance by O(e^2)).
+        v is not clipped: a point beyond the strip's boundary
         curve has v < 0 or > 1, and its distance says so."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         lam = self._seed(points)
         h = 0.05 * float(self.lam[1] - self.lam[0])
 
         def dist2(x):
-            _, a, b = self.ends(x)
+            a, b = self._ends_between(x)
             v = _along(points, a, b)
             q = a + np.clip(v, 0.0, 1.0)[:, None] * (b - a)
             return np.einsum("ij,ij->i", points - q, points - q)
@@ -96,14 +111,26 @@ class StripMap:
         return lam, v, rulings, a + v[:, None] * (b - a)
 
     def develop(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Developed ends (along c, along d), (N, 2) each, of the given rulings, in one frame
-        with this map's own rulings (one exact development of them all)."""
-        merged = np.vstack([self.rulings, rulings])
-        order = np.lexsort((merged[:, 1] * self.solution.path.orientation, merged[:, 0]))
-        dev = develop(self.c, self.d, merged[order], self.solution.field)
-        position = np.empty(len(merged), dtype=int)
-        position[order] = np.arange(len(merged))
-        return dev.along_c[position], dev.along_d[position]
+        """Developed ends (along c, along d), (N, 2) each, of the given rulings (within the
+        map's t range), in one frame with this map's own rulings: the map's rulings are
+        developed exactly once, the given ones integrated from the break before each on
+        that piece's spectral interpolant (:class:`DevelopedStrip`), to round-off."""
+        strip = self._development()
+        ends = strip.ends(rulings)
+        return ends.along_c, ends.along_d
+
+    def own_development(self) -> tuple[np.ndarray, np.ndarray]:
+        """Developed ends (along c, along d), (K, 2) each, of this map's own rulings."""
+        strip = self._development()
+        position = np.empty(len(self.rulings), dtype=int)
+        position[self._order] = np.arange(len(self.rulings))
+        return strip.development.along_c[position], strip.development.along_d[position]
+
+    def _development(self) -> DevelopedStrip:
+        if self._developed is None:
+            self._order = np.lexsort((self.rulings[:, 1] * self.solution.path.orientation, self.rulings[:, 0]))
+            self._developed = DevelopedStrip(self.c, self.d, self.rulings[self._order], self.solution.field)
+        return self._developed
 
     def map(self, points: np.ndarray) -> tuple[Mapped, np.ndarray, np.ndarray]:
         """Mapped points, and the developed ends (K, 2) x 2 of this map's own rulings in the
@@ -111,9 +138,9 @@ class StripMap:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         lam, v, rulings, on_strip = self.locate(points)
         ac, ad = self.develop(rulings)
-        k = len(self.rulings)
-        flat = ac[k:] + v[:, None] * (ad[k:] - ac[k:])
-        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat), ac[:k], ad[:k]
+        flat = ac + v[:, None] * (ad - ac)
+        own_c, own_d = self.own_development()
+        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat), own_c, own_d
 
 
 def ruling_intervals(lam: np.ndarray, boundary_lam: np.ndarray, boundary_v: np.ndarray) -> np.ndarray:
