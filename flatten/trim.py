@@ -18,9 +18,10 @@ import numpy as np
 from .develop import DevelopedStrip
 from .nurbs import NurbsCurve
 from .solution import SolutionSet
-from .strip import PathSampler, grid_faces
+from .strip import PathSampler
 
 NEWTON_STEPS = 4
+SEED_SAMPLES = 9  # samples along each ruling of the map for the search's seed
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,7 @@ class StripMap:
     """Closest points on a solved strip and their exact developed positions.
 
     solution : a truthy SolutionSet of the pair (c, d); n_rulings : rulings of the coarse
-    search mesh (evenly spaced in path fraction); the search only seeds a Newton iteration on
+    search (evenly spaced in path fraction); the search only seeds a Newton iteration on
     the exact rulings, so its density sets the cost, not the accuracy.
     """
 
@@ -59,6 +60,7 @@ class StripMap:
         # grow along a path, so they stay inside the curves' domains, fans and kinks too)
         self._between = PchipInterpolator(self.lam, self.rulings, axis=0)
         self._developed = None
+        self._tree = None
 
     def ends(self, lam: np.ndarray):
         """Rulings (N, 2) at path fractions lam and their 3D ends on c and d."""
@@ -72,17 +74,17 @@ class StripMap:
         return self.c(r[:, 0]), self.d(r[:, 1])
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
-        import igl
+        """Path fraction (N,) of each point's nearest sample of the strip: SEED_SAMPLES points
+        along each of the map's rulings, in a k-d tree. Newton in :meth:`locate` takes it from
+        there (a sample's lam is off by at most half a ruling's reach along its neighbours)."""
+        from scipy.spatial import cKDTree
 
-        m = len(self.lam)
-        vertices = np.empty((m, 2, 3))
-        vertices[:, 0], vertices[:, 1] = self.a3, self.b3
-        vertices = np.ascontiguousarray(vertices.reshape(-1, 3))
-        faces = np.ascontiguousarray(grid_faces(m, 2))
-        _, face, closest = igl.point_mesh_squared_distance(np.ascontiguousarray(points), vertices, faces)
-        tri = vertices[faces[face]]
-        bary = barycentric(closest, tri)
-        return np.einsum("nk,nk->n", bary, self.lam[faces[face] // 2])
+        if self._tree is None:
+            v = np.linspace(0.0, 1.0, SEED_SAMPLES)
+            samples = self.a3[:, None, :] + v[None, :, None] * (self.b3 - self.a3)[:, None, :]
+            self._tree = cKDTree(samples.reshape(-1, 3))
+        _, index = self._tree.query(points)
+        return self.lam[index // SEED_SAMPLES]
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
