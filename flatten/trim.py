@@ -21,7 +21,7 @@ from .solution import SolutionSet
 from .strip import PathSampler
 
 NEWTON_STEPS = 4
-SEED_SAMPLES = 9  # samples along each ruling of the map for the search's seed
+SEED_SAMPLES = (9, 257)  # samples along each ruling of the map for the search's seed, fewest and most
 
 
 @dataclass(frozen=True)
@@ -74,17 +74,25 @@ class StripMap:
         return self.c(r[:, 0]), self.d(r[:, 1])
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
-        """Path fraction (N,) of each point's nearest sample of the strip: SEED_SAMPLES points
-        along each of the map's rulings, in a k-d tree. Newton in :meth:`locate` takes it from
-        there (a sample's lam is off by at most half a ruling's reach along its neighbours)."""
+        """Path fraction (N,) of each point's nearest sample of the strip, from a k-d tree of
+        samples along the map's rulings spaced about as far apart as the rulings' midpoints:
+        the nearest sample is then within a ruling spacing or two in lam of the closest
+        point even where the rulings lean far over (a seam strip extended past its butts;
+        nine samples a ruling left a 3.5 m ruling's seed 24 spacings off, beyond Newton's
+        reach), and Newton in :meth:`locate` takes it from there."""
         from scipy.spatial import cKDTree
 
         if self._tree is None:
-            v = np.linspace(0.0, 1.0, SEED_SAMPLES)
+            mid = 0.5 * (self.a3 + self.b3)
+            spacing = float(np.median(np.linalg.norm(np.diff(mid, axis=0), axis=1)))
+            reach = float(np.linalg.norm(self.b3 - self.a3, axis=1).max())
+            per_ruling = int(np.clip(np.ceil(reach / max(spacing, 1e-300)) + 1, SEED_SAMPLES[0], SEED_SAMPLES[1]))
+            v = np.linspace(0.0, 1.0, per_ruling)
             samples = self.a3[:, None, :] + v[None, :, None] * (self.b3 - self.a3)[:, None, :]
-            self._tree = cKDTree(samples.reshape(-1, 3))
-        _, index = self._tree.query(points)
-        return self.lam[index // SEED_SAMPLES]
+            self._tree = (cKDTree(samples.reshape(-1, 3)), per_ruling)
+        tree, per_ruling = self._tree
+        _, index = tree.query(points)
+        return self.lam[index // per_ruling]
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
