@@ -1,0 +1,89 @@
+"""flatten.trim.StripMap: closest points on a solved strip and their developed positions.
+
+A strip whose rulings lean far over (a seam strip extended past its butts: 3.5 m rulings
+pairing points metres apart along the seams) is where the search's seed matters: Newton in
+lam moves a few ruling spacings a step, so a seed must land within reach of the closest
+point. Points placed on the strip at known rulings and positions along them, and moved off
+it along its normal, must be found there; their developed positions must be the strip's
+exact development of those rulings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flatten import solve
+from flatten.develop import develop
+from flatten.nurbs import nurbs_curve
+from flatten.strip import sample_path
+from flatten.trim import StripMap
+
+
+def leaning_strip():
+    """A cylinder: a bent seam c in the plane y = 0 and its copy d moved 3 m across and 5 m
+    along x, so that every ruling is that move and leans 59 degrees from the girth."""
+    poles = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.6], [8.0, 0.0, 0.6], [12.0, 0.0, 0.0]])
+    c = nurbs_curve(poles, name="c")
+    d = nurbs_curve(poles + [5.0, 3.0, 0.0], name="d")
+    solution = solve(c, d)
+    assert solution
+    return c, d, solution
+
+
+@pytest.fixture(scope="module")
+def strip_and_points():
+    c, d, solution = leaning_strip()
+    rng = np.random.default_rng(7)
+    lam = rng.uniform(0.02, 0.98, 400)
+    v = rng.uniform(0.0, 1.0, 400)
+    rulings = sample_path(solution, lam)
+    a, b = c(rulings[:, 0]), d(rulings[:, 1])
+    on_strip = a + v[:, None] * (b - a)
+    # the strip's normal at each point: across its ruling and along the tangent plane
+    dc = c.derivatives(rulings[:, 0], 1)[1]
+    normal = np.cross(dc, b - a)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    offset = rng.uniform(-0.004, 0.004, 400)  # a few mm off, as a hull is off its plate
+    return c, d, solution, lam, v, rulings, on_strip, on_strip + offset[:, None] * normal, np.abs(offset)
+
+
+def test_the_rulings_lean_far_over(strip_and_points):
+    c, d, solution, *_ = strip_and_points
+    rulings = sample_path(solution, np.linspace(0.0, 1.0, 11))
+    r = d(rulings[:, 1]) - c(rulings[:, 0])
+    lean = np.degrees(np.arctan2(np.abs(r[:, 0]), np.hypot(r[:, 1], r[:, 2])))
+    np.testing.assert_allclose(lean, np.degrees(np.arctan2(5.0, 3.0)), atol=1e-6)
+
+
+def test_points_off_a_leaning_strip_are_found_on_their_rulings(strip_and_points):
+    c, d, solution, lam, v, _, on_strip, points, offset = strip_and_points
+    smap = StripMap(solution, c, d, 801)
+    found_lam, found_v, _, found = smap.locate(points)
+    np.testing.assert_allclose(found_lam, lam, atol=1e-7)
+    np.testing.assert_allclose(found_v, v, atol=1e-7)
+    np.testing.assert_allclose(np.linalg.norm(points - found, axis=1), offset, atol=1e-7)
+    np.testing.assert_allclose(found, on_strip, atol=1e-6)
+
+
+def test_mapped_points_develop_as_the_whole_strip_does(strip_and_points):
+    c, d, solution, lam, v, rulings, _, points, _ = strip_and_points
+    smap = StripMap(solution, c, d, 801)
+    mapped, own_c, own_d = smap.map(points)
+    # the exact development of the map's rulings and these together (one integration of all)
+    merged = np.vstack([smap.rulings, rulings])
+    order = np.lexsort((merged[:, 1] * solution.path.orientation, merged[:, 0]))
+    dev = develop(c, d, merged[order], solution.field)
+    position = np.empty(len(merged), dtype=int)
+    position[order] = np.arange(len(merged))
+    ac, ad = dev.along_c[position], dev.along_d[position]
+    k = len(smap.rulings)
+    np.testing.assert_allclose(own_c, ac[:k], atol=1e-9)
+    np.testing.assert_allclose(own_d, ad[:k], atol=1e-9)
+    exact = ac[k:] + v[:, None] * (ad[k:] - ac[k:])
+    np.testing.assert_allclose(mapped.flat, exact, atol=1e-6)
+    # isometry: developed distances between mapped points equal the 3D ones on the strip
+    on = mapped.on_strip
+    i, j = np.arange(0, 399), np.arange(1, 400)
+    near = np.abs(lam[i] - lam[j]) < 0.05
+    np.testing.assert_allclose(np.linalg.norm(mapped.flat[i] - mapped.flat[j], axis=1)[near],
+                               np.linalg.norm(on[i] - on[j], axis=1)[near], rtol=1e-3)
