@@ -121,7 +121,9 @@ def _interval_breaks(c: NurbsCurve, d: NurbsCurve, field: DevelopabilityField | 
 
 def _T_of_t(field: DevelopabilityField | None, rulings: np.ndarray, t: np.ndarray) -> np.ndarray:
     guess = np.interp(t, rulings[:, 0], rulings[:, 1])
-    return guess if field is None else field.refine_T(t, guess, iterations=6)
+    # the turn rates read T through the ruling's direction: first order in its error, which the
+    # power form holds to ~1e-9 of the parameter: no finishing on the curves
+    return guess if field is None else field.refine_T(t, guess, iterations=6, on_curves=False)
 
 
 def develop(c: NurbsCurve, d: NurbsCurve, rulings: np.ndarray,

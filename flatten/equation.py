@@ -409,7 +409,7 @@ class DevelopabilityField:
         return np.abs(self.cells).max(axis=(2, 3))
 
     def refine_T(self, t: np.ndarray, T_guess: np.ndarray, iterations: int = 4,
-                 chunk: int = 1 << 14) -> np.ndarray:
+                 chunk: int = 1 << 14, on_curves: bool = True) -> np.ndarray:
         """Newton on f(t_k, ·) from T_guess for a batch, shape of ``T_guess``.
 
         Each point's polynomial in σ on its cell is one row of a gathered (n, A) x (n, A, B)
@@ -417,7 +417,10 @@ class DevelopabilityField:
         number of array operations per call, whatever the cells: the strip and the
         pipeline call this for a few points at a time); ``chunk`` points at a time bound
         the gathered coefficients (16384 points: 3 MB for bicubic cells). Points whose
-        root lies in a neighbouring span of d are redone there.
+        root lies in a neighbouring span of d are redone there. ``on_curves``: finish each T
+        by Newton on the curves' own determinant (:meth:`_on_curves`, ~1e-9 nearer near a
+        far cell side); a caller whose use of T is first-order in its error at that size
+        (the development's turn rates) may skip it, at about half the cost.
         """
         t = np.asarray(t, dtype=np.float64)
         T = np.array(T_guess, dtype=np.float64, copy=True)
@@ -425,7 +428,8 @@ class DevelopabilityField:
         if flat_T.size <= 4:  # a few points (the pipeline asks one at a time): plain floats
             for k, (tk, Tk) in enumerate(zip(flat_t.tolist(), flat_T.tolist())):
                 flat_T[k] = self._refine_one(tk, Tk, iterations)
-            self._on_curves(flat_t, flat_T)
+            if on_curves:
+                self._on_curves(flat_t, flat_T)
             return T
         i, s, _ = self._local(self.c, flat_t)
         bd = self.d.breakpoints
@@ -453,7 +457,8 @@ class DevelopabilityField:
             todo = np.concatenate(moved) if moved else np.zeros(0, dtype=int)
             if todo.size == 0:
                 break
-        self._on_curves(flat_t, flat_T)
+        if on_curves:
+            self._on_curves(flat_t, flat_T)
         return T
 
     def _on_curves(self, t: np.ndarray, T: np.ndarray) -> None:
