@@ -21,7 +21,7 @@ from .solution import SolutionSet
 from .strip import PathSampler
 
 NEWTON_STEPS = 4
-SEED_SAMPLES = (9, 257)  # samples along each ruling of the map for the search's seed, fewest and most
+SEED_SPACING = 6.0  # the seed's samples along a ruling, in ruling spacings apart
 
 
 @dataclass(frozen=True)
@@ -75,18 +75,18 @@ class StripMap:
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
         """Path fraction (N,) of each point's nearest sample of the strip, from a k-d tree of
-        samples along the map's rulings spaced about as far apart as the rulings' midpoints:
-        the nearest sample is then within a ruling spacing or two in lam of the closest
-        point even where the rulings lean far over (a seam strip extended past its butts;
-        nine samples a ruling left a 3.5 m ruling's seed 24 spacings off, beyond Newton's
-        reach), and Newton in :meth:`locate` takes it from there."""
+        samples along the map's rulings SEED_SPACING ruling spacings apart: the nearest
+        sample's lam is then within SEED_SPACING / 2 spacings of the closest point's however
+        far the rulings lean over (a seam strip extended past its butts: nine samples along
+        its 3.5 m rulings left a seed 24 spacings off, beyond Newton's reach), and Newton in
+        :meth:`locate` (steps of up to four spacings) takes it from there."""
         from scipy.spatial import cKDTree
 
         if self._tree is None:
             mid = 0.5 * (self.a3 + self.b3)
             spacing = float(np.median(np.linalg.norm(np.diff(mid, axis=0), axis=1)))
             reach = float(np.linalg.norm(self.b3 - self.a3, axis=1).max())
-            per_ruling = int(np.clip(np.ceil(reach / max(spacing, 1e-300)) + 1, SEED_SAMPLES[0], SEED_SAMPLES[1]))
+            per_ruling = int(np.clip(np.ceil(reach / max(SEED_SPACING * spacing, 1e-300)) + 1, 3, 129))
             v = np.linspace(0.0, 1.0, per_ruling)
             samples = self.a3[:, None, :] + v[None, :, None] * (self.b3 - self.a3)[:, None, :]
             self._tree = (cKDTree(samples.reshape(-1, 3)), per_ruling)
