@@ -45,8 +45,9 @@ class SurfaceDistance:
     def closest(self, points: np.ndarray, index: int = 0, iterations: int = 12,
                 converged: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Closest parameters (N, 2) on surface ``index`` of each point (N, 3) and the
-        distances (N,). With ``converged`` (a fraction of the domain), one more step after
-        the first whose every move is below it ends the iteration early."""
+        distances (N,). With ``converged`` (a fraction of the domain), a point whose move
+        falls below it takes one more step and stops (the others go on): the many points
+        that settle in a few steps no longer wait for the slowest one."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         surface = self.surfaces[index]
         uu, vv, tree = self._seeds[index]
@@ -54,18 +55,21 @@ class SurfaceDistance:
         pu, pv = uu[idx], vv[idx]
         hu = 1e-7 * np.ptp(surface.domain_u)
         hv = 1e-7 * np.ptp(surface.domain_v)
-        n = len(points)
-        last = iterations
-        for step in range(iterations):
-            if step > last:
+        limit_u = np.inf if converged is None else converged * np.ptp(surface.domain_u)
+        limit_v = np.inf if converged is None else converged * np.ptp(surface.domain_v)
+        active = np.arange(len(points))
+        last_step = np.zeros(len(points), dtype=bool)  # the point's move was below the limit
+        for _ in range(iterations):
+            if not len(active):
                 break
+            u, v, n = pu[active], pv[active], len(active)
             # the point and its four neighbours in one evaluation (the surface is evaluated
             # point by point: the batch changes nothing but the number of calls)
-            at = surface(np.concatenate([pu, pu + hu, pu - hu, pu, pu]), np.concatenate([pv, pv, pv, pv + hv, pv - hv]))
+            at = surface(np.concatenate([u, u + hu, u - hu, u, u]), np.concatenate([v, v, v, v + hv, v - hv]))
             s = at[:n]
             su = (at[n:2 * n] - at[2 * n:3 * n]) / (2 * hu)
             sv = (at[3 * n:4 * n] - at[4 * n:]) / (2 * hv)
-            r = s - points
+            r = s - points[active]
             a11, a12, a22 = (np.einsum("ij,ij->i", x, y) for x, y in ((su, su), (su, sv), (sv, sv)))
             b1, b2 = np.einsum("ij,ij->i", su, r), np.einsum("ij,ij->i", sv, r)
             det = a11 * a22 - a12**2
@@ -73,12 +77,13 @@ class SurfaceDistance:
             ok = np.abs(det) > 1e-300
             du = np.where(ok, (a22 * b1 - a12 * b2) / np.where(ok, det, 1), 0)
             dv = np.where(ok, (a11 * b2 - a12 * b1) / np.where(ok, det, 1), 0)
-            pu = np.clip(pu - du, *surface.domain_u)
-            pv = np.clip(pv - dv, *surface.domain_v)
-            if converged is not None and last == iterations and \
-                    np.abs(du).max(initial=0.0) <= converged * np.ptp(surface.domain_u) and \
-                    np.abs(dv).max(initial=0.0) <= converged * np.ptp(surface.domain_v):
-                last = step + 1  # the difference Jacobian is good to ~1e-9: one more step is round-off
+            pu[active] = np.clip(u - du, *surface.domain_u)
+            pv[active] = np.clip(v - dv, *surface.domain_v)
+            if converged is not None:
+                # the difference Jacobian is good to ~1e-9: the step after a small one is round-off
+                done = last_step[active]
+                last_step[active] = (np.abs(du) <= limit_u) & (np.abs(dv) <= limit_v)
+                active = active[~done]
         return np.column_stack([pu, pv]), np.linalg.norm(surface(pu, pv) - points, axis=1)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
