@@ -87,7 +87,9 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     crossing (cheap: W is known at the probe columns), then once more with W fixed at its
     exact value at that first crossing, which the end keeps: the end lies on the plane, off
     the exact W only by W's change between the two crossings, which lie as close as the
-    first W's error moves a point across the plane.
+    first W's error moves a point across the plane. Inside, W is exact at 4 cols columns
+    across the rows and linear in s between them (KVLCC2's aft plates: rows even within
+    0.1 %, 1.2 % at a column next to a kink of W along s; 3 to 4 times the old grid's time).
     """
     if spacing not in ("length", "parameter"):
         raise ValueError(f"region_grid: spacing is 'length' or 'parameter', not {spacing!r}")
@@ -180,10 +182,23 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     S = ends_s[:, :1] + t[None, :] * (ends_s[:, 1:] - ends_s[:, :1])
     W = np.empty(S.shape)
     W[:, -1], W[:, 0] = ends_w[keep, 1], ends_w[keep, 0]
-    if cols > 2:
-        inner = S[:, 1:-1].ravel()
-        lo, hi = seams(inner)
-        W[:, 1:-1] = fractions(inner, lo, hi, np.repeat(a[kept], cols - 2)[:, None]).reshape(len(kept), cols - 2)
+    inner = S[:, 1:-1]
+    n_ref = 4 * cols
+    if inner.size and (not even or inner.size <= n_ref or np.ptp(inner) <= 0.0):
+        lo, hi = seams(inner.ravel())
+        W[:, 1:-1] = fractions(inner.ravel(), lo, hi, np.repeat(a[kept], cols - 2)[:, None]).reshape(inner.shape)
+    elif inner.size:
+        # the rows' columns differ in s only as their ends do: W exact at 4 cols columns
+        # across them all (not at every point: R / 4 times fewer surface evaluations), linear
+        # in s between them
+        ref = np.linspace(inner.min(), inner.max(), n_ref)
+        lo, hi = seams(ref)
+        w_ref = fractions(ref, lo, hi, np.broadcast_to(a[kept], (n_ref, len(kept))))  # (n_ref, R)
+        pos = (inner - ref[0]) / (ref[1] - ref[0])
+        i = np.clip(pos.astype(np.int64), 0, n_ref - 2)
+        f = np.clip(pos - i, 0.0, 1.0)
+        r = np.arange(len(kept))[:, None]
+        W[:, 1:-1] = w_ref[i, r] + f * (w_ref[i + 1, r] - w_ref[i, r])
     lo, hi = seams(S.ravel())
     G = (lo + W.ravel() * (hi - lo)).reshape(S.shape)
     u, v = _uv(long_axis, S, G)
