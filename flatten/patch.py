@@ -2,9 +2,10 @@
 
 A plate's region in the surface's parameters: along the longitudinal parameter s, between
 two girth curves g_lo(s) and g_hi(s) (seams), and between two planes (butts) or the
-surface's own end (the hull's stem or stern). Each grid row follows the girth fraction
-w in [0, 1] between the seams; its ends are where the row meets the butt planes, found by
-bisection on the exact surface, so the grid's boundary lies on the seams and the butts.
+surface's own end (the hull's stem or stern). Each grid row follows a fraction in [0, 1]
+of the girth between the seams (of its 3D length, or of its parameter); its ends are where
+the row meets the butt planes, found by bisection on the exact surface, so the grid's
+boundary lies on the seams and the butts.
 """
 
 from __future__ import annotations
@@ -18,9 +19,11 @@ from .surface import NurbsSurface
 
 @dataclass(frozen=True)
 class PatchGrid:
-    """params (R, C, 2) surface parameters (u, v); points (R, C, 3); rows: girth fractions
-    (R,) kept (rows that miss the region are dropped); ends: per kept row whether its two
-    ends lie on a butt plane (True) or on the surface's end (False), (R, 2)."""
+    """params (R, C, 2) surface parameters (u, v); points (R, C, 3); rows: fractions (R,)
+    of the girth between the seams of the rows kept (rows that miss the region are dropped),
+    of its 3D length or of its parameter as :func:`region_grid`'s ``spacing`` says; ends:
+    per kept row whether its two ends lie on a butt plane (True) or on the surface's end
+    (False), (R, 2)."""
 
     params: np.ndarray
     points: np.ndarray
@@ -61,7 +64,7 @@ def _uv(long_axis: int, s: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows: int, cols: int,
-                probe: int = 400, s_range=None) -> PatchGrid | None:
+                probe: int = 400, s_range=None, spacing: str = "length") -> PatchGrid | None:
     """Grid of the region between girth curves and planes; None when it is empty.
 
     long_axis : 0 when u runs along the hull (s = u, g = v), 1 when v does
@@ -70,16 +73,46 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
              region is where normal . p - offset >= 0 for lower and <= 0 for upper
     rows, cols : grid size (rows across the girth, columns along the length)
     s_range : optional (lo, hi) sub-range of the longitudinal parameter to search
+    spacing : "length": row k of every column lies k / (rows - 1) of the girth curve's 3D
+              length from seam lo (:func:`girth_fractions`); "parameter": at that fraction of
+              the girth parameter between the seams
+
+    The rows are even in length because a surface's girth parameter need not be: KVLCC2's
+    loft of its main and flat-of-bottom faces keeps 42 % of its girth parameter on the 29 mm
+    wide flat at its aft end, where rows even in the parameter crowded on the flat and left
+    one 470 mm chord across the bilge; the plate's butt edge along that chord stepped 44 mm
+    from its neighbour's beyond the loft's end plane. A row keeps its length fraction a along
+    the plate; its girth fraction W(s, a) follows the column. Where the row meets a butt
+    plane it is narrowed down with W linear in s between the two probe columns around the
+    crossing (cheap: W is known at the probe columns), then once more with W fixed at its
+    exact value at that first crossing, which the end keeps: the end lies on the plane, off
+    the exact W only by W's change between the two crossings, which lie as close as the
+    first W's error moves a point across the plane. Inside, W is exact at 4 cols columns
+    across the rows and linear in s between them (KVLCC2's aft plates: rows even within
+    0.1 %, 1.2 % at a column next to a kink of W along s; 3 to 4 times the old grid's time).
     """
+    if spacing not in ("length", "parameter"):
+        raise ValueError(f"region_grid: spacing is 'length' or 'parameter', not {spacing!r}")
+    even = spacing == "length"
     dom = surface.domain_u if long_axis == 0 else surface.domain_v
     s_lo, s_hi = s_range if s_range is not None else dom
     s = np.linspace(s_lo, s_hi, probe)
-    w = np.linspace(0.0, 1.0, rows)
+    a = np.linspace(0.0, 1.0, rows)
     glo, ghi = np.asarray(g_lo(s), dtype=float), np.asarray(g_hi(s), dtype=float)
 
-    def girth(ss, ww):
-        a, b = np.asarray(g_lo(ss), dtype=float), np.asarray(g_hi(ss), dtype=float)
-        return a + ww * (b - a)
+    def seams(ss):
+        return np.asarray(g_lo(ss), dtype=float), np.asarray(g_hi(ss), dtype=float)
+
+    def fractions(ss, lo, hi, aa):
+        """Girth fractions (N, M) of length fractions aa (N, M) at columns ss (N,)."""
+        if not even:
+            return np.array(aa, dtype=float)
+        return girth_fractions(surface, long_axis, ss, lo, hi, aa)
+
+    def point(ss, ww):
+        lo, hi = seams(ss)
+        uu, vv = _uv(long_axis, ss, lo + ww * (hi - lo))
+        return surface(uu, vv)
 
     def margin(pts):
         """How far inside both planes (the smaller signed distance), >= 0 inside."""
@@ -89,7 +122,8 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
                 out = np.minimum(out, sign * (pts @ np.asarray(plane[0], dtype=float) - plane[1]))
         return out
 
-    gg = glo[None, :] + w[:, None] * (ghi - glo)[None, :]
+    w_probe = fractions(s, glo, ghi, np.broadcast_to(a, (probe, rows))).T  # (rows, probe)
+    gg = glo[None, :] + w_probe * (ghi - glo)[None, :]
     ss = np.broadcast_to(s, gg.shape)
     u, v = _uv(long_axis, ss.ravel(), gg.ravel())
     probed = margin(surface(u, v).reshape(rows, probe, 3))
@@ -105,6 +139,7 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     rows_in, first = np.unique(start_row[order], return_index=True)
     run = np.column_stack([start[order][first], stop[order][first] - 1])  # (R, 2) first and last inside
     bounds = s[run]
+    ends_w = w_probe[rows_in[:, None], run]  # the girth fraction at each end (R, 2)
     flags = np.zeros(bounds.shape, dtype=bool)
     # the run's ends that lie on a plane (a sample outside beyond them) are narrowed down
     # between the last sample inside and the first outside, all rows at once
@@ -112,14 +147,30 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
     task_row, task_end = np.nonzero((beyond >= 0) & (beyond < probe))
     if len(task_row):
         i_in, i_out = run[task_row, task_end], beyond[task_row, task_end]
-        ww = w[rows_in[task_row]]
+        r_probe = rows_in[task_row]
+        s_in, s_out = s[i_in], s[i_out]
+        w_in, w_out = w_probe[r_probe, i_in], w_probe[r_probe, i_out]
 
-        def margin_at(ss_, ww_):
-            uu, vv = _uv(long_axis, ss_, girth(ss_, ww_))
-            return margin(surface(uu, vv))
+        def along(ss_, k):
+            """W linear in s between the bracket's probe columns."""
+            return w_in[k] + (ss_ - s_in[k]) / (s_out[k] - s_in[k]) * (w_out[k] - w_in[k])
 
-        bounds[task_row, task_end] = narrow_crossings(margin_at, s[i_out], s[i_in], probed[rows_in[task_row], i_out],
-                                                      probed[rows_in[task_row], i_in], ww)
+        task = np.arange(len(task_row))
+        hit = narrow_crossings(lambda ss_, k: margin(point(ss_, along(ss_, k))), s_out, s_in,
+                               probed[r_probe, i_out], probed[r_probe, i_in], task)
+        w_hit = along(hit, task)
+        if even:
+            # W at the crossing is exact there, the crossing again with W fixed at it
+            lo, hi = seams(hit)
+            w_fix = fractions(hit, lo, hi, a[r_probe][:, None])[:, 0]
+            f_in, f_out = margin(point(s_in, w_fix)), margin(point(s_out, w_fix))
+            ok = (f_in >= 0) & (f_out < 0)  # else (rare) the first crossing stands
+            if ok.any():
+                hit[ok] = narrow_crossings(lambda ss_, k: margin(point(ss_, w_fix[k])), s_out[ok], s_in[ok],
+                                           f_out[ok], f_in[ok], task[ok])
+                w_hit[ok] = w_fix[ok]
+        bounds[task_row, task_end] = hit
+        ends_w[task_row, task_end] = w_hit
         flags[task_row, task_end] = True
     keep = bounds[:, 1] > bounds[:, 0]
     kept = rows_in[keep]
@@ -129,12 +180,89 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
         return None
     t = np.linspace(0.0, 1.0, cols)
     S = ends_s[:, :1] + t[None, :] * (ends_s[:, 1:] - ends_s[:, :1])
-    W = np.broadcast_to(w[kept][:, None], S.shape)
-    G = girth(S.ravel(), W.ravel()).reshape(S.shape)
+    W = np.empty(S.shape)
+    W[:, -1], W[:, 0] = ends_w[keep, 1], ends_w[keep, 0]
+    inner = S[:, 1:-1]
+    n_ref = 4 * cols
+    if inner.size and (not even or inner.size <= n_ref or np.ptp(inner) <= 0.0):
+        lo, hi = seams(inner.ravel())
+        W[:, 1:-1] = fractions(inner.ravel(), lo, hi, np.repeat(a[kept], cols - 2)[:, None]).reshape(inner.shape)
+    elif inner.size:
+        # the rows' columns differ in s only as their ends do: W exact at 4 cols columns
+        # across them all (not at every point: R / 4 times fewer surface evaluations), linear
+        # in s between them
+        ref = np.linspace(inner.min(), inner.max(), n_ref)
+        lo, hi = seams(ref)
+        w_ref = fractions(ref, lo, hi, np.broadcast_to(a[kept], (n_ref, len(kept))))  # (n_ref, R)
+        pos = (inner - ref[0]) / (ref[1] - ref[0])
+        i = np.clip(pos.astype(np.int64), 0, n_ref - 2)
+        f = np.clip(pos - i, 0.0, 1.0)
+        r = np.arange(len(kept))[:, None]
+        W[:, 1:-1] = w_ref[i, r] + f * (w_ref[i + 1, r] - w_ref[i, r])
+    lo, hi = seams(S.ravel())
+    G = (lo + W.ravel() * (hi - lo)).reshape(S.shape)
     u, v = _uv(long_axis, S, G)
     params = np.stack([u, v], axis=-1)
     points = surface(u.ravel(), v.ravel()).reshape(len(kept), cols, 3)
-    return PatchGrid(params, points, w[kept], on_plane)
+    return PatchGrid(params, points, a[kept], on_plane)
+
+
+# samples of a girth curve whose chords measure its length, per pass (see girth_fractions)
+GIRTH_SAMPLES = 25
+
+
+def girth_fractions(surface: NurbsSurface, long_axis: int, s: np.ndarray, g_lo: np.ndarray, g_hi: np.ndarray,
+                    length: np.ndarray, samples: int = GIRTH_SAMPLES) -> np.ndarray:
+    """Girth fractions w (N, M) where the girth curve w -> S(s, g_lo + w (g_hi - g_lo)) of
+    each column s (N,) (seams g_lo, g_hi (N,)) has ``length`` (N, M) of its 3D length (as
+    fractions) behind it; w = length at a column whose curve has no length.
+
+    Cumulative chords of ``samples`` points even in w, then of as many even in the first
+    estimate of length, each pass with the surface's girth knots of full multiplicity among
+    them (where a loft joins two faces it may turn or change speed: KVLCC2's girth parameter
+    runs 50 times slower on its flat than on its bilge), inverted linearly: on KVLCC2's
+    plates 5 m across within 0.2 mm of the length (1e-3 of it without the second pass).
+    """
+    s = np.asarray(s, dtype=float)
+    g_lo, g_hi = np.asarray(g_lo, dtype=float), np.asarray(g_hi, dtype=float)
+    length = np.asarray(length, dtype=float)
+    if not len(s):
+        return length.copy()
+    knots = surface.knots_v if long_axis == 0 else surface.knots_u
+    degree = surface.degree_v if long_axis == 0 else surface.degree_u
+    values, counts = np.unique(knots, return_counts=True)
+    breaks = values[(counts >= degree) & (values > min(g_lo.min(), g_hi.min())) & (values < max(g_lo.max(), g_hi.max()))]
+    span = g_hi - g_lo
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w_breaks = np.clip((breaks[None, :] - g_lo[:, None]) / span[:, None], 0.0, 1.0)
+    w_breaks = np.where(np.isfinite(w_breaks), w_breaks, 0.0)
+    even = np.broadcast_to(np.linspace(0.0, 1.0, samples), (len(s), samples))
+    w = np.sort(np.hstack([even, w_breaks]), axis=1)
+    for again in (True, False):
+        uu, vv = _uv(long_axis, np.repeat(s, w.shape[1]), (g_lo[:, None] + w * span[:, None]).ravel())
+        p = surface(uu, vv).reshape(*w.shape, 3)
+        cum = np.hstack([np.zeros((len(s), 1)), np.cumsum(np.linalg.norm(np.diff(p, axis=1), axis=2), axis=1)])
+        total = cum[:, -1:]
+        good = total[:, 0] > 0.0
+        c = np.where(good[:, None], cum / np.where(good, total[:, 0], 1.0)[:, None], np.linspace(0.0, 1.0, w.shape[1]))
+        if again:
+            w = np.sort(np.hstack([_invert(c, w, even), w_breaks]), axis=1)
+    out = _invert(c, w, length)
+    # the seams exactly, and the parameter where the curve has no length
+    out = np.where(length <= 0.0, 0.0, np.where(length >= 1.0, 1.0, out))
+    return np.where(good[:, None], out, length)
+
+
+def _invert(c: np.ndarray, w: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """w (N, M) at ``target`` (N, M) of the piecewise linear c -> w of each row, c and w (N, K)
+    non-decreasing, c from 0 to 1 (a segment of no length gives its start)."""
+    k = c.shape[1]
+    seg = np.clip(np.sum(c[:, None, :] <= target[:, :, None], axis=2) - 1, 0, k - 2)
+    c0, c1 = np.take_along_axis(c, seg, 1), np.take_along_axis(c, seg + 1, 1)
+    w0, w1 = np.take_along_axis(w, seg, 1), np.take_along_axis(w, seg + 1, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(c1 > c0, (target - c0) / (c1 - c0), 0.0)
+    return w0 + np.clip(f, 0.0, 1.0) * (w1 - w0)
 
 
 # where each step tries points around the secant estimate of a crossing, in fractions of
