@@ -105,7 +105,7 @@ def test_region_grid_ends_on_slanted_butt_planes():
     normal = np.array([0.0, 0.3, 1.0]) / np.hypot(0.3, 1.0)
     planes = [(normal, 1.0), (normal, 2.5)]  # region: 1.0 <= n . p <= 2.5
     grid = region_grid(surface, 1, lambda s: np.full(np.shape(s), 0.2), lambda s: np.full(np.shape(s), 0.4), planes,
-                       rows=7, cols=11, probe=200)
+                       rows=7, cols=11, probe=200, spacing="parameter")
     assert grid is not None and grid.shape == (7, 11) and grid.ends.all()
     np.testing.assert_allclose(grid.points[:, 0] @ normal, 1.0, atol=1e-12)
     np.testing.assert_allclose(grid.points[:, -1] @ normal, 2.5, atol=1e-12)

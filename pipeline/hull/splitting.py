@@ -47,7 +47,7 @@ class RegionSample:
 
 def sample_region(surface, axis: int, girths, planes, rows: int = 17, cols: int = 33) -> RegionSample | None:
     grid = region_grid(surface, axis, girths[0], girths[1], [None if p is None else p.as_tuple() for p in planes],
-                       rows, cols, probe=160)
+                       rows, cols, probe=160, spacing="parameter")
     if grid is None:
         return None
     p = grid.points
