@@ -122,7 +122,14 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
                 out = np.minimum(out, sign * (pts @ np.asarray(plane[0], dtype=float) - plane[1]))
         return out
 
-    w_probe = fractions(s, glo, ghi, np.broadcast_to(a, (probe, rows))).T  # (rows, probe)
+    if even and probe > PROBE_FRACTIONS:
+        # W at PROBE_FRACTIONS columns, linear in s between them: the probe only finds each
+        # row's run inside the planes, whose ends are then found with W exact
+        ref = np.linspace(s_lo, s_hi, PROBE_FRACTIONS)
+        w_ref = fractions(ref, *seams(ref), np.broadcast_to(a, (PROBE_FRACTIONS, rows)))
+        w_probe = np.stack([np.interp(s, ref, w_ref[:, k]) for k in range(rows)])  # (rows, probe)
+    else:
+        w_probe = fractions(s, glo, ghi, np.broadcast_to(a, (probe, rows))).T  # (rows, probe)
     gg = glo[None, :] + w_probe * (ghi - glo)[None, :]
     ss = np.broadcast_to(s, gg.shape)
     u, v = _uv(long_axis, ss.ravel(), gg.ravel())
@@ -209,6 +216,8 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows:
 
 # samples of a girth curve whose chords measure its length, per pass (see girth_fractions)
 GIRTH_SAMPLES = 25
+# probe columns at which a length-even grid measures its rows' girth fractions (linear between)
+PROBE_FRACTIONS = 48
 
 
 def girth_fractions(surface: NurbsSurface, long_axis: int, s: np.ndarray, g_lo: np.ndarray, g_hi: np.ndarray,
