@@ -67,3 +67,24 @@ def test_a_partial_coverage_never_reads_100_percent():
     assert partial_percent(0.99996) == ">99.99%"  # the NAPA bilge plate read "partial coverage: 100.00%"
     assert partial_percent(0.99994) == "99.99%"
     assert partial_percent(1.0) == "100.00%"
+
+
+def test_surface_distance_stops_each_point_when_it_settles_not_before():
+    """SurfaceDistance's early stop is per point (a point whose Gauss-Newton move falls below
+    the limit takes one more step): its distances are those of the full 12 steps, to
+    round-off, for points near and off the Series 60 surface, and exact for points on it."""
+    from flatten.closest import CONVERGED, SurfaceDistance
+
+    surface = s60_surface()
+    rng = np.random.default_rng(11)
+    u = rng.uniform(*surface.domain_u, 3000)
+    v = rng.uniform(*surface.domain_v, 3000)
+    on = surface(u, v)
+    size = float(np.ptp(on, axis=0).max())
+    off = on + rng.normal(0.0, 2e-3 * size, on.shape)
+    distance = SurfaceDistance(surface)
+    for points in (on, off):
+        _, early = distance.closest(points, converged=CONVERGED)
+        _, full = distance.closest(points)
+        np.testing.assert_allclose(early, full, atol=1e-9 * size)
+    assert distance(on).max() <= 1e-9 * size
