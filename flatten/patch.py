@@ -64,7 +64,7 @@ def _uv(long_axis: int, s: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows: int, cols: int,
-                probe: int = 400, s_range=None, spacing: str = "length") -> PatchGrid | None:
+                probe: int = 400, s_range=None, spacing: str = "parameter") -> PatchGrid | None:
     """Grid of the region between girth curves and planes; None when it is empty.
 
     long_axis : 0 when u runs along the hull (s = u, g = v), 1 when v does

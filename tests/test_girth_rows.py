@@ -56,7 +56,8 @@ def test_rows_are_even_in_3d_length_along_every_column(make, seams, tol):
     """Consecutive rows lie the same girth length apart in every column, within ``tol`` of it
     (rows even in the girth parameter: 38 or more times apart on the bilge than on the flat)."""
     surface = make()
-    grid = region_grid(surface, 0, const(seams[0]), const(seams[1]), X_PLANES, rows=13, cols=17, probe=200)
+    grid = region_grid(surface, 0, const(seams[0]), const(seams[1]), X_PLANES, rows=13, cols=17, probe=200,
+                       spacing="length")
     assert grid is not None and grid.shape == (13, 17)
     np.testing.assert_allclose(grid.params[:, 0, 0], grid.params[0, 0, 0], rtol=0, atol=1e-12)
     arcs = arcs_between_rows(surface, grid)
@@ -87,7 +88,7 @@ def test_the_grid_lies_on_the_surface_between_its_seams_and_butts():
     normal = np.array([1.0, 0.3, 0.2]) / np.linalg.norm([1.0, 0.3, 0.2])
     planes = [(normal, 1.5), (normal, 8.0)]
     lo, hi = (lambda s: 0.1 + 0.01 * s), (lambda s: 0.95 - 0.02 * s)
-    grid = region_grid(surface, 0, lo, hi, planes, rows=11, cols=15, probe=300)
+    grid = region_grid(surface, 0, lo, hi, planes, rows=11, cols=15, probe=300, spacing="length")
     assert grid is not None and grid.shape == (11, 15) and grid.ends.all()
     s, g = grid.params[..., 0], grid.params[..., 1]
     np.testing.assert_array_equal(grid.points.reshape(-1, 3), surface(s.ravel(), g.ravel()))

@@ -90,7 +90,9 @@ def _grid(part: Part, config: RunConfig):
     h = hull.resolution
     rows = int(np.clip(np.ceil(width / h) + 1, 5, 60))
     cols = int(np.clip(np.ceil(length / h) + 1, 9, 160))
-    return region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, rows, cols, probe=400)
+    # rows even in 3D girth length: the plate's mesh, fit-up edges and development sample it
+    return region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, rows, cols, probe=400,
+                       spacing="length")
 
 
 def _grid_faces_region(shape, region_cells) -> np.ndarray:

@@ -149,10 +149,11 @@ def _region_ends(hull, g_lo, g_hi, rows: int, near: PatchGrid | None) -> PatchGr
         a, b = max(lo, s0 - 0.5 * (s1 - s0)), min(hi, s1 + 0.5 * (s1 - s0))
         if b > a:
             probe = max(9, int(np.ceil((PROBE - 1) * (b - a) / (hi - lo))) + 1)
-            grid = region_grid(hull.surface, axis, g_lo, g_hi, _planes(hull), rows, 2, probe=probe, s_range=(a, b))
+            grid = region_grid(hull.surface, axis, g_lo, g_hi, _planes(hull), rows, 2, probe=probe, s_range=(a, b),
+                               spacing="length")
             if grid is not None and len(grid.rows) == rows and grid.ends.all():
                 return grid
-    return region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), rows, 2, probe=PROBE)
+    return region_grid(hull.surface, hull.long_axis, g_lo, g_hi, _planes(hull), rows, 2, probe=PROBE, spacing="length")
 
 
 def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
