@@ -1,0 +1,96 @@
+"""CPU of a hull plate's lean evaluation (what the adaptive plan pays per candidate), this
+checkout against a baseline revision, interleaved round by round so that the machine's drift
+(these 2-core machines run a whole-hull plan 1.5 times slower one hour than the next) falls
+on both alike.
+
+    python bench/bench_evaluate.py [--baseline REV] [--hull hull160] [--every 4] [--rounds 3]
+
+The hull's shell config is planned uniform (the adaptive plan's first candidates); every
+``--every``-th plate is evaluated by ``pipeline.hull.plates.evaluate_plate`` in a fresh
+process per round and checkout (``git archive REV`` for the baseline), and the per-round CPU
+seconds, their medians and the ratio this / baseline are printed; the plates' classes must
+agree (a class that differs is printed, and the exit code is 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# what each round's process runs (ROOT and the arguments come from argv)
+WORKER = r"""
+import json, os, sys, tempfile, time
+from pathlib import Path
+root, hull, every = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+sys.path.insert(0, str(root))
+import yaml
+from pipeline.hull.plan import load_run
+from pipeline.hull.plates import evaluate_plate
+data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
+data["strake"]["plan"]["method"] = "uniform"
+surface = data["strake"]["surface"]
+for key in ("iges", "model"):
+    if key in surface:
+        surface[key] = str((root / "configs" / surface[key]).resolve())
+with tempfile.TemporaryDirectory() as tmp:
+    path = Path(tmp) / f"{hull}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    config = load_run(path)
+parts = config.parts[::every]
+evaluate_plate(parts[0], config)  # untimed: the lazy imports and the surface's caches
+cpu = time.process_time()
+classes = [(evaluate_plate(p, config).figures.get("plate_class") or {}).get("class") for p in parts]
+print(json.dumps({"cpu": time.process_time() - cpu, "classes": classes, "names": [p.name for p in parts]}))
+"""
+
+
+def one_round(root: Path, hull: str, every: int) -> dict:
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
+    out = subprocess.run([sys.executable, "-c", WORKER, str(root), hull, str(every)], capture_output=True,
+                         text=True, env=env, cwd=root, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--baseline", default="bd359ea", help="git revision to compare with (default: bd359ea)")
+    parser.add_argument("--hull", default="hull160", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
+    parser.add_argument("--every", type=int, default=4)
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp) / "baseline"
+        base.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
+        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
+        rows = {"this": [], args.baseline: []}
+        last = {}
+        for k in range(args.rounds):
+            for label, root in (("this", ROOT), (args.baseline, base)) if k % 2 == 0 else \
+                    ((args.baseline, base), ("this", ROOT)):
+                last[label] = one_round(root, args.hull, args.every)
+                rows[label].append(last[label]["cpu"])
+    n = len(last["this"]["classes"])
+    print(f"{args.hull}: lean evaluation of {n} plates (every {args.every}th of the uniform plan), CPU s per round, "
+          f"interleaved")
+    for label, values in rows.items():
+        print(f"  {label:<10}" + "".join(f"{v:8.2f}" for v in values) + f"   median {statistics.median(values):7.2f}"
+              f"   {1000 * statistics.median(values) / n:6.0f} ms a plate")
+    print(f"  this / {args.baseline}: {statistics.median(rows['this']) / statistics.median(rows[args.baseline]):.2f}")
+    differ = [(name, a, b) for name, a, b in zip(last["this"]["names"], last["this"]["classes"],
+                                                   last[args.baseline]["classes"]) if a != b]
+    for name, a, b in differ:
+        print(f"  class differs: {name}: {a} here, {b} at {args.baseline}")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
