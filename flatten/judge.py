@@ -365,35 +365,52 @@ def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):
 
 
 # ---------------------------------------------------------------- junctions
-def _singular_point(unit: UnitMap, x: np.ndarray, tol: float):
+def _singular_points(unit: UnitMap, x: np.ndarray, tol: float) -> list:
     """Two branches can only cross where f and its gradient vanish. Newton on the
-    gradient (Hessian system) from the polyline intersection; returns the crossing
-    point, or None when the polylines cross only because they are chords of two
-    branches that pass close to each other without meeting."""
+    gradient (Hessian system) from each polyline intersection x (M, 2), all at once (a
+    point leaves the batch when it settles or fails); per point the crossing point, or
+    None when the polylines cross only because they are chords of two branches that pass
+    close to each other without meeting (or the Hessian is singular on the way)."""
+    x = np.asarray(x, dtype=np.float64).reshape(-1, 2)
     y = x.copy()
-    converged = False
+    converged = np.zeros(len(x), dtype=bool)
+    active = np.arange(len(x))
     for _ in range(30):
-        g = unit.gradient(y[None])[0]
-        fuu, fuU, fUU = (h[0] for h in unit.hessian_terms(y[None]))
-        hessian = np.array([[fuu, fuU], [fuU, fUU]])
+        if not len(active):
+            break
+        ya = y[active]
+        g = unit.gradient(ya)
+        fuu, fuU, fUU = unit.hessian_terms(ya)
+        hessian = np.stack([np.stack([fuu, fuU], axis=-1), np.stack([fuU, fUU], axis=-1)], axis=-2)
+        regular = np.ones(len(active), dtype=bool)
+        step = np.full((len(active), 2), np.nan)
         try:
-            step = np.linalg.solve(hessian, g)
-        except np.linalg.LinAlgError:
-            break
-        y = y - step
-        if not np.all(np.isfinite(y)) or np.hypot(*(y - x)) > 1e-2:
-            break
-        if np.hypot(*step) < 1e-15:
-            converged = True
-            break
-    if not converged:
-        return None
-    y = np.clip(y, 0.0, 1.0)
-    p = unit.to_params(y[None])
-    # two arms of a near-tangent saddle (f0 != 0) pass each other without meeting:
-    # joining them there would put a ruling off Z on the path
-    residual = normalized_residual(unit.field.c, unit.field.d, p[:, 0], p[:, 1])[0]
-    return y if residual <= 10.0 * CROSSING_RESIDUAL else None
+            step[:] = np.linalg.solve(hessian, g[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a singular Hessian stops its point: the others one by one
+            for k in range(len(active)):
+                try:
+                    step[k] = np.linalg.solve(hessian[k], g[k])
+                except np.linalg.LinAlgError:
+                    regular[k] = False
+        moved = ya - step
+        far = ~np.all(np.isfinite(moved), axis=1) | (np.hypot(*(moved - x[active]).T) > 1e-2)
+        ok = regular & ~far
+        y[active[ok]] = moved[ok]
+        settled = ok & (np.hypot(*step.T) < 1e-15)
+        converged[active[settled]] = True
+        active = active[ok & ~settled]
+    out: list = [None] * len(x)
+    done = np.flatnonzero(converged)
+    if len(done):
+        z = np.clip(y[done], 0.0, 1.0)
+        p = unit.to_params(z)
+        # two arms of a near-tangent saddle (f0 != 0) pass each other without meeting:
+        # joining them there would put a ruling off Z on the path
+        residual = normalized_residual(unit.field.c, unit.field.d, p[:, 0], p[:, 1])
+        for k, point, r in zip(done.tolist(), z, residual.tolist()):
+            if r <= 10.0 * CROSSING_RESIDUAL:
+                out[k] = point
+    return out
 
 
 def _segment_intersections(a: np.ndarray, b: np.ndarray, same: bool):
@@ -567,8 +584,8 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, derivs=None):
             except CrossingOverflow as overflow:
                 unchecked.append((i, j, overflow.pairs, overflow.budget))
                 continue
-            for k, fa, l, fb, point in crossings:
-                point = _singular_point(unit, point, tol)
+            found = _singular_points(unit, np.array([c[4] for c in crossings]), tol) if crossings else []
+            for (k, fa, l, fb, _), point in zip(crossings, found):
                 if point is None:
                     continue
                 cuts[i].append((k, fa, point))
