@@ -10,7 +10,7 @@ boundary lies on the seams and the butts.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,9 @@ class PatchGrid:
     points: np.ndarray
     rows: np.ndarray
     ends: np.ndarray
+    # what callers derive from this grid and ask for again (a plate's boundary and butt
+    # sections, once per strip family tried): kept with the grid, dropped with it
+    derived: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -105,7 +105,24 @@ def section_curves(part: Part, tolerance: float, extend: float = EXTEND, near: P
     ((curve, curve), figures); raises SourceError when there is no usable section.
 
     ``near``: the plate's own grid, whose longitudinal extent (twice as long) is searched
-    first for the sections, at the same sample spacing as the whole surface would be."""
+    first for the sections, at the same sample spacing as the whole surface would be; then
+    the sections are kept with it (every strip family and best fit asks for them)."""
+    if near is None:
+        return _section_curves(part, tolerance, extend, near)
+    key = ("sections", part.name, tolerance, extend)
+    if key not in near.derived:
+        try:
+            near.derived[key] = _section_curves(part, tolerance, extend, near)
+        except SourceError as exc:
+            near.derived[key] = exc
+    found = near.derived[key]
+    if isinstance(found, SourceError):
+        raise SourceError(str(found))
+    curves, figures = found
+    return curves, [dict(f) for f in figures]
+
+
+def _section_curves(part: Part, tolerance: float, extend: float, near: PatchGrid | None) -> tuple:
     hull = part.hull
     g_lo, g_hi = _widened(hull, extend)
     sections = _region_ends(hull, g_lo, g_hi, SECTION_ROWS, near)
@@ -159,7 +176,15 @@ def _region_ends(hull, g_lo, g_hi, rows: int, near: PatchGrid | None) -> PatchGr
 def region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
     """The region's boundary on the hull, closed, about ``spacing`` apart: seam c (first grid
     row), the butt at the row's far end, seam d backwards, the other butt backwards. Returns
-    (points (N, 3), edge name of each segment i -> i+1)."""
+    (points (N, 3), edge name of each segment i -> i+1); computed once per grid and spacing."""
+    key = ("boundary", part.name, spacing)
+    if key not in grid.derived:
+        grid.derived[key] = _region_boundary(part, grid, spacing)
+    points, edges = grid.derived[key]
+    return points.copy(), edges
+
+
+def _region_boundary(part: Part, grid: PatchGrid, spacing: float) -> tuple[np.ndarray, tuple]:
     hull = part.hull
     p = grid.points
     length = float(np.linalg.norm(np.diff(p, axis=1), axis=2).sum(axis=1).max())
