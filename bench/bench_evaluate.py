@@ -36,10 +36,10 @@ from pipeline.hull.plan import load_run
 from pipeline.hull.plates import evaluate_plate
 data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
 data["strake"]["plan"]["method"] = "uniform"
-surface = data["strake"]["surface"]
-for key in ("iges", "model"):
-    if key in surface:
-        surface[key] = str((root / "configs" / surface[key]).resolve())
+for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
+    for key in ("iges", "model"):
+        if key in surface:
+            surface[key] = str((root / "configs" / surface[key]).resolve())
 with tempfile.TemporaryDirectory() as tmp:
     path = Path(tmp) / f"{hull}.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -55,7 +55,9 @@ print(json.dumps({"cpu": time.process_time() - cpu, "classes": classes, "names":
 def one_round(root: Path, hull: str, every: int) -> dict:
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
     out = subprocess.run([sys.executable, "-c", WORKER, str(root), hull, str(every)], capture_output=True,
-                         text=True, env=env, cwd=root, check=True)
+                         text=True, env=env, cwd=root)
+    if out.returncode:
+        sys.exit(f"bench_evaluate: the round at {root} failed:\n{out.stderr[-2000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
