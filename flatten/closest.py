@@ -86,10 +86,37 @@ class SurfaceDistance:
                 active = active[~done]
         return np.column_stack([pu, pv]), np.linalg.norm(surface(pu, pv) - points, axis=1)
 
+    @cached_property
+    def _reach(self) -> np.ndarray:
+        """(S,) per surface, a bound on the distance of any of its points from its nearest
+        seed sample: the longest diagonal of the sample grid's cells."""
+        out = []
+        for surface in self.surfaces:
+            u = np.linspace(*surface.domain_u, self.grid)
+            v = np.linspace(*surface.domain_v, self.grid)
+            p = surface.grid(u, v)
+            diagonals = (np.linalg.norm(p[1:, 1:] - p[:-1, :-1], axis=-1), np.linalg.norm(p[1:, :-1] - p[:-1, 1:], axis=-1))
+            out.append(max(float(d.max(initial=0.0)) for d in diagonals))
+        return np.array(out)
+
     def __call__(self, points: np.ndarray) -> np.ndarray:
-        """Distance (N,) of each point (N, 3) to the nearest of the surfaces."""
+        """Distance (N,) of each point (N, 3) to the nearest of the surfaces. Each point is
+        searched first on the surface of its nearest seed sample, then only on the surfaces
+        whose nearest sample, less their grid's reach, lies within the distance found: no
+        point of the others is nearer (a hull of several faces: each point is near one or
+        two), and the least is what searching them all would give."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if len(self.surfaces) == 1:
+            return self.closest(points, 0, converged=CONVERGED)[1]
+        seed = np.stack([tree.query(points)[0] for _, _, tree in self._seeds])  # (S, N)
+        first = np.argmin(seed, axis=0)
         best = np.full(len(points), np.inf)
         for k in range(len(self.surfaces)):
-            best = np.minimum(best, self.closest(points, k, converged=CONVERGED)[1])
+            mine = np.flatnonzero(first == k)
+            if len(mine):
+                best[mine] = self.closest(points[mine], k, converged=CONVERGED)[1]
+        for k in range(len(self.surfaces)):
+            need = np.flatnonzero((first != k) & (seed[k] - self._reach[k] <= best))
+            if len(need):
+                best[need] = np.minimum(best[need], self.closest(points[need], k, converged=CONVERGED)[1])
         return best

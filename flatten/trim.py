@@ -22,6 +22,7 @@ from .strip import PathSampler
 
 NEWTON_STEPS = 4
 SEED_SPACING = 6.0  # the seed's samples along a ruling, in ruling spacings apart
+SEED_STRIDE = 3  # the seed samples every SEED_STRIDE-th ruling of the map
 
 
 @dataclass(frozen=True)
@@ -75,11 +76,12 @@ class StripMap:
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
         """Path fraction (N,) of each point's nearest sample of the strip, from a k-d tree of
-        samples along the map's rulings SEED_SPACING ruling spacings apart: the nearest
-        sample's lam is then within SEED_SPACING / 2 spacings of the closest point's however
-        far the rulings lean over (a seam strip extended past its butts: nine samples along
-        its 3.5 m rulings left a seed 24 spacings off, beyond Newton's reach), and Newton in
-        :meth:`locate` (steps of up to four spacings) takes it from there."""
+        samples on every SEED_STRIDE-th of the map's rulings, SEED_SPACING ruling spacings
+        apart along them: the nearest sample's lam is then within (SEED_SPACING +
+        SEED_STRIDE) / 2 spacings of the closest point's however far the rulings lean over (a
+        seam strip extended past its butts: nine samples along its 3.5 m rulings left a seed
+        24 spacings off, beyond Newton's reach), and Newton in :meth:`locate` (steps of up to
+        four spacings) takes it from there."""
         from scipy.spatial import cKDTree
 
         if self._tree is None:
@@ -87,12 +89,14 @@ class StripMap:
             spacing = float(np.median(np.linalg.norm(np.diff(mid, axis=0), axis=1)))
             reach = float(np.linalg.norm(self.b3 - self.a3, axis=1).max())
             per_ruling = int(np.clip(np.ceil(reach / max(SEED_SPACING * spacing, 1e-300)) + 1, 3, 129))
+            taken = np.unique(np.append(np.arange(0, len(self.lam), SEED_STRIDE), len(self.lam) - 1))
             v = np.linspace(0.0, 1.0, per_ruling)
-            samples = self.a3[:, None, :] + v[None, :, None] * (self.b3 - self.a3)[:, None, :]
-            self._tree = (cKDTree(samples.reshape(-1, 3)), per_ruling)
-        tree, per_ruling = self._tree
+            a, b = self.a3[taken], self.b3[taken]
+            samples = a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]
+            self._tree = (cKDTree(samples.reshape(-1, 3)), per_ruling, self.lam[taken])
+        tree, per_ruling, lam = self._tree
         _, index = tree.query(points)
-        return self.lam[index // per_ruling]
+        return lam[index // per_ruling]
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the

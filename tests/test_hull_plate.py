@@ -88,3 +88,24 @@ def test_surface_distance_stops_each_point_when_it_settles_not_before():
         _, full = distance.closest(points)
         np.testing.assert_allclose(early, full, atol=1e-9 * size)
     assert distance(on).max() <= 1e-9 * size
+
+
+def test_distance_to_several_surfaces_is_the_nearest_ones():
+    """A hull of several faces: SurfaceDistance searches a face for a point only where its
+    seed grid could hold the closest point; the distance is still the least of the faces'
+    own, for points near one face, near both and between them."""
+    from flatten.closest import SurfaceDistance
+
+    surface = s60_surface()
+    size = float(np.ptp(surface.grid(np.linspace(*surface.domain_u, 9), np.linspace(*surface.domain_v, 9)).reshape(-1, 3),
+                        axis=0).max())
+    shifted = nurbs_surface(surface.degree_u, surface.degree_v, surface.poles + [0.3 * size, 0.0, 0.05 * size],
+                            surface.knots_u, surface.knots_v, name="shifted")
+    rng = np.random.default_rng(5)
+    u = rng.uniform(*surface.domain_u, 2000)
+    v = rng.uniform(*surface.domain_v, 2000)
+    near_first, near_second = surface(u[:1000], v[:1000]), shifted(u[1000:], v[1000:])
+    points = np.vstack([near_first, near_second]) + rng.normal(0.0, 0.05 * size, (2000, 3))
+    both = SurfaceDistance([surface, shifted])(points)
+    each = np.minimum(SurfaceDistance(surface)(points), SurfaceDistance(shifted)(points))
+    np.testing.assert_allclose(both, each, atol=1e-9 * size)
