@@ -33,6 +33,11 @@ class PatchGrid:
     # sections, once per strip family tried): kept with the grid, dropped with it
     derived: dict = field(default_factory=dict, compare=False, repr=False)
 
+    def __getstate__(self) -> dict:
+        # a grid sent to another process goes without what was derived from it (a plate's
+        # boundary: tens of kB that the receiver computes again if it asks)
+        return dict(self.__dict__, derived={})
+
     @property
     def shape(self) -> tuple[int, int]:
         return self.points.shape[:2]

@@ -60,8 +60,7 @@ class StripMap:
         # the search's rulings between the exact ones: monotone cubics in lam (t and T only
         # grow along a path, so they stay inside the curves' domains, fans and kinks too)
         self._between = PchipInterpolator(self.lam, self.rulings, axis=0)
-        self._developed = None
-        self._tree = None
+        self._developed = self._order = self._tree = None
 
     def ends(self, lam: np.ndarray):
         """Rulings (N, 2) at path fractions lam and their 3D ends on c and d."""
@@ -100,7 +99,7 @@ class StripMap:
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
-        seed on the coarse mesh, then Newton on the squared distance to the ruling line
+        seed (:meth:`_seed`), then Newton on the squared distance to the ruling line
         (central differences in lam) on rulings interpolated between the map's exact ones, and
         the exact ruling at the lam found (an error e in lam moves the distance by O(e^2)).
         v is not clipped: a point beyond the strip's boundary
