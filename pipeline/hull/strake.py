@@ -21,10 +21,12 @@ from .region import HullPlate
 
 # ------------------------------------------------------------ trimming
 def _polished_t(field_, t: float, T: float, bounds: tuple, steps: int = 8) -> float:
-    """t of the ruling at T polished by Newton on f(., T) = 0 from the path's t. The path
-    already holds the ruling to its own accuracy: where Newton leaves the path's t range
-    (f nearly flat in t: two seams in one plane) or does not settle, that t stands (a step
-    out of range once reached t = 3.6e11 and NaN curve points on the 160 m hull's keel plate)."""
+    """t of the ruling at T polished by Newton on f(., T) = 0 from the path's t. Newton may
+    end beyond the traced path (a corner the path stops short of: its root there is a ruling
+    of the same strip, which the trim needs); where it leaves c's domain ``bounds`` (f nearly
+    flat in t: two seams in one plane) or does not settle, the path's t stands (a step out
+    of the domain once reached t = 3.6e11 and NaN curve points on the 160 m hull's keel
+    plate)."""
     if field_ is None:  # a flat pair: T(t) is the path's correspondence
         return t
     lo, hi = bounds
@@ -37,6 +39,8 @@ def _polished_t(field_, t: float, T: float, bounds: tuple, steps: int = 8) -> fl
         if not lo <= x <= hi:
             return t
     return x if abs(field_(x, T)[0]) <= abs(field_(t, T)[0]) else t
+
+
 def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int = 32) -> np.ndarray:
     """Rulings through the four plate corners (where the butt planes cross the seams), and
     ``per_zone`` more between the two corners of each butt, where the butt line crosses
@@ -59,8 +63,7 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int
                 corners_t.append(t)
         for T in plane_crossings(d, plane):
             if path[order[0], 1] <= T <= path[order[-1], 1]:
-                t = _polished_t(field_, float(np.interp(T, path[order, 1], path[order, 0])), T,
-                                (path[0, 0], path[-1, 0]))
+                t = _polished_t(field_, float(np.interp(T, path[order, 1], path[order, 0])), T, c.domain)
                 extra.append((t, T))
                 corners_t.append(t)
         # the zone's rulings in one batch: T_of is pointwise (a Newton per t)
