@@ -22,11 +22,11 @@ from .region import HullPlate
 # ------------------------------------------------------------ trimming
 def _polished_t(field_, t: float, T: float, bounds: tuple, steps: int = 8) -> float:
     """t of the ruling at T polished by Newton on f(., T) = 0 from the path's t. Newton may
-    end beyond the traced path (a corner the path stops short of: its root there is a ruling
-    of the same strip, which the trim needs); where it leaves c's domain ``bounds`` (f nearly
-    flat in t: two seams in one plane) or does not settle, the path's t stands (a step out
-    of the domain once reached t = 3.6e11 and NaN curve points on the 160 m hull's keel
-    plate)."""
+    end beyond the traced path, even a little beyond c's end (a corner the path stops short
+    of: its root there is a ruling of the same strip, which the trim needs and cuts at the
+    butt; three DTMB 5415 plates are complete only so); where it leaves ``bounds`` (f nearly
+    flat in t: two seams in one plane) or does not settle, the path's t stands (a step once
+    reached t = 3.6e11 and NaN curve points on the 160 m hull's keel plate)."""
     if field_ is None:  # a flat pair: T(t) is the path's correspondence
         return t
     lo, hi = bounds
@@ -63,7 +63,9 @@ def corner_rulings(solution, c: NurbsCurve, d: NurbsCurve, planes, per_zone: int
                 corners_t.append(t)
         for T in plane_crossings(d, plane):
             if path[order[0], 1] <= T <= path[order[-1], 1]:
-                t = _polished_t(field_, float(np.interp(T, path[order, 1], path[order, 0])), T, c.domain)
+                lo, hi = c.domain  # a ruling past c's end reads c's last span extended: within a domain's width
+                t = _polished_t(field_, float(np.interp(T, path[order, 1], path[order, 0])), T,
+                                (lo - (hi - lo), hi + (hi - lo)))
                 extra.append((t, T))
                 corners_t.append(t)
         # the zone's rulings in one batch: T_of is pointwise (a Newton per t)
