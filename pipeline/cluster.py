@@ -193,10 +193,22 @@ def cluster_part(config: RunConfig, index: int, out: Path, keep_geometry: bool, 
     os.environ.setdefault("IGL_NUM_THREADS", "1")  # as the devflat program runs libigl (pipeline.cli)
     if not files:
         return process_part(index, config, None, out, keep_geometry), None
-    with tempfile.TemporaryDirectory(prefix="devflat-part-") as tmp:
+    # in the worker's own folder: Dask removes it with the worker, and a worker killed on
+    # this part leaves it to the next worker's start, which purges dead workers' folders
+    with tempfile.TemporaryDirectory(prefix="devflat-part-", dir=_worker_directory()) as tmp:
         result = process_part(index, config, Path(tmp), out, keep_geometry)
         folder = Path(tmp) / f"part-{index:06d}"
         return result, {path.name: path.read_bytes() for path in sorted(folder.iterdir())}
+
+
+def _worker_directory() -> str | None:
+    """The Dask worker's local directory, or None (the system's temporary folder) outside one."""
+    from distributed import get_worker
+
+    try:
+        return get_worker().local_directory
+    except ValueError:  # not on a worker
+        return None
 
 
 def put_files(folder: Path, files: dict[str, bytes], out: Path, name: str) -> None:

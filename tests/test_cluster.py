@@ -271,9 +271,16 @@ class KillOnePart(distributed.WorkerPlugin):
         plates.run_part = dying
 
 
-def test_a_part_that_kills_its_workers_fails_alone(tmp_path):
+def test_a_part_that_kills_its_workers_fails_alone(tmp_path, monkeypatch):
+    """The part fails alone, and the dead workers' temporary folders go with the cluster
+    (a worker wrote its part in a folder of the system's temporary directory, left behind
+    by every worker that died on it)."""
     import dask
 
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setenv("TMPDIR", str(scratch))  # the cluster's workers and their scratch space
+    monkeypatch.setattr("tempfile.tempdir", None)
     plugin = KillOnePart("two_plates_S1_B2")
     config = small_strake(tmp_path, "two_plates")
     data = yaml.safe_load(config.read_text())
@@ -298,3 +305,4 @@ def test_a_part_that_kills_its_workers_fails_alone(tmp_path):
         for suffix in (".json", ".obj"):
             assert (tmp_path / "dask" / f"{name}{suffix}").read_bytes() == \
                 (tmp_path / "jobs" / f"{name}{suffix}").read_bytes()
+    assert not [p for p in scratch.rglob("devflat-part-*")]
