@@ -142,13 +142,18 @@ def _run(args, early) -> int:
                 imports_done()
             if len(parts) > 1 and not args.quiet:
                 from tqdm import tqdm
-                progress = tqdm(total=len(parts), unit="part", file=sys.stderr)
+
+                class Progress(tqdm):
+                    monitor_interval = 0  # no monitor thread: the export forks a process of one thread
+
+                progress = Progress(total=len(parts), unit="part", file=sys.stderr)
             # steel parts are written by whoever computes them; textile pieces are laid out
             # side by side first (their options are checked against every piece)
             keep_geometry = config.spec.output.png and len(parts) > 1
             results = run_parts(config, None if textile else folder.staging, args.out, args.jobs, progress,
                                 keep_geometry)
-            ran = (time.perf_counter(), time.process_time())
+            # the export's CPU counts the drawings' forked copy too (reaped within the stage)
+            ran = (time.perf_counter(), time.process_time() + _children_cpu())
             if progress is not None:
                 progress.close()
             printed: dict = {}  # the printouts' page counts, for the console
@@ -157,15 +162,23 @@ def _run(args, early) -> int:
                 results = [guarded_export(r, config, folder.part_folder(k), args.out) for k, r in enumerate(results)]
                 export_textile(pieces, config, folder.run_folder, run_name(config), printed)
             shell = None
-            if not textile:
+            if textile:
+                export_summary(results, config, folder.run_folder)  # waits for every image
+            else:
+                from .export import summary_drawings, summary_edges
+                from .forked import beside
                 from .hull.fitup import shell_fitup
 
-                shell = shell_fitup(results, config)  # None unless the run has hull plates
-            export_summary(results, config, folder.run_folder, shell)  # waits for every image
+                # the drawings are drawn by a copy of this process (when it may fork) while
+                # this one computes the fit-up: neither needs the other
+                edges = summary_edges(results)
+                with beside(lambda: summary_drawings(results, config, folder.run_folder, edges)) as drawn:
+                    shell = shell_fitup(results, config)  # None unless the run has hull plates
+                    export_summary(results, config, folder.run_folder, shell, edges, drawn)  # waits for every image
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
             n_files = sum(1 for path in folder.staging.rglob("*") if path.is_file())
             folder.commit([r.name for r in results])
-            exported = (time.perf_counter(), time.process_time())
+            exported = (time.perf_counter(), time.process_time() + _children_cpu())
     except OutputError:
         raise
     except OSError as exc:
@@ -185,6 +198,12 @@ def _run(args, early) -> int:
         print(stage_line(_stages(evaluator, clock, planned, ran, exported, results)))
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
+
+
+def _children_cpu() -> float:
+    """CPU seconds of this process's reaped children."""
+    times = os.times()
+    return times.children_user + times.children_system
 
 
 def _stages(evaluator, clock, planned, ran, exported, results) -> dict:

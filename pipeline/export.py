@@ -252,37 +252,23 @@ def printout_line(figures: dict, style: str) -> str | None:
     return "printouts: " + "; ".join(parts) if parts else None
 
 
-def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, shell=None) -> list[Path]:
-    """The run summary: summary.csv and summary.json of every part; for hull strakes also a
-    PNG of the hull with the plates coloured by their deviation and a sheet of all patterns.
-    ``shell``: the run's :class:`pipeline.hull.fitup.ShellFitup` (computed here when None)."""
-    from .report import summary_csv, summary_json
+def summary_edges(results: list[PartResult]) -> dict:
+    """Every hull plate's region sampled on the hull, by name ({} for a run without hull
+    plates): what the plan's cost and the shell expansion drawing both read."""
+    if not any(r.part.hull is not None for r in results):
+        return {}
+    from .hull.expansion import shell_edges
 
-    if shell is None:
-        from .hull.fitup import shell_fitup
+    return shell_edges(results)
 
-        shell = shell_fitup(results, config)
+
+def summary_drawings(results: list[PartResult], config: RunConfig, out_dir: Path, edges: dict) -> list[Path]:
+    """The run's drawings beside its summary: for a hull the shell expansion (DXF, PDF) and
+    the plan DXF, and the sheet of all patterns and the hull PNGs when the run writes
+    images. Needs nothing of the fit-up (:func:`pipeline.forked.beside` draws them while
+    the run computes it)."""
     style = config.spec.name or config.source.stem
-    written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
-    edges, cost = {}, None
-    if any(r.part.hull is not None for r in results):  # a strake or hull: what the plan costs
-        from .hull.cost import plan_cost
-        from .hull.expansion import shell_edges
-
-        edges = shell_edges(results)
-        cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit).as_dict()
-    write_text(written[0], summary_csv(results))
-    extra = {} if cost is None else {"plan_cost": cost}
-    if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
-        extra["shell"] = shell.as_dict()
-        if getattr(config, "fitup_repair", None) is not None:
-            extra["shell"]["repair"] = config.fitup_repair.as_dict()
-    models = model_sources(config)
-    if models:  # a hull read as a model of faces: what its faces make as a shell
-        from .hull.sewing import model_reports
-
-        extra["hull_models"] = model_reports(models, config.source.parent)
-    write_text(written[1], summary_json(results, extra))
+    written = []
     if edges:  # the shell expansion drawing: every plate in girth x length
         from .hull.expansion import write_expansion
 
@@ -302,7 +288,6 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
             render("pipeline.plots:sheet_png", path, [(r.name, r.pattern.outline, r.pattern.bend_lines) for r in ok],
                    config.spec.units, config.mm_per_unit)
             written.append(path)
-        classed = [r for r in results if r.part.hull is not None and (r.figures.get("plate_class") or {}).get("class")]
         if classed:
             from .hull.hullplots import class_hull_png
 
@@ -317,5 +302,44 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
                                                      for r in hull],
                    hull[0].part.hull.fit_tolerance, config.spec.units)
             written.append(path)
+    wait_for_images()
+    return written
+
+
+def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, shell=None, edges: dict | None = None,
+                   drawn=None) -> list[Path]:
+    """The run summary: summary.csv and summary.json of every part, and its drawings
+    (:func:`summary_drawings`). ``shell``: the run's :class:`pipeline.hull.fitup.ShellFitup`
+    (computed here when None); ``edges``: :func:`summary_edges` (computed here when None);
+    ``drawn``: the drawings being drawn beside the run (a :class:`pipeline.forked.Beside`,
+    whose result is their paths), else they are drawn here."""
+    from .report import summary_csv, summary_json
+
+    if shell is None:
+        from .hull.fitup import shell_fitup
+
+        shell = shell_fitup(results, config)
+    if edges is None:
+        edges = summary_edges(results)
+    style = config.spec.name or config.source.stem
+    written = [out_dir / f"{style}_summary.csv", out_dir / f"{style}_summary.json"]
+    cost = None
+    if any(r.part.hull is not None for r in results):  # a strake or hull: what the plan costs
+        from .hull.cost import plan_cost
+
+        cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit).as_dict()
+    write_text(written[0], summary_csv(results))
+    extra = {} if cost is None else {"plan_cost": cost}
+    if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
+        extra["shell"] = shell.as_dict()
+        if getattr(config, "fitup_repair", None) is not None:
+            extra["shell"]["repair"] = config.fitup_repair.as_dict()
+    models = model_sources(config)
+    if models:  # a hull read as a model of faces: what its faces make as a shell
+        from .hull.sewing import model_reports
+
+        extra["hull_models"] = model_reports(models, config.source.parent)
+    write_text(written[1], summary_json(results, extra))
+    written += summary_drawings(results, config, out_dir, edges) if drawn is None else drawn.result()
     wait_for_images()
     return written

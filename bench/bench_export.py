@@ -1,0 +1,99 @@
+"""Wall time of a hull run's export stage (fit-up, plan cost, summary, and the drawings: plan
+and expansion DXF, expansion PDF, sheet and hull PNGs), this checkout against a baseline
+revision, interleaved round by round so that the machine's drift falls on both alike.
+
+    python bench/bench_export.py [--baseline REV] [--hull kcs] [--rounds 2] [--adaptive]
+
+The hull's shell config is run as ``devflat run CONFIG --jobs 2`` (planned uniform unless
+``--adaptive``: the export's work grows with the plates, not with how they were planned) in
+a fresh process per round and checkout (``git archive REV`` for the baseline); the stage
+line's export wall and CPU seconds of each round, their medians and the ratio this /
+baseline are printed, with the whole run's wall. The runs' summary JSON must agree on the
+plates and their classes (a difference is printed, and the exit code is 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+STAGE = re.compile(r"export (\d+(?:\.\d+)?) s \((\d+(?:\.\d+)?) CPU s\)")
+
+
+def config_for(root: Path, hull: str, adaptive: bool, folder: Path) -> Path:
+    data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
+    if not adaptive:
+        data["strake"]["plan"]["method"] = "uniform"
+    for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
+        for key in ("iges", "model"):
+            if key in surface:
+                surface[key] = str((root / "configs" / surface[key]).resolve())
+    path = folder / f"{hull}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def one_round(root: Path, config: Path, out: Path) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(root))
+    start = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "pipeline", "run", str(config), "--jobs", "2", "--out", str(out)],
+                         capture_output=True, text=True, env=env, cwd=root)
+    wall = time.perf_counter() - start
+    found = STAGE.search(run.stdout)
+    if run.returncode not in (0, 1) or found is None:
+        sys.exit(f"bench_export: the run at {root} failed (exit {run.returncode}):\n{run.stderr[-2000:]}")
+    summary = json.loads(next(out.glob("*_summary.json")).read_text())
+    classes = {p["id"]: p.get("class") for p in summary["parts"]}
+    return {"wall": float(found.group(1)), "cpu": float(found.group(2)), "run": wall, "classes": classes}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--baseline", default="29f5478", help="git revision to compare with (default: 29f5478)")
+    parser.add_argument("--hull", default="kcs", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--adaptive", action="store_true", help="the shell config's own (adaptive) plan")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        base = tmp / "baseline"
+        base.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
+        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
+        config = config_for(ROOT, args.hull, args.adaptive, tmp)
+        rows: dict[str, list[dict]] = {"this": [], args.baseline: []}
+        for k in range(args.rounds):
+            order = (("this", ROOT), (args.baseline, base))
+            for label, root in (order if k % 2 == 0 else order[::-1]):
+                rows[label].append(one_round(root, config, tmp / f"out-{label}-{k}"))
+    plan = "adaptive" if args.adaptive else "uniform"
+    print(f"{args.hull} ({plan} plan, --jobs 2): export stage wall s per round, interleaved")
+    medians = {}
+    for label, runs in rows.items():
+        walls = [r["wall"] for r in runs]
+        medians[label] = statistics.median(walls)
+        print(f"  {label:10s} " + " ".join(f"{w:7.2f}" for w in walls) + f"   median {medians[label]:7.2f}"
+              f"   (CPU {statistics.median(r['cpu'] for r in runs):.2f} s, the run's process and its drawing copy;"
+              f" whole run {statistics.median(r['run'] for r in runs):.1f} s)")
+    print(f"  this / {args.baseline}: {medians['this'] / medians[args.baseline]:.2f}")
+    differ = [name for name, klass in rows["this"][0]["classes"].items()
+              if rows[args.baseline][0]["classes"].get(name) != klass]
+    if differ or set(rows["this"][0]["classes"]) != set(rows[args.baseline][0]["classes"]):
+        print(f"  the plans differ: {differ[:10]}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,139 @@
+"""A piece of a run's work done beside it, by a forked copy of its process.
+
+A hull run's summary drawings (the plan DXF, the shell expansion DXF and PDF, the sheet and
+hull PNGs) need nothing that the fit-up computes, and the fit-up nothing they draw; both ran
+one after the other in the run's process, on one core, after the parts' workers were done
+(a quarter of a minute on the 160 m hull, most of a minute on KCS). :func:`beside` forks the
+process at that point: the copy has the results in memory already (nothing is pickled to
+it), does the work and sends back only its small return value or its exception, while the
+run goes on with the fit-up on the other core.
+
+It forks only when that is safe and useful: on Linux (fork without exec is unsafe on macOS,
+absent on Windows), with a single thread in the process (a Dask client's threads, say, would
+be copied mid-flight), and with no render process active (a one-shot run's images already go
+to one, and a copy would write into its pipes). Otherwise the work is done at once, in place,
+as before. The copy ignores Ctrl-C (the run decides), dies with the run (PR_SET_PDEATHSIG),
+and is killed and reaped when the run leaves the ``with`` block without waiting for it (an
+error, an interrupt), before the staging folder is removed. A copy that dies (a signal, the
+OOM killer) is a ``RuntimeError`` in the run.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import sys
+import threading
+import traceback
+
+from .renderproc import ACTIVE, _read, _write
+
+MAX_TRACEBACK = 4000  # characters of the copy's traceback added to its exception's notes
+
+
+def can_fork() -> bool:
+    """Is forking this process now safe (Linux, one thread, no render process active)?"""
+    return sys.platform.startswith("linux") and threading.active_count() == 1 and ACTIVE.get() is None
+
+
+class Beside:
+    """Work running in a forked copy of this process, or done already (``forked`` False).
+    Use as a context manager; :meth:`result` waits for the work and returns what it
+    returned (raising what it raised)."""
+
+    def __init__(self, work, fork: bool | None = None):
+        self.pid: int | None = None
+        self._value = self._error = None
+        self._done = False
+        if fork is None:
+            fork = can_fork()
+        if not fork:
+            try:
+                self._value = work()
+            except BaseException as exc:  # noqa: BLE001 - raised by result(), as the copy's would be
+                self._error = exc
+            self._done = True
+            return
+        read, write = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        parent = os.getpid()
+        pid = os.fork()
+        if pid == 0:  # the copy: never returns
+            code = 1
+            try:
+                os.close(read)
+                code = _run_copy(parent, work, write)
+            finally:
+                os._exit(code)  # no atexit handlers or buffers of the run's process
+        os.close(write)
+        self.pid, self._answers = pid, read
+
+    @property
+    def forked(self) -> bool:
+        return self.pid is not None
+
+    def result(self):
+        if not self._done:
+            message = _read(self._answers)
+            os.close(self._answers)
+            _, status = os.waitpid(self.pid, 0)
+            self._done = True
+            if message is None:
+                how = f"signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status) else f"exit {os.WEXITSTATUS(status)}"
+                self._error = RuntimeError(f"the process drawing beside the run ended unexpectedly ({how})")
+            else:
+                ok, payload = pickle.loads(message)
+                if ok:
+                    self._value = payload
+                else:
+                    self._error = payload
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+        return self._value
+
+    def __enter__(self) -> Beside:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._done:
+            return
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        os.waitpid(self.pid, 0)
+        os.close(self._answers)
+        self._done = True
+
+
+def beside(work, fork: bool | None = None) -> Beside:
+    """``work()`` in a forked copy of this process when :func:`can_fork` (or ``fork``
+    says so), else now; see :class:`Beside`."""
+    return Beside(work, fork)
+
+
+def _run_copy(parent: int, work, answers: int) -> int:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the run decides
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent:  # the run died before the line above
+        return 1
+    try:
+        answer = pickle.dumps((True, work()))
+    except BaseException as exc:  # noqa: BLE001 - sent back, raised in the run
+        exc.add_note("(in the process drawing beside the run)\n"
+                     + "".join(traceback.format_exception(exc))[-MAX_TRACEBACK:])
+        try:
+            answer = pickle.dumps((False, exc))
+            pickle.loads(answer)  # some exceptions pickle but do not unpickle (required arguments)
+        except Exception:  # noqa: BLE001 - then its text
+            answer = pickle.dumps((False, RuntimeError(f"{type(exc).__name__}: {exc}\n"
+                                                       f"{getattr(exc, '__notes__', '')}")))
+    _write(answers, answer)
+    return 0
