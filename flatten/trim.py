@@ -23,7 +23,8 @@ from .strip import PathSampler
 NEWTON_STEPS = 16  # at most; a point stops once its step is below SETTLED ruling spacings
 SETTLED = 1e-4
 EDGE_V = 0.05  # a point found this near a ruling's end (as a share of it) is finished on exact rulings
-EDGE_STEPS = 4
+EDGE_STEPS = 12
+EDGE_SETTLED = 1e-8  # ruling spacings: an edge point's distance is first order in lam
 SEED_SPACING = 6.0  # the seed's samples along a ruling, in ruling spacings apart
 SEED_STRIDE = 3  # the seed samples every SEED_STRIDE-th ruling of the map
 
@@ -33,8 +34,10 @@ class Mapped:
     """Points mapped onto a strip (N points; model units).
 
     lam : (N,) path fraction of each point's ruling; v : (N,) position along it
-    on_strip : (N, 3) the closest strip points; distance : (N,) |point - on_strip|
-    flat : (N, 2) their developed positions (the strip's development frame)
+    on_strip : (N, 3) the closest points of the rulings' lines (v unclipped); distance : (N,)
+    |point - on_strip|; flat : (N, 2) their developed positions (the strip's development frame)
+    nearest : (N, 3) the closest points of the strip itself (v clipped to its edges: a point
+    a hair beyond a seam, as a hull's seam line is beyond a curve fitted to it, is on the seam)
     """
 
     lam: np.ndarray
@@ -42,6 +45,7 @@ class Mapped:
     on_strip: np.ndarray
     distance: np.ndarray
     flat: np.ndarray
+    nearest: np.ndarray | None = None
 
 
 class StripMap:
@@ -101,14 +105,20 @@ class StripMap:
         return lam[index // per_ruling]
 
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(lam, v, rulings, on_strip) of the closest strip point of each point (N, 3): the
+        """(lam, v, rulings, on_strip): see :meth:`_locate`; on_strip (N, 3) on the rulings'
+        lines (v unclipped)."""
+        lam, v, rulings, a, b = self._locate(points)
+        return lam, v, rulings, a + v[:, None] * (b - a)
+
+    def _locate(self, points: np.ndarray):
+        """(lam, v, rulings, a, b) of the closest strip point of each point (N, 3), a and b
+        (N, 3) its ruling's ends on c and d: the
         seed (:meth:`_seed`), then Gauss-Newton on the residual to the closest point of the
         ruling segment (central differences in lam) on rulings interpolated between the map's
         exact ones, and the exact ruling at the lam found (an error e in lam moves the
         distance by O(e^2) inside the strip; on its edges by O(e), so points found there are
-        finished on exact rulings).
-        v is not clipped: a point beyond the strip's boundary
-        curve has v < 0 or > 1, and its distance says so."""
+        finished on exact rulings). v is not clipped: a point beyond the strip's boundary
+        curve has v < 0 or > 1."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         lam = self._seed(points)
         h = 0.05 * float(self.lam[1] - self.lam[0])
@@ -159,8 +169,8 @@ class StripMap:
             lam[edge] = np.clip(x + np.clip(step, -h / 0.05, h / 0.05), 0.0, 1.0)
             rulings[edge], a[edge], b[edge] = self.ends(lam[edge])
             v[edge] = _along(points[edge], a[edge], b[edge])
-            edge = edge[np.abs(step) > SETTLED * h / 0.05]
-        return lam, v, rulings, a + v[:, None] * (b - a)
+            edge = edge[np.abs(step) > EDGE_SETTLED * h / 0.05]
+        return lam, v, rulings, a, b
 
     def develop(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Developed ends (along c, along d), (N, 2) each, of the given rulings (within the
@@ -188,11 +198,12 @@ class StripMap:
         """Mapped points, and the developed ends (K, 2) x 2 of this map's own rulings in the
         same frame."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        lam, v, rulings, on_strip = self.locate(points)
+        lam, v, rulings, a, b = self._locate(points)
+        on_strip, nearest = a + v[:, None] * (b - a), a + np.clip(v, 0.0, 1.0)[:, None] * (b - a)
         ac, ad = self.develop(rulings)
         flat = ac + v[:, None] * (ad - ac)
         own_c, own_d = self.own_development()
-        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat), own_c, own_d
+        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat, nearest), own_c, own_d
 
 
 def ruling_intervals(lam: np.ndarray, boundary_lam: np.ndarray, boundary_v: np.ndarray) -> np.ndarray:

@@ -283,8 +283,10 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     b2 = ac[keep] + hi * (ad[keep] - ac[keep])
     a3 = rulings3[0][keep] + lo * (rulings3[1][keep] - rulings3[0][keep])
     b3 = rulings3[0][keep] + hi * (rulings3[1][keep] - rulings3[0][keep])
-    out.grid_3d, out.grid_flat = mapped.on_strip[:n], flat[:n]
-    out.outline_3d, out.outline_flat, out.edges = mapped.on_strip[n:], flat[n:], edges
+    # the plate's 3D shape is on the strip: a hull point a hair beyond a seam (the hull's seam line
+    # against the curve fitted to it) is taken on the seam, not on its ruling's line beyond it
+    out.grid_3d, out.grid_flat = mapped.nearest[:n], flat[:n]
+    out.outline_3d, out.outline_flat, out.edges = mapped.nearest[n:], flat[n:], edges
     out.rulings, out.normals = (a2, b2, a3, b3), normals[keep]
     out.outline_deviation = _chord_deviation(flat[n:], edges)
     out.figures["trim"] = {"method": "the region's boundary and patch grid mapped onto the strip by closest points "
