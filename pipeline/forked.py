@@ -48,18 +48,28 @@ class Beside:
         self._done = False
         if fork is None:
             fork = can_fork()
-        if not fork:
+        pid = self._fork(work) if fork else None
+        if pid is None:  # not asked to, or the system could not (no memory, no process left)
             try:
                 self._value = work()
             except BaseException as exc:  # noqa: BLE001 - raised by result(), as the copy's would be
                 self._error = exc
             self._done = True
-            return
-        read, write = os.pipe()
+
+    def _fork(self, work) -> int | None:
+        try:
+            read, write = os.pipe()
+        except OSError:
+            return None
         sys.stdout.flush()
         sys.stderr.flush()
         parent = os.getpid()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(read)
+            os.close(write)
+            return None
         if pid == 0:  # the copy: never returns
             code = 1
             try:
@@ -69,6 +79,7 @@ class Beside:
                 os._exit(code)  # no atexit handlers or buffers of the run's process
         os.close(write)
         self.pid, self._answers = pid, read
+        return pid
 
     @property
     def forked(self) -> bool:

@@ -89,6 +89,17 @@ def test_the_work_is_done_in_place_when_forking_is_unsafe():
         drawn.result()
 
 
+
+def test_a_fork_the_system_refuses_leaves_the_work_to_the_run(monkeypatch):
+    def refused():
+        raise BlockingIOError(11, "Resource temporarily unavailable")  # fork(2): EAGAIN, no process left
+
+    monkeypatch.setattr(os, "fork", refused)
+    with beside(os.getpid, fork=True) as drawn:
+        assert not drawn.forked
+        assert drawn.result() == os.getpid()
+
+
 RUN = r"""
 import json, sys
 import pipeline.forked as forked
