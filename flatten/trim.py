@@ -45,7 +45,7 @@ class Mapped:
     on_strip: np.ndarray
     distance: np.ndarray
     flat: np.ndarray
-    nearest: np.ndarray | None = None
+    nearest: np.ndarray
 
 
 class StripMap:
@@ -121,12 +121,22 @@ class StripMap:
         curve has v < 0 or > 1."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         lam = self._seed(points)
-        h = 0.05 * float(self.lam[1] - self.lam[0])
+        spacing = float(self.lam[1] - self.lam[0])
+        h = 0.05 * spacing
 
         def foot(x, where):
             a, b = self._ends_between(x)
             v = np.clip(_along(points[where], a, b), 0.0, 1.0)
             return a + v[:, None] * (b - a)
+
+        def stencil(x, where):
+            # kept inside the path: at lam = 0 or 1 a clipped stencil reads no slope
+            centre = np.clip(x, h, 1.0 - h)
+            return centre, (foot(centre + h, where) - foot(centre - h, where)) / (2 * h)
+
+        def step(residual, tangent, cap):
+            speed2 = np.einsum("ij,ij->i", tangent, tangent)
+            return np.clip(np.einsum("ij,ij->i", residual, tangent) / np.where(speed2 > 0, speed2, 1.0), -cap, cap)
 
         active = np.arange(len(points))
         for _ in range(NEWTON_STEPS):
@@ -134,20 +144,15 @@ class StripMap:
             # derivative, which the monotone cubics give well; Newton on the squared distance
             # read their second derivative, which jumps at every exact ruling, and a seed on
             # one (the k-d tree's always are) could see a minimum as a maximum and stay put
-            # (a DTMB 5415 corner 2.04 mm off the strip where it is 0.16 mm). The stencil
-            # stays inside the path: at lam = 0 or 1 a clipped one reads no slope. A point on
-            # the strip's edge (a region's corner on a seam) converges only linearly there,
-            # where the foot's speed jumps: each point stops when its step settles.
+            # (a DTMB 5415 corner 2.04 mm off the strip where it is 0.16 mm). A point on the
+            # strip's edge (a region's corner on a seam) converges only linearly there, where
+            # the foot's speed jumps: each point stops when its step settles.
             x = lam[active]
-            centre = np.clip(x, h, 1.0 - h)
-            lo, mid, hi = foot(centre - h, active), foot(centre, active), foot(centre + h, active)
-            tangent = (hi - lo) / (2 * h)
-            residual = points[active] - (mid + (x - centre)[:, None] * tangent)
-            speed2 = np.einsum("ij,ij->i", tangent, tangent)
-            step = np.einsum("ij,ij->i", residual, tangent) / np.where(speed2 > 0, speed2, 1.0)
-            step = np.clip(step, -4 * h / 0.05, 4 * h / 0.05)
-            lam[active] = np.clip(x + step, 0.0, 1.0)
-            active = active[np.abs(step) > SETTLED * h / 0.05]
+            centre, tangent = stencil(x, active)
+            residual = points[active] - (foot(centre, active) + (x - centre)[:, None] * tangent)
+            moved = step(residual, tangent, 4 * spacing)
+            lam[active] = np.clip(x + moved, 0.0, 1.0)
+            active = active[np.abs(moved) > SETTLED * spacing]
             if not len(active):
                 break
         rulings, a, b = self.ends(lam)
@@ -161,15 +166,12 @@ class StripMap:
             if not len(edge):
                 break
             x = lam[edge]
-            centre = np.clip(x, h, 1.0 - h)
-            tangent = (foot(centre + h, edge) - foot(centre - h, edge)) / (2 * h)
             q = a[edge] + np.clip(v[edge], 0.0, 1.0)[:, None] * (b[edge] - a[edge])
-            speed2 = np.einsum("ij,ij->i", tangent, tangent)
-            step = np.einsum("ij,ij->i", points[edge] - q, tangent) / np.where(speed2 > 0, speed2, 1.0)
-            lam[edge] = np.clip(x + np.clip(step, -h / 0.05, h / 0.05), 0.0, 1.0)
+            moved = step(points[edge] - q, stencil(x, edge)[1], spacing)
+            lam[edge] = np.clip(x + moved, 0.0, 1.0)
             rulings[edge], a[edge], b[edge] = self.ends(lam[edge])
             v[edge] = _along(points[edge], a[edge], b[edge])
-            edge = edge[np.abs(step) > EDGE_SETTLED * h / 0.05]
+            edge = edge[np.abs(moved) > EDGE_SETTLED * spacing]
         return lam, v, rulings, a, b
 
     def develop(self, rulings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

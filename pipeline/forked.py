@@ -25,11 +25,8 @@ import pickle
 import signal
 import sys
 import threading
-import traceback
 
-from .renderproc import ACTIVE, _read, _write
-
-MAX_TRACEBACK = 4000  # characters of the copy's traceback added to its exception's notes
+from .renderproc import ACTIVE, _read, _write, sendable, start_child
 
 
 def can_fork() -> bool:
@@ -94,12 +91,10 @@ class Beside:
             if message is None:
                 how = f"signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status) else f"exit {os.WEXITSTATUS(status)}"
                 self._error = RuntimeError(f"the process drawing beside the run ended unexpectedly ({how})")
+            elif message[:1] == b"V":  # the value, else the exception (_run_copy)
+                self._value = pickle.loads(message[1:])
             else:
-                ok, payload = pickle.loads(message)
-                if ok:
-                    self._value = payload
-                else:
-                    self._error = payload
+                self._error = pickle.loads(message[1:])
         if self._error is not None:
             error, self._error = self._error, None
             raise error
@@ -127,24 +122,11 @@ def beside(work, fork: bool | None = None) -> Beside:
 
 
 def _run_copy(parent: int, work, answers: int) -> int:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the run decides
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() != parent:  # the run died before the line above
+    if not start_child(parent):
         return 1
     try:
-        answer = pickle.dumps((True, work()))
+        answer = b"V" + pickle.dumps(work())
     except BaseException as exc:  # noqa: BLE001 - sent back, raised in the run
-        exc.add_note("(in the process drawing beside the run)\n"
-                     + "".join(traceback.format_exception(exc))[-MAX_TRACEBACK:])
-        try:
-            answer = pickle.dumps((False, exc))
-            pickle.loads(answer)  # some exceptions pickle but do not unpickle (required arguments)
-        except Exception:  # noqa: BLE001 - then its text
-            answer = pickle.dumps((False, RuntimeError(f"{type(exc).__name__}: {exc}\n"
-                                                       f"{getattr(exc, '__notes__', '')}")))
+        answer = b"E" + sendable(exc, "in the process drawing beside the run")
     _write(answers, answer)
     return 0

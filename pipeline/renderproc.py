@@ -192,16 +192,35 @@ class Renderer:
                 self._reap()
 
 
-def _serve(parent: int, jobs: int, answers: int, preload: tuple[str, ...]) -> int:
-    import gc
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the run decides
+def start_child(parent: int) -> bool:
+    """In a process forked from the run: ignore Ctrl-C (it reaches the whole group; the run
+    decides), die with the run (PR_SET_PDEATHSIG on Linux); False when the run is gone already."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() != parent:
+    return os.getppid() == parent  # the run may have died before the line above
+
+
+def sendable(error: BaseException, where: str) -> bytes:
+    """``error`` pickled to be raised in the run, its traceback (the last MAX_TRACEBACK
+    characters) added as a note saying ``where``; its text in a RuntimeError when it pickles
+    but does not unpickle (an exception class with required arguments)."""
+    error.add_note(f"({where})\n" + "".join(traceback.format_exception(error))[-MAX_TRACEBACK:])
+    try:
+        answer = pickle.dumps(error)
+        pickle.loads(answer)
+    except Exception:  # noqa: BLE001 - then its text
+        answer = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}\n{getattr(error, '__notes__', '')}"))
+    return answer
+
+
+def _serve(parent: int, jobs: int, answers: int, preload: tuple[str, ...]) -> int:
+    import gc
+
+    if not start_child(parent):
         return 1
     for name in preload:  # "module" or "module:function" (called without arguments)
         if ":" in name:
@@ -212,16 +231,10 @@ def _serve(parent: int, jobs: int, answers: int, preload: tuple[str, ...]) -> in
     gc.enable()
     while (message := _read(jobs)) is not None:
         target, args, kwargs = pickle.loads(message)
-        error = None
+        answer = pickle.dumps(None)
         try:
             _call(target, args, kwargs)
         except BaseException as exc:  # noqa: BLE001 - sent back, raised in the run
-            error = exc
-            error.add_note("(in the render process)\n" + "".join(traceback.format_exception(exc))[-MAX_TRACEBACK:])
-        try:
-            answer = pickle.dumps(error)
-            pickle.loads(answer)  # some exceptions pickle but do not unpickle (required arguments)
-        except Exception:  # noqa: BLE001 - then its text
-            answer = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}\n{getattr(error, '__notes__', '')}"))
+            answer = sendable(exc, "in the render process")
         _write(answers, answer)
     return 0
