@@ -104,13 +104,15 @@ class StripMap:
         _, index = tree.query(points)
         return lam[index // per_ruling]
 
-    def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def locate(self, points: np.ndarray, edges: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip): see :meth:`_locate`; on_strip (N, 3) on the rulings'
-        lines (v unclipped)."""
-        lam, v, rulings, a, b = self._locate(points)
+        lines (v unclipped). ``edges=False``: points found within EDGE_V of a ruling's end are
+        not finished on exact rulings (they are then off by the interpolated ruling's error,
+        to first order); the others are located as by default, to the same bits."""
+        lam, v, rulings, a, b = self._locate(points, edges)
         return lam, v, rulings, a + v[:, None] * (b - a)
 
-    def _locate(self, points: np.ndarray):
+    def _locate(self, points: np.ndarray, edges: bool = True):
         """(lam, v, rulings, a, b) of the closest strip point of each point (N, 3), a and b
         (N, 3) its ruling's ends on c and d: the
         seed (:meth:`_seed`), then Gauss-Newton on the residual to the closest point of the
@@ -161,7 +163,7 @@ class StripMap:
         # as far off as the interpolated ruling is from the exact one, to first order (0.9 mm
         # on a DTMB 5415 corner, against a corner limit of 1 mm): it is finished on the
         # exact rulings, the interpolated ones giving only the step's direction
-        edge = np.flatnonzero((v < EDGE_V) | (v > 1.0 - EDGE_V))
+        edge = np.flatnonzero((v < EDGE_V) | (v > 1.0 - EDGE_V)) if edges else np.zeros(0, dtype=int)
         for _ in range(EDGE_STEPS):
             if not len(edge):
                 break

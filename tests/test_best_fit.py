@@ -130,3 +130,51 @@ def test_a_7m_bilge_plate_of_the_160m_hull_fits_only_as_a_best_fit_strip(tmp_pat
     assert rep["hull_fit"]["passed"] and rep["completeness"]["passed"]
     assert rep["outline"]["area_m2"] == pytest.approx(klass["area_3d_m2"], rel=5e-3)
     assert set(rep["outline"]["edges"]) == {"c", "d", "start", "end"}
+
+
+def test_a_strip_far_off_its_region_is_judged_on_a_probe_and_no_better_than_the_whole(tmp_path, monkeypatch):
+    """A bilge plate of a hull bowed on a 30 m radius, butts 3 m apart: the strip through its
+    butt sections stands off the hull by the bow's sagitta, r - sqrt(r^2 - 1.5 m^2) = 37.5 mm
+    at the middle of its rows, over HOPELESS tolerances: it is rejected on the region's
+    probe, whose middle column meets the sagitta, and not moved. Mapping the whole region
+    (the probe switched off) rejects it too, by at least as much (the probe's points are
+    among the region's, each mapped on its own)."""
+    from pipeline.hull import platestrip
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import _grid
+    from pipeline.hull.platestrip import HOPELESS, butt_family
+
+    bow, half = 30000.0, 1500.0
+    iges = bowed_bilge_iges(tmp_path / "bowed.igs", bow=bow, bilge=3000.0, length=8000.0)
+    config_path = tmp_path / "t.yaml"
+    config_path.write_text(yaml.safe_dump({"name": "t", "units": "mm", "strake": {
+        "surface": {"iges": str(iges)}, "butts": [-half, half], "fit_tolerance": 5.0,
+        "seams": [{"iso": {"v": 0.3}}, {"iso": {"v": 0.7}}]}}))
+    config = load_run(config_path)
+    part = config.parts[0]
+    grid = _grid(part, config)
+    probed = butt_family(part, config, grid, 1.0)
+    assert not probed.ok and "at least" in probed.reason
+    assert "probe" in probed.figures["hull_fit"]["measured_on"]
+    corners = np.asarray(grid.corners())
+    radii = np.hypot(corners[:, 0], bow - corners[:, 2])
+    sagitta = radii - np.sqrt(radii**2 - half**2)
+    assert sagitta.min() > HOPELESS * 5.0
+    assert probed.deviation == pytest.approx(sagitta.max(), rel=0.03)
+
+    monkeypatch.setattr(platestrip, "HOPELESS", np.inf)
+    whole = butt_family(part, config, grid, 1.0)
+    assert not whole.ok and "at least" not in whole.reason
+    assert probed.deviation <= whole.deviation * (1 + 1e-9)
+    assert whole.deviation == pytest.approx(sagitta.max(), rel=0.03)
+    # the probe's points inside the strip's edges are located as the whole map locates them
+    from flatten.trim import EDGE_V, StripMap
+
+    strip = whole.attempt
+    points = grid.points.reshape(-1, 3)
+    index = platestrip.probe_index(grid.shape)
+    _, v, _, alone = StripMap(strip.solution, strip.part.c, strip.part.d).locate(points[index], edges=False)
+    _, _, _, among = StripMap(strip.solution, strip.part.c, strip.part.d).locate(points)
+    inner = (v >= EDGE_V) & (v <= 1.0 - EDGE_V)
+    assert inner.sum() >= 20
+    assert np.array_equal(alone[inner], among[index][inner])

@@ -32,12 +32,12 @@ from flatten.trim import StripMap
 
 from ..config import Part, RunConfig
 from .region import extended_segment, seam_curve
-from .platestrip import (BOUNDARY_MM, BUTT_TO_BUTT, MAP_RULINGS, SEAM_TO_SEAM, Trim, butt_family, _solved_and_trimmed,
+from .platestrip import (BOUNDARY_MM, BUTT_TO_BUTT, HOPELESS, MAP_RULINGS, SEAM_TO_SEAM, Trim, butt_family, _solved_and_trimmed,
                          _strip_normals, region_boundary)
 from ..io.sources import SourceError
 
 ROUNDS = 3  # re-solves of a best-fit strip at most
-WORTH = 3.0  # a strip further off than this many tolerances is not worth moving
+WORTH = HOPELESS  # a strip further off than this many tolerances is not worth moving
 BINS = 20  # ruling bins (path fraction) for the per-ruling gap line
 DEGREE = 3  # of the polynomial in path fraction that smooths the offsets
 CURVE_POINTS = 81  # moved ends per boundary curve, fitted by a cubic B-spline

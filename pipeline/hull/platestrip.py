@@ -22,7 +22,7 @@ import numpy as np
 
 from flatten.closest import SurfaceDistance
 from flatten.patch import PatchGrid, region_grid
-from flatten.trim import StripMap, ruling_intervals
+from flatten.trim import EDGE_V, StripMap, ruling_intervals
 
 from ..config import Part, RunConfig
 from ..io.sources import SourceError, fit_points
@@ -36,6 +36,8 @@ EXTEND = 0.15  # the sections reach this fraction of the plate's width beyond ea
 BOUNDARY_MM = 25.0  # spacing of the region's boundary points mapped onto the strip
 MAP_RULINGS = 801
 PROBE = 400  # samples along the whole surface where a region's rows are searched
+HOPELESS = 3.0  # tolerances: a strip missing its region by more is judged on a probe of it (not moved either)
+PROBE_ROWS, PROBE_COLS = 5, 9  # the probe: this sub-grid of the region's grid, corners included
 
 
 @dataclass
@@ -227,12 +229,15 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     pair = attempt.part
     out = Trim(family, attempt=attempt)
     smap = StripMap(attempt.solution, pair.c, pair.d, MAP_RULINGS)
+    hull = part.hull
+    distance = hull.distance or SurfaceDistance(hull.surface)
+    if _hopeless(out, smap, grid, distance, tolerance):
+        return out
     boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
     region = grid.points.reshape(-1, 3)
     mapped, ac, ad = smap.map(np.vstack([region, boundary]))
     n = len(region)
-    hull = part.hull
-    on_hull = (hull.distance or SurfaceDistance(hull.surface))(mapped.on_strip)
+    on_hull = distance(mapped.on_strip)
     gap = mapped.distance
     deviation = float(max(gap.max(), on_hull.max()))
     rows, cols = grid.shape
@@ -295,6 +300,49 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
                            "mirrored_to_seam_side": bool(mirror)}
     out.ok = True
     return out
+
+
+def probe_index(shape: tuple) -> np.ndarray:
+    """Flat indices into a (rows, cols) region grid of its probe: a PROBE_ROWS x PROBE_COLS
+    sub-grid, first and last rows and columns (the corners) included."""
+    rows, cols = shape
+    r = np.unique(np.round(np.linspace(0, rows - 1, PROBE_ROWS)).astype(int))
+    c = np.unique(np.round(np.linspace(0, cols - 1, PROBE_COLS)).astype(int))
+    return (r[:, None] * cols + c[None, :]).ravel()
+
+
+def _hopeless(out: Trim, smap: StripMap, grid: PatchGrid, distance, tolerance: float) -> bool:
+    """Judge the strip on the region's probe first: when it misses there by more than HOPELESS
+    tolerances, the whole region (each point mapped on its own, so the probe's distances are
+    among the region's) misses by at least as much, the strip is rejected and is not worth
+    moving either (:mod:`.bestfit`); its figures say what was measured. Most strips of a
+    curved hull's candidates end here, before the region's boundary is found and mapped and
+    the strip developed."""
+    probe = grid.points.reshape(-1, 3)[probe_index(grid.shape)]
+    _, v, _, on_strip = smap.locate(probe, edges=False)
+    # points found near the strip's edges are judged by the whole map (only there does it
+    # finish them on exact rulings): the rest have the whole map's distances, bit for bit
+    inner = (v >= EDGE_V) & (v <= 1.0 - EDGE_V)
+    if not inner.any():
+        return False
+    probe, on_strip = probe[inner], on_strip[inner]
+    gap = np.linalg.norm(probe - on_strip, axis=1)
+    on_hull = distance(on_strip)
+    deviation = float(max(gap.max(), on_hull.max()))
+    if deviation <= HOPELESS * tolerance:
+        return False
+    worst = int(np.argmax(np.maximum(gap, on_hull)))
+    out.deviation = deviation
+    out.figures = {"family": out.family, "hull_fit": {
+        "max_distance": deviation, "region_to_strip_max": float(gap.max()), "strip_to_hull_max": float(on_hull.max()),
+        "tolerance": tolerance, "worst_point": probe[worst].tolist(), "passed": False,
+        "measured_on": f"{len(probe)} points of the patch grid (of a {PROBE_ROWS} x {PROBE_COLS} probe, those whose "
+                       f"closest strip points lie inside its edges) mapped onto the strip: it misses there by more "
+                       f"than {HOPELESS:g} tolerances, so the whole region by at least as much, and the rest was "
+                       "not mapped"}}
+    out.reason = (f"plate deviates from the hull by at least {deviation:.4g} (tolerance {tolerance:g}) at "
+                  f"{np.round(probe[worst], 3).tolist()}")
+    return True
 
 
 def _chord_deviation(points: np.ndarray, edges: tuple) -> float:
