@@ -223,16 +223,15 @@ def _strip_normals(c, d, rulings: np.ndarray) -> np.ndarray:
 
 
 def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str, tolerance: float,
-                   corner_tolerance: float, mm_per_unit: float) -> Trim:
+                   corner_tolerance: float, mm_per_unit: float, smap: StripMap | None = None) -> Trim:
     """Map the plate's region onto the attempt's solved strip and judge it: within
-    ``tolerance`` of the hull everywhere, its four corners within ``corner_tolerance``."""
+    ``tolerance`` of the hull everywhere, its four corners within ``corner_tolerance``.
+    ``smap``: the strip's map when the caller has it (its probe, :func:`hopeless`)."""
     pair = attempt.part
     out = Trim(family, attempt=attempt)
-    smap = StripMap(attempt.solution, pair.c, pair.d, MAP_RULINGS)
+    smap = smap or StripMap(attempt.solution, pair.c, pair.d, MAP_RULINGS)
     hull = part.hull
     distance = hull.distance or SurfaceDistance(hull.surface)
-    if _hopeless(out, smap, grid, distance, tolerance):
-        return out
     boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
     region = grid.points.reshape(-1, 3)
     mapped, ac, ad = smap.map(np.vstack([region, boundary]))
@@ -311,13 +310,13 @@ def probe_index(shape: tuple) -> np.ndarray:
     return (r[:, None] * cols + c[None, :]).ravel()
 
 
-def _hopeless(out: Trim, smap: StripMap, grid: PatchGrid, distance, tolerance: float) -> bool:
-    """Judge the strip on the region's probe first: when it misses there by more than HOPELESS
+def hopeless(out: Trim, smap: StripMap, grid: PatchGrid, distance, tolerance: float) -> bool:
+    """Judge a solved strip on the region's probe first: when it misses there by more than HOPELESS
     tolerances, the whole region (each point mapped on its own, so the probe's distances are
     among the region's) misses by at least as much, the strip is rejected and is not worth
     moving either (:mod:`.bestfit`); its figures say what was measured. Most strips of a
-    curved hull's candidates end here, before the region's boundary is found and mapped and
-    the strip developed."""
+    curved hull's candidates end here, before the strip is checked and developed and the
+    region's boundary found and mapped."""
     probe = grid.points.reshape(-1, 3)[probe_index(grid.shape)]
     _, v, _, on_strip = smap.locate(probe, edges=False)
     # points found near the strip's edges are judged by the whole map (only there does it
@@ -377,10 +376,20 @@ def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, fa
     """The strip between curves c and d solved and developed, then trimmed by the plate's
     region; ``figures`` are added to the trim's once the strip is solved."""
     attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
-    if not develop_part(attempt, config, None, 0.0):
-        return Trim(family, reason=attempt.reason, attempt=attempt)
-    trim = trim_by_region(attempt, part, grid, family, part.hull.fit_tolerance, corner_tolerance,
-                          config.mm_per_unit)
+    hull, probed = part.hull, Trim(family, attempt=attempt)
+    smap = None
+
+    def screen(solved: PartResult) -> bool:
+        nonlocal smap
+        smap = StripMap(solved.solution, c, d, MAP_RULINGS)
+        if hopeless(probed, smap, grid, hull.distance or SurfaceDistance(hull.surface), hull.fit_tolerance):
+            solved.reason = probed.reason
+            return False
+        return True
+
+    if not develop_part(attempt, config, None, 0.0, screen):
+        return probed if probed.reason else Trim(family, reason=attempt.reason, attempt=attempt)
+    trim = trim_by_region(attempt, part, grid, family, hull.fit_tolerance, corner_tolerance, config.mm_per_unit, smap)
     trim.figures.update(figures or {})
     return trim
 
