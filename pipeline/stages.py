@@ -183,8 +183,8 @@ def partial_percent(fraction: float) -> str:
 
 def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None, screen=None) -> bool:
     """Solve, strip, check and unroll; False (with the reason in the result) on a geometric
-    failure. ``screen(result) -> bool``: a cheaper verdict on the solved strip, run before its
-    check and development (False: rejected, the reason set by the screen)."""
+    failure. ``screen(result) -> bool``: a cheaper verdict on the checked strip, run before it is
+    developed (False: rejected, the reason set by the screen)."""
     part = result.part
     solution = solve(part.c, part.d, DEFAULT_TOLERANCES)
     result.solution = solution
@@ -202,9 +202,9 @@ def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_
         result.warnings.append(f"partial coverage: {partial_percent(cov.c_fraction)} of c, "
                                f"{partial_percent(cov.d_fraction)} of d")
     stage_strip(result, config, extra_rulings)
-    if screen is not None and not screen(result):
-        return False
     if not stage_check(result, config):
+        return False
+    if screen is not None and not screen(result):
         return False
     stage_unroll(result)
     return True

@@ -315,8 +315,9 @@ def hopeless(out: Trim, smap: StripMap, grid: PatchGrid, distance, tolerance: fl
     tolerances, the whole region (each point mapped on its own, so the probe's distances are
     among the region's) misses by at least as much, the strip is rejected and is not worth
     moving either (:mod:`.bestfit`); its figures say what was measured. Most strips of a
-    curved hull's candidates end here, before the strip is checked and developed and the
-    region's boundary found and mapped."""
+    curved hull's candidates end here, before the strip is developed and the region's
+    boundary found and mapped. (After the strip's check: a strip that fails it has no
+    deviation, which the best fit reads as nothing to move.)"""
     probe = grid.points.reshape(-1, 3)[probe_index(grid.shape)]
     _, v, _, on_strip = smap.locate(probe, edges=False)
     # points found near the strip's edges are judged by the whole map (only there does it
