@@ -38,6 +38,7 @@ class Mapped:
     |point - on_strip|; flat : (N, 2) their developed positions (the strip's development frame)
     nearest : (N, 3) the closest points of the strip itself (v clipped to its edges: a point
     a hair beyond a seam, as a hull's seam line is beyond a curve fitted to it, is on the seam)
+    rulings : (N, 2) each point's ruling (t, T)
     """
 
     lam: np.ndarray
@@ -46,6 +47,7 @@ class Mapped:
     distance: np.ndarray
     flat: np.ndarray
     nearest: np.ndarray
+    rulings: np.ndarray
 
 
 class StripMap:
@@ -207,7 +209,7 @@ class StripMap:
         ac, ad = self.develop(rulings)
         flat = ac + v[:, None] * (ad - ac)
         own_c, own_d = self.own_development()
-        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat, nearest), own_c, own_d
+        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat, nearest, rulings), own_c, own_d
 
 
 def ruling_intervals(lam: np.ndarray, boundary_lam: np.ndarray, boundary_v: np.ndarray) -> np.ndarray:

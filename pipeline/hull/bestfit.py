@@ -77,8 +77,13 @@ def signed_gaps(trim: Trim, points: np.ndarray):
     the signed distance along the strip's normal there (model units)."""
     attempt = trim.attempt
     c, d = attempt.part.c, attempt.part.d
-    smap = StripMap(attempt.solution, c, d, MAP_RULINGS)
-    lam, v, rulings, on_strip = smap.locate(points)
+    if trim.located is not None and np.array_equal(trim.located[0], points):
+        # the trim mapped these very points: the same map, the same closest points
+        _, smap, mapped = trim.located
+        lam, v, rulings, on_strip = mapped.lam, mapped.v, mapped.rulings, mapped.on_strip
+    else:
+        smap = StripMap(attempt.solution, c, d, MAP_RULINGS)
+        lam, v, rulings, on_strip = smap.locate(points)
     normals = _strip_normals(c, d, rulings)
     return smap, lam, v, np.einsum("ij,ij->i", points - on_strip, normals)
 

@@ -415,7 +415,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
         "complete": True, "other_family": other}
     finish_part(result, config)
     # the trim without its strip attempt (solution, development): the shop data need its rulings
-    owe(result, config, trimmed_shop, grid, dataclasses.replace(trim, attempt=None))
+    owe(result, config, trimmed_shop, grid, dataclasses.replace(trim, attempt=None, located=None))
 
 
 def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):

@@ -48,7 +48,9 @@ class Trim:
     developed; outline_3d (N, 3) on the strip, outline_flat (N, 2), edges (N,) the edge name
     ('c', 'd' the seams, 'start', 'end' the first and second butt) of segment i -> i+1;
     rulings: (a2, b2, a3, b3) the strip's rulings cut to the region (developed and 3D ends);
-    normals (K, 3) of those rulings, seen from the side the pattern is drawn from."""
+    normals (K, 3) of those rulings, seen from the side the pattern is drawn from;
+    located: (points, map, mapped) of the region's points mapped onto the strip when the whole
+    region was (the best fit reads their gaps again: :func:`.bestfit.signed_gaps`)."""
 
     family: str
     ok: bool = False
@@ -64,6 +66,7 @@ class Trim:
     rulings: tuple | None = None
     normals: np.ndarray | None = None
     outline_deviation: float = 0.0
+    located: tuple | None = None
 
 
 def _girth_domain(hull):
@@ -235,6 +238,7 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
     region = grid.points.reshape(-1, 3)
     mapped, ac, ad = smap.map(np.vstack([region, boundary]))
+    out.located = (np.vstack([region, boundary]), smap, mapped)
     n = len(region)
     on_hull = distance(mapped.on_strip)
     gap = mapped.distance
