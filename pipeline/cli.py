@@ -213,7 +213,8 @@ def _stages(evaluator, clock, planned, ran, exported, results) -> dict:
     per_part = [r.figures.get("stage_seconds") or {} for r in results]
     cpu_plates = sum(p.get("plates_cpu", 0.0) + p.get("shop_cpu", 0.0) for p in per_part)
     wall_plan = planned[0] - clock[0] - evaluator.seconds
-    stages = {"plan": (wall_plan, planned[1] - clock[1] - evaluator.local_cpu_seconds)}
+    stages = {"plan": (wall_plan, planned[1] - clock[1] - evaluator.local_cpu_seconds
+                       + evaluator.mapped_cpu_seconds)}
     if evaluator.requested:
         stages[f"evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached)"] = \
             (evaluator.seconds, evaluator.cpu_seconds)

@@ -180,11 +180,13 @@ def test_a_bad_objective_is_named(tmp_path):
         load_config(path)
 
 
-def test_jobs_2_writes_the_bytes_jobs_1_writes_for_an_adaptive_plan(tmp_path):
-    """The candidates evaluated in two worker processes: the same plan and the same files."""
+@pytest.mark.parametrize("objective", [{"maximise": "flat_strip", "weld_factor": 3.0}, None])
+def test_jobs_2_writes_the_bytes_jobs_1_writes_for_an_adaptive_plan(tmp_path, objective):
+    """The candidates evaluated in two worker processes (and, without an objective, the
+    splits chosen there too): the same plan and the same files."""
     from pipeline.cli import main
 
-    config = _cs(tmp_path, "cs", "adaptive", {"maximise": "flat_strip", "weld_factor": 3.0})
+    config = _cs(tmp_path, "cs", "adaptive", objective, max_splits=2)
     for jobs in (1, 2):
         assert main(["run", str(config), "--out", str(tmp_path / f"j{jobs}"), "--jobs", str(jobs), "--quiet"]) == 0
     one = {p.relative_to(tmp_path / "j1"): p for p in sorted((tmp_path / "j1").rglob("*")) if p.is_file()}
@@ -194,3 +196,24 @@ def test_jobs_2_writes_the_bytes_jobs_1_writes_for_an_adaptive_plan(tmp_path):
     assert {n.suffix for n in compared} == set(SAME_BYTES) and len(compared) > 10
     for name in compared:
         assert one[name].read_bytes() == two[name].read_bytes(), name
+
+
+def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path):
+    """Without an objective the splits of a batch's plates that do not fit are chosen by the
+    evaluator's worker processes (idle while the plan chooses): their CPU is counted, and the
+    plan is the one a single process makes."""
+    from pipeline.runner import plate_evaluator
+    from pipeline.validate import validate
+
+    config = _cs(tmp_path, "cs", "adaptive", None, max_splits=2)
+    with plate_evaluator(2) as two:
+        spread = validate(config, two)
+    with plate_evaluator(1) as one:
+        alone = validate(config, one)
+    assert two.mapped_cpu_seconds > 0.0 and one.mapped_cpu_seconds == 0.0
+    assert [p.name for p in spread.parts] == [p.name for p in alone.parts]
+    assert len(spread.parts) > 4  # split twice somewhere
+    for a, b in zip(spread.parts, alone.parts):
+        assert [None if x is None else (tuple(x.normal), x.offset) for x in a.hull.butts] == \
+               [None if x is None else (tuple(x.normal), x.offset) for x in b.hull.butts]
+        assert [g.g for g in a.hull.girths] == [g.g for g in b.hull.girths]

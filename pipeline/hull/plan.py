@@ -119,3 +119,8 @@ class _Judge:
         if batch is not None:
             return batch(parts, self.config)
         return [self.evaluate(part, self.config) for part in parts]
+
+    def map(self, func, items: list) -> list:
+        """``func`` over items, on the evaluator's workers when it has them."""
+        spread = getattr(self.evaluate, "map", None)
+        return spread(func, items) if spread is not None else [func(item) for item in items]

@@ -240,8 +240,9 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     if plan.method == "uniform" or evaluate is None:
         return [c.part for c in cells if build(c) is not None]
     many = getattr(evaluate, "many", None) or (lambda parts: [evaluate(p) for p in parts])
+    spread = getattr(evaluate, "map", None) or (lambda func, items: [func(item) for item in items])
     record = record if record is not None else PlanRecord()
-    context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger)
+    context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger, spread)
     if plan.objective is None:
         kept = _split_all(cells, build, context)
     else:
@@ -273,6 +274,7 @@ class _Context:
     mm_per_unit: float
     yard: bool
     stagger: float
+    spread: object = None  # spread(func, items): func over items on the evaluator's workers
 
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
@@ -312,10 +314,27 @@ def _uniform_weld_m(cells, ctx: _Context) -> float:
 
 def _split_of(cell: Cell, ctx: _Context, allow=None):
     face = ctx.faces[cell.k]
-    sample = sample_region(face.surface, face.axis, cell.girths, cell.pair)
+    return _region_split((face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
+                          ctx.stock.min_width, allow, ctx.yard))
+
+
+def _region_split(job: tuple):
+    """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
+    length and width, butt rule or None, strict width); module-level, so that the plan's
+    workers can compute it (:func:`_splits_of`)."""
+    surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict = job
+    sample = sample_region(surface, axis, girths, pair)
     if sample is None:
         return None
-    return choose_split(sample, ctx.tolerance, ctx.stock.min_length, ctx.stock.min_width, allow, ctx.yard)
+    return choose_split(sample, tolerance, min_length, min_width, allow, strict)
+
+
+def _splits_of(cells: list, ctx: _Context) -> list:
+    """The best split of each cell (no butt rule), spread over the evaluator's workers: they
+    sit idle between two batches of plates while the plan chooses its splits."""
+    jobs = [(ctx.faces[c.k].surface, ctx.faces[c.k].axis, c.girths, c.pair, ctx.tolerance, ctx.stock.min_length,
+             ctx.stock.min_width, None, ctx.yard) for c in cells]
+    return ctx.spread(_region_split, jobs) if ctx.spread is not None else [_region_split(j) for j in jobs]
 
 
 def _children(cell: Cell, split) -> list[Cell]:
@@ -352,12 +371,14 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
         nxt = []
+        splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
+        splits = dict(zip(map(id, splitting), _splits_of(splitting, ctx)))
         for cell in built:
             fits = _fits(cell)
             if fits or cell.depth >= plan.max_splits:
                 kept.append(_settle(cell, "fits" if fits else f"max_splits = {plan.max_splits}", plan.method))
                 continue
-            split = _split_of(cell, ctx)
+            split = splits[id(cell)]
             if split is None:
                 kept.append(_settle(cell, "no split keeps both halves within the minimum stock sizes", plan.method))
                 continue
