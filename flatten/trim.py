@@ -11,7 +11,7 @@ region's four corners by construction, whatever the family of rulings.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,7 +35,8 @@ class Mapped:
 
     lam : (N,) path fraction of each point's ruling; v : (N,) position along it
     on_strip : (N, 3) the closest points of the rulings' lines (v unclipped); distance : (N,)
-    |point - on_strip|; flat : (N, 2) their developed positions (the strip's development frame)
+    |point - on_strip|; flat : (N, 2) their developed positions (the strip's development frame;
+    None until :meth:`StripMap.developed`)
     nearest : (N, 3) the closest points of the strip itself (v clipped to its edges: a point
     a hair beyond a seam, as a hull's seam line is beyond a curve fitted to it, is on the seam)
     rulings : (N, 2) each point's ruling (t, T)
@@ -45,7 +46,7 @@ class Mapped:
     v: np.ndarray
     on_strip: np.ndarray
     distance: np.ndarray
-    flat: np.ndarray
+    flat: np.ndarray | None
     nearest: np.ndarray
     rulings: np.ndarray
 
@@ -203,13 +204,23 @@ class StripMap:
     def map(self, points: np.ndarray) -> tuple[Mapped, np.ndarray, np.ndarray]:
         """Mapped points, and the developed ends (K, 2) x 2 of this map's own rulings in the
         same frame."""
+        return self.developed(self.closest(points))
+
+    def closest(self, points: np.ndarray) -> Mapped:
+        """Points (N, 3) mapped onto the strip, not yet developed (``flat`` None): what a
+        verdict needs, before the development a strip that fails never gets."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         lam, v, rulings, a, b = self._locate(points)
         on_strip, nearest = a + v[:, None] * (b - a), a + np.clip(v, 0.0, 1.0)[:, None] * (b - a)
-        ac, ad = self.develop(rulings)
-        flat = ac + v[:, None] * (ad - ac)
+        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), None, nearest, rulings)
+
+    def developed(self, mapped: Mapped) -> tuple[Mapped, np.ndarray, np.ndarray]:
+        """The mapped points with their developed positions, and the developed ends (K, 2) x 2
+        of this map's own rulings in the same frame."""
+        ac, ad = self.develop(mapped.rulings)
+        flat = ac + mapped.v[:, None] * (ad - ac)
         own_c, own_d = self.own_development()
-        return Mapped(lam, v, on_strip, np.linalg.norm(points - on_strip, axis=1), flat, nearest, rulings), own_c, own_d
+        return replace(mapped, flat=flat), own_c, own_d
 
 
 def ruling_intervals(lam: np.ndarray, boundary_lam: np.ndarray, boundary_v: np.ndarray) -> np.ndarray:

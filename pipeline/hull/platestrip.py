@@ -237,7 +237,7 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     distance = hull.distance or SurfaceDistance(hull.surface)
     boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
     region = grid.points.reshape(-1, 3)
-    mapped, ac, ad = smap.map(np.vstack([region, boundary]))
+    mapped = smap.closest(np.vstack([region, boundary]))
     out.located = (np.vstack([region, boundary]), smap, mapped)
     n = len(region)
     on_hull = distance(mapped.on_strip)
@@ -268,6 +268,7 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     if corners.max() > corner_tolerance:
         out.reason = (f"strip incomplete: corner gaps {np.round(corners, 3).tolist()} (limit {corner_tolerance:g})")
         return out
+    mapped, ac, ad = smap.developed(mapped)
     flat = mapped.flat
     rulings3 = (pair.c(smap.rulings[:, 0]), pair.d(smap.rulings[:, 1]))
     normals = _strip_normals(pair.c, pair.d, smap.rulings)
