@@ -379,8 +379,9 @@ def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance
 
 def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, family: str,
                         corner_tolerance: float, figures: dict | None = None) -> Trim:
-    """The strip between curves c and d solved and developed, then trimmed by the plate's
-    region; ``figures`` are added to the trim's once the strip is solved."""
+    """The strip between curves c and d solved, checked and (unless the region's probe finds
+    it hopeless: :func:`hopeless`) developed, then trimmed by the plate's region; ``figures``
+    are added to the trim's once the strip is solved."""
     attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
     hull, probed = part.hull, Trim(family, attempt=attempt)
     smap = None
@@ -394,7 +395,10 @@ def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, fa
         return True
 
     if not develop_part(attempt, config, None, 0.0, screen):
-        return probed if probed.reason else Trim(family, reason=attempt.reason, attempt=attempt)
+        if probed.reason:
+            probed.figures.update(figures or {})
+            return probed
+        return Trim(family, reason=attempt.reason, attempt=attempt)
     trim = trim_by_region(attempt, part, grid, family, hull.fit_tolerance, corner_tolerance, config.mm_per_unit, smap)
     trim.figures.update(figures or {})
     return trim
