@@ -114,12 +114,13 @@ def height_field(vertices2: np.ndarray, heights: np.ndarray, faces: np.ndarray, 
         with np.errstate(divide="ignore", invalid="ignore"):
             u = (qa[..., 0] * (d[..., 1] - a[..., 1]) - (d[..., 0] - a[..., 0]) * qa[..., 1]) / det
             v = ((b[..., 0] - a[..., 0]) * qa[..., 1] - qa[..., 0] * (b[..., 1] - a[..., 1])) / det
-        inside = (det != 0) & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
+            inside = (det != 0) & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
         first = np.argmax(inside, axis=1)
         rows = np.arange(len(q))
         f = faces[c[rows, first]]
         uu, vv = u[rows, first], v[rows, first]
-        value = (1 - uu - vv) * heights[f[:, 0]] + uu * heights[f[:, 1]] + vv * heights[f[:, 2]]
+        with np.errstate(invalid="ignore"):  # a point no triangle holds (nan, degenerate ones inf): masked by found
+            value = (1 - uu - vv) * heights[f[:, 0]] + uu * heights[f[:, 1]] + vv * heights[f[:, 2]]
         return inside.any(axis=1), value
 
     def at(query):
