@@ -442,17 +442,22 @@ def _loads(blob: bytes, shared: list):
 
 def _pristine(result):
     """The cache's copy: its own figures and warnings (a plan writes its record into them)."""
-    import copy
+    return replace(result, figures=_copied(result.figures), warnings=list(result.warnings))
 
-    return replace(result, figures=copy.deepcopy(result.figures), warnings=list(result.warnings))
+
+def _copied(figures: dict) -> dict:
+    """A deep copy of a result's figures (plain data: nested dicts, lists, numbers, strings,
+    arrays) through pickle, several times faster than copy.deepcopy on them (KCS's plan:
+    3.9 s of the parent's serial time for 2000 copies)."""
+    import pickle
+
+    return pickle.loads(pickle.dumps(figures, protocol=pickle.HIGHEST_PROTOCOL))
 
 
 def _renamed(result, part):
     """A cached result for ``part`` (the same geometry, maybe another name)."""
-    import copy
-
     old = result.name
-    out = replace(result, name=part.name, part=part, figures=copy.deepcopy(result.figures),
+    out = replace(result, name=part.name, part=part, figures=_copied(result.figures),
                   warnings=[w.replace(old, part.name) for w in result.warnings],
                   reason=result.reason.replace(old, part.name))
     return out
