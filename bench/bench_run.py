@@ -1,0 +1,90 @@
+"""A whole hull run (`devflat run configs/HULL_shell.yaml --jobs 2`), this checkout against a
+baseline revision, interleaved round by round so that the machine's drift (these 2-core
+machines run the same plan 1.3-1.7 times slower one hour than the next) falls on both alike.
+
+    python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2]
+
+Each round runs both checkouts in fresh processes (``git archive REV`` for the baseline), in
+alternating order; per checkout it prints the wall time of each round and each stage's wall
+(CPU) seconds from the run's own ``time:`` line, the medians and the ratio this / baseline;
+the two runs' plans must agree (plates, classes and shares from the summary JSON; a plan that
+differs is printed and the exit code is 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+STAGE = re.compile(r"([a-z +]+?)(?: \d+ plates \(\d+ cached\))? ([\d.]+) s \(([\d.]+) CPU s\)")
+
+
+def one_run(root: Path, hull: str, jobs: int, out: Path) -> dict:
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "pipeline", "run", f"configs/{hull}_shell.yaml", "--jobs", str(jobs),
+                           "--out", str(out)], capture_output=True, text=True, env=env, cwd=root)
+    wall = time.perf_counter() - start
+    if done.returncode not in (0, 1):
+        sys.exit(f"bench_run: the run at {root} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    line = next((ln for ln in (done.stdout + done.stderr).splitlines() if ln.startswith("time:")), "")
+    stages = {name.strip(): (float(w), float(c)) for name, w, c in STAGE.findall(line[len("time:"):])}
+    summary = json.loads(next(out.glob("*_summary.json")).read_text())
+    plan = {"plates": len(summary["parts"]),
+            "classes": {p["id"]: p["class"] for p in summary["parts"]},
+            "shares": {k: round(v, 6) for k, v in summary["plan_cost"]["shares"].items()}}
+    return {"wall": wall, "stages": stages, "plan": plan}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--baseline", default="9d0000e", help="git revision to compare with (default: 9d0000e)")
+    parser.add_argument("--hull", default="hull160", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp) / "baseline"
+        base.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
+        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
+        runs = {"this": [], args.baseline: []}
+        for k in range(args.rounds):
+            order = (("this", ROOT), (args.baseline, base))
+            for label, root in order if k % 2 == 0 else order[::-1]:
+                runs[label].append(one_run(root, args.hull, args.jobs, Path(tmp) / f"{label}-{k}"))
+    print(f"{args.hull}: whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
+    for label, rounds in runs.items():
+        walls = [r["wall"] for r in rounds]
+        names = list(rounds[0]["stages"])
+        stages = "  ".join(f"{n} {statistics.median(r['stages'][n][0] for r in rounds):.1f} "
+                           f"({statistics.median(r['stages'][n][1] for r in rounds):.1f})" for n in names)
+        print(f"  {label:<10}" + "".join(f"{w:8.1f}" for w in walls) + f"   median {statistics.median(walls):7.1f}")
+        for k, r in enumerate(rounds):
+            print(f"  {'':<10}round {k + 1}: " + "  ".join(f"{n} {w:.1f} ({c:.1f})" for n, (w, c) in r["stages"].items()))
+        print(f"  {'':<10}median:  {stages}")
+    ratio = statistics.median(r["wall"] for r in runs["this"]) / statistics.median(r["wall"] for r in
+                                                                                   runs[args.baseline])
+    print(f"  this / {args.baseline}: {ratio:.2f}")
+    this, other = runs["this"][-1]["plan"], runs[args.baseline][-1]["plan"]
+    if this != other:
+        differ = [n for n in set(this["classes"]) | set(other["classes"])
+                  if this["classes"].get(n) != other["classes"].get(n)]
+        print(f"  plans differ: {this['plates']} plates here, {other['plates']} at {args.baseline}; shares "
+              f"{this['shares']} against {other['shares']}; {len(differ)} plates differ, e.g. {sorted(differ)[:5]}")
+        return 1
+    print(f"  the same plan: {this['plates']} plates, shares {this['shares']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
