@@ -5,8 +5,8 @@ on both alike.
 
     python bench/bench_evaluate.py [--baseline REV] [--hull hull160] [--every 4] [--rounds 3]
 
-The hull's shell config is planned uniform (the adaptive plan's first candidates); every
-``--every``-th plate is evaluated by ``pipeline.hull.plates.evaluate_plate`` in a fresh
+The hull's shell config (this checkout's, for both) is planned uniform (the adaptive plan's
+first candidates); every ``--every``-th plate is evaluated by ``pipeline.hull.plates.evaluate_plate`` in a fresh
 process per round and checkout (``git archive REV`` for the baseline), and the per-round CPU
 seconds, their medians and the ratio this / baseline are printed; the plates' classes must
 agree (a class that differs is printed, and the exit code is 1).
@@ -23,27 +23,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from bench_run import ROOT, baseline_checkout, interleaved, shell_config
 
 # what each round's process runs (ROOT and the arguments come from argv)
 WORKER = r"""
-import json, os, sys, tempfile, time
+import json, sys, time
 from pathlib import Path
-root, hull, every = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+root, config_path, every = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
 sys.path.insert(0, str(root))
-import yaml
 from pipeline.hull.plan import load_run
 from pipeline.hull.plates import evaluate_plate
-data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
-data["strake"]["plan"]["method"] = "uniform"
-for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
-    for key in ("iges", "model"):
-        if key in surface:
-            surface[key] = str((root / "configs" / surface[key]).resolve())
-with tempfile.TemporaryDirectory() as tmp:
-    path = Path(tmp) / f"{hull}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    config = load_run(path)
+config = load_run(config_path)
 parts = config.parts[::every]
 evaluate_plate(parts[0], config)  # untimed: the lazy imports and the surface's caches
 cpu = time.process_time()
@@ -52,9 +42,9 @@ print(json.dumps({"cpu": time.process_time() - cpu, "classes": classes, "names":
 """
 
 
-def one_round(root: Path, hull: str, every: int) -> dict:
+def one_round(root: Path, config: Path, every: int) -> dict:
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
-    out = subprocess.run([sys.executable, "-c", WORKER, str(root), hull, str(every)], capture_output=True,
+    out = subprocess.run([sys.executable, "-c", WORKER, str(root), str(config), str(every)], capture_output=True,
                          text=True, env=env, cwd=root)
     if out.returncode:
         sys.exit(f"bench_evaluate: the round at {root} failed:\n{out.stderr[-2000:]}")
@@ -69,17 +59,12 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        base = Path(tmp) / "baseline"
-        base.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
-        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
-        rows = {"this": [], args.baseline: []}
-        last = {}
-        for k in range(args.rounds):
-            for label, root in (("this", ROOT), (args.baseline, base)) if k % 2 == 0 else \
-                    ((args.baseline, base), ("this", ROOT)):
-                last[label] = one_round(root, args.hull, args.every)
-                rows[label].append(last[label]["cpu"])
+        tmp = Path(tmp)
+        config = shell_config(ROOT, args.hull, tmp, uniform=True)
+        runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
+                           lambda label, root, k: one_round(root, config, args.every))
+    rows = {label: [r["cpu"] for r in results] for label, results in runs.items()}
+    last = {label: results[-1] for label, results in runs.items()}
     n = len(last["this"]["classes"])
     print(f"{args.hull}: lean evaluation of {n} plates (every {args.every}th of the uniform plan), CPU s per round, "
           f"interleaved")

@@ -15,47 +15,18 @@ plates and their classes (a difference is printed, and the exit code is 1).
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import re
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-import yaml
-
-ROOT = Path(__file__).resolve().parents[1]
-STAGE = re.compile(r"export (\d+(?:\.\d+)?) s \((\d+(?:\.\d+)?) CPU s\)")
-
-
-def config_for(root: Path, hull: str, adaptive: bool, folder: Path) -> Path:
-    data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
-    if not adaptive:
-        data["strake"]["plan"]["method"] = "uniform"
-    for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
-        for key in ("iges", "model"):
-            if key in surface:
-                surface[key] = str((root / "configs" / surface[key]).resolve())
-    path = folder / f"{hull}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
+from bench_run import ROOT, baseline_checkout, interleaved, shell_config, whole_run
 
 
 def one_round(root: Path, config: Path, out: Path) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(root))
-    start = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "pipeline", "run", str(config), "--jobs", "2", "--out", str(out)],
-                         capture_output=True, text=True, env=env, cwd=root)
-    wall = time.perf_counter() - start
-    found = STAGE.search(run.stdout)
-    if run.returncode not in (0, 1) or found is None:
-        sys.exit(f"bench_export: the run at {root} failed (exit {run.returncode}):\n{run.stderr[-2000:]}")
-    summary = json.loads(next(out.glob("*_summary.json")).read_text())
-    classes = {p["id"]: p.get("class") for p in summary["parts"]}
-    return {"wall": float(found.group(1)), "cpu": float(found.group(2)), "run": wall, "classes": classes}
+    run = whole_run(root, config, 2, out)
+    wall, cpu = run["stages"]["export"]
+    return {"wall": wall, "cpu": cpu, "run": run["wall"], "classes": run["plan"]["classes"]}
 
 
 def main(argv=None) -> int:
@@ -67,16 +38,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        base = tmp / "baseline"
-        base.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
-        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
-        config = config_for(ROOT, args.hull, args.adaptive, tmp)
-        rows: dict[str, list[dict]] = {"this": [], args.baseline: []}
-        for k in range(args.rounds):
-            order = (("this", ROOT), (args.baseline, base))
-            for label, root in (order if k % 2 == 0 else order[::-1]):
-                rows[label].append(one_round(root, config, tmp / f"out-{label}-{k}"))
+        config = shell_config(ROOT, args.hull, tmp, uniform=not args.adaptive)
+        rows = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
+                           lambda label, root, k: one_round(root, config, tmp / f"out-{label}-{k}"))
     plan = "adaptive" if args.adaptive else "uniform"
     print(f"{args.hull} ({plan} plan, --jobs 2): export stage wall s per round, interleaved")
     medians = {}

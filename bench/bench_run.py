@@ -5,8 +5,9 @@ machines run the same plan 1.3-1.7 times slower one hour than the next) falls on
     python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2]
 
 Each round runs both checkouts in fresh processes (``git archive REV`` for the baseline), in
-alternating order; per checkout it prints the wall time of each round and each stage's wall
-(CPU) seconds from the run's own ``time:`` line, the medians and the ratio this / baseline;
+alternating order, on this checkout's shell config; per checkout it prints the wall time of
+each round and each stage's wall (CPU) seconds from the run's own ``time:`` line, the medians
+and the ratio this / baseline;
 the two runs' plans must agree (plates, classes and shares from the summary JSON; a plan that
 differs is printed and the exit code is 1).
 """
@@ -24,19 +25,60 @@ import tempfile
 import time
 from pathlib import Path
 
+import yaml
+
 ROOT = Path(__file__).resolve().parents[1]
 STAGE = re.compile(r"([a-z +]+?)(?: \d+ plates \(\d+ cached\))? ([\d.]+) s \(([\d.]+) CPU s\)")
 
 
-def one_run(root: Path, hull: str, jobs: int, out: Path) -> dict:
+def baseline_checkout(rev: str, folder: Path) -> Path:
+    """``git archive REV`` of this repository unpacked into ``folder`` / "baseline"."""
+    base = folder / "baseline"
+    base.mkdir()
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev], capture_output=True, check=True)
+    subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
+    return base
+
+
+def interleaved(rounds: int, checkouts: dict, one) -> dict:
+    """``one(label, root, k)`` for each checkout (label -> root) and round k, their order
+    turned round every other round; {label: [results]}."""
+    out = {label: [] for label in checkouts}
+    order = list(checkouts.items())
+    for k in range(rounds):
+        for label, root in order if k % 2 == 0 else order[::-1]:
+            out[label].append(one(label, root, k))
+    return out
+
+
+def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False) -> Path:
+    """The hull's shell config of the checkout at ``root`` written into ``folder`` with its
+    model files as absolute paths (both checkouts run the same config); ``uniform``: its
+    plan made uniform."""
+    data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
+    if uniform:
+        data["strake"]["plan"]["method"] = "uniform"
+    for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
+        for key in ("iges", "model"):
+            if key in surface:
+                surface[key] = str((root / "configs" / surface[key]).resolve())
+    path = folder / f"{hull}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def whole_run(root: Path, config: Path, jobs: int, out: Path) -> dict:
+    """``devflat run CONFIG --jobs N`` of the checkout at ``root`` in a fresh process: its wall
+    seconds, each stage's (wall, CPU) seconds from the run's ``time:`` line, and its plan
+    (plates, classes, shares) from the summary JSON."""
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "pipeline", "run", f"configs/{hull}_shell.yaml", "--jobs", str(jobs),
+    done = subprocess.run([sys.executable, "-m", "pipeline", "run", str(config), "--jobs", str(jobs),
                            "--out", str(out)], capture_output=True, text=True, env=env, cwd=root)
     wall = time.perf_counter() - start
-    if done.returncode not in (0, 1):
-        sys.exit(f"bench_run: the run at {root} failed ({done.returncode}):\n{done.stderr[-2000:]}")
-    line = next((ln for ln in (done.stdout + done.stderr).splitlines() if ln.startswith("time:")), "")
+    line = next((ln for ln in done.stdout.splitlines() if ln.startswith("time:")), None)
+    if done.returncode not in (0, 1) or line is None:
+        sys.exit(f"the run at {root} failed (exit {done.returncode}):\n{done.stderr[-2000:]}")
     stages = {name.strip(): (float(w), float(c)) for name, w, c in STAGE.findall(line[len("time:"):])}
     summary = json.loads(next(out.glob("*_summary.json")).read_text())
     plan = {"plates": len(summary["parts"]),
@@ -53,15 +95,10 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        base = Path(tmp) / "baseline"
-        base.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline], capture_output=True, check=True)
-        subprocess.run(["tar", "x", "-C", str(base)], input=archive.stdout, check=True)
-        runs = {"this": [], args.baseline: []}
-        for k in range(args.rounds):
-            order = (("this", ROOT), (args.baseline, base))
-            for label, root in order if k % 2 == 0 else order[::-1]:
-                runs[label].append(one_run(root, args.hull, args.jobs, Path(tmp) / f"{label}-{k}"))
+        tmp = Path(tmp)
+        config = shell_config(ROOT, args.hull, tmp)
+        runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
+                           lambda label, root, k: whole_run(root, config, args.jobs, tmp / f"{label}-{k}"))
     print(f"{args.hull}: whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
     for label, rounds in runs.items():
         walls = [r["wall"] for r in rounds]
@@ -70,7 +107,8 @@ def main(argv=None) -> int:
                            f"({statistics.median(r['stages'][n][1] for r in rounds):.1f})" for n in names)
         print(f"  {label:<10}" + "".join(f"{w:8.1f}" for w in walls) + f"   median {statistics.median(walls):7.1f}")
         for k, r in enumerate(rounds):
-            print(f"  {'':<10}round {k + 1}: " + "  ".join(f"{n} {w:.1f} ({c:.1f})" for n, (w, c) in r["stages"].items()))
+            per_stage = "  ".join(f"{n} {w:.1f} ({c:.1f})" for n, (w, c) in r["stages"].items())
+            print(f"  {'':<10}round {k + 1}: {per_stage}")
         print(f"  {'':<10}median:  {stages}")
     ratio = statistics.median(r["wall"] for r in runs["this"]) / statistics.median(r["wall"] for r in
                                                                                    runs[args.baseline])

@@ -351,7 +351,6 @@ class PlateEvaluator:
         the first batch of plates; the objects every plate shares travel as references, as
         plates do), else computed here in turn. ``func``: a module-level function. The
         workers' CPU seconds go into ``mapped_cpu_seconds``."""
-        import time
         from concurrent.futures.process import BrokenProcessPool
 
         if self._pool is None or len(items) < 2:

@@ -32,8 +32,8 @@ from flatten.trim import StripMap
 
 from ..config import Part, RunConfig
 from .region import extended_segment, seam_curve
-from .platestrip import (BOUNDARY_MM, BUTT_TO_BUTT, HOPELESS, MAP_RULINGS, SEAM_TO_SEAM, Trim, butt_family, _solved_and_trimmed,
-                         _strip_normals, region_boundary)
+from .platestrip import (BOUNDARY_MM, BUTT_TO_BUTT, HOPELESS, MAP_RULINGS, SEAM_TO_SEAM, Trim, butt_family,
+                         _solved_and_trimmed, _strip_normals, region_boundary)
 from ..io.sources import SourceError
 
 ROUNDS = 3  # re-solves of a best-fit strip at most

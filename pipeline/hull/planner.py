@@ -274,7 +274,7 @@ class _Context:
     mm_per_unit: float
     yard: bool
     stagger: float
-    spread: object = None  # spread(func, items): func over items on the evaluator's workers
+    spread: object  # spread(func, items): func over items on the evaluator's workers
 
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
@@ -313,9 +313,13 @@ def _uniform_weld_m(cells, ctx: _Context) -> float:
 
 
 def _split_of(cell: Cell, ctx: _Context, allow=None):
+    return _region_split(_split_job(cell, ctx, allow))
+
+
+def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
     face = ctx.faces[cell.k]
-    return _region_split((face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
-                          ctx.stock.min_width, allow, ctx.yard))
+    return (face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
+            ctx.stock.min_width, allow, ctx.yard)
 
 
 def _region_split(job: tuple):
@@ -332,9 +336,7 @@ def _region_split(job: tuple):
 def _splits_of(cells: list, ctx: _Context) -> list:
     """The best split of each cell (no butt rule), spread over the evaluator's workers: they
     sit idle between two batches of plates while the plan chooses its splits."""
-    jobs = [(ctx.faces[c.k].surface, ctx.faces[c.k].axis, c.girths, c.pair, ctx.tolerance, ctx.stock.min_length,
-             ctx.stock.min_width, None, ctx.yard) for c in cells]
-    return ctx.spread(_region_split, jobs) if ctx.spread is not None else [_region_split(j) for j in jobs]
+    return ctx.spread(_region_split, [_split_job(c, ctx) for c in cells])
 
 
 def _children(cell: Cell, split) -> list[Cell]:

@@ -237,8 +237,9 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
     distance = hull.distance or SurfaceDistance(hull.surface)
     boundary, edges = region_boundary(part, grid, BOUNDARY_MM / mm_per_unit)
     region = grid.points.reshape(-1, 3)
-    mapped = smap.closest(np.vstack([region, boundary]))
-    out.located = (np.vstack([region, boundary]), smap, mapped)
+    points = np.vstack([region, boundary])
+    mapped = smap.closest(points)
+    out.located = (points, smap, mapped)
     n = len(region)
     on_hull = distance(mapped.on_strip)
     gap = mapped.distance
@@ -253,17 +254,18 @@ def trim_by_region(attempt: PartResult, part: Part, grid: PatchGrid, family: str
         "hull_fit": {"max_distance": deviation, "region_to_strip_max": float(gap.max()),
                      "strip_to_hull_max": float(on_hull.max()),
                      "rms_distance": float(np.sqrt(np.mean(gap ** 2))), "tolerance": tolerance,
-                     "worst_point": np.vstack([region, boundary])[worst].tolist(),
+                     "worst_point": points[worst].tolist(),
                      "passed": bool(deviation <= tolerance),
                      "measured_on": f"{n} patch grid points and {len(boundary)} boundary points mapped onto the "
                                     "strip (closest points), and those strip points against the hull"},
         "completeness": {"corner_gaps": corners.tolist(), "corner_tolerance": corner_tolerance,
-                         "max_region_gap": float(gap.max()), "worst_region_point": np.vstack([region, boundary])[worst].tolist(), "tolerance": tolerance,
+                         "max_region_gap": float(gap.max()), "worst_region_point": points[worst].tolist(),
+                         "tolerance": tolerance,
                          "passed": bool(corners.max() <= corner_tolerance and gap.max() <= tolerance)},
     }
     if deviation > tolerance:
         out.reason = (f"plate deviates from the hull by {deviation:.4g} (tolerance {tolerance:g}) at "
-                      f"{np.round(np.vstack([region, boundary])[worst], 3).tolist()}")
+                      f"{np.round(points[worst], 3).tolist()}")
         return out
     if corners.max() > corner_tolerance:
         out.reason = (f"strip incomplete: corner gaps {np.round(corners, 3).tolist()} (limit {corner_tolerance:g})")
