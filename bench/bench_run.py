@@ -2,7 +2,7 @@
 baseline revision, interleaved round by round so that the machine's drift (these 2-core
 machines run the same plan 1.3-1.7 times slower one hour than the next) falls on both alike.
 
-    python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2]
+    python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2] [--objective weld1.5]
 
 Each round runs both checkouts in fresh processes (``git archive REV`` for the baseline), in
 alternating order, on this checkout's shell config; per checkout it prints the wall time of
@@ -51,13 +51,15 @@ def interleaved(rounds: int, checkouts: dict, one) -> dict:
     return out
 
 
-def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False) -> Path:
+def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, objective: dict | None = None) -> Path:
     """The hull's shell config of the checkout at ``root`` written into ``folder`` with its
     model files as absolute paths (both checkouts run the same config); ``uniform``: its
-    plan made uniform."""
+    plan made uniform; ``objective``: the plan's objective (bench_hull.py's names)."""
     data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
     if uniform:
         data["strake"]["plan"]["method"] = "uniform"
+    if objective is not None:
+        data["strake"]["plan"]["objective"] = objective
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):
             if key in surface:
@@ -93,13 +95,16 @@ def main(argv=None) -> int:
     parser.add_argument("--hull", default="hull160", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
     args = parser.parse_args(argv)
+    from bench_hull import objective_of
+
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        config = shell_config(ROOT, args.hull, tmp)
+        config = shell_config(ROOT, args.hull, tmp, objective=objective_of(args.objective))
         runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
                            lambda label, root, k: whole_run(root, config, args.jobs, tmp / f"{label}-{k}"))
-    print(f"{args.hull}: whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
+    print(f"{args.hull} (objective {args.objective}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
     for label, rounds in runs.items():
         walls = [r["wall"] for r in rounds]
         names = list(rounds[0]["stages"])

@@ -198,14 +198,15 @@ def test_jobs_2_writes_the_bytes_jobs_1_writes_for_an_adaptive_plan(tmp_path, ob
         assert one[name].read_bytes() == two[name].read_bytes(), name
 
 
-def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path):
-    """Without an objective the splits of a batch's plates that do not fit are chosen by the
-    evaluator's worker processes (idle while the plan chooses): their CPU is counted, and the
-    plan is the one a single process makes."""
+@pytest.mark.parametrize("objective", [None, {"maximise": "flat_strip", "weld_factor": 3.0}])
+def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path, objective):
+    """The splits of a batch's plates that do not fit are chosen by the evaluator's worker
+    processes (idle while the plan chooses), with an objective too (under each plate's butt
+    rule): their CPU is counted, and the plan is the one a single process makes."""
     from pipeline.runner import plate_evaluator
     from pipeline.validate import validate
 
-    config = _cs(tmp_path, "cs", "adaptive", None, max_splits=2)
+    config = _cs(tmp_path, "cs", "adaptive", objective, max_splits=2)
     with plate_evaluator(2) as two:
         spread = validate(config, two)
     with plate_evaluator(1) as one:
@@ -217,3 +218,48 @@ def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path)
         assert [None if x is None else (tuple(x.normal), x.offset) for x in a.hull.butts] == \
                [None if x is None else (tuple(x.normal), x.offset) for x in b.hull.butts]
         assert [g.g for g in a.hull.girths] == [g.g for g in b.hull.girths]
+
+
+def test_the_butt_rule_is_the_stagger_from_the_butts_across_the_seams_or_a_block_joint():
+    from pipeline.hull.yardrules import ButtRule
+
+    rule = ButtRule((1000.0, 5000.0), 300.0, (5000.0,))
+    assert not rule(1200.0) and not rule(800.0) and not rule(1000.0)  # a cross joint off the block joints
+    assert rule(1300.0) and rule(700.0) and rule(3000.0)
+    assert rule(5000.0)  # aligned on the block joint
+    assert not rule(5100.0) and rule(5300.0)
+    assert ButtRule((), 300.0, ())(1000.0)  # no plate across the seams: anything goes
+
+
+def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path, monkeypatch):
+    """A plate the objective does not split this round (the weld budget) asks for its split
+    again the next: it is chosen again only when the plates across its seams moved a butt
+    (its rule changed). The control forgets every split between rounds: it computes the same
+    jobs again, and plans the same plates."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    jobs = []
+    choose, under_rules = planner._region_split, planner._splits_under_rules
+
+    def counted(job):
+        surface, axis, girths, pair, *_, allow, strict = job
+        jobs.append((tuple(g.g for g in girths), tuple(None if p is None else p.offset for p in pair), allow))
+        return choose(job)
+
+    def plan(name):
+        jobs.clear()
+        with plate_evaluator(1) as evaluator:
+            parts = load_run(_cs(tmp_path, name, "adaptive", {"maximise": "flat_strip", "weld_factor": 1.5},
+                                 max_splits=2), evaluator).parts
+        return list(jobs), [(p.name.split("_", 1)[1], [None if b is None else b.offset for b in p.hull.butts],
+                             [g.g for g in p.hull.girths]) for p in parts]
+
+    monkeypatch.setattr(planner, "_region_split", counted)
+    kept, plates = plan("kept")
+    monkeypatch.setattr(planner, "_splits_under_rules", lambda cells, sides, chosen, ctx: under_rules(
+        cells, sides, {}, ctx))
+    forgotten, control = plan("forgot")
+    assert len(set(kept)) == len(kept) == len(set(forgotten)) < len(forgotten)
+    assert plates == control and len(plates) > 3

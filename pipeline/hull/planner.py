@@ -41,7 +41,7 @@ from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
 from .objective import PlanPoint, PlanRecord, split_priority, worth
 from .splitting import choose_split, sample_region
-from .yardrules import butt_allowed, seam_sides, stagger_of, yard_layout, yard_rules_on
+from .yardrules import butt_rule, seam_sides, stagger_of, yard_layout, yard_rules_on
 
 
 def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
@@ -312,8 +312,17 @@ def _uniform_weld_m(cells, ctx: _Context) -> float:
     return (w.seams + w.butts) * ctx.mm_per_unit / 1000.0
 
 
-def _split_of(cell: Cell, ctx: _Context, allow=None):
-    return _region_split(_split_job(cell, ctx, allow))
+def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context) -> dict:
+    """{id(cell): its best split} under each cell's butt rule in the current plan (``sides``;
+    None: no rule). A cell's split depends on nothing else, so ``chosen`` keeps it while its
+    rule stands (a plate not split this round asks again the next); the rest are chosen on
+    the evaluator's workers, which sit idle between two batches of plates."""
+    keys = [(id(c), None if sides is None else butt_rule(c.part, sides, ctx.stagger, ctx.plan.block_joints))
+            for c in cells]
+    missing = [(cell, key) for cell, key in zip(cells, keys) if key not in chosen]
+    for (cell, key), split in zip(missing, ctx.spread(_region_split, [_split_job(c, ctx, k[1]) for c, k in missing])):
+        chosen[key] = (cell, split)  # the cell stays referenced: its id is not reused
+    return {key[0]: chosen[key][1] for key in keys}
 
 
 def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
@@ -325,18 +334,12 @@ def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
 def _region_split(job: tuple):
     """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
     length and width, butt rule or None, strict width); module-level, so that the plan's
-    workers can compute it (:func:`_splits_of`)."""
+    workers can compute it (:func:`_splits_under_rules`)."""
     surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict = job
     sample = sample_region(surface, axis, girths, pair)
     if sample is None:
         return None
     return choose_split(sample, tolerance, min_length, min_width, allow, strict)
-
-
-def _splits_of(cells: list, ctx: _Context) -> list:
-    """The best split of each cell (no butt rule), spread over the evaluator's workers: they
-    sit idle between two batches of plates while the plan chooses its splits."""
-    return ctx.spread(_region_split, [_split_job(c, ctx) for c in cells])
 
 
 def _children(cell: Cell, split) -> list[Cell]:
@@ -374,7 +377,7 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
         nxt = []
         splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
-        splits = dict(zip(map(id, splitting), _splits_of(splitting, ctx)))
+        splits = _splits_under_rules(splitting, None, {}, ctx)
         for cell in built:
             fits = _fits(cell)
             if fits or cell.depth >= plan.max_splits:
@@ -432,6 +435,7 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
     ctx.record.weld_budget_m = budget if objective.weights is None else None
     ctx.record.add(0, len(leaves), weld, _share(leaves), False)
     done: set = set()  # ids of cells split no further
+    chosen: dict = {}  # (id(cell), its butt rule): (cell, its best split under the rule)
     round_ = 0
     while True:
         round_ += 1
@@ -443,14 +447,14 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             if _fits(cell):
                 _settle(cell, "fits", plan.method)
                 done.add(id(cell))
-                continue
-            if cell.depth >= plan.max_splits:
+            elif cell.depth >= plan.max_splits:
                 _settle(cell, f"max_splits = {plan.max_splits}", plan.method)
                 done.add(id(cell))
+        splits = _splits_under_rules([c for c in leaves if id(c) not in done], sides, chosen, ctx)
+        for cell in leaves:
+            if id(cell) in done:
                 continue
-            allow = None if sides is None else (
-                lambda x, part=cell.part: butt_allowed(x, part, sides, ctx.stagger, plan.block_joints))
-            split = _split_of(cell, ctx, allow)
+            split = splits[id(cell)]
             if split is None:
                 _settle(cell, "no split keeps both halves within the minimum stock sizes and the butt rule",
                         plan.method)

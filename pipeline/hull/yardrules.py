@@ -25,6 +25,8 @@ plus two staggers.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 DEFAULT_STAGGER_MM = 300.0
@@ -196,7 +198,37 @@ def butt_violations(parts, stagger: float, joints=(), eps: float = 1e-6) -> list
 def butt_allowed(x: float, part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> bool:
     """Whether a new butt x = ``x`` across ``part`` keeps the rule with the plates on the
     other side of its seams (``sides``: :func:`seam_sides` of the current plan)."""
+    return butt_rule(part, sides, stagger, joints, eps)(x)
+
+
+@dataclass(frozen=True)
+class ButtRule:
+    """The butt rule for one plate as numbers: a new butt at x keeps it when it lies at least
+    ``stagger`` from every butt in ``offsets`` (those of the plates across its seams that meet
+    them off the seams' ends), or on one of them at a block joint. Hashable and small: the
+    plan's workers check it (:func:`.planner._region_split`), and a plate's split is chosen
+    once per rule."""
+
+    offsets: tuple
+    stagger: float
+    joints: tuple
+    eps: float = 1e-6
+
+    def __call__(self, x: float) -> bool:
+        on_joint = any(abs(j - x) <= self.eps for j in self.joints)
+        for offset in self.offsets:
+            d = abs(offset - x)
+            if d < self.stagger - self.eps and not (d <= self.eps and on_joint):
+                return False
+        return True
+
+
+def butt_rule(part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> ButtRule:
+    """:class:`ButtRule` of ``part`` in the plan whose :func:`seam_sides` are ``sides``: the
+    butts of the plates across its seams that overlap it in x, where they meet the seam
+    between its ends."""
     lo, hi = _x_range(part)
+    offsets = set()
     for k, girth in enumerate(part.hull.girths):
         entry = sides.get(id(girth))
         if entry is None:
@@ -211,11 +243,7 @@ def butt_allowed(x: float, part, sides: dict, stagger: float, joints, eps: float
             a, b = _x_range(other)
             if b <= lo or a >= hi:
                 continue
-            for plane in other.hull.butts:
-                if plane is None or not start + eps < plane.offset < stop - eps:
-                    continue
-                d = abs(plane.offset - x)
-                on_joint = any(abs(j - x) <= eps for j in joints)
-                if d < stagger - eps and not (d <= eps and on_joint):
-                    return False
-    return True
+            offsets.update(plane.offset for plane in other.hull.butts
+                           if plane is not None and start + eps < plane.offset < stop - eps)
+    return ButtRule(tuple(sorted(float(o) for o in offsets)), float(stagger), tuple(float(j) for j in joints or ()),
+                    eps)
