@@ -135,3 +135,28 @@ def test_fit_up_mode_is_checked(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "fit_up" in err and "fix" in err and str(path) in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_held_plate_whose_seam_strip_keeps_its_edges_on_the_hull_stays_developable(tmp_path):
+    """A flat plate of the 160 m hull's bottom (seams v = 0.634 and 1.006, butts x = 101.25 and
+    106.67 m): flat within the tolerance on its minimax plane, whose edges leave the hull further
+    than half a 14 mm plate's step limit. Held for its fit-up it is not made a patch: the strip
+    between its seams fits the hull and its edges lie within the limit (its seams are on the
+    hull), so it is delivered as that strip, and says so."""
+    from pipeline.hull.plates import edge_deviation
+
+    path = shoulder(tmp_path, seams=[{"iso": {"v": 0.6337212004946159}}, {"iso": {"v": 1.006477178601899}}],
+                    butts=[101250.0, 106666.667])
+    config = load_run(path)
+    part, = config.parts
+    plain = evaluate_plate(part, config)
+    limit = 1.05
+    assert plain.figures["plate_class"]["class"] == "flat" and edge_deviation(plain) > 4 * limit
+    part.hull.held = {"reason": "fit-up repair: test", "edge_limit": limit}
+    held = evaluate_plate(part, config)
+    klass = held.figures["plate_class"]
+    assert klass["class"] == "developable" and klass["family"] == "rulings seam to seam"
+    assert "held for its fit-up" in klass["method"]
+    off = edge_deviation(held)
+    assert off is not None and off <= limit
+    assert held.figures["region"]["area_m2"] == pytest.approx(plain.figures["region"]["area_m2"], rel=1e-12)

@@ -241,6 +241,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                           f"orthogonal projection on the plane within the tolerance of the region that keeps its "
                           f"edges nearest the hull ({held.edge_max_distance:.3g} off, limit {edge_limit:.3g})")
             return
+    if edge_limit is not None and hull.developable and _edge_held_strip(result, config, grid, area3, corner_tol,
+                                                                        edge_limit):
+        return
     if patch_only:
         uv, iterations = arap_development(v3, f3)
         _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
@@ -254,29 +257,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                       {"plane_lower_bound": fit.lower_bound, "plane_proven_minimax": fit.proven,
                        "least_squares_max_distance": fit.least_squares_max})
         return
-    attempt = PartResult(part.name, part)
-    why = hull.note
-    seam_ok, seam_deviation = False, None
+    attempt, seam_ok, why, seam_deviation = PartResult(part.name, part), False, hull.note, None
     if hull.developable:
-        from .strake import corner_rulings, stage_trim
-
-        try:
-            ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0)
-            ok = ok and stage_trim(attempt, 0.0)
-            if attempt.strip is not None and attempt.strip.trim is not None:
-                # the strip mesh's edges are chords of the seams: allow its chord error on the region
-                chord = float(np.max(attempt.strip.max_chord_error))
-                check = completeness(attempt.strip.vertices, attempt.strip.faces, grid, tol + chord, corner_tol)
-                attempt.figures["completeness"] = check
-                if ok and not check["passed"]:
-                    ok = False
-                    attempt.reason = (f"strip incomplete: corner gaps {np.round(check['corner_gaps'], 2).tolist()} "
-                                      f"(limit {corner_tol:g}), largest gap to the region "
-                                      f"{check['max_region_gap']:.4g} (limit {tol + chord:g})")
-            seam_ok, why = ok, attempt.reason
-            seam_deviation = (attempt.figures.get("hull_fit") or {}).get("max_distance")
-        except Exception as exc:  # the strip attempt failed hard: the plate is still delivered
-            why = _raised(exc)
+        attempt, seam_ok, why, seam_deviation = _seam_strip(part, config, grid, tol, corner_tol)
     butt = Trim(BUTT_TO_BUTT)
     try:
         butt = butt_family(part, config, grid, corner_tol)
@@ -302,19 +285,8 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
         seam_deviation, attempt = seam.deviation, seam.attempt
     families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason}
     if seam_ok and (not butt.ok or seam_deviation <= butt.deviation):
-        region = result.figures["region"]
-        result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
-        result.figures["region"] = region
-        result.figures["plate_class"] = {
-            "class": "developable", "family": SEAM_TO_SEAM,
-            "method": "devflat strip between the seams (rulings seam to seam), trimmed by the butt planes",
-            "max_deviation": attempt.figures["hull_fit"]["max_distance"], "max_strain": 0.0,
-            "area_3d_m2": area3 * (mm / 1e3) ** 2, "complete": True,
-            "other_family": _other(BUTT_TO_BUTT, butt.reason or (f"fits within {butt.deviation:.4g}, the seam family "
-                                                                 f"within {seam_deviation:.4g}"))}
-        if is_lean(config):  # finish_part's verdict (it fails only by raising); its shop data owed
-            result.status = "ok"
-        owe(result, config, finish_part)
+        _deliver_seam_strip(result, config, attempt, area3, _other(BUTT_TO_BUTT, butt.reason or (
+            f"fits within {butt.deviation:.4g}, the seam family within {seam_deviation:.4g}")))
         return
     fitting = sorted((t for t in (seam, butt) if t.ok), key=lambda t: t.deviation)
     if fitting:
@@ -336,6 +308,77 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                     "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                     "strip_max_deviation": best[0]},
                    roll_strip, (length, width))
+
+
+def _seam_strip(part: Part, config: RunConfig, grid, tol: float, corner_tol: float) -> tuple:
+    """The strip between the plate's seams, cut by its butt planes, judged: (attempt, ok, why
+    not, its largest distance from the hull or None)."""
+    from .strake import corner_rulings, stage_trim
+
+    hull = part.hull
+    attempt = PartResult(part.name, part)
+    try:
+        ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0)
+        ok = ok and stage_trim(attempt, 0.0)
+        if attempt.strip is not None and attempt.strip.trim is not None:
+            # the strip mesh's edges are chords of the seams: allow its chord error on the region
+            chord = float(np.max(attempt.strip.max_chord_error))
+            check = completeness(attempt.strip.vertices, attempt.strip.faces, grid, tol + chord, corner_tol)
+            attempt.figures["completeness"] = check
+            if ok and not check["passed"]:
+                ok = False
+                attempt.reason = (f"strip incomplete: corner gaps {np.round(check['corner_gaps'], 2).tolist()} "
+                                  f"(limit {corner_tol:g}), largest gap to the region "
+                                  f"{check['max_region_gap']:.4g} (limit {tol + chord:g})")
+        return attempt, ok, attempt.reason, (attempt.figures.get("hull_fit") or {}).get("max_distance")
+    except Exception as exc:  # the strip attempt failed hard: the plate is still delivered
+        return attempt, False, _raised(exc), None
+
+
+def _deliver_seam_strip(result: PartResult, config: RunConfig, attempt: PartResult, area3: float,
+                        other: dict) -> None:
+    """The plate as its seam strip (``attempt``, judged by :func:`_seam_strip`)."""
+    region = result.figures["region"]
+    result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
+    result.figures["region"] = region
+    result.figures["plate_class"] = {
+        "class": "developable", "family": SEAM_TO_SEAM,
+        "method": "devflat strip between the seams (rulings seam to seam), trimmed by the butt planes",
+        "max_deviation": attempt.figures["hull_fit"]["max_distance"], "max_strain": 0.0,
+        "area_3d_m2": area3 * (config.mm_per_unit / 1e3) ** 2, "complete": True, "other_family": other}
+    if is_lean(config):  # finish_part's verdict (it fails only by raising); its shop data owed
+        result.status = "ok"
+    owe(result, config, finish_part)
+
+
+def _edge_held_strip(result: PartResult, config: RunConfig, grid, area3: float, corner_tol: float,
+                     edge_limit: float) -> bool:
+    """A plate held for its fit-up delivered as the strip between its seams when that fits the
+    hull and keeps every edge within ``edge_limit`` of it: the plain seam strip, or where its
+    rulings lean short of a corner (a near-flat plate) the strip between the seams extended
+    far past the butts, trimmed by the region. Its seam edges lie on the seams, on the hull;
+    its butt edges are off the hull's sections by the strip's own gap there. Whether it was
+    flat or a strip before, it stays developable (not a patch)."""
+    part = result.part
+    trial = PartResult(result.name, part)
+    trial.figures["region"] = result.figures["region"]
+    other = _other(BUTT_TO_BUTT, "not tried: the plate is held for its fit-up, and a seam strip's seam edges lie on "
+                                 "the hull")
+    attempt, ok, _, _ = _seam_strip(part, config, grid, part.hull.fit_tolerance, corner_tol)
+    if ok:
+        _deliver_seam_strip(trial, config, attempt, area3, other)
+    else:
+        far = seam_family_far(part, config, grid, corner_tol)
+        if not far.ok:
+            return False
+        _deliver_trimmed(trial, config, grid, far, area3, other)
+    off = edge_deviation(trial)
+    if off is None or off > edge_limit:
+        return False
+    trial.figures["plate_class"]["method"] += (f" (held for its fit-up: its edges {off:.3g} off the hull, "
+                                               f"limit {edge_limit:.3g})")
+    result.__dict__.update(trial.__dict__)
+    return True
 
 
 def _grid_edge(shape) -> np.ndarray:
@@ -408,8 +451,9 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
         "class": "developable", "family": trim.family,
         "method": ("devflat strip between the plate's butt sections (rulings butt to butt), trimmed by the seams"
                    if trim.family == BUTT_TO_BUTT else
-                   "devflat strip between the plate's seams (rulings seam to seam), trimmed by its butt and the "
-                   "hull's end") + " (the region's boundary mapped onto the strip and developed)",
+                   "devflat strip between the plate's seams (rulings seam to seam), trimmed by " +
+                   ("its butt and the hull's end" if None in result.part.hull.butts else "its butts")) +
+                  " (the region's boundary mapped onto the strip and developed)",
         "best_fit": trim.figures.get("best_fit"), "seams_extended": trim.figures.get("seams_extended"),
         "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (config.mm_per_unit / 1e3) ** 2,
         "complete": True, "other_family": other}

@@ -133,9 +133,10 @@ def _to_hold(pair, records: dict, mm: float, round_no: int) -> list:
                 "step_limit_mm": pair.limit,
                 "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
                           f"{other}'s with a {why}"}
-        if klass == "flat" and not records[name][1].hull.held:
-            # a flat plate first tries the plane that keeps its edges nearest the hull: within
-            # half the pair's limit, two such neighbours stay within it
+        if not records[name][1].hull.held:
+            # a plate held the first time first tries what keeps its edges nearest the hull, a
+            # flat one the plane that does, any the strip between its seams (they lie on the
+            # hull): within half the pair's limit, two such neighbours stay within it
             held["edge_limit"] = 0.5 * pair.limit / mm
         out.append((name, held))
     return out
