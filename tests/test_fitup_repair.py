@@ -80,10 +80,12 @@ def test_the_run_reports_the_repair_in_its_summary_and_console(tmp_path, capsys)
     summary = json.loads((tmp_path / "out" / "fit_summary.json").read_text())
     repair = summary["shell"]["repair"]
     assert repair["plates_held"] == 4 and repair["rounds"][0]["misfits"] == 4
+    assert repair["held_kept_flat_or_strip"] == []  # neither plane nor strip keeps these edges near the hull
     assert summary["shell"]["misfits"] == 0
     part = json.loads((tmp_path / "out" / "fit_S1_B1.json").read_text())
     assert part["edge_fit"]["rule"] == "strake.fit_up: repair"
-    assert "fit-up repair: 4 misfit pair(s) found, 4 plate(s)" in capsys.readouterr().out
+    assert "fit-up repair: 4 misfit pair(s) found, 4 plate(s) held in 1 round(s) (0 kept flat or as a strip" in \
+        capsys.readouterr().out
 
 
 def _record(name, klass, off_mm, held=None):

@@ -8,8 +8,11 @@ shared edge, more than a butt or seam may be misaligned by (IACS Rec. 47: 0.15 t
 neighbour is the neighbour's own distance from the hull there.
 
 The repair takes every misfit pair of the measured fit-up (:func:`.fitup.shared_edges`): the
-plate whose edge lies further from the hull is developed on the hull; when the other's edge is
-still further from it than the pair's limit, that plate too. A pair whose developed lengths
+plate whose edge lies further from the hull is held; when the other's edge is still further
+from it than the pair's limit, that plate too. A plate held the first time keeps what keeps
+its edges within half the pair's limit of the hull: a flat plate the plane that does, any
+plate the strip between its seams (its seam edges are the seams, on the hull) when that fits;
+else, and when held again, it is developed on the hull. A pair whose developed lengths
 disagree (two isometric plates) is repaired the same way: a patch is not held to its
 neighbour's length. The plates held change their other edges too (they now lie on the hull),
 so the pairs are measured again, for a few rounds. A pair of which neither plate can be held
@@ -29,13 +32,16 @@ import numpy as np
 from flatten.closest import SurfaceDistance
 
 from .fitup import plate_edges, shared_edges
+from .planner import honest_class
 
 ROUNDS = 4  # measure, hold, evaluate again: rounds at most
 HOLDABLE = ("flat", "developable")  # classes whose edges may leave the hull (a patch's lie on it)
 RULE = ("a plate whose edge steps from a neighbour's by more than min(0.15 t, 3 mm), or two flat/strip "
         "neighbours whose developed lengths differ by more than 1 mm: the plate whose edge lies further from the "
-        "hull is developed on the hull (a patch), and the other too when its edge is still further from the hull "
-        "than the pair's limit; measured again after each round")
+        "hull is held, and the other too when its edge is still further from the hull than the pair's limit; a plate "
+        "held the first time stays flat on the plane that keeps its edges within half the pair's limit, or becomes "
+        "the strip between its seams if that fits and keeps them so, else it is developed on the hull (a patch); "
+        "measured again after each round")
 
 
 @dataclass
@@ -45,20 +51,24 @@ class RepairReport:
 
     rounds: list = field(default_factory=list)
     unrepaired: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
+    kept: list = field(default_factory=list)  # held plates delivered flat or as a strip in the end (edges held)
 
     @property
     def held(self) -> list:
         return [name for r in self.rounds for name in r["held"]]
 
     def as_dict(self) -> dict:
-        return {"rule": RULE, "plates_held": len(self.held), "rounds": self.rounds,
+        return {"rule": RULE, "plates_held": len(self.held), "held_kept_flat_or_strip": self.kept, "rounds": self.rounds,
                 "unrepaired": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                                for a, b, label, step in self.unrepaired]}
 
     def one_line(self) -> str:
         misfits = self.rounds[0]["misfits"] if self.rounds else 0
-        return (f"fit-up repair: {misfits} misfit pair(s) found, {len(self.held)} plate(s) developed on the hull in "
-                f"{sum(1 for r in self.rounds if r['held'])} round(s), {len(self.unrepaired)} pair(s) left")
+        plates = len(set(self.held))
+        return (f"fit-up repair: {misfits} misfit pair(s) found, {plates} plate(s) held in "
+                f"{sum(1 for r in self.rounds if r['held'])} round(s) ({len(self.kept)} kept flat or as a strip with "
+                f"their edges near the hull, {plates - len(self.kept)} developed on it), "
+                f"{len(self.unrepaired)} pair(s) left")
 
 
 def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float) -> RepairReport:
@@ -99,6 +109,7 @@ def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
             by_name[name].hull.held = held
             by_name[name].hull.result = None
         _evaluate([by_name[name] for name in chosen], evaluate_many)
+    report.kept = sorted(name for name in set(report.held) if honest_class(by_name[name].hull.result) in HOLDABLE)
     return report
 
 
