@@ -327,7 +327,9 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
     if any(r.part.hull is not None for r in results):  # a strake or hull: what the plan costs
         from .hull.cost import plan_cost
 
-        cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit).as_dict()
+        stock = getattr(getattr(config.spec.strake, "plan", None), "stock", None)
+        cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit,
+                         None if stock is None else stock.min_width).as_dict()
     write_text(written[0], summary_csv(results))
     extra = {} if cost is None else {"plan_cost": cost}
     if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)

@@ -134,7 +134,10 @@ class PlanCost:
     """The plan as a yard judges it. Lengths m, areas m^2; ``narrowest`` is the plate whose
     largest girth width is least (the stock width it needs), with that width and its least
     width (a plate tapering to the stem reaches 0 there); ``shares`` the shell area per
-    class (flat, strip, rolled, formed, failed) in m^2 and as fractions."""
+    class (flat, strip, rolled, formed, failed) in m^2 and as fractions; ``narrower_than_stock``
+    the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
+    that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
+    first."""
 
     plates: int
     shell_area_m2: float
@@ -146,14 +149,15 @@ class PlanCost:
     narrowest: dict
     shares: dict
     share_area_m2: dict
+    narrower_than_stock: list
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
-def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float) -> PlanCost:
+def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
-    from :func:`plate_edges`)."""
+    from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any."""
     metre = mm_per_unit / 1000.0
     sampled = [edges[r.name] for r in results if edges.get(r.name) is not None]
     weld = weld_lengths(sampled)
@@ -161,15 +165,18 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float) -> Plan
     for r in results:
         area[SHARE_NAMES[display_class(r)]] += shell_area(r)
     total = sum(area.values())
-    narrow = None
+    narrow, below = None, []
     for plate in sampled:
         widths = plate.widths()
         if narrow is None or widths.max() < narrow[1]:
             narrow = (plate.name, float(widths.max()), float(widths.min()))
+        if min_width is not None and widths.max() < min_width:
+            below.append((float(widths.max()), plate.name))
     seams, butts = weld.seams * metre, weld.butts * metre
     return PlanCost(
         plates=len(results), shell_area_m2=total, seam_weld_m=seams, butt_weld_m=butts, weld_m=seams + butts,
         weld_per_m2=(seams + butts) / total if total > 0 else float("nan"), boundary_m=weld.boundary * metre,
         narrowest=None if narrow is None else {"plate": narrow[0], "width_m": narrow[1] * metre,
                                                 "least_width_m": narrow[2] * metre},
-        shares={k: (v / total if total > 0 else 0.0) for k, v in area.items()}, share_area_m2=area)
+        shares={k: (v / total if total > 0 else 0.0) for k, v in area.items()}, share_area_m2=area,
+        narrower_than_stock=[{"plate": name, "width_m": width * metre} for width, name in sorted(below)])
