@@ -61,7 +61,6 @@ def export_part(result: PartResult, config: RunConfig, out_dir: Path) -> list[Pa
     for path, target, args in previews:
         render(target, path, *args)
     if result.ok:
-        scale = config.mm_per_unit
         pattern = result.pattern
         if out.dxf and config.spec.profile == "steel":
             from .shop.dxf import write_steel_dxf  # ezdxf: imported only when a steel DXF is written

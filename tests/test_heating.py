@@ -7,7 +7,6 @@ workshop method scales the development so that every strain has one sign.
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -2,7 +2,6 @@
 and edge names, part data), moved with the part, and the part ids cross no bending line."""
 
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 import pytest

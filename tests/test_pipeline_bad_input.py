@@ -1,7 +1,6 @@
 """Bad configurations exit 2 with a message naming the file, the field and the value,
 and leave no file behind."""
 
-from pathlib import Path
 
 import pytest
 import yaml

@@ -18,7 +18,7 @@ import yaml
 import pipeline.export
 import pipeline.hull.plates
 from pipeline.cli import main
-from pipeline.outdir import LOCK_NAME, STAGING_PREFIX, OutputError, OutputFolder
+from pipeline.outdir import LOCK_NAME, STAGING_PREFIX, OutputFolder
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIP = ROOT / "tests" / "data" / "ship"

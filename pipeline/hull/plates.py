@@ -471,7 +471,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     principal strain times the plate's largest dimension (how far an edge point of the flat
     plate, bent onto the hull without stretching, can land from its place) stays within the
     fit tolerance needs rolling only (no line heating): ``rolling_only`` says so."""
-    part, hull = result.part, result.part.hull
+    hull = result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
     shape = grid.shape

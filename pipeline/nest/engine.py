@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon, box
+from shapely.geometry import Polygon
 
 from flatten.errors import DevflatError
 from flatten.tolerances import DEFAULT_TOLERANCES, Tolerances

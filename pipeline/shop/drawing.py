@@ -31,7 +31,7 @@ import numpy as np
 from ..io.atomic import atomic_path
 from ..renderproc import render
 from .paper import (CAP, DESCENT, GAP, H_HEAD, H_LABEL, H_TITLE, PITCH, Label, PaperPlacer, axis_angle, beyond,
-                    label_in, size_of, text_width, unit)
+                    size_of, text_width, unit)
 
 PAPERS = (("A4", 297.0, 210.0), ("A3", 420.0, 297.0))  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 5000)
@@ -293,7 +293,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     frame_names = _frame_names(layout)
     bands = _bands(rows, frame_names, list(edges))
     columns = _table_columns(rows) if rows else np.zeros(len(TABLE_HEAD))
-    data = [f"SCALE 1:{{scale}}   {{paper}} LANDSCAPE   DIMENSIONS IN MM   "
+    data = ["SCALE 1:{scale}   {paper} LANDSCAPE   DIMENSIONS IN MM   "
             "PLATE LAID LENGTHWISE, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
     if rows and np.isfinite(rows[0].on_c):
         data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "

@@ -12,11 +12,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
-from shapely.ops import polylabel, substring, unary_union
+from shapely.ops import polylabel, substring
 
 from flatten.develop import develop
 
-from ..config import ConfigError, Part, Textile
+from ..config import ConfigError, Textile
 from .notchtypes import opening
 from .seams import ruling_through
 from ..stages import PartResult
