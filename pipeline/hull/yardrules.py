@@ -195,12 +195,6 @@ def butt_violations(parts, stagger: float, joints=(), eps: float = 1e-6) -> list
     return sorted(set(bad))
 
 
-def butt_allowed(x: float, part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> bool:
-    """Whether a new butt x = ``x`` across ``part`` keeps the rule with the plates on the
-    other side of its seams (``sides``: :func:`seam_sides` of the current plan)."""
-    return butt_rule(part, sides, stagger, joints, eps)(x)
-
-
 @dataclass(frozen=True)
 class ButtRule:
     """The butt rule for one plate as numbers: a new butt at x keeps it when it lies at least
