@@ -119,7 +119,8 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     from pipeline.hull.expansion import shell_edges, write_expansion
 
     edges = shell_edges(results)
-    cost = plan_cost(results, edges, config.mm_per_unit)
+    stock = getattr(getattr(config.spec.strake, "plan", None), "stock", None)
+    cost = plan_cost(results, edges, config.mm_per_unit, None if stock is None else stock.min_width)
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
                                                                          f"_{objective}")

@@ -162,3 +162,40 @@ def test_a_held_plate_whose_seam_strip_keeps_its_edges_on_the_hull_stays_develop
     off = edge_deviation(held)
     assert off is not None and off <= limit
     assert held.figures["region"]["area_m2"] == pytest.approx(plain.figures["region"]["area_m2"], rel=1e-12)
+
+
+def test_a_held_bottom_plate_is_kept_as_its_seam_strip_and_its_neighbour_then_fits(tmp_path):
+    """Two plates of the 160 m hull's bottom (seams v = 0.634, 1.006, 1.2; butts x = 101.25 and
+    106.67 m): the flat one steps from its strip neighbour by more than 2.1 mm at their seam.
+    The repair holds it and keeps it developable (its seam strip), and the pair fits; the
+    report names it as kept."""
+    seams = [{"iso": {"v": v}} for v in (0.6337212004946159, 1.006477178601899, 1.2)]
+    for folder in ("report", "repair"):
+        (tmp_path / folder).mkdir()
+    plain = load_run(shoulder(tmp_path / "report", seams=seams, butts=[101250.0, 106666.667]), evaluate_plate)
+    results = [run_part(part, plain) for part in plain.parts]
+    before = shell_fitup(results, plain)
+    assert [r.figures["plate_class"]["class"] for r in results] == ["flat", "developable"]
+    assert [q.misfit for q in before.pairs] == [True]
+    config = load_run(shoulder(tmp_path / "repair", seams=seams, butts=[101250.0, 106666.667], fit_up="repair"),
+                      evaluate_plate)
+    report = config.fitup_repair
+    assert report.held == ["fit_S1_B1"] and report.kept == ["fit_S1_B1"] and not report.unrepaired
+    assert "1 kept flat or as a strip" in report.one_line()
+    results = [run_part(part, config) for part in config.parts]
+    after = shell_fitup(results, config)
+    assert [q.misfit for q in after.pairs] == [False] and after.pairs[0].step_max < 2.1
+    klass = results[0].figures["plate_class"]
+    assert klass["class"] == "developable" and "held for its fit-up" in klass["method"]
+
+
+@pytest.mark.parametrize("klass, step, mismatch, limited", [
+    ("developable", 4.0, 0.0, True),  # a step: its seam strip may keep its edges on the hull
+    ("developable", 1.0, 2.0, False),  # its developed length alone: the same strip would come back
+    ("flat", 1.0, 2.0, True),  # a flat plate tries the edge-held plane (and its seam strip)
+])
+def test_a_plate_held_the_first_time_gets_an_edge_limit_where_it_may_keep_its_class(klass, step, mismatch, limited):
+    records = dict([_record("a", "developable", 0.5), _record("b", klass, step)])
+    picked = dict(_to_hold(_pair(step, mismatch=mismatch), records, 1.0, 1))
+    assert list(picked) == ["b"]
+    assert ("edge_limit" in picked["b"]) == limited

@@ -353,8 +353,8 @@ def _deliver_seam_strip(result: PartResult, config: RunConfig, attempt: PartResu
 
 def _edge_held_strip(result: PartResult, config: RunConfig, grid, area3: float, corner_tol: float,
                      edge_limit: float) -> bool:
-    """A plate held for its fit-up delivered as the strip between its seams when that fits the
-    hull and keeps every edge within ``edge_limit`` of it: the plain seam strip, or where its
+    """An interior plate held for its fit-up delivered as the strip between its seams when that
+    fits the hull and keeps every edge within ``edge_limit`` of it: the plain seam strip, or where its
     rulings lean short of a corner (a near-flat plate) the strip between the seams extended
     far past the butts, trimmed by the region. Its seam edges lie on the seams, on the hull;
     its butt edges are off the hull's sections by the strip's own gap there. Whether it was
@@ -364,15 +364,19 @@ def _edge_held_strip(result: PartResult, config: RunConfig, grid, area3: float, 
     trial.figures["region"] = result.figures["region"]
     other = _other(BUTT_TO_BUTT, "not tried: the plate is held for its fit-up, and a seam strip's seam edges lie on "
                                  "the hull")
-    attempt, ok, _, _ = _seam_strip(part, config, grid, part.hull.fit_tolerance, corner_tol)
-    if ok:
-        _deliver_seam_strip(trial, config, attempt, area3, other)
-    else:
-        far = seam_family_far(part, config, grid, corner_tol)
-        if not far.ok:
-            return False
-        _deliver_trimmed(trial, config, grid, far, area3, other)
-    off = edge_deviation(trial)
+    try:
+        attempt, ok, _, _ = _seam_strip(part, config, grid, part.hull.fit_tolerance, corner_tol)
+        if ok:
+            _deliver_seam_strip(trial, config, attempt, area3, other)
+        else:
+            far = seam_family_far(part, config, grid, corner_tol)
+            if not far.ok:
+                return False
+            _deliver_trimmed(trial, config, grid, far, area3, other)
+        off = edge_deviation(trial)
+    except Exception as exc:  # as a family that raises in the plate's own run: no strip, the patch follows
+        result.figures["edge_held_strip_error"] = _raised(exc)
+        return False
     if off is None or off > edge_limit:
         return False
     trial.figures["plate_class"]["method"] += (f" (held for its fit-up: its edges {off:.3g} off the hull, "

@@ -10,9 +10,9 @@ neighbour is the neighbour's own distance from the hull there.
 The repair takes every misfit pair of the measured fit-up (:func:`.fitup.shared_edges`): the
 plate whose edge lies further from the hull is held; when the other's edge is still further
 from it than the pair's limit, that plate too. A plate held the first time keeps what keeps
-its edges within half the pair's limit of the hull: a flat plate the plane that does, any
-plate the strip between its seams (its seam edges are the seams, on the hull) when that fits;
-else, and when held again, it is developed on the hull. A pair whose developed lengths
+its edges within half the pair's limit of the hull: a flat plate the plane that does, an
+interior plate held for a step the strip between its seams (its seam edges are the seams, on
+the hull) when that fits; else, and when held again, it is developed on the hull. A pair whose developed lengths
 disagree (two isometric plates) is repaired the same way: a patch is not held to its
 neighbour's length. The plates held change their other edges too (they now lie on the hull),
 so the pairs are measured again, for a few rounds. A pair of which neither plate can be held
@@ -39,8 +39,9 @@ HOLDABLE = ("flat", "developable")  # classes whose edges may leave the hull (a 
 RULE = ("a plate whose edge steps from a neighbour's by more than min(0.15 t, 3 mm), or two flat/strip "
         "neighbours whose developed lengths differ by more than 1 mm: the plate whose edge lies further from the "
         "hull is held, and the other too when its edge is still further from the hull than the pair's limit; a plate "
-        "held the first time stays flat on the plane that keeps its edges within half the pair's limit, or becomes "
-        "the strip between its seams if that fits and keeps them so, else it is developed on the hull (a patch); "
+        "held the first time stays flat on the plane that keeps its edges within half the pair's limit, or (an "
+        "interior plate held for a step) becomes the strip between its seams if that fits and keeps them so, else "
+        "it is developed on the hull (a patch); "
         "measured again after each round")
 
 
@@ -58,7 +59,8 @@ class RepairReport:
         return [name for r in self.rounds for name in r["held"]]
 
     def as_dict(self) -> dict:
-        return {"rule": RULE, "plates_held": len(self.held), "held_kept_flat_or_strip": self.kept, "rounds": self.rounds,
+        return {"rule": RULE, "plates_held": len(set(self.held)), "held_kept_flat_or_strip": self.kept,
+                "rounds": self.rounds,
                 "unrepaired": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                                for a, b, label, step in self.unrepaired]}
 
@@ -144,10 +146,11 @@ def _to_hold(pair, records: dict, mm: float, round_no: int) -> list:
                 "step_limit_mm": pair.limit,
                 "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
                           f"{other}'s with a {why}"}
-        if not records[name][1].hull.held:
+        if not records[name][1].hull.held and (klass == "flat" or stepped):
             # a plate held the first time first tries what keeps its edges nearest the hull, a
-            # flat one the plane that does, any the strip between its seams (they lie on the
-            # hull): within half the pair's limit, two such neighbours stay within it
+            # flat one the plane that does, an interior one the strip between its seams (they
+            # lie on the hull): within half the pair's limit, two such neighbours stay within
+            # it. (A strip held for its developed length alone would come back the same strip.)
             held["edge_limit"] = 0.5 * pair.limit / mm
         out.append((name, held))
     return out

@@ -239,5 +239,5 @@ def butt_rule(part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> B
                 continue
             offsets.update(plane.offset for plane in other.hull.butts
                            if plane is not None and start + eps < plane.offset < stop - eps)
-    return ButtRule(tuple(sorted(float(o) for o in offsets)), float(stagger), tuple(float(j) for j in joints or ()),
-                    eps)
+    return ButtRule(tuple(sorted(float(o) for o in offsets)), float(stagger),
+                    tuple(float(j) for j in (() if joints is None else joints)), eps)
