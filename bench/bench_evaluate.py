@@ -14,7 +14,6 @@ agree (a class that differs is printed, and the exit code is 1).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -23,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench_run import ROOT, baseline_checkout, interleaved, shell_config
+from bench_run import ROOT, baseline_checkout, comparison_parser, interleaved, shell_config
 
 # what each round's process runs (ROOT and the arguments come from argv)
 WORKER = r"""
@@ -52,11 +51,8 @@ def one_round(root: Path, config: Path, every: int) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--baseline", default="bd359ea", help="git revision to compare with (default: bd359ea)")
-    parser.add_argument("--hull", default="hull160", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
+    parser = comparison_parser(__doc__, "bd359ea", rounds=3)
     parser.add_argument("--every", type=int, default=4)
-    parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

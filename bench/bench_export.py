@@ -14,13 +14,12 @@ plates and their classes (a difference is printed, and the exit code is 1).
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import tempfile
 from pathlib import Path
 
-from bench_run import ROOT, baseline_checkout, interleaved, shell_config, whole_run
+from bench_run import ROOT, baseline_checkout, comparison_parser, interleaved, shell_config, whole_run
 
 
 def one_round(root: Path, config: Path, out: Path) -> dict:
@@ -30,10 +29,7 @@ def one_round(root: Path, config: Path, out: Path) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--baseline", default="29f5478", help="git revision to compare with (default: 29f5478)")
-    parser.add_argument("--hull", default="kcs", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
-    parser.add_argument("--rounds", type=int, default=2)
+    parser = comparison_parser(__doc__, "29f5478", hull="kcs")
     parser.add_argument("--adaptive", action="store_true", help="the shell config's own (adaptive) plan")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:

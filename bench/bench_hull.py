@@ -115,12 +115,11 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
         if r.ok and name in ("patch", "formed"):
             worst_strain = max(worst_strain, klass.get("max_strain") or 0.0)
     total = sum(areas.values())
-    from pipeline.hull.cost import plan_cost
+    from pipeline.hull.cost import plan_cost, stock_min_width
     from pipeline.hull.expansion import shell_edges, write_expansion
 
     edges = shell_edges(results)
-    stock = getattr(getattr(config.spec.strake, "plan", None), "stock", None)
-    cost = plan_cost(results, edges, config.mm_per_unit, None if stock is None else stock.min_width)
+    cost = plan_cost(results, edges, config.mm_per_unit, stock_min_width(config.spec))
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
                                                                          f"_{objective}")

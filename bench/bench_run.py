@@ -89,11 +89,17 @@ def whole_run(root: Path, config: Path, jobs: int, out: Path) -> dict:
     return {"wall": wall, "stages": stages, "plan": plan}
 
 
+def comparison_parser(doc: str, baseline: str, hull: str = "hull160", rounds: int = 2) -> argparse.ArgumentParser:
+    """The options every bench against a baseline revision takes: --baseline, --hull, --rounds."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument("--baseline", default=baseline, help=f"git revision to compare with (default: {baseline})")
+    parser.add_argument("--hull", default=hull, choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
+    parser.add_argument("--rounds", type=int, default=rounds)
+    return parser
+
+
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--baseline", default="9d0000e", help="git revision to compare with (default: 9d0000e)")
-    parser.add_argument("--hull", default="hull160", choices=["hull160", "dtmb5415", "kvlcc2", "kcs"])
-    parser.add_argument("--rounds", type=int, default=2)
+    parser = comparison_parser(__doc__, "9d0000e")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
     args = parser.parse_args(argv)

@@ -155,6 +155,12 @@ class PlanCost:
         return asdict(self)
 
 
+def stock_min_width(spec) -> float | None:
+    """The least stock width (config units) of a run's plan, None when it plans no stock."""
+    stock = getattr(getattr(spec.strake, "plan", None), "stock", None)
+    return None if stock is None else stock.min_width
+
+
 def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
     from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any."""

@@ -12,9 +12,9 @@ plate whose edge lies further from the hull is held; when the other's edge is st
 from it than the pair's limit, that plate too. A plate held the first time keeps what keeps
 its edges within half the pair's limit of the hull: a flat plate the plane that does, an
 interior plate held for a step the strip between its seams (its seam edges are the seams, on
-the hull) when that fits; else, and when held again, it is developed on the hull. A pair whose developed lengths
-disagree (two isometric plates) is repaired the same way: a patch is not held to its
-neighbour's length. The plates held change their other edges too (they now lie on the hull),
+the hull) when that fits; else, and when held again, it is developed on the hull. A pair
+whose developed lengths disagree (two isometric plates) is repaired the same way: a patch is
+not held to its neighbour's length. The plates held change their other edges too (they now lie on the hull),
 so the pairs are measured again, for a few rounds. A pair of which neither plate can be held
 (both patches already: plates on two faces that do not meet) stays as the fit-up reports it.
 
@@ -41,8 +41,7 @@ RULE = ("a plate whose edge steps from a neighbour's by more than min(0.15 t, 3 
         "hull is held, and the other too when its edge is still further from the hull than the pair's limit; a plate "
         "held the first time stays flat on the plane that keeps its edges within half the pair's limit, or (an "
         "interior plate held for a step) becomes the strip between its seams if that fits and keeps them so, else "
-        "it is developed on the hull (a patch); "
-        "measured again after each round")
+        "it is developed on the hull (a patch); measured again after each round")
 
 
 @dataclass
