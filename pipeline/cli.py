@@ -193,8 +193,9 @@ def _run(args, early) -> int:
             print(printout_line(printed, run_name(config)))
         if shell is not None:
             print(shell.one_line())
-        if config.fitup_repair is not None:
-            print(config.fitup_repair.one_line())
+        for done in (config.fitup_repair, config.fitup_follow):
+            if done is not None:
+                print(done.one_line())
         print(stage_line(_stages(evaluator, clock, planned, ran, exported, results)))
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY

@@ -707,11 +707,11 @@ class StrakeSpec(_Strict):
                                          "developed on the hull instead (a patch), so that two neighbours step by at "
                                          "most twice it (IACS Rec. 47: 0.15 t, at most 3 mm); default: no limit "
                                          "beyond the fit tolerance")
-    fit_up: Literal["report", "repair"] = Field("report", description="report: the run measures the steps between "
-                                                "neighbours' edges; repair: a plate whose edge steps from a "
-                                                "neighbour's by more than min(0.15 t, 3 mm) (IACS Rec. 47) is "
-                                                "developed on the hull (a patch: its edges on the hull), the plate "
-                                                "further off first, until no step exceeds it")
+    fit_up: Literal["report", "repair", "follow"] = Field(
+        "report", description="report: the run measures the steps between neighbours' edges; repair: a plate whose "
+        "edge steps from a neighbour's by more than min(0.15 t, 3 mm) (IACS Rec. 47) is developed on the hull (a "
+        "patch: its edges on the hull), the plate further off first, until no step exceeds it; follow: a formed "
+        "plate is formed to meet its flat and strip neighbours' edges (no plate changes class)")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "
@@ -836,6 +836,7 @@ class RunConfig:
         self.lines = lines or {}  # key path -> line of the YAML source, for later messages
         self.plan_record = None  # what an adaptive plan evaluated (pipeline.hull.planner.PlanRecord)
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
+        self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
 
     @property
     def mm_per_unit(self) -> float:

@@ -89,6 +89,8 @@ def part_report(result: PartResult, units: str) -> dict:
         report["pinjig"] = result.figures["pinjig"]
     if result.figures.get("edge_fit") is not None:  # developed on the hull for its edges' fit-up
         report["edge_fit"] = result.figures["edge_fit"]
+    if result.figures.get("follow") is not None:  # formed to meet its flat and strip neighbours' edges
+        report["follow"] = result.figures["follow"]
     if result.figures.get("heating") is not None:  # formed steel plates (pipeline.shop.heating)
         report["heating"] = result.figures["heating"]
     return report

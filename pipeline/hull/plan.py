@@ -75,7 +75,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
-    record = repair = None
+    record = repair = follow = None
     try:
         if spec.strake.plan is not None:
             from .objective import PlanRecord
@@ -91,6 +91,11 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
 
             repair = repair_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
                                   float(spec.steel.thickness))
+        elif spec.strake.fit_up == "follow" and evaluate is not None:
+            from .follow import follow_fitup
+
+            follow = follow_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
+                                  float(spec.steel.thickness))
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
@@ -101,6 +106,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     run = RunConfig(spec, parts, path, config.lines)
     run.plan_record = record
     run.fitup_repair = repair
+    run.fitup_follow = follow
     return run
 
 

@@ -538,6 +538,8 @@ def plate_key(part, config=None) -> str:
                         hull.seam_names, hull.butt_names, hull.fit_tolerance, hull.resolution, repr(hull.frames),
                         hull.inside_trim, hull.x_limits, hull.surface_note, hull.developable, hull.note, hull.held,
                         part.steel)).encode())
+    if hull.follow:  # a formed plate moved to meet its neighbours: its moves too
+        digest.update(np.ascontiguousarray(hull.follow["offsets"], dtype=np.float64).tobytes())
     if config is not None:
         spec = config.spec
         digest.update(spec.model_dump_json(exclude={"strake": {"plan"}, "name": True}).encode())

@@ -245,6 +245,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                                                         edge_limit):
         return
     if patch_only:
+        grid, v3 = _followed(grid, v3, index, hull)
         uv, iterations = arap_development(v3, f3)
         _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
                        {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
@@ -301,6 +302,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
     best = min((d, f) for f, d in deviations.items() if d is not None) if any(
         d is not None for d in deviations.values()) else (None, SEAM_TO_SEAM)
     roll_strip = butt.attempt.strip if best[1] == BUTT_TO_BUTT and butt.attempt is not None else attempt.strip
+    grid, v3 = _followed(grid, v3, index, hull)
     uv, iterations = arap_development(v3, f3)
     _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
                    {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
@@ -308,6 +310,21 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                     "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                     "strip_max_deviation": best[0]},
                    roll_strip, (length, width))
+
+
+def _followed(grid, v3: np.ndarray, index: np.ndarray, hull):
+    """The region grid and its welded mesh vertices (V, 3) moved as the fit-up by forming
+    says (``hull.follow``, :mod:`.follow`), or as they are: a formed plate's target shape."""
+    follow = hull.follow
+    if not follow:
+        return grid, v3
+    offsets = np.asarray(follow["offsets"], dtype=np.float64)
+    if offsets.shape != grid.points.shape:
+        raise ValueError(f"fit-up moves of shape {offsets.shape} for a region grid of shape {grid.points.shape}")
+    first = np.empty(len(v3), dtype=np.int64)  # each welded vertex's first grid point
+    first[index[::-1]] = np.arange(len(index))[::-1]
+    moved = v3 + offsets.reshape(-1, 3)[first]
+    return dataclasses.replace(grid, points=moved[index].reshape(grid.points.shape), derived={}), moved
 
 
 def _seam_strip(part: Part, config: RunConfig, grid, tol: float, corner_tol: float) -> tuple:
@@ -524,7 +541,15 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     result.figures["plate_class"] = dict(
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
          "area_3d_m2": area3, "complete": check["passed"]}, **info)
-    if kind != "flat":
+    if kind != "flat" and hull.follow:
+        move = hull.follow["largest_move_mm"] / mm
+        result.figures["hull_fit"] = {"max_distance": move, "tolerance": tol, "passed": bool(move <= tol),
+                                      "note": "developed from the hull patch formed to meet its flat and strip "
+                                              "neighbours' edges (strake.fit_up: follow): its 3D shape is the hull's "
+                                              "moved by at most max_distance; its error is the in-plane strain"}
+        result.figures["follow"] = {"neighbours": list(hull.follow["neighbours"]),
+                                    "largest_move_mm": hull.follow["largest_move_mm"]}
+    elif kind != "flat":
         result.figures["hull_fit"] = {"max_distance": 0.0, "tolerance": tol, "passed": True,
                                       "note": "developed from the hull patch itself: its 3D shape is the hull's; its "
                                               "error is the in-plane strain (see strain)"}

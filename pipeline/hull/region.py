@@ -88,6 +88,9 @@ class HullPlate:
     # a fit-up repair's verdict: developed on the hull as a patch (its edges on it) because its
     # edge stepped from a neighbour's ({reason, class_before, edge_deviation_before, ...})
     held: dict | None = None
+    # the fit-up by forming's moves of a formed plate's region grid onto its flat and strip
+    # neighbours' edges ({offsets (R, C, 3) model units, neighbours, largest_move_mm}: pipeline.hull.follow)
+    follow: dict | None = None
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:

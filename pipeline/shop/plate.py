@@ -150,7 +150,9 @@ def hull_templates(result, config, params: np.ndarray, flat: np.ndarray, outline
     from .templates import TEMPLATE_STEP, hull_mesh, patch_templates, templates_section
 
     shop, hull, scale = config.spec.shop, result.part.hull, config.mm_per_unit
-    vertices, faces, flat_mm, normal = hull_mesh(hull.surface, params, flat, scale)
+    # a formed plate formed to meet its neighbours (pipeline.hull.follow) is checked against its moved shape
+    offsets = hull.follow["offsets"] if result.figures.get("follow") else None
+    vertices, faces, flat_mm, normal = hull_mesh(hull.surface, params, flat, scale, offsets=offsets)
     frames = [x * scale for x in hull.frames]
     chosen, candidates, why = patch_templates(vertices, faces, flat_mm, normal, outline * scale, frames, curvature,
                                               shop.template_spacing, shop.template_margin)

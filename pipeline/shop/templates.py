@@ -368,12 +368,15 @@ def grid_faces(rows: int, cols: int) -> np.ndarray:
     return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])])
 
 
-def hull_mesh(surface, params: np.ndarray, flat: np.ndarray, scale: float, target_mm: float = 50.0):
+def hull_mesh(surface, params: np.ndarray, flat: np.ndarray, scale: float, target_mm: float = 50.0,
+              offsets: np.ndarray | None = None):
     """A hull plate's region grid as a fine mesh on the hull surface itself: params (R, C, 2)
     the grid's surface parameters, flat (R, C, 2) its developed (placed) points (model
     units; ``scale`` mm per unit), refined to cells of about ``target_mm`` (the mesh's chord
-    error target^2 / (8 R): 0.06 mm at R 5 m). Returns (vertices (V, 3) mm, faces (F, 3),
-    flat (V, 2) mm, area-weighted mean normal (3,))."""
+    error target^2 / (8 R): 0.06 mm at R 5 m); ``offsets`` (R, C, 3), model units: moves of
+    the grid's points off the hull (a formed plate formed to meet its neighbours,
+    :mod:`pipeline.hull.follow`), refined bilinearly. Returns (vertices (V, 3) mm, faces
+    (F, 3), flat (V, 2) mm, area-weighted mean normal (3,))."""
     points = np.asarray(surface(params[..., 0].ravel(), params[..., 1].ravel())).reshape(params.shape[:2] + (3,))
     cell = max(float(np.linalg.norm(np.diff(points, axis=0), axis=2).max()),
                float(np.linalg.norm(np.diff(points, axis=1), axis=2).max())) * scale
@@ -381,6 +384,8 @@ def hull_mesh(surface, params: np.ndarray, flat: np.ndarray, scale: float, targe
     fine_params, fine_flat = _subdivided(params, factor), _subdivided(flat, factor)
     rows, cols = fine_params.shape[:2]
     vertices = np.asarray(surface(fine_params[..., 0].ravel(), fine_params[..., 1].ravel())) * scale
+    if offsets is not None:
+        vertices = vertices + _subdivided(np.asarray(offsets, dtype=np.float64), factor).reshape(-1, 3) * scale
     faces = grid_faces(rows, cols)
     e1, e2 = vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]
     return vertices, faces, fine_flat.reshape(-1, 2) * scale, np.cross(e1, e2).sum(axis=0)

@@ -1,0 +1,264 @@
+"""Fit-up by forming: a formed plate is formed to meet its flat and strip neighbours' edges.
+
+A flat or strip plate is delivered within the fit tolerance of the hull, its edges too, and a
+formed plate developed on the hull has its edges on it: where the two meet, the step is the
+flat or strip plate's own distance from the hull there, up to the tolerance (5 mm), more
+than a butt or seam may be misaligned by (IACS Rec. 47: 0.15 t, at most 3 mm). Holding the
+flat or strip plate on the hull (:mod:`.repair`) costs it its development. A formed plate,
+though, is shaped in the shop to whatever its pin jig and templates say, so it can take the
+step instead: its target shape is the hull moved, at each point of its edge shared with a
+flat or strip neighbour, onto that neighbour's edge, and elsewhere by the harmonic blend of
+those moves. The blend is one discrete Laplace equation over the region grids of all the
+shell's formed plates joined where they meet: each point on an edge two formed plates share
+takes the other plate's row inside that edge, interpolated at its closest point, as its
+neighbour across it, so that formed neighbours move together and meet as before;
+the shell's free edges stay on the hull. The blend takes its largest value where it is
+given (maximum principle), so every formed plate stays within the tolerance of the hull
+wherever its flat and strip neighbours do; a move larger than the tolerance is shortened to
+it. Where two flat or strip plates that step from each other meet at a corner of formed
+plates, each formed plate meets its own flat neighbour there, so the formed plates' shared
+edge takes the flat plates' step at its end, and within a grid cell or two no longer (the
+discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
+No plate changes class: the flat and strip plates keep their developments, the formed
+ones that move are developed again from their moved shape (pin jig, templates and heating
+lines follow it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, plate_edges, shared_edges
+
+FORMED = "formed"
+MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
+CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
+RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
+        "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
+        "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
+        "hull); flat and strip plates keep their development")
+
+
+@dataclass
+class FollowReport:
+    """What the fit-up by forming did: the misfit pairs found, the formed plates moved (name
+    -> largest move, mm, and the neighbours they meet) and the misfit pairs no formed plate
+    could take (two flat or strip plates)."""
+
+    misfits: int = 0
+    moved: dict = field(default_factory=dict)
+    untaken: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
+
+    def as_dict(self) -> dict:
+        return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
+                "moved": self.moved,
+                "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
+                            for a, b, label, step in self.untaken]}
+
+    def one_line(self) -> str:
+        return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.moved)} formed plate(s) formed to "
+                f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left")
+
+
+def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float) -> FollowReport:
+    """Form the shell's formed plates to meet their flat and strip neighbours. ``parts``: the
+    run's parts; hull plates without an evaluated result are evaluated first
+    (``evaluate_many(parts) -> results``). A plate that moves is evaluated again with
+    ``part.hull.follow`` set; ``part.hull.result`` is its new result."""
+    plates = [p for p in parts if getattr(p, "hull", None) is not None]
+    missing = [p for p in plates if p.hull.result is None]
+    if missing:
+        for part, result in zip(missing, evaluate_many(missing)):
+            part.hull.result = result
+    records = {}
+    for part in plates:
+        edges = plate_edges(part.hull.result) if part.hull.result is not None else None
+        if edges is not None:
+            records[part.name] = (edges, part)
+    pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    report = FollowReport(misfits=sum(q.misfit for q in pairs))
+    report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
+        records[q.a][0].klass, records[q.b][0].klass)]
+    grids = {}
+    for name, (edges, part) in records.items():
+        shape = tuple((part.hull.result.figures.get("region") or {}).get("grid") or ())
+        if edges.klass == FORMED and len(shape) == 2 and part.hull.result.mesh is not None:
+            grids[name] = _PlateGrid(name, np.asarray(part.hull.result.mesh[0], dtype=np.float64).reshape(*shape, 3),
+                                     part.hull)
+    moves = shell_moves(grids, pairs, records, mm_per_unit)
+    by_name = {p.name: p for p in plates}
+    moved = []
+    for name, offsets in sorted(moves.items()):
+        size = np.linalg.norm(offsets, axis=2)
+        if size.max() <= 1e-6 * by_name[name].hull.fit_tolerance:
+            continue
+        part = by_name[name]
+        neighbours = sorted({q.b if q.a == name else q.a for q in pairs if name in (q.a, q.b)
+                             and records[q.b if q.a == name else q.a][0].klass in MOVABLE_NEIGHBOURS})
+        largest = float(size.max()) * mm_per_unit
+        part.hull.follow = {"offsets": offsets, "neighbours": neighbours, "largest_move_mm": largest}
+        part.hull.result = None
+        report.moved[name] = {"largest_move_mm": largest, "neighbours": neighbours}
+        moved.append(part)
+    if moved:
+        for part, result in zip(moved, evaluate_many(moved)):
+            part.hull.result = result
+    return report
+
+
+class _PlateGrid:
+    """A formed plate's region grid (R, C, 3) on the hull, its boundary ring and side codes,
+    and the grid line (flat indices, in order, corners included) of each of its sides."""
+
+    def __init__(self, name: str, points: np.ndarray, hull):
+        self.name, self.points, self.hull = name, points, hull
+        rows, cols = points.shape[:2]
+        self.ring, self.codes = _grid_ring(points, hull, hull.fit_tolerance)
+        idx = np.arange(rows * cols).reshape(rows, cols)
+        self.lines = {"seam0": idx[0], "seam1": idx[-1]}
+        for column, inward in ((0, 1), (cols - 1, cols - 2)):
+            on = self.codes[(self.ring % cols == column) & (self.codes >= 2) & (self.codes <= 3)]
+            if len(on):
+                self.lines[SIDES_BY_CODE[int(np.bincount(on).argmax())]] = idx[:, column]
+        self.inward = {"seam0": cols, "seam1": -cols, 0: 1, cols - 1: -1}
+        self.flat = points.reshape(-1, 3)
+
+    def inward_of(self, side: str, index: np.ndarray) -> np.ndarray:
+        """The grid points one row (a seam) or column (a butt) inside the given points of a side."""
+        cols = self.points.shape[1]
+        if side in ("seam0", "seam1"):
+            return index + self.inward[side]
+        column = int(self.lines[side][0] % cols)
+        return index + self.inward[column]
+
+
+SIDES_BY_CODE = {code: side for side, code in CODES.items()}
+
+
+def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> dict:
+    """{formed plate: moves (R, C, 3), model units} of every formed plate's region grid: its
+    edge points on a flat or strip neighbour's edge moved onto it (at most the fit tolerance),
+    the shell's free edges still, and the discrete Laplace equation everywhere else, over all
+    the formed plates' grids joined at their shared edges."""
+    names = sorted(grids)
+    start, total = {}, 0
+    for name in names:
+        start[name] = total
+        total += grids[name].flat.shape[0]
+    if not total:
+        return {}
+    fixed = np.zeros(total, dtype=bool)
+    value = np.zeros((total, 3))
+    best = np.full(total, np.inf)
+    across = {}  # unknown -> its neighbour across a shared edge: ((another plate's unknown, weight), ...)
+    for pair in pairs:
+        for me, mine, other, theirs in ((pair.a, pair.side_a, pair.b, pair.side_b),
+                                        (pair.b, pair.side_b, pair.a, pair.side_a)):
+            if me not in grids:
+                continue
+            plate = grids[me]
+            if records[other][0].klass in MOVABLE_NEIGHBOURS:
+                _anchor(plate, mine, records[other][0].edge(theirs), mm_per_unit, start[me], fixed, value, best)
+            elif other in grids and theirs in grids[other].lines and mine in plate.lines:
+                _join(plate, mine, grids[other], theirs, start[me], start[other], across)
+    # the ring's points that meet nobody (the shell's free edges) stay on the hull
+    for name in names:
+        plate = grids[name]
+        ring = start[name] + plate.ring
+        free = ~fixed[ring] & np.array([r not in across for r in ring])
+        fixed[ring[free]] = True
+    return _solve(grids, names, start, total, fixed, value, across)
+
+
+def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best) -> None:
+    """Moves of the plate's points on ``side`` (and its corners) onto a flat or strip
+    neighbour's edge: closest points, kept where the closest point is not the edge's end
+    (a point beyond it is another neighbour's), a corner where the end meets it within the
+    tolerance; the smaller move where two neighbours claim a point."""
+    if edge is None:
+        return
+    hull, rows, cols = plate.hull, *plate.points.shape[:2]
+    corner = np.isin(plate.ring, (0, cols - 1, rows * cols - 1, (rows - 1) * cols))
+    mine = np.flatnonzero((plate.codes == CODES[side]) | corner)
+    dense = _dense(edge, SAMPLE_MM / mm_per_unit)
+    points = plate.flat[plate.ring[mine]]
+    feet, s = closest_on(points, dense)
+    move = feet - points
+    size = np.linalg.norm(move, axis=1)
+    inside = (s > dense.s3[0] + 1e-9 * dense.s3[-1]) & (s < dense.s3[-1] * (1.0 - 1e-9))
+    taken = np.where(corner[mine], size <= hull.fit_tolerance, inside & (plate.codes[mine] == CODES[side]))
+    move *= np.minimum(1.0, hull.fit_tolerance / np.maximum(size, 1e-300))[:, None]
+    where = offset + plate.ring[mine]
+    better = taken & (np.minimum(size, hull.fit_tolerance) < best[where])
+    fixed[where[better]] = True
+    value[where[better]] = move[better]
+    best[where[better]] = np.minimum(size, hull.fit_tolerance)[better]
+
+
+def _join(plate: _PlateGrid, side: str, other: _PlateGrid, other_side: str, offset: int, other_offset: int,
+          across: dict) -> None:
+    """Neighbours across the edge of the plate's points on a side it shares with another
+    formed plate: the other plate's points one row inside its edge, interpolated at each
+    point's closest point on the other's edge (within the tolerance): [(index, weight)]."""
+    line, theirs = plate.lines[side], other.lines[other_side]
+    a, b = other.flat[theirs[:-1]], other.flat[theirs[1:]]
+    points = plate.flat[line]
+    ab = b - a
+    f = np.clip(np.einsum("pij,ij->pi", points[:, None, :] - a[None], ab)
+                / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    gap = np.linalg.norm(a[None] + f[..., None] * ab[None] - points[:, None, :], axis=2)
+    segment = np.argmin(gap, axis=1)
+    near = gap[np.arange(len(line)), segment] <= plate.hull.fit_tolerance
+    inner = other_offset + other.inward_of(other_side, theirs)
+    for mine, k, w in zip(offset + line[near], segment[near], f[np.arange(len(line)), segment][near]):
+        across.setdefault(int(mine), ((int(inner[k]), 1.0 - float(w)), (int(inner[k + 1]), float(w))))
+
+
+def _solve(grids: dict, names: list, start: dict, total: int, fixed, value, across: dict) -> dict:
+    """The joined discrete Laplace equation: fixed points keep their value, every other point
+    is the mean of its grid neighbours (and of its neighbour across a shared edge)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.linalg import spsolve
+
+    rows_, cols_ = [], []
+    degree = np.zeros(total)
+    for name in names:
+        r, c = grids[name].points.shape[:2]
+        idx = start[name] + np.arange(r * c).reshape(r, c)
+        for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
+            a, b = a.ravel(), b.ravel()
+            rows_ += [a, b]
+            cols_ += [b, a]
+            np.add.at(degree, a, 1.0)
+            np.add.at(degree, b, 1.0)
+    weights_ = [np.ones(sum(len(r) for r in rows_))]
+    if across:
+        links = [(mine, there, w) for mine, pair in across.items() for there, w in pair]
+        mine = np.array([m for m, _, _ in links], dtype=np.int64)
+        rows_.append(mine)
+        cols_.append(np.array([t for _, t, _ in links], dtype=np.int64))
+        weights_.append(np.array([w for _, _, w in links]))
+        np.add.at(degree, np.fromiter(across.keys(), dtype=np.int64), 1.0)
+    a = np.concatenate(rows_)
+    b = np.concatenate(cols_)
+    weight = np.concatenate(weights_)
+    free = ~fixed
+    number = np.full(total, -1)
+    unknown = np.flatnonzero(free)
+    number[unknown] = np.arange(len(unknown))
+    out = np.where(fixed[:, None], value, 0.0)
+    if len(unknown):
+        use = free[a]
+        a, b, weight = a[use], b[use], weight[use]
+        inner = free[b]
+        matrix = coo_matrix((np.r_[degree[unknown], -weight[inner]],
+                             (np.r_[np.arange(len(unknown)), number[a[inner]]], np.r_[np.arange(len(unknown)),
+                                                                                       number[b[inner]]])),
+                            shape=(len(unknown), len(unknown))).tocsc()
+        rhs = np.zeros((len(unknown), 3))
+        np.add.at(rhs, number[a[~inner]], weight[~inner, None] * value[b[~inner]])
+        out[unknown] = spsolve(matrix, rhs).reshape(len(unknown), 3)
+    return {name: out[start[name]:start[name] + grids[name].flat.shape[0]].reshape(grids[name].points.shape)
+            for name in names}
