@@ -4,7 +4,7 @@ plan, iso-parameter or least-curvature seams.
 
     python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
                                [--seams iso least_curvature] [--objectives none weld1.5 ...]
-                               [--jobs N] [--out DIR]
+                               [--fit-up report follow repair] [--jobs N] [--out DIR]
 
 Per hull, method and seams: plates, shares of the shell area (plate regions inside the IGES
 trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
@@ -17,7 +17,10 @@ formed plates), crashes, time; the hull picture coloured by class, the plan (pla
 in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --out.
 Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell), developed
 length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
-neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm.
+neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm, per
+``strake.fit_up`` of ``--fit-up`` (report: as planned; follow: the formed plates formed to meet
+their flat and strip neighbours; repair: misfit plates developed on the hull), each after the
+same plan (its plates come from the cache).
 
 Objectives (``plan.objective``, adaptive plans only): ``none`` (split every misfit plate),
 ``weldF`` ({maximise: flat_strip, weld_factor: F}, e.g. weld1.5), ``cost`` (weights: 1 per weld
@@ -53,7 +56,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import yaml  # noqa: E402
+import yaml
 
 HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kvlcc2": "kvlcc2_shell.yaml",
          "kcs": "kcs_shell.yaml"}
@@ -70,7 +73,8 @@ def objective_of(name: str) -> dict | None:
     return OBJECTIVES[name]
 
 
-def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = "none", evaluator=None) -> dict:
+def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = "none", evaluator=None,
+        fit_up: str = "report") -> dict:
     from pipeline.hull.hullplots import class_hull_png, display_class, shell_area
     from pipeline.hull.plan import load_run
     from pipeline.hull.planout import write_plan_dxf
@@ -84,6 +88,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     data["strake"]["plan"]["seams"] = seams
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
+    data["strake"]["fit_up"] = fit_up
     for key in ("surface",):
         data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
@@ -121,8 +126,9 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     edges = shell_edges(results)
     cost = plan_cost(results, edges, config.mm_per_unit, stock_min_width(config.spec))
     out.mkdir(parents=True, exist_ok=True)
-    tag = f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
-                                                                         f"_{objective}")
+    tag = (f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
+                                                                          f"_{objective}")
+           + ("" if fit_up == "report" else f"_{fit_up}"))
     class_hull_png(out / f"{tag}_classes.png", results, config.spec.units, config.mm_per_unit,
                    f"{hull}, {method} plan, {seams} seams: {len(results)} plates")
     write_plan_dxf(out / f"{tag}_plan.dxf", results, config.mm_per_unit)
@@ -132,7 +138,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
             "cpu_seconds": cpu, "evaluated": computed, "cached": asked - computed,
             "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m"),
-            "fitup": fit, "record": config.plan_record, "objective": objective}
+            "fitup": fit, "record": config.plan_record, "objective": objective, "fit_up": fit_up}
 
 
 def lean_vs_full(hull: str, every: int) -> None:
@@ -224,6 +230,8 @@ def main(argv=None) -> int:
                         help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
     parser.add_argument("--objectives", nargs="+", default=["none"],
                         help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
+    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow"],
+                        help="strake.fit_up of each run (the adaptive plan is evaluated once: its plates are cached)")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")
     parser.add_argument("--lean-every", type=int, default=0,
@@ -238,13 +246,14 @@ def main(argv=None) -> int:
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
           f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'weld m':>8}{'weld m/m2':>10}{'narrowest m':>12}"
           f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'CPU s':>7}{'eval/cached':>12}"
-          f"{'covered %':>10}{'overlap %':>10}{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}  objective")
+          f"{'covered %':>10}{'overlap %':>10}{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}"
+          f"  objective, fit-up")
     for hull in args.hulls:
         evaluator = plate_evaluator(args.jobs)  # one cache per hull: every plan of it shares the plates
-        runs = [(m, s, o) for m in args.methods for s in args.seams for o in (args.objectives if m == "adaptive"
-                                                                               else ["none"])]
-        for method, seams, objective in runs:
-            r = run(hull, method, args.out, seams, objective, evaluator)
+        runs = [(m, s, o, f) for m in args.methods for s in args.seams for o in (args.objectives if m == "adaptive"
+                                                                                  else ["none"]) for f in args.fit_up]
+        for method, seams, objective, fit_up in runs:
+            r = run(hull, method, args.out, seams, objective, evaluator, fit_up)
             s = r["shares"]
             print(f"{hull:<9}{method:<10}{'iso' if seams == 'iso' else 'least':<6}{r['plates']:>7}"
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
@@ -252,7 +261,7 @@ def main(argv=None) -> int:
                   f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
                   f"{r['narrowest_m'] or float('nan'):>12.2f}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
                   f"{r['cpu_seconds']:>7.0f}{r['evaluated']:>6}/{r['cached']:<5}"
-                  f"{fitup_columns(r['fitup'])}  {objective}", flush=True)
+                  f"{fitup_columns(r['fitup'])}  {objective}, {fit_up}", flush=True)
             for line in front_lines(r["record"], r["area_m2"]):
                 print(line, flush=True)
     print(f"pictures, plan DXFs and shell expansions in {args.out}")
