@@ -11,7 +11,8 @@ flat or strip neighbour, onto that neighbour's edge, and elsewhere by the harmon
 those moves. The blend is one discrete Laplace equation over the region grids of all the
 shell's formed plates joined where they meet: each point on an edge two formed plates share
 takes the other plate's row inside that edge, interpolated at its closest point, as its
-neighbour across it, so that formed neighbours move together and meet as before;
+neighbour across it, so that formed neighbours move together and meet (exactly where the
+moves vary linearly, to the discretisation elsewhere);
 the shell's free edges stay on the hull. The blend takes its largest value where it is
 given (maximum principle), so every formed plate stays within the tolerance of the hull
 wherever its flat and strip neighbours do; a move larger than the tolerance is shortened to
@@ -95,6 +96,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         if size.max() <= 1e-6 * by_name[name].hull.fit_tolerance:
             continue
         part = by_name[name]
+        offsets = _welded(grids[name].points, offsets)
+        size = np.linalg.norm(offsets, axis=2)
         neighbours = sorted({q.b if q.a == name else q.a for q in pairs if name in (q.a, q.b)
                              and records[q.b if q.a == name else q.a][0].klass in MOVABLE_NEIGHBOURS})
         largest = float(size.max()) * mm_per_unit
@@ -106,6 +109,28 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         for part, result in zip(moved, evaluate_many(moved)):
             part.hull.result = result
     return report
+
+
+def _welded(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Moves (R, C, 3) with the grid points that are one point (a collapsed seam end: the
+    plate's mesh welds them, :func:`flatten.patch.weld`) given one move, their first point's:
+    the developed mesh and the pin jig's mesh then move alike."""
+    from flatten.patch import weld
+
+    rows, cols = points.shape[:2]
+    flat = points.reshape(-1, 3)
+    size = float(np.ptp(flat, axis=0).max())
+    faces = np.arange(rows * cols).reshape(rows, cols)
+    faces = np.column_stack([faces[:-1, :-1].ravel(), faces[:-1, 1:].ravel(), faces[1:, 1:].ravel()])
+    _, _, index = weld(flat, faces, 1e-9 * size)
+    first = first_of_groups(index)
+    return offsets.reshape(-1, 3)[first[index]].reshape(offsets.shape)
+
+
+def first_of_groups(index: np.ndarray) -> np.ndarray:
+    """For each group number 0..G-1 of ``index`` (N,), the first position holding it (G,)."""
+    _, first = np.unique(index, return_index=True)
+    return first
 
 
 class _PlateGrid:
@@ -124,6 +149,18 @@ class _PlateGrid:
                 self.lines[SIDES_BY_CODE[int(np.bincount(on).argmax())]] = idx[:, column]
         self.inward = {"seam0": cols, "seam1": -cols, 0: 1, cols - 1: -1}
         self.flat = points.reshape(-1, 3)
+
+    def free_corners(self, paired: set) -> list:
+        """Flat indices of the grid's corners on a side that meets no neighbour (``paired``:
+        the sides that do; an end column that is no butt is the hull's end)."""
+        rows, cols = self.points.shape[:2]
+        column_side = {int(line[0] % cols): side for side, line in self.lines.items() if side.startswith("butt")}
+        out = []
+        for row, seam in ((0, "seam0"), (rows - 1, "seam1")):
+            for column in (0, cols - 1):
+                if seam not in paired or column_side.get(column) not in paired:
+                    out.append(row * cols + column)
+        return out
 
     def inward_of(self, side: str, index: np.ndarray) -> np.ndarray:
         """The grid points one row (a seam) or column (a butt) inside the given points of a side."""
@@ -153,21 +190,25 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
     value = np.zeros((total, 3))
     best = np.full(total, np.inf)
     across = {}  # unknown -> its neighbour across a shared edge: ((another plate's unknown, weight), ...)
+    paired = {name: set() for name in names}  # the sides each plate shares with a neighbour
     for pair in pairs:
         for me, mine, other, theirs in ((pair.a, pair.side_a, pair.b, pair.side_b),
                                         (pair.b, pair.side_b, pair.a, pair.side_a)):
             if me not in grids:
                 continue
+            paired[me].add(mine)
             plate = grids[me]
             if records[other][0].klass in MOVABLE_NEIGHBOURS:
                 _anchor(plate, mine, records[other][0].edge(theirs), mm_per_unit, start[me], fixed, value, best)
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
-    # the ring's points that meet nobody (the shell's free edges) stay on the hull
+    # the ring's points that meet nobody (the shell's free edges) stay on the hull, and so do
+    # the corners on a free edge that the plate's other side joins to a formed neighbour
     for name in names:
         plate = grids[name]
         ring = start[name] + plate.ring
-        free = ~fixed[ring] & np.array([r not in across for r in ring])
+        free = ~fixed[ring] & (np.array([r not in across for r in ring]) | np.isin(plate.ring,
+                                                                                   plate.free_corners(paired[name])))
         fixed[ring[free]] = True
     return _solve(grids, names, start, total, fixed, value, across)
 
@@ -175,8 +216,11 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best) -> None:
     """Moves of the plate's points on ``side`` (and its corners) onto a flat or strip
     neighbour's edge: closest points, kept where the closest point is not the edge's end
-    (a point beyond it is another neighbour's), a corner where the end meets it within the
-    tolerance; the smaller move where two neighbours claim a point."""
+    (a point beyond it is another neighbour's) and within four tolerances (a plate and a
+    neighbour that part further are not one edge there), a corner where it lies within twice
+    the tolerance of the edge (its end: the neighbour's corner, up to the tolerance off the
+    hull and along it); each move shortened to the tolerance; the smaller claim where two
+    neighbours claim a point."""
     if edge is None:
         return
     hull, rows, cols = plate.hull, *plate.points.shape[:2]
@@ -188,20 +232,25 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     move = feet - points
     size = np.linalg.norm(move, axis=1)
     inside = (s > dense.s3[0] + 1e-9 * dense.s3[-1]) & (s < dense.s3[-1] * (1.0 - 1e-9))
-    taken = np.where(corner[mine], size <= hull.fit_tolerance, inside & (plate.codes[mine] == CODES[side]))
+    taken = np.where(corner[mine], size <= 2.0 * hull.fit_tolerance,
+                     inside & (plate.codes[mine] == CODES[side]) & (size <= 4.0 * hull.fit_tolerance))
     move *= np.minimum(1.0, hull.fit_tolerance / np.maximum(size, 1e-300))[:, None]
     where = offset + plate.ring[mine]
-    better = taken & (np.minimum(size, hull.fit_tolerance) < best[where])
+    better = taken & (size < best[where])
     fixed[where[better]] = True
     value[where[better]] = move[better]
-    best[where[better]] = np.minimum(size, hull.fit_tolerance)[better]
+    best[where[better]] = size[better]
 
 
 def _join(plate: _PlateGrid, side: str, other: _PlateGrid, other_side: str, offset: int, other_offset: int,
           across: dict) -> None:
     """Neighbours across the edge of the plate's points on a side it shares with another
-    formed plate: the other plate's points one row inside its edge, interpolated at each
-    point's closest point on the other's edge (within the tolerance): [(index, weight)]."""
+    formed plate, into ``across`` ({point: ((index, weight), (index, weight))}): the other
+    plate's two points one row inside its edge at the ends of the edge segment nearest the
+    point, weighted as the point's foot on that segment. A point is joined when the segment
+    passes within the tolerance plus a quarter of its length (the chord of a curved edge
+    stands off it by its sagitta, 5 mm for 200 mm at a 1 m radius), and beyond the edge's
+    ends within the tolerance."""
     line, theirs = plate.lines[side], other.lines[other_side]
     a, b = other.flat[theirs[:-1]], other.flat[theirs[1:]]
     points = plate.flat[line]
@@ -210,9 +259,13 @@ def _join(plate: _PlateGrid, side: str, other: _PlateGrid, other_side: str, offs
                 / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
     gap = np.linalg.norm(a[None] + f[..., None] * ab[None] - points[:, None, :], axis=2)
     segment = np.argmin(gap, axis=1)
-    near = gap[np.arange(len(line)), segment] <= plate.hull.fit_tolerance
+    here = np.arange(len(line))
+    foot = f[here, segment]
+    beyond = ((segment == 0) & (foot <= 0.0)) | ((segment == len(theirs) - 2) & (foot >= 1.0))
+    reach = plate.hull.fit_tolerance + np.where(beyond, 0.0, 0.25 * np.linalg.norm(ab[segment], axis=1))
+    near = gap[here, segment] <= reach
     inner = other_offset + other.inward_of(other_side, theirs)
-    for mine, k, w in zip(offset + line[near], segment[near], f[np.arange(len(line)), segment][near]):
+    for mine, k, w in zip(offset + line[near], segment[near], foot[near]):
         across.setdefault(int(mine), ((int(inner[k]), 1.0 - float(w)), (int(inner[k + 1]), float(w))))
 
 

@@ -540,6 +540,7 @@ def plate_key(part, config=None) -> str:
                         part.steel)).encode())
     if hull.follow:  # a formed plate moved to meet its neighbours: its moves too
         digest.update(np.ascontiguousarray(hull.follow["offsets"], dtype=np.float64).tobytes())
+        digest.update(repr(hull.follow["neighbours"]).encode())  # named in the plate's figures
     if config is not None:
         spec = config.spec
         digest.update(spec.model_dump_json(exclude={"strake": {"plan"}, "name": True}).encode())

@@ -321,9 +321,9 @@ def _followed(grid, v3: np.ndarray, index: np.ndarray, hull):
     offsets = np.asarray(follow["offsets"], dtype=np.float64)
     if offsets.shape != grid.points.shape:
         raise ValueError(f"fit-up moves of shape {offsets.shape} for a region grid of shape {grid.points.shape}")
-    first = np.empty(len(v3), dtype=np.int64)  # each welded vertex's first grid point
-    first[index[::-1]] = np.arange(len(index))[::-1]
-    moved = v3 + offsets.reshape(-1, 3)[first]
+    from .follow import first_of_groups
+
+    moved = v3 + offsets.reshape(-1, 3)[first_of_groups(index)]  # each welded vertex's first grid point
     return dataclasses.replace(grid, points=moved[index].reshape(grid.points.shape), derived={}), moved
 
 
