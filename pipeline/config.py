@@ -710,8 +710,9 @@ class StrakeSpec(_Strict):
     fit_up: Literal["report", "repair", "follow"] = Field(
         "report", description="report: the run measures the steps between neighbours' edges; repair: a plate whose "
         "edge steps from a neighbour's by more than min(0.15 t, 3 mm) (IACS Rec. 47) is developed on the hull (a "
-        "patch: its edges on the hull), the plate further off first, until no step exceeds it; follow: a formed "
-        "plate is formed to meet its flat and strip neighbours' edges (no plate changes class)")
+        "patch: its edges on the hull), the plate further off first, until no step exceeds it; follow: the flat "
+        "plates' planes are chosen together (each within the fit tolerance) so that their edges meet, then a "
+        "formed plate is formed to meet its flat and strip neighbours' edges (no plate changes class)")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "

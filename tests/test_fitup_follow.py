@@ -156,7 +156,9 @@ def _formed_to_meet(tmp, held_plates: tuple):
     fit_before = shell_fitup(before, config)
     flat = [k for k in range(len(parts)) if k not in held_plates]
     kept = [parts[k].hull.result for k in flat]
-    report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0)
+    # the forming alone: the flat plates keep their own (minimax) planes (joint planes: test_fitup_joint.py)
+    report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
+                          planes=False)
     assert all(parts[k].hull.result is was for k, was in zip(flat, kept))  # the flat plates are not touched
     after = [run_part(part, config) for part in parts]
     return config, before, fit_before, after, shell_fitup(after, config), report
@@ -228,8 +230,10 @@ def test_the_run_forms_the_formed_plates_to_meet_and_reports_it(tmp_path, capsys
     was = {tuple(p["plates"]): p for p in before["pairs"]}
     assert steps.keys() == was.keys() and len(steps) == 4
     for key, pair in steps.items():
-        if key == ("fit_S1_B1", "fit_S2_B1"):  # two flat plates: nothing to form
-            assert pair["misfit"] and pair["step_max_mm"] == pytest.approx(was[key]["step_max_mm"], abs=1e-9)
+        if key == ("fit_S1_B1", "fit_S2_B1"):  # two flat plates: nothing to form; their planes, chosen
+            # together, bring their step down as far as the tolerance lets them (not below the limit here)
+            assert pair["misfit"] and pair["step_max_mm"] < was[key]["step_max_mm"] - 0.1
+            assert sorted(follow["planes"]) == list(key) and follow["flat_planes_moved"] == 2
             assert [list(key)] == [u["plates"] for u in follow["untaken"]]
         elif key == ("fit_S1_B2", "fit_S2_B2"):  # the formed plates' seam, from the flat plates' junction
             assert pair["step_median_mm"] < 0.05 and pair["step_max_mm"] <= steps[("fit_S1_B1", "fit_S2_B1")][

@@ -22,7 +22,9 @@ edge takes the flat plates' step at its end, and within a grid cell or two no lo
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
 No plate changes class: the flat and strip plates keep their developments, the formed
 ones that move are developed again from their moved shape (pin jig, templates and heating
-lines follow it).
+lines follow it). Before the forming, the flat plates' planes are chosen together
+(:mod:`.joint`), so that flat neighbours, and flat plates beside strips, step as little as
+their tolerance allows; the formed plates then meet the flat plates where these lie.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, plate_edges, shared_edges
+from .joint import RULE as PLANES_RULE
+from .joint import joint_planes
 
 FORMED = "formed"
 MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
@@ -51,35 +55,51 @@ class FollowReport:
     misfits: int = 0
     moved: dict = field(default_factory=dict)
     untaken: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
+    planes: dict = field(default_factory=dict)  # flat plate -> largest shift of its region's points (mm)
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
-                "moved": self.moved,
+                "moved": self.moved, "planes_rule": PLANES_RULE, "flat_planes_moved": len(self.planes),
+                "planes": self.planes,
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
     def one_line(self) -> str:
-        return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.moved)} formed plate(s) formed to "
-                f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left")
+        return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.planes)} flat plate(s) on planes "
+                f"chosen together, {len(self.moved)} formed plate(s) formed to meet their flat and strip neighbours, "
+                f"{len(self.untaken)} pair(s) of flat or strip plates left")
 
 
-def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float) -> FollowReport:
-    """Form the shell's formed plates to meet their flat and strip neighbours. ``parts``: the
-    run's parts; hull plates without an evaluated result are evaluated first
+def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
+                 planes: bool = True) -> FollowReport:
+    """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates
+    first set on planes chosen together (:mod:`.joint`; ``planes=False``: each keeps its own).
+    ``parts``: the run's parts; hull plates without an evaluated result are evaluated first
     (``evaluate_many(parts) -> results``). A plate that moves is evaluated again with
-    ``part.hull.follow`` set; ``part.hull.result`` is its new result."""
+    ``part.hull.follow`` (a formed plate) or ``part.hull.plane`` (a flat one) set;
+    ``part.hull.result`` is its new result."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
         for part, result in zip(missing, evaluate_many(missing)):
             part.hull.result = result
-    records = {}
-    for part in plates:
-        edges = plate_edges(part.hull.result) if part.hull.result is not None else None
-        if edges is not None:
-            records[part.name] = (edges, part)
+    records = _records(plates)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
+    planes = joint_planes(records, pairs, mm_per_unit) if planes else {}
+    if planes:  # the flat plates' planes chosen together first: the formed plates meet them where they lie
+        moved_flats = []
+        for part in plates:
+            if part.name in planes:
+                plane = planes[part.name]
+                part.hull.plane = {"normal": plane["normal"], "point": plane["point"]}
+                part.hull.result = None
+                report.planes[part.name] = plane["largest_shift_mm"]
+                moved_flats.append(part)
+        for part, result in zip(moved_flats, evaluate_many(moved_flats)):
+            part.hull.result = result
+        records = _records(plates)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
         records[q.a][0].klass, records[q.b][0].klass)]
     grids = {}
@@ -109,6 +129,16 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         for part, result in zip(moved, evaluate_many(moved)):
             part.hull.result = result
     return report
+
+
+def _records(plates: list) -> dict:
+    """{plate: (PlateEdges, part)} of the plates whose result has edges."""
+    records = {}
+    for part in plates:
+        edges = plate_edges(part.hull.result) if part.hull.result is not None else None
+        if edges is not None:
+            records[part.name] = (edges, part)
+    return records
 
 
 def _welded(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:

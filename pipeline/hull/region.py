@@ -91,6 +91,9 @@ class HullPlate:
     # the fit-up by forming's moves of a formed plate's region grid onto its flat and strip
     # neighbours' edges ({offsets (R, C, 3) model units, neighbours, largest_move_mm}: pipeline.hull.follow)
     follow: dict | None = None
+    # the plane the fit-up chose for a flat plate together with its neighbours' ({normal, point},
+    # model units: pipeline.hull.joint); the plate is projected on it when it holds the region
+    plane: dict | None = None
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
