@@ -711,8 +711,9 @@ class StrakeSpec(_Strict):
         "report", description="report: the run measures the steps between neighbours' edges; repair: a plate whose "
         "edge steps from a neighbour's by more than min(0.15 t, 3 mm) (IACS Rec. 47) is developed on the hull (a "
         "patch: its edges on the hull), the plate further off first, until no step exceeds it; follow: the flat "
-        "plates' planes are chosen together (each within the fit tolerance) so that their edges meet, then a "
-        "formed plate is formed to meet its flat and strip neighbours' edges (no plate changes class)")
+        "plates' planes and the strips' places (a small rigid motion) are chosen together, each within the fit "
+        "tolerance, so that their edges meet, then a formed plate is formed to meet its flat and strip neighbours' "
+        "edges (no plate changes class)")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "

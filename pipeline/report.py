@@ -91,6 +91,8 @@ def part_report(result: PartResult, units: str) -> dict:
         report["edge_fit"] = result.figures["edge_fit"]
     if result.figures.get("follow") is not None:  # formed to meet its flat and strip neighbours' edges
         report["follow"] = result.figures["follow"]
+    if result.figures.get("rigid_move") is not None:  # a strip moved to meet its neighbours' edges
+        report["rigid_move"] = result.figures["rigid_move"]
     if result.figures.get("heating") is not None:  # formed steel plates (pipeline.shop.heating)
         report["heating"] = result.figures["heating"]
     return report

@@ -156,9 +156,9 @@ def _formed_to_meet(tmp, held_plates: tuple):
     fit_before = shell_fitup(before, config)
     flat = [k for k in range(len(parts)) if k not in held_plates]
     kept = [parts[k].hull.result for k in flat]
-    # the forming alone: the flat plates keep their own (minimax) planes (joint planes: test_fitup_joint.py)
+    # the forming alone: the flat plates keep their own (minimax) planes (joint moves: test_fitup_joint.py)
     report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
-                          planes=False)
+                          joint=False)
     assert all(parts[k].hull.result is was for k, was in zip(flat, kept))  # the flat plates are not touched
     after = [run_part(part, config) for part in parts]
     return config, before, fit_before, after, shell_fitup(after, config), report

@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pipeline.hull.fitup import shell_fitup
 from pipeline.hull.plan import load_run
@@ -121,3 +123,116 @@ def test_twisted_flat_plates_end_no_worse_than_they_began(tmp_path):
         normal = np.asarray(klass["normal"])
         off = np.abs((v3 - np.asarray(klass["plane_point"])) @ normal).max()
         assert off <= result.part.hull.fit_tolerance * (1 + 1e-6)
+
+
+# two strakes of strips on a torus (a bilge of 20 m radius whose centre line bows at 138 m):
+# the wide one (1200 mm of girth) misses the hull by its sagitta between its seams, 9.0 mm, so
+# its strip is moved off the hull by half of it for its best fit, seams and all; the narrow
+# one (600 mm) is the plain strip between its seams, which lie on the hull. They step at their
+# shared seam by that half sagitta; moved rigidly, within the tolerance, they meet.
+BOW, TUBE, HALF_SPAN = 138000.0, 20000.0, np.radians(5.0)
+
+
+def girth_v(s: float) -> float:
+    """The iso-v of the torus patch at girth s (mm) from its middle (rational quadratic arc)."""
+    return float((np.tan(s / TUBE / 2) / np.tan(HALF_SPAN / 2) + 1) / 2)
+
+
+def off_torus(points: np.ndarray) -> np.ndarray:
+    """Distances of points (N, 3) from the torus of bowed_bilge_iges: the tube's centre circle
+    has radius BOW about the axis parallel to y through (0, 0, BOW)."""
+    q = np.asarray(points) - np.array([0.0, 0.0, BOW])
+    rho = np.hypot(q[:, 0], q[:, 2])
+    return np.abs(np.hypot(rho - BOW, q[:, 1]) - TUBE)
+
+
+def torus_strakes(tmp_path: Path, fit_up: str) -> Path:
+    from tests.hull_shapes import bowed_bilge_iges
+
+    bowed_bilge_iges(tmp_path / "torus.igs", bow=BOW, bilge=TUBE, length=20000.0, angle_deg=10.0)
+    path = tmp_path / f"torus_{fit_up}.yaml"
+    path.write_text(yaml.safe_dump({
+        "name": "tor", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False, "dxf": False},
+        "steel": {"thickness": THICKNESS},
+        "strake": {"surface": {"iges": "torus.igs"}, "seams": [{"iso": {"v": girth_v(s)}} for s in (-1200, 0, 600)],
+                   "butts": [-3000.0, 3000.0], "margin": 0.2, "fit_tolerance": TOLERANCE, "fit_up": fit_up}}))
+    return path
+
+
+@pytest.fixture(scope="module")
+def strips(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("torus")
+    return run(torus_strakes(tmp, "report")), run(torus_strakes(tmp, "follow"))
+
+
+def test_two_strips_step_by_the_half_sagitta_of_the_wider(strips):
+    (_, results, fit), _ = strips
+    assert [r.figures["plate_class"]["class"] for r in results] == ["developable", "developable"]
+    sagitta = TUBE * (1 - np.cos(1200.0 / TUBE / 2))  # 9.0 mm
+    assert results[0].figures["hull_fit"]["max_distance"] == pytest.approx(sagitta / 2, abs=0.05)
+    assert results[1].figures["hull_fit"]["max_distance"] == pytest.approx(TUBE * (1 - np.cos(600.0 / TUBE / 2)),
+                                                                           abs=0.05)
+    assert len(fit.pairs) == 1 and fit.pairs[0].step_max == pytest.approx(sagitta / 2, abs=0.05)
+    assert fit.pairs[0].misfit
+
+
+def test_strips_moved_rigidly_meet_within_the_tolerance_of_the_torus(strips):
+    (_, plain, _), (config, results, fit) = strips
+    report = config.fitup_follow
+    assert report.strips and set(report.strips) <= {r.name for r in results}
+    assert not report.refused and not report.planes
+    assert len(fit.pairs) == 1 and fit.pairs[0].step_max < 0.5 * fit.pairs[0].limit  # was 4.5 mm
+    for result, was in zip(results, plain):
+        assert result.figures["plate_class"]["class"] == "developable"
+        # the same plate: its development untouched, its 3D shape the old one moved rigidly
+        assert np.array_equal(result.pattern.vertices, was.pattern.vertices)
+        v3 = result.strip.vertices if result.strip is not None and result.strip.trim is not None else result.mesh[0]
+        v0 = was.strip.vertices if was.strip is not None and was.strip.trim is not None else was.mesh[0]
+        assert np.allclose(np.linalg.norm(v3[1:] - v3[:-1], axis=1), np.linalg.norm(v0[1:] - v0[:-1], axis=1),
+                           atol=1e-9)
+        if result.name not in report.strips:
+            assert "rigid_move" not in result.figures and np.array_equal(v3, v0)
+            continue
+        move = result.figures["rigid_move"]
+        assert 0.0 < move["largest_move_mm"] < 2 * TOLERANCE
+        # within the tolerance of the exact torus (not only of the NURBS the plan read)
+        assert off_torus(v3).max() <= TOLERANCE * (1 + 1e-6)
+        assert result.figures["hull_fit"]["max_distance"] == pytest.approx(off_torus(v3).max(), abs=1e-3)
+        assert result.figures["hull_fit"]["before_move_max_distance"] == was.figures["hull_fit"]["max_distance"]
+
+
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(st.integers(2, 6), st.integers(3, 25), st.integers(0, 10_000))
+def test_the_primal_from_the_dual_is_the_primal_optimum(columns, rows, seed):
+    # the programme is solved as its dual (a basis of its few columns): the marginals read back
+    # are feasible and as good as HiGHS's own primal solution
+    from scipy.optimize import linprog
+    from scipy.sparse import csr_matrix
+
+    from pipeline.hull.joint import _primal
+
+    rng = np.random.default_rng(seed)
+    matrix = rng.normal(size=(rows, columns))
+    bound = matrix @ rng.uniform(0.0, 0.5, columns) + rng.uniform(0.0, 1.0, rows)  # feasible at that x
+    upper = np.where(rng.uniform(size=columns) < 0.3, rng.uniform(0.5, 2.0, columns), np.inf)
+    cost = rng.uniform(0.1, 2.0, columns) * np.where(rng.uniform(size=columns) < 0.5, -1.0, 1.0)
+    matrix = np.vstack([matrix, np.eye(columns)])  # every column bounded: the programme has an optimum
+    bound = np.r_[bound, np.full(columns, 5.0)]
+    x = _primal(cost, csr_matrix(matrix), bound, upper)
+    direct = linprog(cost, A_ub=matrix, b_ub=bound, bounds=[(0, None if np.isinf(u) else u) for u in upper],
+                     method="highs")
+    assert direct.success and x is not None
+    assert (matrix @ x - bound).max() <= 1e-7 and x.min() >= 0.0 and np.all(x <= upper + 1e-9)
+    assert cost @ x == pytest.approx(direct.fun, abs=1e-7 * max(1.0, abs(direct.fun)))
+
+
+def test_a_strip_moves_by_a_rigid_motion():
+    from pipeline.hull.joint import _Body
+
+    rng = np.random.default_rng(5)
+    centre, scale = rng.normal(size=3) * 1000, 3000.0
+    body = _Body("s", "rigid", 0, centre, np.zeros((2, 3)), np.zeros(3), scale, np.zeros((0, 6)), np.zeros(0), 5.0)
+    points = centre + rng.normal(size=(7, 3)) * 2000
+    v, w = rng.normal(size=3), rng.normal(size=3) * 1e-3
+    moves = body.basis(points) @ np.r_[v, w * scale]
+    assert np.allclose(moves, v + np.cross(w, points - centre), atol=1e-12)

@@ -22,9 +22,10 @@ edge takes the flat plates' step at its end, and within a grid cell or two no lo
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
 No plate changes class: the flat and strip plates keep their developments, the formed
 ones that move are developed again from their moved shape (pin jig, templates and heating
-lines follow it). Before the forming, the flat plates' planes are chosen together
-(:mod:`.joint`), so that flat neighbours, and flat plates beside strips, step as little as
-their tolerance allows; the formed plates then meet the flat plates where these lie.
+lines follow it). Before the forming, the flat plates' planes and the strips' places (a
+small rigid motion each) are chosen together (:mod:`.joint`, :mod:`.rigid`), so that flat
+and strip neighbours step as little as their tolerance allows; the formed plates then meet
+them where they lie.
 """
 
 from __future__ import annotations
@@ -34,11 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, plate_edges, shared_edges
-from .joint import RULE as PLANES_RULE
-from .joint import joint_planes
+from .joint import RULE as JOINT_RULE
+from .joint import joint_moves
 
 FORMED = "formed"
 MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
+SHARES = (1.0, 0.75, 0.5, 0.25)  # of a strip's joint move, tried in turn until the plate stays within its tolerance
 CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
         "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
@@ -56,28 +58,32 @@ class FollowReport:
     moved: dict = field(default_factory=dict)
     untaken: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
     planes: dict = field(default_factory=dict)  # flat plate -> largest shift of its region's points (mm)
+    strips: dict = field(default_factory=dict)  # strip moved rigidly -> its largest move (mm)
+    refused: list = field(default_factory=list)  # strips whose move would take them off the tolerance
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
-                "moved": self.moved, "planes_rule": PLANES_RULE, "flat_planes_moved": len(self.planes),
-                "planes": self.planes,
+                "moved": self.moved, "joint_rule": JOINT_RULE, "flat_planes_moved": len(self.planes),
+                "planes": self.planes, "strips_moved": len(self.strips), "strips": self.strips,
+                "strip_moves_refused": self.refused,
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
     def one_line(self) -> str:
         return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.planes)} flat plate(s) on planes "
-                f"chosen together, {len(self.moved)} formed plate(s) formed to meet their flat and strip neighbours, "
-                f"{len(self.untaken)} pair(s) of flat or strip plates left")
+                f"and {len(self.strips)} strip(s) moved, chosen together, {len(self.moved)} formed plate(s) formed to "
+                f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left")
 
 
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
-                 planes: bool = True) -> FollowReport:
-    """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates
-    first set on planes chosen together (:mod:`.joint`; ``planes=False``: each keeps its own).
-    ``parts``: the run's parts; hull plates without an evaluated result are evaluated first
-    (``evaluate_many(parts) -> results``). A plate that moves is evaluated again with
-    ``part.hull.follow`` (a formed plate) or ``part.hull.plane`` (a flat one) set;
-    ``part.hull.result`` is its new result."""
+                 joint: bool = True, strips: bool = True) -> FollowReport:
+    """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates'
+    planes and the strips' places first chosen together (:mod:`.joint`; ``joint=False``: each
+    stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
+    plates without an evaluated result are evaluated first (``evaluate_many(parts) ->
+    results``). A plate that moves is evaluated again with ``part.hull.follow`` (a formed
+    plate) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
+    (:mod:`.rigid`); ``part.hull.result`` is its new result."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
@@ -86,18 +92,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     records = _records(plates)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
-    planes = joint_planes(records, pairs, mm_per_unit) if planes else {}
-    if planes:  # the flat plates' planes chosen together first: the formed plates meet them where they lie
-        moved_flats = []
-        for part in plates:
-            if part.name in planes:
-                plane = planes[part.name]
-                part.hull.plane = {"normal": plane["normal"], "point": plane["point"]}
-                part.hull.result = None
-                report.planes[part.name] = plane["largest_shift_mm"]
-                moved_flats.append(part)
-        for part, result in zip(moved_flats, evaluate_many(moved_flats)):
-            part.hull.result = result
+    if joint and _move_jointly(plates, records, pairs, evaluate_many, mm_per_unit, strips, report):
+        # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates)
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
@@ -131,11 +127,46 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     return report
 
 
+def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float, strips: bool,
+                  report: FollowReport) -> bool:
+    """The joint programme's moves applied: flat plates evaluated again on their planes,
+    strips moved as delivered (unless the move takes one beyond its tolerance). Whether any
+    plate moved."""
+    from .rigid import moved_rigidly, shortened
+
+    moves = joint_moves(records, pairs, mm_per_unit, strips=strips)
+    flats = []
+    for part in plates:
+        move = moves.get(part.name)
+        if move is None:
+            continue
+        if move["kind"] == "plane":
+            part.hull.plane = {"normal": move["normal"], "point": move["point"]}
+            part.hull.result = None
+            report.planes[part.name] = move["largest_move_mm"]
+            flats.append(part)
+            continue
+        # the programme holds a strip's grid of points within the tolerance, to first order:
+        # where the whole plate would leave it, as much of the move as keeps it within
+        for share in SHARES:
+            moved = moved_rigidly(part.hull.result, shortened(move, share) if share < 1.0 else move)
+            if moved.figures["hull_fit"]["passed"]:
+                part.hull.result = moved
+                report.strips[part.name] = moved.figures["rigid_move"]["largest_move_mm"]
+                break
+        else:
+            report.refused.append(part.name)
+    for part, result in zip(flats, evaluate_many(flats)):
+        part.hull.result = result
+    return bool(flats or report.strips)
+
+
 def _records(plates: list) -> dict:
     """{plate: (PlateEdges, part)} of the plates whose result has edges."""
     records = {}
     for part in plates:
-        edges = plate_edges(part.hull.result) if part.hull.result is not None else None
+        result = part.hull.result
+        edges = None if result is None else (result.figures.get("fitup_edges") or plate_edges(result))
         if edges is not None:
             records[part.name] = (edges, part)
     return records

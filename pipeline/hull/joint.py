@@ -1,28 +1,34 @@
-"""Fit-up by fitting: the flat plates' planes chosen together, so that shared edges meet.
+"""Fit-up by fitting: the flat plates' planes and the strips' places chosen together, so
+that shared edges meet.
 
 A flat plate is cut planar and fits the hull on any plane within the fit tolerance of its
 region; the minimax plane is one of many. Its edges are its region's edges projected on that
 plane, so two flat neighbours, each on its own minimax plane, step from each other at their
 shared edge by the difference of their distances from the hull there, up to twice the
-tolerance; a flat plate beside a strip steps by the difference of the two plates' distances.
-The planes are free within the tolerance, so they are chosen together: one linear programme
-over all the shell's flat plates, the strips' edges held where they are.
+tolerance. A strip, likewise, is one developable surface within the tolerance of its region;
+moved rigidly (its development unchanged) it stays one as long as it stays within the
+tolerance. So both are chosen together: one linear programme over all the shell's flat and
+strip plates, the formed plates left to the forming that follows (:mod:`.follow`).
 
-Each flat plate's plane is z = a x + b y + h in the frame of its present plane (x, y along
-it, z along its normal): a vertical distance is never less than the perpendicular one, so
-|z_i - a x_i - b y_i - h| <= tolerance at the region's points (the vertices of their convex
-hull suffice: the constraint is convex) keeps the plate within the tolerance of the hull in
-truth. An edge point then moves along the normal by a x + b y + h (the plane's tilt turns the
-direction of projection by a fraction of a milliradian: a few micrometres). At points of
-every shared edge of a flat plate with a flat or strip neighbour (both ways, the common part
-as :mod:`.fitup` measures it) the gap vector between the edges, taken across the edge (the
-part along it is no step), is held inside an octagon (the circle it holds is within 0.92 of
-its sides' distance) whose sides stand at 0.45 of the step limit plus two slacks of the
-edge: the first up to 0.9 of the limit (no misfit yet), the second beyond it. The programme
-minimises the sum over the edges of the second slacks (mm: how far each edge's largest step
-exceeds the limit, which is what makes a pair misfit), then, at a tenth of the weight, the
-first ones (steps brought well inside the limit where the tolerance allows), and, far below
-both, how far the planes move (planes that need not move stay). HiGHS (``scipy.optimize.linprog``).
+A flat plate's plane is z = a x + b y + h in the frame of its present plane (x, y along it, z
+along its normal): a vertical distance is never less than the perpendicular one, so
+|z_i - a x_i - b y_i - h| <= 0.98 of the tolerance at the region's points (the vertices of
+their convex hull suffice: the constraint is convex; the margin is for the hull between the
+points) keeps the plate within the tolerance of the hull in truth, and an edge point moves along the normal by a x + b y + h. A strip moves by a small
+rigid motion, a point p by v + w x (p - centre): its points' signed distances from the hull,
+measured at a grid of its points along the hull's normal there, change by that move's normal
+part and stay within 0.95 of the tolerance (or their present distance, if larger: the plate as
+it is is always allowed); its move along the hull stays within the tolerance (a strip does
+not slide along the shell). At points of every shared edge of two such plates (on one of them, the
+common part as :mod:`.fitup` measures it, every 300 mm) the gap vector between the edges, taken across the
+edge (the part along it is no step), is held inside an octagon (the circle it holds is within
+0.92 of its sides' distance) whose sides stand at the sum of two slacks of the edge: up to
+0.45 of the limit, and beyond. The programme minimises the sum over the edges of the second
+slacks (mm: how far each edge's largest step exceeds 0.45 of the limit: the pairs that misfit
+are those past the limit), at a hundredth of the weight the first ones (no step made larger
+for nothing), and, far below both, how far the plates move. HiGHS
+(``scipy.optimize.linprog``), on the programme's dual. The moves are first order in the turns (a few milliradians):
+the moved plates are measured again after (:mod:`.rigid`, :mod:`.plates`).
 """
 
 from __future__ import annotations
@@ -34,106 +40,207 @@ import numpy as np
 from .fitup import SAMPLE_MM, _common, _dense, closest_on
 
 FLAT = "flat"
-FIXED_NEIGHBOURS = ("developable",)  # their edges are held: a strip's is its development's
-INSIDE_LIMIT = 0.9  # the octagon's sides at this share of the step limit: within it, no misfit
-AIM = 0.45  # ... and below this share, no cost: steps are brought down to it where the tolerance allows
-NEAR_WEIGHT = 0.1  # a millimetre between the aim and the limit, against one over the limit
-POINT_MM = 100.0  # edge points this far apart carry the step constraints
-MOVE_WEIGHT = 1e-4  # how far the planes move (model units), against mm of an edge's step excess
-RULE = ("the flat plates' planes are chosen together (one linear programme, HiGHS): each within the fit tolerance "
-        "of its region, the steps at their shared edges with flat and strip neighbours within the step limit where "
-        "the tolerance allows and as little over it as it allows elsewhere; strips are held")
+STRIP = "developable"
+# an edge's largest step (its octagon's side, a share of the step limit) in tiers, each (its
+# width as a share of the limit, its weight per mm): up to 0.45 of the limit nearly free (no
+# step made larger for nothing), beyond it at full weight. On the 160 m hull this leaves fewer
+# misfits (90 of 346 flat and strip pairs) than a third tier of ten times the weight beyond 0.9
+# of the limit (99): pulling every step toward 0.45 of the limit clears more of them
+TIERS = ((0.45, 0.001), (np.inf, 0.1))
+MOVE_WEIGHT = 1e-4  # how far the plates move (model units), against mm of an edge's step
+POINT_MM = 300.0  # edge points this far apart carry the step constraints
+STRIP_GRID = (5, 8)  # a strip's points held within the tolerance: this grid over its rows and columns
+STRIP_SHARE = 0.95  # of the tolerance, for a strip's points (its mesh between them, the turns' second order)
+# of the tolerance, for a flat plate's region points: the hull between them bulges past a
+# plane that touches the tolerance at them (by the grid cells' sagitta: 0.25 mm for 200 mm at 20 m)
+PLANE_SHARE = 0.98
+RULE = ("the flat plates' planes and the strips' places are chosen together (one linear programme, HiGHS): each "
+        "flat plate within the fit tolerance of its region, each strip moved rigidly within it (its development "
+        "unchanged), the steps at their shared edges within the step limit where the tolerance allows and as little "
+        "over it as it allows elsewhere")
 
 
 @dataclass(frozen=True)
-class _Flat:
-    """A flat plate's frame (its present plane) and the points that bound its planes."""
+class _Body:
+    """A flat or strip plate in the programme: its variables from ``column`` (3 for a plane:
+    a, b, h; 6 for a rigid move: v and w times ``scale``), its frame, and the rows that keep
+    it within the tolerance (``rows`` @ x <= ``limits``)."""
 
-    origin: np.ndarray  # (3,)
-    axes: np.ndarray  # (2, 3) in-plane
-    normal: np.ndarray  # (3,)
-    scale: float  # model units: the plate's size, so that a and b are turns over it
-    column: int  # its first variable
-    bounding: np.ndarray  # (K, 3) local coordinates of the region's points that bound its planes (convex hull)
+    name: str
+    kind: str  # "plane" or "rigid"
+    column: int
+    origin: np.ndarray  # (3,) a point of the plane, or the strip's centre
+    axes: np.ndarray  # (2, 3) the plane's in-plane axes (unused for a strip)
+    normal: np.ndarray  # (3,) the plane's normal (unused for a strip)
+    scale: float  # model units: the plate's size, so that the turns are lengths at its ends
+    rows: np.ndarray  # (K, size)
+    limits: np.ndarray  # (K,)
     tolerance: float
 
+    @property
+    def size(self) -> int:
+        return 3 if self.kind == "plane" else 6
 
-def joint_planes(records: dict, pairs: list, mm_per_unit: float) -> dict:
-    """New planes {flat plate: {"normal": (3,), "point": (3,), "largest_shift_mm"}} for the
-    flat plates whose plane the joint programme moves (others keep theirs). ``records``:
+    def basis(self, points: np.ndarray) -> np.ndarray:
+        """(N, 3, size): each point's move per unit of each variable."""
+        r = (np.asarray(points, dtype=np.float64) - self.origin) / self.scale
+        if self.kind == "plane":
+            x, y = r @ self.axes.T[:, 0], r @ self.axes.T[:, 1]
+            return self.normal[None, :, None] * np.stack([x, y, np.ones_like(x)], axis=1)[:, None, :]
+        out = np.zeros((len(r), 3, 6))
+        out[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        # w x r as a matrix acting on w
+        out[:, 0, 4], out[:, 0, 5] = r[:, 2], -r[:, 1]
+        out[:, 1, 3], out[:, 1, 5] = -r[:, 2], r[:, 0]
+        out[:, 2, 3], out[:, 2, 4] = r[:, 1], -r[:, 0]
+        return out
+
+
+def joint_moves(records: dict, pairs: list, mm_per_unit: float, strips: bool = True) -> dict:
+    """Moves {plate: move} for the flat and strip plates the joint programme moves (others
+    stay): a flat plate's ``{"kind": "plane", "normal", "point", "largest_move_mm"}``, a
+    strip's ``{"kind": "rigid", "rotation" (3, 3), "turn" (3,) (its axis times its angle),
+    "translation" (3,), "centre" (3,), "largest_move_mm"}`` (p -> centre + rotation (p - centre) + translation). ``records``:
     {plate: (PlateEdges, part)} with ``part.hull.result`` evaluated; ``pairs``: their shared
-    edges (:func:`.fitup.shared_edges`)."""
-    flats, column = {}, 0
+    edges (:func:`.fitup.shared_edges`); ``strips``: False holds the strips where they are."""
+    bodies, column = {}, 0
     for name, (edges, part) in sorted(records.items()):
-        frame = _frame(edges, part, column)
-        if frame is not None:
-            flats[name] = frame
-            column += 3
-    if not flats:
+        body = _plane_body(name, part, column) if edges.klass == FLAT else (
+            _rigid_body(name, part, column) if strips and edges.klass == STRIP else None)
+        if body is not None:
+            bodies[name] = body
+            column += body.size
+    if not bodies:
         return {}
-    normal_of = np.repeat(np.array([flat.normal for flat in flats.values()]), 3, axis=0)  # by column
-    rows, rhs, limits = [], [], []
+    triplets, rhs, limits = [], [], []
     for pair in pairs:
-        ka, kb = records[pair.a][0].klass, records[pair.b][0].klass
-        if FLAT not in (ka, kb) or any(k not in (FLAT, *FIXED_NEIGHBOURS) for k in (ka, kb)):
+        kinds = (records[pair.a][0].klass, records[pair.b][0].klass)
+        if not (pair.a in bodies or pair.b in bodies) or any(k not in (FLAT, STRIP) for k in kinds):
             continue
         ea, eb = records[pair.a][0].edge(pair.side_a), records[pair.b][0].edge(pair.side_b)
         if ea is None or eb is None:
             continue
-        limit, slacks = pair.limit / mm_per_unit, len(limits)
-        for here, there in ((pair.a, pair.b), (pair.b, pair.a)):
-            mine, theirs = (ea, eb) if here == pair.a else (eb, ea)
-            got = _gaps(mine, theirs, mm_per_unit)
-            if got is None:
-                continue
-            points, feet, across = got
-            for k in range(len(points)):
-                row = {}
-                for name, point, sign in ((here, points[k], 1.0), (there, feet[k], -1.0)):
-                    if name in flats:
-                        _add(row, flats[name], point, sign)
-                gap = points[k] - feet[k]
-                for direction in across[k]:  # the octagon: |(gap + moves) . d| <= aim + the two slacks
-                    coeffs = {c: v * float(normal_of[c] @ direction) for c, v in row.items()}
-                    base = float(gap @ direction)
-                    for sign in (1.0, -1.0):
-                        rows.append(({c: sign * v for c, v in coeffs.items()}, slacks))
-                        rhs.append(AIM * limit - sign * base)
-        limits.append(limit)  # the edge's slacks: how far its largest step exceeds the aim, the limit
+        got = _gaps(ea, eb, mm_per_unit)  # one way: the common part is the same edge seen from either side
+        if got is not None:
+            _edge_rows(bodies.get(pair.a), bodies.get(pair.b), *got, len(limits), triplets, rhs)
+            limits.append(pair.limit / mm_per_unit)
     if not limits:
         return {}
-    return _solve(flats, rows, rhs, np.asarray(limits), column, mm_per_unit)
+    return _solve(bodies, column, triplets, rhs, np.asarray(limits), mm_per_unit)
 
 
-def _frame(edges, part, column: int) -> _Flat | None:
+def _plane_body(name: str, part, column: int) -> _Body | None:
     result = part.hull.result
     klass = (result.figures.get("plate_class") or {}) if result is not None else {}
-    if edges.klass != FLAT or result.mesh is None or klass.get("normal") is None or klass.get("plane_point") is None:
+    if result is None or result.mesh is None or klass.get("normal") is None or klass.get("plane_point") is None:
         return None
     normal = np.asarray(klass["normal"], dtype=np.float64)
     normal = normal / np.linalg.norm(normal)
     origin = np.asarray(klass["plane_point"], dtype=np.float64)
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    first = np.cross(normal, helper)
+    first = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
     first /= np.linalg.norm(first)
     axes = np.array([first, np.cross(normal, first)])
-    points = np.asarray(result.mesh[0], dtype=np.float64) - origin
-    local = np.column_stack([points @ axes.T, points @ normal])
+    points = np.asarray(result.mesh[0], dtype=np.float64)
+    local = np.column_stack([(points - origin) @ axes.T, (points - origin) @ normal])
     scale = float(max(np.ptp(local[:, :2], axis=0).max(), 1e-12))
     from scipy.spatial import ConvexHull, QhullError
 
     try:
-        bounding = local[ConvexHull(local).vertices]
+        local = local[ConvexHull(local).vertices]
     except QhullError:  # a degenerate set (a region on one plane, say): every point bounds the planes
-        bounding = local
-    return _Flat(origin, axes, normal, scale, column, bounding, float(part.hull.fit_tolerance))
+        pass
+    tol = float(part.hull.fit_tolerance)
+    shift = np.column_stack([local[:, :2] / scale, np.ones(len(local))])  # the move a x + b y + h
+    allowed = np.maximum(PLANE_SHARE * tol, np.abs(local[:, 2]))
+    rows = np.vstack([shift, -shift])  # |z - move| <= tolerance
+    return _Body(name, "plane", column, origin, axes, normal, scale, rows,
+                 np.r_[allowed + local[:, 2], allowed - local[:, 2]], tol)
 
 
-def _add(row: dict, flat: _Flat, point: np.ndarray, sign: float) -> None:
-    """The point's move along the plate's normal, a x + b y + h, into ``row`` {column: coefficient}."""
-    x, y = (point - flat.origin) @ flat.axes.T / flat.scale
-    for offset, value in enumerate((x, y, 1.0)):
-        row[flat.column + offset] = row.get(flat.column + offset, 0.0) + sign * value
+def _rigid_body(name: str, part, column: int) -> _Body | None:
+    result = part.hull.result
+    if result is None:
+        return None
+    points = _strip_points(result)
+    if points is None:
+        return None
+    hull = part.hull
+    from flatten.closest import SurfaceDistance
+
+    distance = hull.distance or SurfaceDistance(hull.surface)
+    params, _ = distance.closest(points, converged=1e-9)
+    foot, normal, along = _hull_frames(hull.surface, params)
+    signed = np.einsum("ij,ij->i", points - foot, normal)
+    centre = points.mean(axis=0)
+    scale = float(max(np.ptp(points, axis=0).max(), 1e-12))
+    tol = float(hull.fit_tolerance)
+    probe = _Body(name, "rigid", column, centre, np.zeros((2, 3)), np.zeros(3), scale, np.zeros((0, 6)),
+                  np.zeros(0), tol)
+    basis = probe.basis(points)
+    across = np.cross(normal, along)
+    rows, limits = [], []
+    allowed = np.maximum(STRIP_SHARE * tol, np.abs(signed))
+    for direction, hi, lo in ((normal, allowed - signed, allowed + signed), (along, tol, tol), (across, tol, tol)):
+        coeff = np.einsum("ni,nij->nj", direction, basis)
+        rows += [coeff, -coeff]
+        limits += [np.broadcast_to(hi, len(points)), np.broadcast_to(lo, len(points))]
+    return _Body(name, "rigid", column, centre, np.zeros((2, 3)), np.zeros(3), scale, np.vstack(rows),
+                 np.concatenate(limits), tol)
+
+
+def _strip_points(result) -> np.ndarray | None:
+    """(K, 3) a grid of a delivered strip's 3D points (its rulings' samples, or the region
+    mesh it is cut to), STRIP_GRID over its rows and columns, its corners included."""
+    if result.strip is not None and result.strip.trim is not None:
+        m = len(result.strip.samples)
+        grid = np.asarray(result.strip.vertices, dtype=np.float64).reshape(-1, m, 3)
+    elif result.mesh is not None:
+        shape = tuple((result.figures.get("region") or {}).get("grid") or ())
+        v3 = np.asarray(result.mesh[0], dtype=np.float64)
+        if len(shape) != 2 or shape[0] * shape[1] != len(v3):
+            return None
+        grid = v3.reshape(*shape, 3)
+    else:
+        return None
+    rows = np.unique(np.linspace(0, grid.shape[0] - 1, STRIP_GRID[1]).round().astype(int))
+    cols = np.unique(np.linspace(0, grid.shape[1] - 1, STRIP_GRID[0]).round().astype(int))
+    return grid[np.ix_(rows, cols)].reshape(-1, 3)
+
+
+def _hull_frames(surface, params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The hull's points (N, 3), unit normals (N, 3) and a unit tangent (N, 3) at parameters (N, 2)."""
+    u, v = params[:, 0], params[:, 1]
+    hu, hv = 1e-6 * np.ptp(surface.domain_u), 1e-6 * np.ptp(surface.domain_v)
+    lo_u, hi_u = surface.domain_u
+    lo_v, hi_v = surface.domain_v
+    ua, ub = np.clip(u - hu, lo_u, hi_u), np.clip(u + hu, lo_u, hi_u)
+    va, vb = np.clip(v - hv, lo_v, hi_v), np.clip(v + hv, lo_v, hi_v)
+    su = (surface(ub, v) - surface(ua, v)) / (ub - ua)[:, None]
+    sv = (surface(u, vb) - surface(u, va)) / (vb - va)[:, None]
+    normal = np.cross(su, sv)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    along = su / np.maximum(np.linalg.norm(su, axis=1, keepdims=True), 1e-300)
+    return surface(u, v), normal, along
+
+
+def _edge_rows(here: _Body | None, there: _Body | None, points, feet, across, edge: int, triplets: list,
+               rhs: list) -> None:
+    """The octagon rows of one edge's points: |(gap + move here - move there) . d| <= the
+    edge's slacks, as sparse (row, column, value) triplets (column -1 - ``edge``: its slacks)."""
+    gap = np.einsum("nj,nkj->nk", points - feet, across)  # (N, 4)
+    start = sum(len(r) for r in rhs)
+    count = gap.size
+    for sign in (1.0, -1.0):
+        line = start + np.arange(count)
+        for body, at, factor in ((here, points, 1.0), (there, feet, -1.0)):
+            if body is None:
+                continue
+            coeff = factor * sign * np.einsum("nkj,nji->nki", across, body.basis(at))  # (N, 4, size)
+            triplets.append((np.repeat(line, body.size), np.tile(body.column + np.arange(body.size), count),
+                             coeff.reshape(-1)))
+        triplets.append((line, np.full(count, -1 - edge), np.full(count, -1.0)))  # the slacks, placed in _solve
+        rhs.append(-sign * gap.reshape(-1))
+        start += count
 
 
 def _gaps(mine, theirs, mm_per_unit: float):
@@ -161,54 +268,104 @@ def _gaps(mine, theirs, mm_per_unit: float):
     return points, feet, across
 
 
-def _solve(flats: dict, rows: list, rhs: list, limits: np.ndarray, planes: int, mm_per_unit: float) -> dict:
-    from scipy.optimize import linprog
+def _solve(bodies: dict, size: int, triplets: list, rhs: list, limits: np.ndarray, mm_per_unit: float) -> dict:
     from scipy.sparse import coo_matrix
 
-    # variables: the planes' (a, b, h) as differences of non-negative parts, then per edge the
-    # step's excess over the aim up to the limit's octagon, and its excess beyond that
-    slacks = len(limits)
-    n = 2 * planes + 2 * slacks
+    # variables: the bodies' own as differences of non-negative parts, then per edge its step
+    # by tier (TIERS): up to 0.45 of the limit, and beyond
+    edges = len(limits)
     r_, c_, v_ = [], [], []
-    bound = []
-    line = 0
-    for coeffs, slack in rows:
-        for c, v in coeffs.items():
-            r_ += [line, line]
-            c_ += [c, planes + c]
-            v_ += [v, -v]
-        r_ += [line, line]
-        c_ += [2 * planes + slack, 2 * planes + slacks + slack]
-        v_ += [-1.0, -1.0]
-        line += 1
-    bound += rhs
-    for flat in flats.values():  # |z_i - (a x_i + b y_i + h)| <= tolerance at the hull's vertices
-        x, y, z = (flat.bounding[:, 0] / flat.scale, flat.bounding[:, 1] / flat.scale, flat.bounding[:, 2])
-        for sign in (1.0, -1.0):
-            for k in range(len(z)):
-                for offset, value in enumerate((x[k], y[k], 1.0)):
-                    r_ += [line, line]
-                    c_ += [flat.column + offset, planes + flat.column + offset]
-                    v_ += [sign * value, -sign * value]
-                bound.append(flat.tolerance * (1.0 - 1e-9) + sign * z[k])
-                line += 1
-    matrix = coo_matrix((v_, (r_, c_)), shape=(line, n)).tocsr()
-    cost = np.r_[np.full(2 * planes, MOVE_WEIGHT), np.full(slacks, NEAR_WEIGHT * mm_per_unit),
-                 np.full(slacks, mm_per_unit)]
-    bounds = [(0, None)] * (2 * planes) + [(0, (INSIDE_LIMIT - AIM) * limit) for limit in limits] + [(0, None)] * slacks
-    got = linprog(cost, A_ub=matrix, b_ub=np.asarray(bound), bounds=bounds, method="highs")
-    if not got.success:
+    for line, column, value in triplets:
+        slack = column < 0
+        body_lines, body_columns, body_values = line[~slack], column[~slack], value[~slack]
+        r_ += [body_lines, body_lines]
+        c_ += [body_columns, size + body_columns]
+        v_ += [body_values, -body_values]
+        for tier in range(len(TIERS)):
+            r_.append(line[slack])
+            c_.append(2 * size + tier * edges + (-column[slack] - 1))
+            v_.append(value[slack])
+    bound = list(rhs)
+    line = sum(len(r) for r in rhs)
+    for body in bodies.values():  # each within the tolerance
+        k = len(body.limits)
+        lines = line + np.repeat(np.arange(k), body.size)
+        columns = np.tile(body.column + np.arange(body.size), k)
+        r_ += [lines, lines]
+        c_ += [columns, size + columns]
+        v_ += [body.rows.reshape(-1), -body.rows.reshape(-1)]
+        bound.append(body.limits)
+        line += k
+    matrix = coo_matrix((np.concatenate(v_), (np.concatenate(r_), np.concatenate(c_))),
+                        shape=(line, 2 * size + len(TIERS) * edges)).tocsr()
+    cost = np.r_[np.full(2 * size, MOVE_WEIGHT), *(np.full(edges, weight * mm_per_unit) for _, weight in TIERS)]
+    upper = np.r_[np.full(2 * size, np.inf), *(share * limits for share, _ in TIERS)]
+    x = _primal(cost, matrix, np.concatenate(bound), upper)
+    if x is None:
         return {}
-    x = got.x[:planes] - got.x[planes:2 * planes]
+    x = x[:size] - x[size:2 * size]
     out = {}
-    for name, flat in flats.items():
-        a, b, h = x[flat.column:flat.column + 3]
-        x_, y_ = flat.bounding[:, 0] / flat.scale, flat.bounding[:, 1] / flat.scale
-        shift = float(np.abs(a * x_ + b * y_ + h).max())
-        if shift <= 1e-6 * flat.tolerance:
-            continue
-        normal = flat.normal - (a * flat.axes[0] + b * flat.axes[1]) / flat.scale
-        normal /= np.linalg.norm(normal)
-        out[name] = {"normal": normal.tolist(), "point": (flat.origin + h * flat.normal).tolist(),
-                     "largest_shift_mm": shift * mm_per_unit}
+    for name, body in bodies.items():
+        mine = x[body.column:body.column + body.size]
+        if body.kind == "plane":
+            move = _plane_move(body, mine)
+        else:
+            move = _rigid_move(body, mine)
+        if move["largest_move_mm"] > 1e-6 * body.tolerance:  # model units here
+            move["largest_move_mm"] *= mm_per_unit
+            out[name] = move
     return out
+
+
+def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
+    """x >= 0 (N,) minimising cost . x subject to matrix x <= bound and x <= upper, or None.
+
+    Solved as its dual (max -bound . y subject to matrix^T y >= -cost, y >= 0), whose basis is
+    as large as the primal's columns (a few thousand) instead of its rows (a hundred thousand
+    points of edges and plates: HiGHS takes three to five times as long on the primal); the
+    primal solution is the dual's constraints' marginals."""
+    from scipy.optimize import linprog
+    from scipy.sparse import csr_matrix, vstack
+
+    capped = np.flatnonzero(np.isfinite(upper))
+    caps = csr_matrix((np.ones(len(capped)), (np.arange(len(capped)), capped)), shape=(len(capped), len(cost)))
+    full = vstack([matrix, caps]).tocsr()
+    rhs = np.r_[bound, upper[capped]]
+    got = linprog(rhs, A_ub=-full.T, b_ub=cost, bounds=(0, None), method="highs")
+    if not got.success:
+        return None
+    x = np.maximum(-got.ineqlin.marginals, 0.0)
+    if (full @ x - rhs).max() > 1e-6 * max(1.0, np.abs(rhs).max()):  # the dual's marginals are the primal
+        return None
+    return x
+
+
+def _plane_move(body: _Body, x: np.ndarray) -> dict:
+    a, b, h = x
+    # the largest shift of the region's points: at a vertex of their convex hull (the rows)
+    shift = float(np.abs(body.rows[: len(body.rows) // 2] @ x).max())
+    normal = body.normal - (a * body.axes[0] + b * body.axes[1]) / body.scale
+    normal /= np.linalg.norm(normal)
+    return {"kind": "plane", "normal": normal.tolist(), "point": (body.origin + h * body.normal).tolist(),
+            "largest_move_mm": shift}
+
+
+def turned(turn: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) by the turn vector (3,) (axis times angle, radians): Rodrigues."""
+    turn = np.asarray(turn, dtype=np.float64)
+    angle = float(np.linalg.norm(turn))
+    if angle == 0.0:
+        return np.eye(3)
+    k = turn / angle
+    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + np.sin(angle) * cross + (1.0 - np.cos(angle)) * cross @ cross
+
+
+def _rigid_move(body: _Body, x: np.ndarray) -> dict:
+    translation, turn = x[:3], x[3:] / body.scale
+    rotation = turned(turn)
+    # the largest move of the points that held it: rows (normal, along, across) x (+, -)
+    count = len(body.rows) // 6
+    moves = np.stack([body.rows[k * count:(k + 1) * count] @ x for k in (0, 2, 4)], axis=1)
+    return {"kind": "rigid", "rotation": rotation.tolist(), "turn": turn.tolist(), "translation": translation.tolist(),
+            "centre": body.origin.tolist(), "largest_move_mm": float(np.linalg.norm(moves, axis=1).max())}
