@@ -236,3 +236,41 @@ def test_a_strip_moves_by_a_rigid_motion():
     v, w = rng.normal(size=3), rng.normal(size=3) * 1e-3
     moves = body.basis(points) @ np.r_[v, w * scale]
     assert np.allclose(moves, v + np.cross(w, points - centre), atol=1e-12)
+
+
+def test_a_strip_on_a_later_face_of_a_shell_is_held_on_its_own_face(strips):
+    # a shell's distance holds every face: a strip of its second face is measured on that
+    # face, not on the first (which once gave parameters outside its own face's domain)
+    import copy
+    import dataclasses
+
+    from flatten.closest import SurfaceDistance
+    from flatten.surface import nurbs_surface
+    from pipeline.hull.joint import _rigid_body
+
+    (_, results, _), _ = strips
+    plain = results[0].part
+    decoy = nurbs_surface(1, 1, [[[0, 0, -9e4], [0, 1e3, -9e4]], [[1e3, 0, -9e4], [1e3, 1e3, -9e4]]],
+                          [0, 0, 1, 1], [0, 0, 1, 1], name="decoy")
+    bodies = []
+    for distance in (SurfaceDistance(plain.hull.surface), SurfaceDistance([decoy, plain.hull.surface])):
+        part = copy.copy(plain)
+        part.hull = dataclasses.replace(plain.hull, distance=distance, result=results[0])
+        bodies.append(_rigid_body(part.name, part, 0))
+    assert np.all(np.isfinite(bodies[1].limits)) and np.all(np.isfinite(bodies[1].rows))
+    assert np.allclose(bodies[0].limits, bodies[1].limits, atol=1e-9)
+    assert np.allclose(bodies[0].rows, bodies[1].rows, atol=1e-9)
+
+
+def test_a_failed_programme_leaves_the_plates_as_developed_and_says_why(tmp_path, monkeypatch):
+    from pipeline.hull import follow
+
+    def broken(*args, **kwargs):
+        raise ValueError("Invalid input for linprog: c must not contain values inf")
+
+    monkeypatch.setattr(follow, "joint_moves", broken)
+    config, results, fit = run(cylinder_strake(tmp_path, (-1200.0, 0.0, 400.0), "follow"))
+    report = config.fitup_follow
+    assert report.joint_error.startswith("ValueError: Invalid input") and not report.planes and not report.strips
+    assert "the joint programme failed: ValueError" in report.one_line()
+    assert fit.pairs[0].misfit and [r.figures["plate_class"]["class"] for r in results] == ["flat", "flat"]

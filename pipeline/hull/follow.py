@@ -60,19 +60,21 @@ class FollowReport:
     planes: dict = field(default_factory=dict)  # flat plate -> largest shift of its region's points (mm)
     strips: dict = field(default_factory=dict)  # strip moved rigidly -> its largest move (mm)
     refused: list = field(default_factory=list)  # strips whose move would take them off the tolerance
+    joint_error: str | None = None  # why the joint programme moved nothing, if it failed
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
                 "moved": self.moved, "joint_rule": JOINT_RULE, "flat_planes_moved": len(self.planes),
                 "planes": self.planes, "strips_moved": len(self.strips), "strips": self.strips,
-                "strip_moves_refused": self.refused,
+                "strip_moves_refused": self.refused, "joint_error": self.joint_error,
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
     def one_line(self) -> str:
         return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.planes)} flat plate(s) on planes "
                 f"and {len(self.strips)} strip(s) moved, chosen together, {len(self.moved)} formed plate(s) formed to "
-                f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left")
+                f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left"
+                + (f" (the joint programme failed: {self.joint_error})" if self.joint_error else ""))
 
 
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
@@ -134,7 +136,11 @@ def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_pe
     plate moved."""
     from .rigid import moved_rigidly, shortened
 
-    moves = joint_moves(records, pairs, mm_per_unit, strips=strips)
+    try:
+        moves = joint_moves(records, pairs, mm_per_unit, strips=strips)
+    except Exception as exc:  # noqa: BLE001 - the plates stay as developed; the run says why
+        report.joint_error = f"{type(exc).__name__}: {exc}"
+        return False
     flats = []
     for part in plates:
         move = moves.get(part.name)

@@ -167,8 +167,12 @@ def _rigid_body(name: str, part, column: int) -> _Body | None:
     hull = part.hull
     from flatten.closest import SurfaceDistance
 
-    distance = hull.distance or SurfaceDistance(hull.surface)
-    params, _ = distance.closest(points, converged=1e-9)
+    # on the plate's own face (a shell's distance holds every face; its first need not be this one)
+    distance = hull.distance if hull.distance is not None else SurfaceDistance(hull.surface)
+    face = next((k for k, surface in enumerate(distance.surfaces) if surface is hull.surface), None)
+    if face is None:
+        distance, face = SurfaceDistance(hull.surface), 0
+    params, _ = distance.closest(points, face, converged=1e-9)
     foot, normal, along = _hull_frames(hull.surface, params)
     signed = np.einsum("ij,ij->i", points - foot, normal)
     centre = points.mean(axis=0)
