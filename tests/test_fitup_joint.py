@@ -88,8 +88,8 @@ def test_planes_chosen_together_meet_within_the_tolerance_of_the_cylinder(unequa
         off = off_cylinder(klass["plane_point"], klass["normal"], x0, x1)
         assert off <= TOLERANCE * (1 + 1e-6)
         if result.name in report.planes:  # it says how far the plane moved its region's points
-            assert klass["joint_plane"] and klass["normal"] != was.figures["plate_class"]["normal"] or \
-                klass["plane_point"] != was.figures["plate_class"]["plane_point"]
+            assert klass["joint_plane"] and (klass["normal"] != was.figures["plate_class"]["normal"]
+                                             or klass["plane_point"] != was.figures["plate_class"]["plane_point"])
             assert 0.0 < report.planes[result.name] <= 2 * TOLERANCE
         # the plate is its region projected on its plane: the same region, a nearby plane
         assert result.figures["area_m2"] == pytest.approx(was.figures["area_m2"], rel=1e-5)
@@ -274,3 +274,47 @@ def test_a_failed_programme_leaves_the_plates_as_developed_and_says_why(tmp_path
     assert report.joint_error.startswith("ValueError: Invalid input") and not report.planes and not report.strips
     assert "the joint programme failed: ValueError" in report.one_line()
     assert fit.pairs[0].misfit and [r.figures["plate_class"]["class"] for r in results] == ["flat", "flat"]
+
+
+def test_a_moved_strip_is_cut_and_bent_as_developed_and_sits_where_it_was_moved(tmp_path):
+    # a move along the hull (across the butt planes) and a turn: the plate the shop cuts is
+    # the strip as developed (re-cut at the butt planes, a moved strip would be another piece
+    # of it); only where it sits changes, its 3D geometry moved once its shop data are done
+    from pipeline.hull.joint import turned
+    from pipeline.hull.rigid import moved_rigidly
+
+    config = load_run(torus_strakes(tmp_path, "report"), evaluate_plate)
+    part = config.parts[1]
+    part.hull.result = evaluate_plate(part, config)
+    plain = run_part(part, config)
+    lean = evaluate_plate(part, config)
+    centre = np.asarray(lean.strip.vertices).mean(axis=0)
+    turn = np.array([0.0, 0.0, 1e-3])
+    move = {"rotation": turned(turn).tolist(), "turn": turn.tolist(), "translation": [2.0, 0.0, 1.0],
+            "centre": centre.tolist(), "largest_move_mm": 5.0}
+    part.hull.result = moved_rigidly(lean, move)
+    moved = run_part(part, config)
+    assert moved.ok and plain.ok
+    assert np.allclose(moved.shop.outline.points, plain.shop.outline.points, atol=1e-9)
+    assert [(b.a, b.b) for b in moved.shop.bending] == pytest.approx([(b.a, b.b) for b in plain.shop.bending], abs=1e-9)
+    assert moved.figures["outline"]["area_m2"] == pytest.approx(plain.figures["outline"]["area_m2"], rel=1e-12)
+    expected = centre + (np.asarray(plain.strip.vertices) - centre) @ turned(turn).T + np.array([2.0, 0.0, 1.0])
+    assert np.allclose(moved.strip.vertices, expected, atol=1e-9)  # the OBJ's plate, moved
+    assert moved.figures["rigid_move"]["placed"] and not lean.figures.get("rigid_move")
+    edges = moved.figures["fitup_edges"]  # the fit-up measures the moved edges
+    assert np.allclose(edges.ring3, centre + (plain.figures["fitup_edges"].ring3 - centre) @ turned(turn).T
+                       + np.array([2.0, 0.0, 1.0]), atol=1e-9)
+
+
+def test_a_strips_points_held_in_the_programme_spread_along_it(strips):
+    # a strip cut to its butts has a fan of rulings at each: its points are taken along the
+    # plate, not by ruling index (most rulings would lie on the butts)
+    from pipeline.hull.joint import STRIP_GRID, _strip_points
+
+    (_, results, _), _ = strips
+    for result in results:
+        points = _strip_points(result)
+        xs = np.unique(points[:, 0].round(1))
+        assert len(points) == STRIP_GRID[0] * STRIP_GRID[1] and len(xs) >= STRIP_GRID[1] - 1
+        assert xs.min() < -2900.0 and xs.max() > 2900.0  # from butt to butt (x = -3000, 3000)
+        assert np.diff(np.sort(xs)).max() < 1500.0  # none of the plate's length left out

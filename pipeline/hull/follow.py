@@ -59,14 +59,16 @@ class FollowReport:
     untaken: list = field(default_factory=list)  # (plate a, plate b, edge label, step mm)
     planes: dict = field(default_factory=dict)  # flat plate -> largest shift of its region's points (mm)
     strips: dict = field(default_factory=dict)  # strip moved rigidly -> its largest move (mm)
-    refused: list = field(default_factory=list)  # strips whose move would take them off the tolerance
+    refused: list = field(default_factory=list)  # plates whose move would take them off the tolerance
+    shortened: dict = field(default_factory=dict)  # strip -> the share of its move it took (the whole left it)
     joint_error: str | None = None  # why the joint programme moved nothing, if it failed
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
                 "moved": self.moved, "joint_rule": JOINT_RULE, "flat_planes_moved": len(self.planes),
                 "planes": self.planes, "strips_moved": len(self.strips), "strips": self.strips,
-                "strip_moves_refused": self.refused, "joint_error": self.joint_error,
+                "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
+                "joint_error": self.joint_error,
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
@@ -141,15 +143,15 @@ def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_pe
     except Exception as exc:  # noqa: BLE001 - the plates stay as developed; the run says why
         report.joint_error = f"{type(exc).__name__}: {exc}"
         return False
-    flats = []
+    flats, developed = [], {}
     for part in plates:
         move = moves.get(part.name)
         if move is None:
             continue
         if move["kind"] == "plane":
+            developed[part.name] = part.hull.result
             part.hull.plane = {"normal": move["normal"], "point": move["point"]}
             part.hull.result = None
-            report.planes[part.name] = move["largest_move_mm"]
             flats.append(part)
             continue
         # the programme holds a strip's grid of points within the tolerance, to first order:
@@ -159,12 +161,19 @@ def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_pe
             if moved.figures["hull_fit"]["passed"]:
                 part.hull.result = moved
                 report.strips[part.name] = moved.figures["rigid_move"]["largest_move_mm"]
+                if share < 1.0:
+                    report.shortened[part.name] = share
                 break
         else:
             report.refused.append(part.name)
     for part, result in zip(flats, evaluate_many(flats)):
-        part.hull.result = result
-    return bool(flats or report.strips)
+        if result.ok and (result.figures.get("plate_class") or {}).get("joint_plane"):
+            part.hull.result = result
+            report.planes[part.name] = moves[part.name]["largest_move_mm"]
+        else:  # not flat on its plane after all (round-off at the tolerance): as developed
+            part.hull.plane, part.hull.result = None, developed[part.name]
+            report.refused.append(part.name)
+    return bool(report.planes or report.strips)
 
 
 def _records(plates: list) -> dict:

@@ -14,21 +14,23 @@ A flat plate's plane is z = a x + b y + h in the frame of its present plane (x, 
 along its normal): a vertical distance is never less than the perpendicular one, so
 |z_i - a x_i - b y_i - h| <= 0.98 of the tolerance at the region's points (the vertices of
 their convex hull suffice: the constraint is convex; the margin is for the hull between the
-points) keeps the plate within the tolerance of the hull in truth, and an edge point moves along the normal by a x + b y + h. A strip moves by a small
-rigid motion, a point p by v + w x (p - centre): its points' signed distances from the hull,
-measured at a grid of its points along the hull's normal there, change by that move's normal
-part and stay within 0.95 of the tolerance (or their present distance, if larger: the plate as
-it is is always allowed); its move along the hull stays within the tolerance (a strip does
-not slide along the shell). At points of every shared edge of two such plates (on one of them, the
-common part as :mod:`.fitup` measures it, every 300 mm) the gap vector between the edges, taken across the
-edge (the part along it is no step), is held inside an octagon (the circle it holds is within
-0.92 of its sides' distance) whose sides stand at the sum of two slacks of the edge: up to
-0.45 of the limit, and beyond. The programme minimises the sum over the edges of the second
-slacks (mm: how far each edge's largest step exceeds 0.45 of the limit: the pairs that misfit
-are those past the limit), at a hundredth of the weight the first ones (no step made larger
-for nothing), and, far below both, how far the plates move. HiGHS
-(``scipy.optimize.linprog``), on the programme's dual. The moves are first order in the turns (a few milliradians):
-the moved plates are measured again after (:mod:`.rigid`, :mod:`.plates`).
+points) keeps the plate within the tolerance of the hull in truth, and an edge point moves
+along the normal by a x + b y + h. A strip moves by a small rigid motion, a point p by
+v + w x (p - centre): its signed distances from the hull, at a grid of its points spread over
+it, change by that move's part along the hull's normal and stay within 0.95 of the tolerance
+(or their present distance, if larger: the plate as it is is always allowed); its move along
+the hull stays within the tolerance in each of two directions across each other (a strip
+does not slide along the shell). At points every 300 mm of every shared edge of two such
+plates (on one of them, over the common part as :mod:`.fitup` measures it) the gap vector
+between the edges, taken across the edge (the part along it is no step), is held inside an
+octagon (which reaches 1.08 times its sides' distance at its corners) whose sides stand at
+the sum of two slacks of the edge: up to 0.45 of the limit, and beyond. The programme
+minimises the sum over the edges of the second slacks (mm: how far each edge's largest step
+exceeds 0.45 of the limit: the pairs that misfit are those past the limit), at a hundredth of
+the weight the first ones (no step made larger for nothing), and, far below both, how far the
+plates move. HiGHS (``scipy.optimize.linprog``), on the programme's dual. The moves are first
+order in the turns (a few milliradians): the moved plates are measured again after
+(:mod:`.rigid`, :mod:`.plates`).
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ STRIP = "developable"
 TIERS = ((0.45, 0.001), (np.inf, 0.1))
 MOVE_WEIGHT = 1e-4  # how far the plates move (model units), against mm of an edge's step
 POINT_MM = 300.0  # edge points this far apart carry the step constraints
-STRIP_GRID = (5, 8)  # a strip's points held within the tolerance: this grid over its rows and columns
+STRIP_GRID = (5, 8)  # a strip's points held within the tolerance: 5 across its girth, 8 along its length
 STRIP_SHARE = 0.95  # of the tolerance, for a strip's points (its mesh between them, the turns' second order)
 # of the tolerance, for a flat plate's region points: the hull between them bulges past a
 # plane that touches the tolerance at them (by the grid cells' sagitta: 0.25 mm for 200 mm at 20 m)
@@ -193,22 +195,32 @@ def _rigid_body(name: str, part, column: int) -> _Body | None:
 
 
 def _strip_points(result) -> np.ndarray | None:
-    """(K, 3) a grid of a delivered strip's 3D points (its rulings' samples, or the region
-    mesh it is cut to), STRIP_GRID over its rows and columns, its corners included."""
+    """(K, 3) points of a delivered strip spread over it: STRIP_GRID across its girth and along
+    its length, corners included. Its rulings are taken nearest to even positions of their
+    midpoints along the plate's long axis (a strip trimmed at its butts has a fan of rulings
+    cut to each butt: even in index, most would lie on the butts), the region mesh it is cut
+    to at even rows (girth) and columns (length, evenly spaced already)."""
+    across, along = STRIP_GRID
     if result.strip is not None and result.strip.trim is not None:
         m = len(result.strip.samples)
-        grid = np.asarray(result.strip.vertices, dtype=np.float64).reshape(-1, m, 3)
-    elif result.mesh is not None:
+        grid = np.asarray(result.strip.vertices, dtype=np.float64).reshape(-1, m, 3)  # (rulings, along a ruling)
+        middle = grid[:, m // 2]
+        centred = middle - middle.mean(axis=0)
+        length = centred @ np.linalg.svd(centred, full_matrices=False)[2][0]  # along the plate's long axis
+        targets = np.linspace(length.min(), length.max(), along)
+        rulings = np.unique(np.abs(length[:, None] - targets[None, :]).argmin(axis=0))
+        samples = np.unique(np.linspace(0, m - 1, across).round().astype(int))
+        return grid[np.ix_(rulings, samples)].reshape(-1, 3)
+    if result.mesh is not None:
         shape = tuple((result.figures.get("region") or {}).get("grid") or ())
         v3 = np.asarray(result.mesh[0], dtype=np.float64)
         if len(shape) != 2 or shape[0] * shape[1] != len(v3):
             return None
-        grid = v3.reshape(*shape, 3)
-    else:
-        return None
-    rows = np.unique(np.linspace(0, grid.shape[0] - 1, STRIP_GRID[1]).round().astype(int))
-    cols = np.unique(np.linspace(0, grid.shape[1] - 1, STRIP_GRID[0]).round().astype(int))
-    return grid[np.ix_(rows, cols)].reshape(-1, 3)
+        grid = v3.reshape(*shape, 3)  # (rows across the girth, columns along the length)
+        rows = np.unique(np.linspace(0, shape[0] - 1, across).round().astype(int))
+        cols = np.unique(np.linspace(0, shape[1] - 1, along).round().astype(int))
+        return grid[np.ix_(rows, cols)].reshape(-1, 3)
+    return None
 
 
 def _hull_frames(surface, params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -305,8 +317,6 @@ def _solve(bodies: dict, size: int, triplets: list, rhs: list, limits: np.ndarra
     cost = np.r_[np.full(2 * size, MOVE_WEIGHT), *(np.full(edges, weight * mm_per_unit) for _, weight in TIERS)]
     upper = np.r_[np.full(2 * size, np.inf), *(share * limits for share, _ in TIERS)]
     x = _primal(cost, matrix, np.concatenate(bound), upper)
-    if x is None:
-        return {}
     x = x[:size] - x[size:2 * size]
     out = {}
     for name, body in bodies.items():
@@ -321,8 +331,9 @@ def _solve(bodies: dict, size: int, triplets: list, rhs: list, limits: np.ndarra
     return out
 
 
-def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
-    """x >= 0 (N,) minimising cost . x subject to matrix x <= bound and x <= upper, or None.
+def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """x >= 0 (N,) minimising cost . x subject to matrix x <= bound and x <= upper
+    (ArithmeticError when HiGHS does not solve it).
 
     Solved as its dual (max -bound . y subject to matrix^T y >= -cost, y >= 0), whose basis is
     as large as the primal's columns (a few thousand) instead of its rows (a hundred thousand
@@ -337,10 +348,11 @@ def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> n
     rhs = np.r_[bound, upper[capped]]
     got = linprog(rhs, A_ub=-full.T, b_ub=cost, bounds=(0, None), method="highs")
     if not got.success:
-        return None
+        raise ArithmeticError(f"the joint programme's dual was not solved: {got.message}")
     x = np.maximum(-got.ineqlin.marginals, 0.0)
-    if (full @ x - rhs).max() > 1e-6 * max(1.0, np.abs(rhs).max()):  # the dual's marginals are the primal
-        return None
+    violation = float((full @ x - rhs).max())
+    if violation > 1e-6 * max(1.0, np.abs(rhs).max()):  # the dual's marginals are the primal
+        raise ArithmeticError(f"the joint programme's primal read from its dual breaks a row by {violation:.3g}")
     return x
 
 

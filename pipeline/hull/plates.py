@@ -58,6 +58,9 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     # worker that writes its files, from the geometry the evaluation kept)
     result = part.hull.result if part.hull.result is not None else run_plate(part, config)
     result = complete(result, config)
+    from .rigid import placed
+
+    result = placed(result)  # a strip the joint fit-up moved: its 3D geometry where it now sits
     if "fitup_edges" not in result.figures:
         # the run's fit-up report needs each plate's edges after the worker has dropped the
         # plate's geometry; figures not named by the part report are not written to its JSON

@@ -2,12 +2,15 @@
 
 A strip is one developable surface within the fit tolerance of its region; where the joint
 fit-up (:mod:`.joint`) moves it so that its edges meet its neighbours', the plate itself is
-the same: its development, outline, bending lines and marks are intrinsic to it and do not
-change. What changes is where it sits: its 3D geometry (the strip's vertices, or the region
-mesh it is cut to) and the seam curves its shop data are computed from move with it, and it
-is measured against the hull again. Its frame marks stay where the plate was developed to
-meet the frames: the move shifts them along the plate by at most the move itself, within the
-fit tolerance.
+the same: its development, outline, bending lines, marks and templates are intrinsic to it,
+and its shop data are computed on the plate as developed (cut at its butt planes where it
+was developed: the moved plate re-cut at them would be another piece of the strip). What
+changes is where it sits: its edges, measured against its neighbours' by the fit-up, and its
+distance from the hull are those of the moved plate at once (:func:`moved_rigidly`), and its
+3D geometry (the strip's vertices, or the region mesh it is cut to) moves once its shop data
+are done (:func:`placed`, for the OBJ and the pictures). Its frame marks stay where the plate
+was developed to meet the frames: the move shifts them along the plate by at most the move
+itself, within the fit tolerance.
 """
 
 from __future__ import annotations
@@ -17,21 +20,17 @@ import dataclasses
 
 import numpy as np
 
-RULE = ("moved rigidly (its development, outline, bending lines and marks unchanged) so that its edges meet its "
-        "neighbours' (strake.fit_up: follow): p -> about + rotation (p - about) + translation, model units")
+RULE = ("moved rigidly (its development, outline, bending lines, marks and templates those of the plate as "
+        "developed) so that its edges meet its neighbours' (strake.fit_up: follow): p -> about + rotation (p - about) "
+        "+ translation, model units; hull_fit is the moved plate's distance from the hull (plate to hull)")
 
 
 def moved_rigidly(result, move: dict):
     """A copy of a strip plate's result (the input is not changed: a plan's cache may share
-    it) moved by ``move`` ({rotation (3, 3), translation (3,), centre (3,), largest_move_mm},
-    :func:`.joint.joint_moves`), its ``hull_fit`` measured again on the moved geometry."""
-    rotation = np.asarray(move["rotation"], dtype=np.float64)
-    translation = np.asarray(move["translation"], dtype=np.float64)
-    centre = np.asarray(move["centre"], dtype=np.float64)
-
-    def moved(points):
-        return centre + (np.asarray(points, dtype=np.float64) - centre) @ rotation.T + translation
-
+    it) to be moved by ``move`` ({rotation (3, 3), translation (3,), centre (3,),
+    largest_move_mm}, :func:`.joint.joint_moves`): its fit-up edges moved and its
+    ``hull_fit`` measured on the moved plate now, its 3D geometry moved by :func:`placed`."""
+    transform = _transform(move)
     from .fitup import plate_edges
 
     # its edges as the plate was developed, moved: the sides of its boundary are told by the
@@ -40,29 +39,48 @@ def moved_rigidly(result, move: dict):
     out = copy.copy(result)
     out.figures = dict(result.figures)
     out.figures["fitup_edges"] = None if edges is None else dataclasses.replace(
-        edges, ring3=moved(edges.ring3),
-        edges=tuple(dataclasses.replace(e, points3=moved(e.points3)) for e in edges.edges))
-    if result.strip is not None:
-        out.strip = dataclasses.replace(result.strip, vertices=moved(result.strip.vertices))
-    if result.mesh is not None:
-        out.mesh = (moved(result.mesh[0]), result.mesh[1])
-    work = result.shop_work
-    if work is not None and work.part is not None:
-        out.shop_work = dataclasses.replace(work, part=_moved_part(work.part, moved))
-    points = out.strip.vertices if out.strip is not None and out.strip.trim is not None else out.mesh[0]
+        edges, ring3=transform(edges.ring3),
+        edges=tuple(dataclasses.replace(e, points3=transform(e.points3)) for e in edges.edges))
+    points = transform(_geometry(result))
     hull = result.part.hull
     from flatten.closest import SurfaceDistance
 
     distance = (hull.distance or SurfaceDistance(hull.surface))(points)
     worst = int(np.argmax(distance))
     before = dict(result.figures.get("hull_fit") or {})
-    out.figures["hull_fit"] = dict(before, max_distance=float(distance.max()),
+    # the two-sided figures of the plate as developed no longer describe it: replaced by the
+    # moved plate's own distance from the hull
+    kept = {k: v for k, v in before.items() if k not in ("region_to_strip_max", "strip_to_hull_max", "measured_on")}
+    out.figures["hull_fit"] = dict(kept, max_distance=float(distance.max()),
                                    rms_distance=float(np.sqrt(np.mean(distance ** 2))),
                                    worst_point=np.asarray(points[worst]).tolist(),
                                    passed=bool(distance.max() <= hull.fit_tolerance),
+                                   measured_on="the moved plate's points, their distance from the hull",
                                    before_move_max_distance=before.get("max_distance"))
-    out.figures["rigid_move"] = {"rule": RULE, "about": centre.tolist(), "rotation": rotation.tolist(),
-                                 "translation": translation.tolist(), "largest_move_mm": move["largest_move_mm"]}
+    if "plate_class" in out.figures:
+        out.figures["plate_class"] = dict(out.figures["plate_class"], max_deviation=float(distance.max()))
+    out.figures["rigid_move"] = {"rule": RULE, "about": list(move["centre"]),
+                                 "rotation": np.asarray(move["rotation"], dtype=np.float64).tolist(),
+                                 "translation": list(move["translation"]), "largest_move_mm": move["largest_move_mm"],
+                                 "placed": False}
+    return out
+
+
+def placed(result):
+    """The result with its 3D geometry moved as its ``rigid_move`` says (a copy), once: call
+    it after its shop data are done. A result without a pending move is returned as it is."""
+    move = result.figures.get("rigid_move")
+    if not move or move.get("placed"):
+        return result
+    transform = _transform({"rotation": move["rotation"], "translation": move["translation"],
+                            "centre": move["about"]})
+    out = copy.copy(result)
+    out.figures = dict(result.figures)
+    out.figures["rigid_move"] = dict(move, placed=True)
+    if result.strip is not None:
+        out.strip = dataclasses.replace(result.strip, vertices=transform(result.strip.vertices))
+    if result.mesh is not None:
+        out.mesh = (transform(result.mesh[0]), result.mesh[1])
     return out
 
 
@@ -76,13 +94,15 @@ def shortened(move: dict, share: float) -> dict:
                 largest_move_mm=share * move["largest_move_mm"])
 
 
-def _moved_part(part, moved):
-    """A copy of the part its shop data are computed from, its seam curves moved."""
-    from flatten.nurbs import nurbs_curve
+def _transform(move: dict):
+    rotation = np.asarray(move["rotation"], dtype=np.float64)
+    translation = np.asarray(move["translation"], dtype=np.float64)
+    centre = np.asarray(move["centre"], dtype=np.float64)
+    return lambda points: centre + (np.asarray(points, dtype=np.float64) - centre) @ rotation.T + translation
 
-    out = copy.copy(part)
-    for key in ("c", "d"):
-        curve = getattr(part, key)
-        setattr(out, key, nurbs_curve(moved(curve.control_points), curve.degree, curve.weights, curve.knots,
-                                      curve.name))
-    return out
+
+def _geometry(result) -> np.ndarray:
+    """(N, 3) the delivered plate's 3D points: a trimmed strip's vertices, else its mesh's."""
+    if result.strip is not None and result.strip.trim is not None:
+        return np.asarray(result.strip.vertices, dtype=np.float64)
+    return np.asarray(result.mesh[0], dtype=np.float64)
