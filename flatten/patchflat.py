@@ -35,6 +35,18 @@ class PlaneFit:
         return (np.asarray(points) - self.centroid) @ self.axes.T
 
 
+def plane_through(points: np.ndarray, normal, point) -> PlaneFit:
+    """The plane of the given normal (3,) through the point (3,) as a fit of the points (N, 3):
+    its in-plane axes (:func:`flatten.plane.perpendicular_pair`) and their signed distances."""
+    from .plane import perpendicular_pair
+
+    normal = np.asarray(normal, dtype=np.float64)
+    normal = normal / np.linalg.norm(normal)
+    point = np.asarray(point, dtype=np.float64)
+    return PlaneFit(point, np.array(perpendicular_pair(normal)), normal,
+                    (np.asarray(points, dtype=np.float64) - point) @ normal)
+
+
 def fit_plane(points: np.ndarray) -> PlaneFit:
     """Total least-squares plane through points (N, 3) (smallest singular vector)."""
     points = np.asarray(points, dtype=np.float64)

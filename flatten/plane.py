@@ -14,6 +14,19 @@ from scipy.interpolate import PPoly
 from .nurbs import NurbsCurve
 
 
+def perpendicular_pair(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (N, 3) each, perpendicular to the unit vectors (N, 3) and to each
+    other: v x e (e the axis v is least along) normalised, then v x that; (3,) in, (3,) out."""
+    v = np.asarray(vectors, dtype=np.float64)
+    if v.ndim == 1:  # one vector: its own norm (the rows' norm below rounds differently)
+        first = np.cross(v, np.eye(3)[int(np.argmin(np.abs(v)))])
+        first /= np.linalg.norm(first)
+        return first, np.cross(v, first)
+    first = np.cross(v, np.eye(3)[np.argmin(np.abs(v), axis=1)])
+    first /= np.linalg.norm(first, axis=1, keepdims=True)
+    return first, np.cross(v, first)
+
+
 @dataclass(frozen=True)
 class Plane:
     """The plane n . p = offset, n a unit normal pointing towards the plate's far butt."""

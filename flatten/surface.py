@@ -131,6 +131,18 @@ class NurbsSurface:
             array.setflags(write=False)
         return bu, 1.0 / wu, bv, 1.0 / wv, coef
 
+    def partials(self, u, v) -> tuple[np.ndarray, np.ndarray]:
+        """S_u and S_v (N, 3) at (u_k, v_k) by differences over 1e-6 of each domain, central
+        inside it and one-sided at its edges (one evaluation of the 4 N points)."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        v = np.atleast_1d(np.asarray(v, dtype=np.float64))
+        hu, hv = 1e-6 * np.ptp(self.domain_u), 1e-6 * np.ptp(self.domain_v)
+        u0, u1 = np.clip(u - hu, *self.domain_u), np.clip(u + hu, *self.domain_u)
+        v0, v1 = np.clip(v - hv, *self.domain_v), np.clip(v + hv, *self.domain_v)
+        n = len(u)
+        at = self(np.concatenate([u0, u1, u, u]), np.concatenate([v, v, v0, v1]))
+        return (at[n:2 * n] - at[:n]) / (u1 - u0)[:, None], (at[3 * n:] - at[2 * n:3 * n]) / (v1 - v0)[:, None]
+
     def __call__(self, u, v) -> np.ndarray:
         """Points S(u_k, v_k) for matching arrays, shape (N, 3).
 

@@ -29,13 +29,7 @@ REGION_ROWS, REGION_COLS = 33, 129  # planned region's boundary samples (girth, 
 
 def area_element(surface, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """|S_u x S_v| (N,) by central differences (one-sided at the domain's edges)."""
-    hu, hv = 1e-6 * np.ptp(surface.domain_u), 1e-6 * np.ptp(surface.domain_v)
-    u0, u1 = np.clip(u - hu, *surface.domain_u), np.clip(u + hu, *surface.domain_u)
-    v0, v1 = np.clip(v - hv, *surface.domain_v), np.clip(v + hv, *surface.domain_v)
-    n = len(u)
-    at = surface(np.concatenate([u0, u1, u, u]), np.concatenate([v, v, v0, v1]))
-    su = (at[n:2 * n] - at[:n]) / (u1 - u0)[:, None]
-    sv = (at[3 * n:] - at[2 * n:3 * n]) / (v1 - v0)[:, None]
+    su, sv = surface.partials(u, v)
     return np.linalg.norm(np.cross(su, sv), axis=1)
 
 

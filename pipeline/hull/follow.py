@@ -98,7 +98,7 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
     if joint and _move_jointly(plates, records, pairs, evaluate_many, mm_per_unit, strips, report):
         # the flat plates and strips where they now lie: the formed plates meet them there
-        records = _records(plates)
+        records = _records(plates, records, set(report.planes) | set(report.strips))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
         records[q.a][0].klass, records[q.b][0].klass)]
@@ -176,10 +176,15 @@ def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_pe
     return bool(report.planes or report.strips)
 
 
-def _records(plates: list) -> dict:
-    """{plate: (PlateEdges, part)} of the plates whose result has edges."""
+def _records(plates: list, known: dict | None = None, changed: set = frozenset()) -> dict:
+    """{plate: (PlateEdges, part)} of the plates whose result has edges; those in ``known``
+    and not ``changed`` are taken from it."""
     records = {}
     for part in plates:
+        if known is not None and part.name not in changed:
+            if part.name in known:
+                records[part.name] = known[part.name]
+            continue
         result = part.hull.result
         edges = None if result is None else (result.figures.get("fitup_edges") or plate_edges(result))
         if edges is not None:

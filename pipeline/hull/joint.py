@@ -39,6 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flatten.patchflat import plane_through
+from flatten.plane import perpendicular_pair
+
 from .fitup import SAMPLE_MM, _common, _dense, closest_on
 
 FLAT = "flat"
@@ -136,14 +139,8 @@ def _plane_body(name: str, part, column: int) -> _Body | None:
     klass = (result.figures.get("plate_class") or {}) if result is not None else {}
     if result is None or result.mesh is None or klass.get("normal") is None or klass.get("plane_point") is None:
         return None
-    normal = np.asarray(klass["normal"], dtype=np.float64)
-    normal = normal / np.linalg.norm(normal)
-    origin = np.asarray(klass["plane_point"], dtype=np.float64)
-    first = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
-    first /= np.linalg.norm(first)
-    axes = np.array([first, np.cross(normal, first)])
-    points = np.asarray(result.mesh[0], dtype=np.float64)
-    local = np.column_stack([(points - origin) @ axes.T, (points - origin) @ normal])
+    plane = plane_through(result.mesh[0], klass["normal"], klass["plane_point"])
+    local = np.column_stack([plane.project(result.mesh[0]), plane.distances])
     scale = float(max(np.ptp(local[:, :2], axis=0).max(), 1e-12))
     from scipy.spatial import ConvexHull, QhullError
 
@@ -155,7 +152,7 @@ def _plane_body(name: str, part, column: int) -> _Body | None:
     shift = np.column_stack([local[:, :2] / scale, np.ones(len(local))])  # the move a x + b y + h
     allowed = np.maximum(PLANE_SHARE * tol, np.abs(local[:, 2]))
     rows = np.vstack([shift, -shift])  # |z - move| <= tolerance
-    return _Body(name, "plane", column, origin, axes, normal, scale, rows,
+    return _Body(name, "plane", column, plane.centroid, plane.axes, plane.normal, scale, rows,
                  np.r_[allowed + local[:, 2], allowed - local[:, 2]], tol)
 
 
@@ -226,13 +223,7 @@ def _strip_points(result) -> np.ndarray | None:
 def _hull_frames(surface, params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The hull's points (N, 3), unit normals (N, 3) and a unit tangent (N, 3) at parameters (N, 2)."""
     u, v = params[:, 0], params[:, 1]
-    hu, hv = 1e-6 * np.ptp(surface.domain_u), 1e-6 * np.ptp(surface.domain_v)
-    lo_u, hi_u = surface.domain_u
-    lo_v, hi_v = surface.domain_v
-    ua, ub = np.clip(u - hu, lo_u, hi_u), np.clip(u + hu, lo_u, hi_u)
-    va, vb = np.clip(v - hv, lo_v, hi_v), np.clip(v + hv, lo_v, hi_v)
-    su = (surface(ub, v) - surface(ua, v)) / (ub - ua)[:, None]
-    sv = (surface(u, vb) - surface(u, va)) / (vb - va)[:, None]
+    su, sv = surface.partials(u, v)
     normal = np.cross(su, sv)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     along = su / np.maximum(np.linalg.norm(su, axis=1, keepdims=True), 1e-300)
@@ -275,10 +266,7 @@ def _gaps(mine, theirs, mm_per_unit: float):
     tangent = np.column_stack([np.interp(arc + 1e-3 * spacing, dt.s3, dt.p3[:, k])
                                - np.interp(arc - 1e-3 * spacing, dt.s3, dt.p3[:, k]) for k in range(3)])
     tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-300)
-    helper = np.eye(3)[np.argmin(np.abs(tangent), axis=1)]
-    first = np.cross(tangent, helper)
-    first /= np.linalg.norm(first, axis=1, keepdims=True)
-    second = np.cross(tangent, first)
+    first, second = perpendicular_pair(tangent)
     angles = np.pi / 4.0 * np.arange(4)
     across = np.cos(angles)[None, :, None] * first[:, None, :] + np.sin(angles)[None, :, None] * second[:, None, :]
     return points, feet, across

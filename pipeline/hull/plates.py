@@ -34,7 +34,7 @@ from flatten.closest import SurfaceDistance
 from flatten.metrics import polygon_area
 from flatten.patch import grid_ring, region_grid, weld
 from flatten.minimax import flattest_plane
-from flatten.patchflat import PlaneFit, arap_development, planar_development, triangle_stretches
+from flatten.patchflat import arap_development, planar_development, plane_through, triangle_stretches
 
 from ..config import Part, RunConfig
 from .bestfit import best_fit, seam_family_far, worth_moving
@@ -58,9 +58,6 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
     # worker that writes its files, from the geometry the evaluation kept)
     result = part.hull.result if part.hull.result is not None else run_plate(part, config)
     result = complete(result, config)
-    from .rigid import placed
-
-    result = placed(result)  # a strip the joint fit-up moved: its 3D geometry where it now sits
     if "fitup_edges" not in result.figures:
         # the run's fit-up report needs each plate's edges after the worker has dropped the
         # plate's geometry; figures not named by the part report are not written to its JSON
@@ -234,7 +231,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
     # a plate held on the hull for its edges is a patch: no plane to fit unless it may stay flat
     if hull.plane and not patch_only:
-        chosen = _given_plane(v_grid, hull.plane)
+        chosen = plane_through(v_grid, hull.plane["normal"], hull.plane["point"])
         if chosen.max_distance <= tol:  # else (round-off at the tolerance) its own plane, as before
             _deliver_flat(result, config, grid, v3, f3, index, chosen, tol, (length, width),
                           "orthogonal projection on the plane chosen together with its neighbours' (strake.fit_up: "
@@ -321,16 +318,6 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                     "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                     "strip_max_deviation": best[0]},
                    roll_strip, (length, width))
-
-
-def _given_plane(points: np.ndarray, plane: dict) -> PlaneFit:
-    """The plane ``{normal, point}`` as a fit of the points (N, 3): their signed distances."""
-    normal = np.asarray(plane["normal"], dtype=np.float64)
-    normal = normal / np.linalg.norm(normal)
-    point = np.asarray(plane["point"], dtype=np.float64)
-    first = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
-    first /= np.linalg.norm(first)
-    return PlaneFit(point, np.array([first, np.cross(normal, first)]), normal, (points - point) @ normal)
 
 
 def _followed(grid, v3: np.ndarray, index: np.ndarray, hull):

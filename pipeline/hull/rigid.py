@@ -8,7 +8,8 @@ was developed: the moved plate re-cut at them would be another piece of the stri
 changes is where it sits: its edges, measured against its neighbours' by the fit-up, and its
 distance from the hull are those of the moved plate at once (:func:`moved_rigidly`), and its
 3D geometry (the strip's vertices, or the region mesh it is cut to) moves once its shop data
-are done (:func:`placed`, for the OBJ and the pictures). Its frame marks stay where the plate
+are done: the move is the last step of the shop work the plate owes (:mod:`.plateshop`), for
+the OBJ and the pictures. Its frame marks stay where the plate
 was developed to meet the frames: the move shifts them along the plate by at most the move
 itself, within the fit tolerance.
 """
@@ -29,7 +30,8 @@ def moved_rigidly(result, move: dict):
     """A copy of a strip plate's result (the input is not changed: a plan's cache may share
     it) to be moved by ``move`` ({rotation (3, 3), translation (3,), centre (3,),
     largest_move_mm}, :func:`.joint.joint_moves`): its fit-up edges moved and its
-    ``hull_fit`` measured on the moved plate now, its 3D geometry moved by :func:`placed`."""
+    ``hull_fit`` measured on the moved plate now, its 3D geometry moved once its owed shop
+    data are done (at once when it owes none)."""
     transform = _transform(move)
     from .fitup import plate_edges
 
@@ -63,25 +65,30 @@ def moved_rigidly(result, move: dict):
                                  "rotation": np.asarray(move["rotation"], dtype=np.float64).tolist(),
                                  "translation": list(move["translation"]), "largest_move_mm": move["largest_move_mm"],
                                  "placed": False}
+    work = result.shop_work
+    if work is None:  # nothing owed: the plate is moved now
+        _place(out, move)
+    else:  # its owed shop data first, on the plate as developed, then the move (where they are computed)
+        out.shop_work = dataclasses.replace(work, fn=_shop_then_place, args=(work.fn, work.args, move))
     return out
 
 
-def placed(result):
-    """The result with its 3D geometry moved as its ``rigid_move`` says (a copy), once: call
-    it after its shop data are done. A result without a pending move is returned as it is."""
-    move = result.figures.get("rigid_move")
-    if not move or move.get("placed"):
-        return result
-    transform = _transform({"rotation": move["rotation"], "translation": move["translation"],
-                            "centre": move["about"]})
-    out = copy.copy(result)
-    out.figures = dict(result.figures)
-    out.figures["rigid_move"] = dict(move, placed=True)
+def _shop_then_place(result, config, fn, args, move: dict) -> None:
+    """The shop data the plate owes (``fn(result, config, *args)``), on the plate as
+    developed, then its 3D geometry moved: a :class:`.plateshop.ShopWork` that ends in the move."""
+    fn(result, config, *args)
+    _place(result, move)
+
+
+def _place(result, move: dict) -> None:
+    """Move the result's 3D geometry (its strip's vertices, its region mesh) in place: a copy
+    :func:`moved_rigidly` made, whose arrays are replaced, never written into."""
+    transform = _transform(move)
     if result.strip is not None:
-        out.strip = dataclasses.replace(result.strip, vertices=transform(result.strip.vertices))
+        result.strip = dataclasses.replace(result.strip, vertices=transform(result.strip.vertices))
     if result.mesh is not None:
-        out.mesh = (transform(result.mesh[0]), result.mesh[1])
-    return out
+        result.mesh = (transform(result.mesh[0]), result.mesh[1])
+    result.figures["rigid_move"] = dict(result.figures["rigid_move"], placed=True)
 
 
 def shortened(move: dict, share: float) -> dict:
