@@ -7,7 +7,10 @@ the ends. No rule asks the plate's edges to lie on the hull; the fit tolerance b
 point alike. Moving each ruling's two ends off the hull along the strip's normal, by the
 line (in v, along the ruling) that best matches the hull's signed gaps there and by half the
 gaps' remaining spread, centres the ruling in the band the hull occupies: a sagitta s is
-then met within s / 2, and a ruling that the hull tilts away from is turned with it.
+then met within s / 2, and a ruling that the hull tilts away from is turned with it. The
+strip is moved by the least share of that which brings the hull within LEAST_FIT of the
+tolerance: its edges, where it meets its neighbours, stay as near the hull as the tolerance
+lets them (centred, two neighbours of unequal sagittas step by half their difference).
 
 The moved ends, taken on evenly spread rulings of the solved path, are fitted by cubic
 B-splines (the new boundary curves), the strip between them is solved again by devflat and
@@ -43,6 +46,8 @@ DEGREE = 3  # of the polynomial in path fraction that smooths the offsets
 CURVE_POINTS = 81  # moved ends per boundary curve, fitted by a cubic B-spline
 MOVED_FIT = 0.02  # the moved curves' fit tolerance, a fraction of the fit tolerance (smooths them)
 WIDE = 0.4  # a best-fit butt strip's sections reach this fraction of the girth beyond each seam
+LEAST_FIT = 0.85  # a best-fit strip is moved until the hull lies within this share of the tolerance
+SHARES = np.linspace(0.0, 1.0, 21)[1:]  # the shares of the centring offsets tried, least first
 FAR = 0.5  # seams extended past each butt by this fraction of the plate length
 
 
@@ -129,6 +134,23 @@ def end_offsets(lam: np.ndarray, v: np.ndarray, gap: np.ndarray, at: np.ndarray)
     return out[0], out[1]
 
 
+def least_share(lam: np.ndarray, v: np.ndarray, gap: np.ndarray, target: float) -> float:
+    """The least share of the centring offsets (:func:`end_offsets`), a twentieth at a time,
+    that brings every signed gap (N,) within ``target`` (model units); 1 when none does.
+
+    Centring meets a sagitta s within s / 2 but stands the strip's edges off the hull by
+    s / 2 too; the neighbours' edges are off by their own half sagittas, and the difference
+    is a step at the weld. Moved only as far as the tolerance asks (s - target at the ends of a
+    bowed ruling), the strip keeps its edges nearer the hull and its rulings nearer those
+    it had."""
+    near, far = end_offsets(lam, v, gap, lam)
+    offset = near * (1.0 - v) + far * v
+    for share in SHARES:
+        if np.abs(gap - share * offset).max() <= target:
+            return float(share)
+    return 1.0
+
+
 def moved_curve(curve, params: np.ndarray, offsets: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Points (CURVE_POINTS + extra, 3) of the whole curve moved by the offsets along the
     normals given at the rulings' parameters on it (held beyond the first and last ruling):
@@ -161,7 +183,7 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
             current = wide
             if wide.ok:
                 return wide
-    moved = 0.0
+    moved, shares = 0.0, []
     points = region_points(part, grid, config.mm_per_unit)  # the same for every round
     for round_ in range(ROUNDS):
         if current.attempt is None or current.attempt.solution is None or not current.attempt.solution:
@@ -169,6 +191,8 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
         smap, lam, v, gap = signed_gaps(current, points)
         at = np.linspace(0.0, 1.0, CURVE_POINTS)
         near, far = end_offsets(lam, v, gap, at)
+        share = least_share(lam, v, gap, LEAST_FIT * tol)
+        near, far = share * near, share * far
         rulings, _, _ = smap.ends(at)
         normals = _strip_normals(smap.c, smap.d, rulings)
         name = f"{part.name}.bestfit{round_ + 1}"
@@ -178,15 +202,17 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
         except SourceError:
             break
         moved = max(moved, float(np.abs(np.concatenate([near, far])).max()))
+        shares.append(share)
         # the corners now sit off the hull like every other point: judged by the fit tolerance
         candidate = _solved_and_trimmed(part, c, d, config, grid, trim.family, tol)
         if candidate.deviation is None:
             break
         candidate.figures["best_fit"] = {
-            "rounds": round_ + 1, "largest_end_offset": moved,
-            "method": "each ruling's ends moved along the strip's normal to centre it in the hull's gaps "
-                      "(least-squares line along the ruling, shifted by the residuals' midrange), the moved "
-                      "ends fitted by cubic B-splines and the strip solved again between them",
+            "rounds": round_ + 1, "largest_end_offset": moved, "shares_of_centring": list(shares),
+            "method": "each ruling's ends moved along the strip's normal towards centring it in the hull's gaps "
+                      "(least-squares line along the ruling, shifted by the residuals' midrange), by the least "
+                      f"share of that (a twentieth at a time) that brings the hull within {LEAST_FIT:g} of the "
+                      "tolerance; the moved ends fitted by cubic B-splines and the strip solved again between them",
             "deviation_before": trim.deviation}
         current = candidate
         if best.deviation is None or candidate.deviation < best.deviation or (candidate.ok and not best.ok):
