@@ -713,7 +713,13 @@ class StrakeSpec(_Strict):
         "patch: its edges on the hull), the plate further off first, until no step exceeds it; follow: the flat "
         "plates' planes and the strips' places (a small rigid motion) are chosen together, each within the fit "
         "tolerance, so that their edges meet, then a formed plate is formed to meet its flat and strip neighbours' "
-        "edges (no plate changes class)")
+        "edges (a formed plate stays formed; a flat plate may become a strip: flats_as_strips)")
+    flats_as_strips: bool = Field(True, description="with fit_up: follow, a flat plate whose edge misfits a flat or "
+                                  "strip neighbour's is first developed again as a strip (rolled instead of cut flat; "
+                                  "the flat + strip share unchanged), kept where one fits within the tolerance: a strip "
+                                  "through its seams lies on the hull along them, where two planes over a twisting "
+                                  "hull step by twice their distance from it; kept only where it steps less. Off, the "
+                                  "rest of follow is unchanged (formed plates that step as developed still meet halfway)")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "

@@ -300,3 +300,92 @@ def test_the_joined_blend_stays_between_its_given_values(values):
     ring = values.ravel()[fixed]
     assert np.array_equal(solved[fixed], ring)
     assert solved[~fixed].max() <= ring.max() + 1e-12 and solved[~fixed].min() >= ring.min() - 1e-12
+
+
+def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=None):
+    """Two formed plates' region grids side by side in the plane z = 0 (5 x 6 points, 500 mm
+    apart; model units of ``unit`` mm), sharing the edge x = 2500 mm (butt 1 of the left,
+    butt 0 of the right), the right one lifted by ``gap`` mm (two faces of a hull model that
+    disagree where a plan cut them). ``flat_lift``: a flat
+    neighbour along the left plate's seam 0, its edge that far (mm) above it. (grids, pairs,
+    records)."""
+    from pipeline.hull import follow
+    from pipeline.hull.fitup import Edge
+
+    def ring_of(points, hull, tolerance):  # the rectangle's ring: seams the rows, butts the end columns
+        r, c = points.shape[:2]
+        idx = np.arange(r * c).reshape(r, c)
+        pieces = [(idx[0, :], 0), (idx[1:-1, -1], 3), (idx[-1, ::-1], 1), (idx[-2:0:-1, 0], 2)]
+        return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
+
+    monkeypatch.setattr(follow, "_grid_ring", ring_of)
+    hulls = {name: SimpleNamespace(fit_tolerance=5.0 / unit) for name in ("L", "R", "F")}
+    y, x = np.meshgrid(np.arange(5) * 500.0, np.arange(6) * 500.0, indexing="ij")
+    left = np.stack([x, y, np.zeros_like(x)], axis=-1) / unit
+    right = np.stack([x + 2500.0, y, np.full_like(x, gap)], axis=-1) / unit
+    grids = {"L": follow._PlateGrid("L", left, hulls["L"]), "R": follow._PlateGrid("R", right, hulls["R"])}
+
+    def record(klass, side, points, name):
+        edge = Edge(side, side.upper(), points, points[:, :2])
+        return SimpleNamespace(klass=klass, edge=lambda s: edge if s == side else None), SimpleNamespace(
+            hull=hulls[name])
+
+    records = {"L": record("formed", "butt1", left[:, -1], "L"), "R": record("formed", "butt0", right[:, 0], "R")}
+    pairs = [SimpleNamespace(a="L", b="R", side_a="butt1", side_b="butt0", step_max=gap, limit=2.1)]
+    if flat_lift is not None:
+        records["F"] = record("flat", "seam1", left[0] + np.array([0.0, 0.0, flat_lift / unit]), "F")
+        pairs.append(SimpleNamespace(a="F", b="L", side_a="seam1", side_b="seam0", step_max=flat_lift, limit=2.1))
+    return grids, pairs, records
+
+
+@pytest.mark.parametrize("gap, unit", [(6.0, 1.0), (14.0, 1.0), (6.0, 1000.0)])
+def test_two_formed_plates_that_step_are_formed_to_meet_halfway(monkeypatch, gap, unit):
+    # formed plates whose faces disagree by `gap` where they meet: each is formed half the
+    # way to the other (at most the fit tolerance, 5 mm), so a 6 mm step closes and a 14 mm
+    # one is left at 14 - 2 x 5 = 4 mm (model units of mm or of metres alike); the moves fall
+    # off harmonically to their free edges
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, gap, unit)
+    moves = shell_moves(grids, pairs, records, unit)
+    half = min(gap / 2, 5.0) / unit
+    left, right = grids["L"].points + moves["L"], grids["R"].points + moves["R"]
+    assert np.allclose(moves["L"][:, -1], [0.0, 0.0, half], atol=1e-9)
+    assert np.allclose(moves["R"][:, 0], [0.0, 0.0, -half], atol=1e-9)
+    assert np.allclose(right[:, 0, 2] - left[:, -1, 2], gap / unit - 2 * half, atol=1e-9)
+    assert np.allclose(right[:, 0, :2], left[:, -1, :2], atol=1e-9)  # only across the plates
+    for name, shared in (("L", -1), ("R", 0)):
+        size = np.abs(moves[name][..., 2])
+        assert size.max() <= half + 1e-12 and np.all(size[1:-1, 1:-1] < half)  # between 0 and the edge's move
+        free = np.ones(size.shape, dtype=bool)
+        free[1:-1, 1:-1] = False
+        free[:, shared] = False
+        assert np.all(size[free] == 0.0)  # the shell's free edges stay on the hull
+
+
+def test_a_flat_neighbour_holds_its_corner_against_the_halfway_move(monkeypatch):
+    # the left plate's seam 0 meets a flat plate 1 mm above it: its points there, the shared
+    # edge's corner among them, meet the flat plate; the right plate's corner still moves
+    # halfway (3 mm) and the rest of the shared edge meets halfway
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 6.0, flat_lift=1.0)
+    moves = shell_moves(grids, pairs, records, 1.0)
+    assert np.allclose(moves["L"][0], [0.0, 0.0, 1.0], atol=1e-9)  # the whole seam, corner included
+    assert np.allclose(moves["L"][1:, -1], [0.0, 0.0, 3.0], atol=1e-9)
+    assert np.allclose(moves["R"][:, 0], [0.0, 0.0, -3.0], atol=1e-9)
+
+
+def test_two_formed_plates_within_the_limit_are_joined_as_they_lie(monkeypatch):
+    # a 1 mm step (the limit is 2.1 mm) is nothing to form away: the plates stay joined at
+    # their edge and move together; a flat neighbour 2 mm above the left plate's seam 0 moves
+    # it, and the move carries across the joined edge into the right plate
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 1.0, flat_lift=2.0)
+    moves = shell_moves(grids, pairs, records, 1.0)
+    across_left, across_right = moves["L"][1:-1, -1, 2], moves["R"][1:-1, 0, 2]
+    assert np.all(across_left > 0.2) and np.all(across_right > 0.2)  # carried across, upwards with it
+    assert np.all(moves["R"][..., 2] >= 0.0) and np.abs(moves["R"]).max() <= 2.0 + 1e-9  # not halfway (down)
+    # the joined copies part only towards the free seam's corner, where the right plate stays on the hull
+    assert abs(across_left[-1] - across_right[-1]) < 0.25 * across_left[-1]

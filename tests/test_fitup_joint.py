@@ -5,7 +5,9 @@ by a closed form (each on its minimax plane, half its sagitta off the hull); on 
 together they meet, each still within the fit tolerance of the cylinder itself (measured on
 the exact cylinder, not on the plan's grid). Plates that meet already keep their planes; the
 shoulder's twisted plates, which no planes within the tolerance bring within the limit, end
-no worse than they began."""
+no worse than they began. Asked for as strips (strake.flats_as_strips), the cylinder's two
+plates become the strips through their seams, the cylinder itself, and meet to round-off;
+the shoulder's, which no strip fits, stay flat and say why."""
 
 from pathlib import Path
 
@@ -24,14 +26,17 @@ from tests.test_fitup_repair import shoulder
 RADIUS, WIDTH, TOLERANCE, THICKNESS = 20000.0, 2000.0, 5.0, 14.0  # step limit min(0.15 t, 3) = 2.1 mm
 
 
-def cylinder_strake(tmp_path: Path, butts, fit_up: str) -> Path:
+def cylinder_strake(tmp_path: Path, butts, fit_up: str, as_strips: bool = False) -> Path:
+    # as_strips off: these plates would become the strips through their seams (the cylinder
+    # itself), and the planes chosen together would have nothing to do
     cylinder_iges(tmp_path / "cyl.igs", radius=RADIUS, angle_deg=10.0, width=WIDTH)
-    path = tmp_path / f"cyl_{fit_up}.yaml"
+    path = tmp_path / f"cyl_{fit_up}{'_as_strips' if as_strips else ''}.yaml"
     path.write_text(yaml.safe_dump({
         "name": "cyl", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False, "dxf": False},
         "steel": {"thickness": THICKNESS},
         "strake": {"surface": {"iges": "cyl.igs"}, "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 1.0}}],
-                   "butts": list(butts), "margin": 0.2, "fit_tolerance": TOLERANCE, "fit_up": fit_up}}))
+                   "butts": list(butts), "margin": 0.2, "fit_tolerance": TOLERANCE, "fit_up": fit_up,
+                   "flats_as_strips": as_strips}}))
     return path
 
 
@@ -95,6 +100,32 @@ def test_planes_chosen_together_meet_within_the_tolerance_of_the_cylinder(unequa
         assert result.figures["area_m2"] == pytest.approx(was.figures["area_m2"], rel=1e-5)
 
 
+def test_flat_plates_that_step_are_delivered_as_the_strips_through_their_seams(tmp_path):
+    # the same two plates asked for as strips: the strip between a plate's seams (two
+    # circles of the cylinder) is the cylinder itself, so each lies on the hull, develops to
+    # its arc length times its width, and the two meet to round-off (from 4.0 mm); the flat
+    # + strip share is the same, the plates are rolled instead of cut flat
+    butts = (-1200.0, 0.0, 400.0)
+    config, results, fit = run(cylinder_strake(tmp_path, butts, "follow", as_strips=True))
+    report = config.fitup_follow
+    assert set(report.as_strips) == {r.name for r in results} and not report.kept_flat
+    assert "2 flat plate(s) delivered as strips" in report.one_line()
+    # one first, measured against its neighbour still flat (that plane's edge stands off the
+    # hull by half its own sagitta: the short plate's, 0.50 mm), then the other against it
+    after = sorted(entry["step_after_mm"] for entry in report.as_strips.values())
+    b = half_angle(butts[1], butts[2])
+    assert after[0] < 1e-6 and after[1] == pytest.approx(RADIUS * (1 - np.cos(b)) / 2, abs=0.02)
+    for result, x0, x1 in zip(results, butts[:-1], butts[1:]):
+        klass = result.figures["plate_class"]
+        assert klass["class"] == "developable" and klass["family"] == "rulings seam to seam"
+        assert klass["flat_declined"]["step_mm"] == pytest.approx(4.005, abs=0.02)
+        assert klass["max_deviation"] < 1e-6 and result.figures["hull_fit"]["passed"]
+        arc = 2 * RADIUS * half_angle(x0, x1)
+        assert result.figures["outline"]["area_m2"] == pytest.approx(arc * WIDTH / 1e6, rel=1e-4)
+    assert len(fit.pairs) == 1 and fit.pairs[0].step_max < 1e-6 and not fit.pairs[0].misfit
+    assert not report.planes and not report.untaken
+
+
 def test_plates_that_meet_keep_their_planes(tmp_path):
     config, results, _ = run(cylinder_strake(tmp_path, (-800.0, 0.0, 800.0), "follow"))
     report = config.fitup_follow
@@ -109,8 +140,16 @@ def test_twisted_flat_plates_end_no_worse_than_they_began(tmp_path):
     # steps' excess down, never up
     (tmp_path / "plain").mkdir()
     _, _, before = run(shoulder(tmp_path / "plain"))
-    _, results, after = run(shoulder(tmp_path, fit_up="follow"))
+    config, results, after = run(shoulder(tmp_path, fit_up="follow"))
     assert [r.figures["plate_class"]["class"] for r in results] == ["flat"] * 4
+    # asked for as strips first, none fits (the strips between nearly flat seams lean far
+    # off the hull): each stays flat and the report says why
+    report = config.fitup_follow
+    assert not report.as_strips and set(report.kept_flat) == {r.name for r in results}
+    assert all("rulings seam to seam" in why and "rulings butt to butt" in why for why in report.kept_flat.values())
+    assert all("flat_declined" not in r.figures["plate_class"] for r in results)
+    assert all(part.hull.as_strip is None and part.hull.result.figures["plate_class"]["class"] == "flat"
+               for part in config.parts)  # restored as developed, its cache key with it
 
     def excess(fit):
         return sum(max(0.0, p.step_max - p.limit) for p in fit.pairs)

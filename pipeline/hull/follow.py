@@ -12,20 +12,24 @@ those moves. The blend is one discrete Laplace equation over the region grids of
 shell's formed plates joined where they meet: each point on an edge two formed plates share
 takes the other plate's row inside that edge, interpolated at its closest point, as its
 neighbour across it, so that formed neighbours move together and meet (exactly where the
-moves vary linearly, to the discretisation elsewhere);
-the shell's free edges stay on the hull. The blend takes its largest value where it is
+moves vary linearly, to the discretisation elsewhere); two formed plates that step as
+developed by more than the limit (two faces that disagree where a plan cut them) are not
+joined but each formed to meet the other halfway, at most the tolerance, where no flat or
+strip neighbour holds the point; the shell's free edges stay on the hull. The blend takes its largest value where it is
 given (maximum principle), so every formed plate stays within the tolerance of the hull
 wherever its flat and strip neighbours do; a move larger than the tolerance is shortened to
 it. Where two flat or strip plates that step from each other meet at a corner of formed
 plates, each formed plate meets its own flat neighbour there, so the formed plates' shared
 edge takes the flat plates' step at its end, and within a grid cell or two no longer (the
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
-No plate changes class: the flat and strip plates keep their developments, the formed
-ones that move are developed again from their moved shape (pin jig, templates and heating
-lines follow it). Before the forming, the flat plates' planes and the strips' places (a
-small rigid motion each) are chosen together (:mod:`.joint`, :mod:`.rigid`), so that flat
-and strip neighbours step as little as their tolerance allows; the formed plates then meet
-them where they lie.
+A formed plate stays formed: the strips and the flat plates left flat keep their
+developments, the formed ones that move are developed again from their moved shape (pin jig, templates and heating
+lines follow it). Before the forming, a flat plate that misfits a flat or strip neighbour
+is developed again as a strip where one fits (:func:`_flats_as_strips`: a strip through
+its seams lies on the hull along them), and then the flat plates' planes and the strips'
+places (a small rigid motion each) are chosen together (:mod:`.joint`, :mod:`.rigid`), so
+that flat and strip neighbours step as little as their tolerance allows; the formed plates
+then meet them where they lie.
 """
 
 from __future__ import annotations
@@ -39,20 +43,26 @@ from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
 
 FORMED = "formed"
+AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more than the limit is developed again "
+                 "as a strip (no plane tried): kept as the strip where one fits within the tolerance and steps less "
+                 "from those neighbours than its plane did, else flat as before; the joint programme then places the "
+                 "plates as they are")
 MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
 SHARES = (1.0, 0.75, 0.5, 0.25)  # of a strip's joint move, tried in turn until the plate stays within its tolerance
 CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
         "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
         "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
-        "hull); flat and strip plates keep their development")
+        "hull; two formed plates that step as developed by more than the limit each moved halfway to the "
+        "other's edge instead); strips and flat plates keep their development")
 
 
 @dataclass
 class FollowReport:
-    """What the fit-up by forming did: the misfit pairs found, the formed plates moved (name
-    -> largest move, mm, and the neighbours they meet) and the misfit pairs no formed plate
-    could take (two flat or strip plates)."""
+    """What the fit-up by forming did: the misfit pairs found, the flat plates delivered as
+    strips (and those kept flat, with why), the planes and strips the joint programme moved,
+    the formed plates moved (name -> largest move, mm, and the neighbours they meet) and the
+    misfit pairs no formed plate could take (two flat or strip plates)."""
 
     misfits: int = 0
     moved: dict = field(default_factory=dict)
@@ -62,32 +72,38 @@ class FollowReport:
     refused: list = field(default_factory=list)  # plates whose move would take them off the tolerance
     shortened: dict = field(default_factory=dict)  # strip -> the share of its move it took (the whole left it)
     joint_error: str | None = None  # why the joint programme moved nothing, if it failed
+    as_strips: dict = field(default_factory=dict)  # flat plate delivered as a strip -> {step_mm, neighbours, step_after_mm}
+    kept_flat: dict = field(default_factory=dict)  # flat plate asked for as a strip that no strip fits -> why
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
                 "moved": self.moved, "joint_rule": JOINT_RULE, "flat_planes_moved": len(self.planes),
                 "planes": self.planes, "strips_moved": len(self.strips), "strips": self.strips,
                 "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
-                "joint_error": self.joint_error,
+                "joint_error": self.joint_error, "flats_as_strips_rule": AS_STRIP_RULE,
+                "flats_as_strips": self.as_strips, "kept_flat": self.kept_flat,
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
     def one_line(self) -> str:
-        return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.planes)} flat plate(s) on planes "
+        return (f"fit-up by forming: {self.misfits} misfit pair(s) found, {len(self.as_strips)} flat plate(s) "
+                f"delivered as strips, {len(self.planes)} flat plate(s) on planes "
                 f"and {len(self.strips)} strip(s) moved, chosen together, {len(self.moved)} formed plate(s) formed to "
                 f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left"
                 + (f" (the joint programme failed: {self.joint_error})" if self.joint_error else ""))
 
 
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
-                 joint: bool = True, strips: bool = True) -> FollowReport:
+                 joint: bool = True, strips: bool = True, as_strips: bool = True) -> FollowReport:
     """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates'
     planes and the strips' places first chosen together (:mod:`.joint`; ``joint=False``: each
     stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
     plates without an evaluated result are evaluated first (``evaluate_many(parts) ->
     results``). A plate that moves is evaluated again with ``part.hull.follow`` (a formed
     plate) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
-    (:mod:`.rigid`); ``part.hull.result`` is its new result."""
+    (:mod:`.rigid`); ``part.hull.result`` is its new result. First (``as_strips``), a flat
+    plate that misfits a flat or strip neighbour is developed again as a strip
+    (:func:`_flats_as_strips`)."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
@@ -96,6 +112,10 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     records = _records(plates)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
+    if joint and as_strips and _flats_as_strips(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm,
+                                                report):
+        records = _records(plates, records, set(report.as_strips))
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     if joint and _move_jointly(plates, records, pairs, evaluate_many, mm_per_unit, strips, report):
         # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates, records, set(report.planes) | set(report.strips))
@@ -129,6 +149,70 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         for part, result in zip(moved, evaluate_many(moved)):
             part.hull.result = result
     return report
+
+
+def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
+                     thickness_mm: float, report: FollowReport) -> bool:
+    """Flat plates that step from a flat or strip neighbour by more than the limit developed
+    again as strips (``part.hull.as_strip``): kept where one fits and steps less from those
+    neighbours than the plane did (the worst step first, against the neighbours as they are
+    then), else flat as before. Whether any changed.
+
+    Two flat plates over a hull that twists step at their shared corners by about twice
+    their planes' distance from it there, whatever planes the joint programme picks within
+    the tolerance (their residuals change sign across the edge); a strip through the plate's
+    seams lies on the hull along them, and a nearly flat plate's strip bends little (a
+    best-fit strip, or one whose rulings run butt to butt, does not: hence the measure). The
+    flat + strip share is unchanged; the plate is rolled instead of cut flat."""
+    from .planner import is_strip
+
+    wanted: dict = {}
+    for q in pairs:
+        kinds = (records[q.a][0].klass, records[q.b][0].klass)
+        if q.step_max <= q.limit or FORMED in kinds:
+            continue
+        for name, other, kind in ((q.a, q.b, kinds[0]), (q.b, q.a, kinds[1])):
+            if kind == "flat":
+                entry = wanted.setdefault(name, {"step_mm": 0.0, "neighbours": []})
+                entry["step_mm"] = max(entry["step_mm"], float(q.step_max))
+                entry["neighbours"] = sorted({*entry["neighbours"], other})
+    asked = sorted((p for p in plates if p.name in wanted), key=lambda p: (-wanted[p.name]["step_mm"], p.name))
+    if not asked:
+        return False
+    neighbours = {p.name: {q.b if q.a == p.name else q.a for q in pairs if p.name in (q.a, q.b)} for p in asked}
+    developed = {p.name: (p.hull.result, p.hull.plane) for p in asked}
+    for part in asked:
+        part.hull.as_strip, part.hull.plane, part.hull.result = wanted[part.name], None, None
+    current = dict(records)
+    for part, result in zip(asked, evaluate_many(asked)):
+        klass = result.figures.get("plate_class") or {}
+        edges = (result.figures.get("fitup_edges") or plate_edges(result)) if result.ok else None
+        why = None
+        if not (result.ok and klass.get("class") == "developable" and is_strip(klass)) or edges is None:
+            why = klass.get("strip_not_delivered_because") or result.reason or f"delivered {klass.get('class')}"
+        else:
+            before = _worst_step(current, part.name, neighbours[part.name], mm_per_unit, thickness_mm)
+            trial = dict(current, **{part.name: (edges, part)})
+            after = _worst_step(trial, part.name, neighbours[part.name], mm_per_unit, thickness_mm)
+            if after < before:
+                part.hull.result, current = result, trial
+                report.as_strips[part.name] = dict(wanted[part.name], step_after_mm=after)
+                continue
+            why = (f"its strip steps {after:.3g} mm from a flat or strip neighbour, its plane {before:.3g} mm "
+                   f"(the limit {min(q.limit for q in pairs if part.name in (q.a, q.b)):.3g} mm)")
+        part.hull.as_strip = None
+        part.hull.result, part.hull.plane = developed[part.name]
+        report.kept_flat[part.name] = why
+    return bool(report.as_strips)
+
+
+def _worst_step(records: dict, name: str, neighbours: set, mm_per_unit: float, thickness_mm: float) -> float:
+    """The largest step (mm) of plate ``name`` from its flat and strip ``neighbours`` as
+    ``records`` has them."""
+    near = {n: records[n] for n in {name, *neighbours}
+            if n in records and (n == name or records[n][0].klass in MOVABLE_NEIGHBOURS)}
+    pairs, apart = shared_edges(near, mm_per_unit, thickness_mm)
+    return max((q.step_max for q in pairs + apart if name in (q.a, q.b)), default=0.0)
 
 
 def _move_jointly(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float, strips: bool,
@@ -258,8 +342,10 @@ SIDES_BY_CODE = {code: side for side, code in CODES.items()}
 def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> dict:
     """{formed plate: moves (R, C, 3), model units} of every formed plate's region grid: its
     edge points on a flat or strip neighbour's edge moved onto it (at most the fit tolerance),
-    the shell's free edges still, and the discrete Laplace equation everywhere else, over all
-    the formed plates' grids joined at their shared edges."""
+    those on a formed neighbour's edge that steps from it over the limit as developed moved
+    halfway to it where no flat or strip neighbour holds them, the shell's free edges still, and the
+    discrete Laplace equation everywhere else, over all the formed plates' grids joined at
+    their other shared edges."""
     names = sorted(grids)
     start, total = {}, 0
     for name in names:
@@ -272,7 +358,12 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
     best = np.full(total, np.inf)
     across = {}  # unknown -> its neighbour across a shared edge: ((another plate's unknown, weight), ...)
     paired = {name: set() for name in names}  # the sides each plate shares with a neighbour
+    halfways = []  # (plate, side, the formed neighbour's edge, offset, reach): two formed plates that step
     for pair in pairs:
+        # two formed plates that step as developed (two faces that disagree where a plan cut
+        # them; rows of one face that part at a trim or the grids' chords): each is formed to
+        # meet the other halfway, not joined as it lies (joined, they would keep the step)
+        halfway = pair.a in grids and pair.b in grids and pair.step_max > pair.limit
         for me, mine, other, theirs in ((pair.a, pair.side_a, pair.b, pair.side_b),
                                         (pair.b, pair.side_b, pair.a, pair.side_a)):
             if me not in grids:
@@ -281,8 +372,16 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
             plate = grids[me]
             if records[other][0].klass in MOVABLE_NEIGHBOURS:
                 _anchor(plate, mine, records[other][0].edge(theirs), mm_per_unit, start[me], fixed, value, best)
+            elif halfway:
+                halfways.append((plate, mine, records[other][0].edge(theirs), start[me],
+                                 max(4.0 * plate.hull.fit_tolerance, 1.01 * pair.step_max / mm_per_unit)))
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
+    # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
+    # meet those, and can meet its formed neighbour halfway only where nothing else holds it
+    best = np.where(fixed, -np.inf, best)
+    for plate, mine, edge, offset, reach in halfways:
+        _anchor(plate, mine, edge, mm_per_unit, offset, fixed, value, best, share=0.5, reach=reach)
     # the ring's points that meet nobody (the shell's free edges) stay on the hull, and so do
     # the corners on a free edge that the plate's other side joins to a formed neighbour
     for name in names:
@@ -294,27 +393,31 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
     return _solve(grids, names, start, total, fixed, value, across)
 
 
-def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best) -> None:
+def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,
+            share: float = 1.0, reach: float | None = None) -> None:
     """Moves of the plate's points on ``side`` (and its corners) onto a flat or strip
     neighbour's edge: closest points, kept where the closest point is not the edge's end
-    (a point beyond it is another neighbour's) and within four tolerances (a plate and a
-    neighbour that part further are not one edge there), a corner where it lies within twice
-    the tolerance of the edge (its end: the neighbour's corner, up to the tolerance off the
-    hull and along it); each move shortened to the tolerance; the smaller claim where two
-    neighbours claim a point."""
+    (a point beyond it is another neighbour's) and within ``reach`` (default four
+    tolerances: a plate and a neighbour that part further are not one edge there), a corner
+    where it lies within twice the tolerance of the edge (its end: the neighbour's corner, up
+    to the tolerance off the hull and along it); ``share`` of the way (a half: two formed
+    plates meeting halfway, their corners within ``reach`` too), each move shortened to the
+    tolerance; the smaller claim where two neighbours claim a point."""
     if edge is None:
         return
+    reach = 4.0 * plate.hull.fit_tolerance if reach is None else reach
     hull, rows, cols = plate.hull, *plate.points.shape[:2]
     corner = np.isin(plate.ring, (0, cols - 1, rows * cols - 1, (rows - 1) * cols))
     mine = np.flatnonzero((plate.codes == CODES[side]) | corner)
     dense = _dense(edge, SAMPLE_MM / mm_per_unit)
     points = plate.flat[plate.ring[mine]]
     feet, s = closest_on(points, dense)
-    move = feet - points
-    size = np.linalg.norm(move, axis=1)
+    move = share * (feet - points)
+    size = np.linalg.norm(move, axis=1) / share
     inside = (s > dense.s3[0] + 1e-9 * dense.s3[-1]) & (s < dense.s3[-1] * (1.0 - 1e-9))
-    taken = np.where(corner[mine], size <= 2.0 * hull.fit_tolerance,
-                     inside & (plate.codes[mine] == CODES[side]) & (size <= 4.0 * hull.fit_tolerance))
+    taken = np.where(corner[mine], size <= max(2.0 * hull.fit_tolerance, reach if share < 1.0 else 0.0),
+                     inside & (plate.codes[mine] == CODES[side]) & (size <= reach))
+    size = share * size
     move *= np.minimum(1.0, hull.fit_tolerance / np.maximum(size, 1e-300))[:, None]
     where = offset + plate.ring[mine]
     better = taken & (size < best[where])

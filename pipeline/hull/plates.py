@@ -167,6 +167,8 @@ def run_plate(part: Part, config: RunConfig) -> PartResult:
             result.figures["edge_fit"] = dict(held)
             return result
         _run_plate(result, config)
+        if part.hull.as_strip and result.figures.get("plate_class"):
+            result.figures["plate_class"]["flat_declined"] = dict(part.hull.as_strip)
         limit = part.hull.edge_tolerance
         off = edge_deviation(result) if limit is not None else None
         if off is not None and off > limit:
@@ -230,7 +232,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
     # a plate held on the hull for its edges is a patch: no plane to fit unless it may stay flat
-    if hull.plane and not patch_only:
+    if hull.plane and not patch_only and not hull.as_strip:
         chosen = plane_through(v_grid, hull.plane["normal"], hull.plane["point"])
         if chosen.max_distance <= tol:  # else (round-off at the tolerance) its own plane, as before
             _deliver_flat(result, config, grid, v3, f3, index, chosen, tol, (length, width),
@@ -260,7 +262,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                         "strip_not_delivered_because": patch_only, "families": [], "strip_max_deviation": None},
                        None, (length, width))
         return
-    if fit.max_distance <= tol:
+    if fit.max_distance <= tol and not hull.as_strip:
         _deliver_flat(result, config, grid, v3, f3, index, fit, tol, (length, width),
                       "orthogonal projection on the minimax (Chebyshev) plane of the region",
                       {"plane_lower_bound": fit.lower_bound, "plane_proven_minimax": fit.proven,

@@ -94,6 +94,9 @@ class HullPlate:
     # the plane the fit-up chose for a flat plate together with its neighbours' ({normal, point},
     # model units: pipeline.hull.joint); the plate is projected on it when it holds the region
     plane: dict | None = None
+    # the fit-up's request that a flat plate be delivered as a strip instead (its plane stepped
+    # from a flat or strip neighbour's beyond the limit: {step_mm, neighbours}): no plane is tried
+    as_strip: dict | None = None
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
