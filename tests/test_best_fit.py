@@ -55,7 +55,8 @@ def test_a_strip_is_moved_by_the_least_share_of_its_centring_that_the_tolerance_
     v = np.tile(np.linspace(0.0, 1.0, 21), 50)
     lam = np.repeat(np.linspace(0.0, 1.0, 50), 21)
     gap = a + b * v - 4.0 * s * v * (1.0 - v)
-    share = least_share(lam, v, gap, target)
+    near, far = end_offsets(lam, v, gap, lam)
+    share = least_share(gap, near * (1.0 - v) + far * v, target)
     centred = (a - s / 2) + b * v
     scale = 1e-6 * (1 + abs(a) + abs(b) + s)
     assert 0.05 <= share <= 1.0 and share * 20 == pytest.approx(round(share * 20), abs=1e-9)

@@ -134,17 +134,16 @@ def end_offsets(lam: np.ndarray, v: np.ndarray, gap: np.ndarray, at: np.ndarray)
     return out[0], out[1]
 
 
-def least_share(lam: np.ndarray, v: np.ndarray, gap: np.ndarray, target: float) -> float:
-    """The least share of the centring offsets (:func:`end_offsets`), a twentieth at a time,
-    that brings every signed gap (N,) within ``target`` (model units); 1 when none does.
+def least_share(gap: np.ndarray, offset: np.ndarray, target: float) -> float:
+    """The least share of the centring offsets ``offset`` (N,) at the points (:func:`end_offsets`
+    at their rulings, blended along them), a twentieth at a time, that brings every signed gap
+    (N,) within ``target`` (model units); 1 when none does.
 
     Centring meets a sagitta s within s / 2 but stands the strip's edges off the hull by
     s / 2 too; the neighbours' edges are off by their own half sagittas, and the difference
     is a step at the weld. Moved only as far as the tolerance asks (s - target at the ends of a
     bowed ruling), the strip keeps its edges nearer the hull and its rulings nearer those
     it had."""
-    near, far = end_offsets(lam, v, gap, lam)
-    offset = near * (1.0 - v) + far * v
     for share in SHARES:
         if np.abs(gap - share * offset).max() <= target:
             return float(share)
@@ -190,9 +189,11 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
             break
         smap, lam, v, gap = signed_gaps(current, points)
         at = np.linspace(0.0, 1.0, CURVE_POINTS)
-        near, far = end_offsets(lam, v, gap, at)
-        share = least_share(lam, v, gap, LEAST_FIT * tol)
-        near, far = share * near, share * far
+        # the offsets at the moved curves' rulings and at the region's points, from one fit
+        near, far = end_offsets(lam, v, gap, np.concatenate([at, lam]))
+        at_points = near[len(at):] * (1.0 - v) + far[len(at):] * v
+        share = least_share(gap, at_points, LEAST_FIT * tol)
+        near, far = share * near[:len(at)], share * far[:len(at)]
         rulings, _, _ = smap.ends(at)
         normals = _strip_normals(smap.c, smap.d, rulings)
         name = f"{part.name}.bestfit{round_ + 1}"

@@ -112,10 +112,10 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     records = _records(plates)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
-    if joint and as_strips and _flats_as_strips(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm,
-                                                report):
-        records = _records(plates, records, set(report.as_strips))
-        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    if joint and as_strips:
+        records = _flats_as_strips(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report)
+        if report.as_strips:
+            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     if joint and _move_jointly(plates, records, pairs, evaluate_many, mm_per_unit, strips, report):
         # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates, records, set(report.planes) | set(report.strips))
@@ -152,11 +152,11 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
 
 
 def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
-                     thickness_mm: float, report: FollowReport) -> bool:
+                     thickness_mm: float, report: FollowReport) -> dict:
     """Flat plates that step from a flat or strip neighbour by more than the limit developed
     again as strips (``part.hull.as_strip``): kept where one fits and steps less from those
     neighbours than the plane did (the worst step first, against the neighbours as they are
-    then), else flat as before. Whether any changed.
+    then), else flat as before. The records with the strips kept.
 
     Two flat plates over a hull that twists step at their shared corners by about twice
     their planes' distance from it there, whatever planes the joint programme picks within
@@ -164,7 +164,7 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
     seams lies on the hull along them, and a nearly flat plate's strip bends little (a
     best-fit strip, or one whose rulings run butt to butt, does not: hence the measure). The
     flat + strip share is unchanged; the plate is rolled instead of cut flat."""
-    from .planner import is_strip
+    from .planner import honest_class
 
     wanted: dict = {}
     for q in pairs:
@@ -178,17 +178,17 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
                 entry["neighbours"] = sorted({*entry["neighbours"], other})
     asked = sorted((p for p in plates if p.name in wanted), key=lambda p: (-wanted[p.name]["step_mm"], p.name))
     if not asked:
-        return False
+        return records
     neighbours = {p.name: {q.b if q.a == p.name else q.a for q in pairs if p.name in (q.a, q.b)} for p in asked}
     developed = {p.name: (p.hull.result, p.hull.plane) for p in asked}
     for part in asked:
         part.hull.as_strip, part.hull.plane, part.hull.result = wanted[part.name], None, None
     current = dict(records)
     for part, result in zip(asked, evaluate_many(asked)):
-        klass = result.figures.get("plate_class") or {}
-        edges = (result.figures.get("fitup_edges") or plate_edges(result)) if result.ok else None
-        why = None
-        if not (result.ok and klass.get("class") == "developable" and is_strip(klass)) or edges is None:
+        strip = honest_class(result) == "developable"
+        edges = (result.figures.get("fitup_edges") or plate_edges(result)) if strip else None
+        if edges is None:
+            klass = result.figures.get("plate_class") or {}
             why = klass.get("strip_not_delivered_because") or result.reason or f"delivered {klass.get('class')}"
         else:
             before = _worst_step(current, part.name, neighbours[part.name], mm_per_unit, thickness_mm)
@@ -203,7 +203,7 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
         part.hull.as_strip = None
         part.hull.result, part.hull.plane = developed[part.name]
         report.kept_flat[part.name] = why
-    return bool(report.as_strips)
+    return current
 
 
 def _worst_step(records: dict, name: str, neighbours: set, mm_per_unit: float, thickness_mm: float) -> float:
@@ -372,16 +372,16 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
             plate = grids[me]
             if records[other][0].klass in MOVABLE_NEIGHBOURS:
                 _anchor(plate, mine, records[other][0].edge(theirs), mm_per_unit, start[me], fixed, value, best)
-            elif halfway:
-                halfways.append((plate, mine, records[other][0].edge(theirs), start[me],
-                                 max(4.0 * plate.hull.fit_tolerance, 1.01 * pair.step_max / mm_per_unit)))
+            elif halfway:  # their corners too: the step may exceed twice the tolerance
+                reach = max(4.0 * plate.hull.fit_tolerance, 1.01 * pair.step_max / mm_per_unit)
+                halfways.append((plate, mine, records[other][0].edge(theirs), start[me], reach))
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
     # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
     # meet those, and can meet its formed neighbour halfway only where nothing else holds it
     best = np.where(fixed, -np.inf, best)
     for plate, mine, edge, offset, reach in halfways:
-        _anchor(plate, mine, edge, mm_per_unit, offset, fixed, value, best, share=0.5, reach=reach)
+        _anchor(plate, mine, edge, mm_per_unit, offset, fixed, value, best, share=0.5, reach=reach, corner_reach=reach)
     # the ring's points that meet nobody (the shell's free edges) stay on the hull, and so do
     # the corners on a free edge that the plate's other side joins to a formed neighbour
     for name in names:
@@ -394,30 +394,30 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
 
 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,
-            share: float = 1.0, reach: float | None = None) -> None:
+            share: float = 1.0, reach: float | None = None, corner_reach: float | None = None) -> None:
     """Moves of the plate's points on ``side`` (and its corners) onto a flat or strip
     neighbour's edge: closest points, kept where the closest point is not the edge's end
     (a point beyond it is another neighbour's) and within ``reach`` (default four
     tolerances: a plate and a neighbour that part further are not one edge there), a corner
-    where it lies within twice the tolerance of the edge (its end: the neighbour's corner, up
+    within ``corner_reach`` (default twice the tolerance: its end, the neighbour's corner, up
     to the tolerance off the hull and along it); ``share`` of the way (a half: two formed
-    plates meeting halfway, their corners within ``reach`` too), each move shortened to the
-    tolerance; the smaller claim where two neighbours claim a point."""
+    plates meeting halfway), each move shortened to the tolerance; the smaller claim where two
+    neighbours claim a point."""
     if edge is None:
         return
-    reach = 4.0 * plate.hull.fit_tolerance if reach is None else reach
     hull, rows, cols = plate.hull, *plate.points.shape[:2]
+    reach = 4.0 * hull.fit_tolerance if reach is None else reach
+    corner_reach = 2.0 * hull.fit_tolerance if corner_reach is None else corner_reach
     corner = np.isin(plate.ring, (0, cols - 1, rows * cols - 1, (rows - 1) * cols))
     mine = np.flatnonzero((plate.codes == CODES[side]) | corner)
     dense = _dense(edge, SAMPLE_MM / mm_per_unit)
     points = plate.flat[plate.ring[mine]]
     feet, s = closest_on(points, dense)
-    move = share * (feet - points)
-    size = np.linalg.norm(move, axis=1) / share
+    apart = np.linalg.norm(feet - points, axis=1)
     inside = (s > dense.s3[0] + 1e-9 * dense.s3[-1]) & (s < dense.s3[-1] * (1.0 - 1e-9))
-    taken = np.where(corner[mine], size <= max(2.0 * hull.fit_tolerance, reach if share < 1.0 else 0.0),
-                     inside & (plate.codes[mine] == CODES[side]) & (size <= reach))
-    size = share * size
+    taken = np.where(corner[mine], apart <= corner_reach,
+                     inside & (plate.codes[mine] == CODES[side]) & (apart <= reach))
+    move, size = share * (feet - points), share * apart
     move *= np.minimum(1.0, hull.fit_tolerance / np.maximum(size, 1e-300))[:, None]
     where = offset + plate.ring[mine]
     better = taken & (size < best[where])
