@@ -233,3 +233,37 @@ def test_a_strip_far_off_its_region_is_judged_on_a_probe_and_no_better_than_the_
     inner = (v >= EDGE_V) & (v <= 1.0 - EDGE_V)
     assert inner.sum() >= 20
     assert np.array_equal(alone[inner], among[index][inner])
+
+
+def test_seams_extended_past_the_butts_are_not_tried_for_a_strip_far_off_the_hull(tmp_path, monkeypatch):
+    """The bowed bilge plate's seams are circles of the 3 m tube some 24 degrees apart: the
+    strip between them is the cone through both, which stands off the tube by its chord's
+    sagitta, bilge (1 - cos(angle / 2)), about 65 mm (closed form from the corners' tube
+    angles), over HOPELESS tolerances. Extending the seams past the butts only adds rulings
+    that lean past them, so that strip is not solved and the plate says why (a strip that
+    stops short of a corner still gets it: test_a_seam_strip_whose_rulings_lean_...)."""
+    import re
+
+    from pipeline.hull import plates
+    from pipeline.hull.platestrip import HOPELESS
+
+    called = []
+    monkeypatch.setattr(plates, "seam_family_far", lambda *args: called.append(args))
+    bow, half, bilge, tol = 138000.0, 1500.0, 3000.0, 5.0
+    iges = bowed_bilge_iges(tmp_path / "bowed.igs", bow=bow, bilge=bilge)
+    code, out = run_strake(tmp_path, {"surface": {"iges": str(iges)}, "butts": [-half, half], "fit_tolerance": tol,
+                                      "seams": [{"iso": {"v": 0.3}}, {"iso": {"v": 0.7}}]})
+    assert code == 0 and not called
+    rep = json.loads((out / "t_S1_B1.json").read_text())
+    why = rep["plate_class"]["other_family"]["rejected_because"]
+    stands = float(re.search(r"seams extended past the butts: not tried \(the strip between them stands ([0-9.]+) off",
+                             why).group(1))
+    corners = np.array(rep["region"]["corners"])
+    rho = np.hypot(corners[:, 0], bow - corners[:, 2])  # from the bow's axis
+    angle = np.arctan2(corners[:, 1], bow - rho)  # around the tube: r = bow - bilge cos, y = bilge sin
+    at_butt = corners[:, 0] > 0
+    spread = abs(np.ptp(angle[at_butt])), abs(np.ptp(angle[~at_butt]))
+    assert spread[0] == pytest.approx(spread[1], rel=1e-6)
+    sagitta = bilge * (1 - np.cos(spread[0] / 2))
+    assert stands > HOPELESS * tol
+    assert stands == pytest.approx(sagitta, rel=0.03)
