@@ -389,3 +389,46 @@ def test_two_formed_plates_within_the_limit_are_joined_as_they_lie(monkeypatch):
     assert np.all(moves["R"][..., 2] >= 0.0) and np.abs(moves["R"]).max() <= 2.0 + 1e-9  # not halfway (down)
     # the joined copies part only towards the free seam's corner, where the right plate stays on the hull
     assert abs(across_left[-1] - across_right[-1]) < 0.25 * across_left[-1]
+
+
+def test_a_formed_plate_moved_to_meet_its_neighbours_keeps_its_verdict_and_is_not_solved_again(tmp_path,
+                                                                                              monkeypatch):
+    # at a 4 mm fit tolerance the shoulder's two plates of the second butt are formed (no
+    # strip fits) and are moved to meet the flat plates: the region and the hull are those
+    # they were judged on, so their strips are not solved again; the plate delivered is the
+    # one the whole plate run gives for the same moves (its reasons, its roll lines from the
+    # same strip, its moved mesh and development), bit for bit
+    import copy
+    import dataclasses
+
+    from pipeline.hull import plates
+    from pipeline.hull.plates import run_plate
+    from pipeline.hull.plateshop import complete
+
+    config = load_run(shoulder(tmp_path, fit_tolerance=4.0), evaluate_plate)
+    parts = config.parts
+    for part in parts:
+        part.hull.result = evaluate_plate(part, config)
+    formed = [p.name for p in parts if p.hull.result.figures["plate_class"]["class"] == "formed"]
+    assert formed == ["fit_S1_B2", "fit_S2_B2"]
+    solved = []
+    for name in ("_seam_strip", "butt_family", "seam_family_far", "flattest_plane"):
+        monkeypatch.setattr(plates, name, (lambda f, n: lambda *a, **k: solved.append(n) or f(*a, **k))(
+            getattr(plates, name), name))
+    report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
+                          joint=False)
+    assert sorted(report.moved) == formed and not solved
+    monkeypatch.undo()
+    for part in (p for p in parts if p.name in formed):
+        assert part.hull.follow["verdict"] is not None
+        kept = complete(part.hull.result, config)
+        whole = dataclasses.replace(part.hull, follow=dict(part.hull.follow, verdict=None), result=None)
+        alone = copy.copy(part)
+        alone.hull = whole
+        again = complete(run_plate(alone, plates.LeanRun(config)), config)
+        assert kept.figures["plate_class"] == again.figures["plate_class"]
+        assert kept.figures["forming"] == again.figures["forming"]
+        assert kept.figures["forming"]["roll_line_method"].startswith("rulings of devflat's strip")
+        assert np.array_equal(kept.mesh[0], again.mesh[0]) and np.array_equal(kept.pattern.vertices,
+                                                                             again.pattern.vertices)
+        assert np.array_equal(kept.pattern.bend_lines, again.pattern.bend_lines)

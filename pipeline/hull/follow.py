@@ -41,6 +41,7 @@ import numpy as np
 from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, plate_edges, shared_edges
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
+from .plateshop import formed_verdict
 
 FORMED = "formed"
 AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more than the limit is developed again "
@@ -100,7 +101,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
     plates without an evaluated result are evaluated first (``evaluate_many(parts) ->
     results``). A plate that moves is evaluated again with ``part.hull.follow`` (a formed
-    plate) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
+    plate: with its strips' verdict from before, :func:`.plateshop.formed_verdict`, so that
+    only its moved patch is developed) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
     (:mod:`.rigid`); ``part.hull.result`` is its new result. First (``as_strips``), a flat
     plate that misfits a flat or strip neighbour is developed again as a strip
     (:func:`_flats_as_strips`)."""
@@ -141,7 +143,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         neighbours = sorted({q.b if q.a == name else q.a for q in pairs if name in (q.a, q.b)
                              and records[q.b if q.a == name else q.a][0].klass in MOVABLE_NEIGHBOURS})
         largest = float(size.max()) * mm_per_unit
-        part.hull.follow = {"offsets": offsets, "neighbours": neighbours, "largest_move_mm": largest}
+        part.hull.follow = {"offsets": offsets, "neighbours": neighbours, "largest_move_mm": largest,
+                            "verdict": formed_verdict(part.hull.result)}
         part.hull.result = None
         report.moved[name] = {"largest_move_mm": largest, "neighbours": neighbours}
         moved.append(part)

@@ -229,6 +229,14 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                 "surface": hull.surface.name, "surface_note": hull.surface_note or None,
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
+    verdict = (hull.follow or {}).get("verdict")
+    if verdict is not None and not patch_only:  # formed before it was moved: its strips fail alike
+        grid, v3 = _followed(grid, v3, index, hull)
+        uv, iterations = arap_development(v3, f3)
+        _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
+                       {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
+                        **verdict["info"]}, verdict["roll_strip"], (length, width))
+        return
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
     # a plate held on the hull for its edges is a patch: no plane to fit unless it may stay flat

@@ -188,6 +188,21 @@ class PatchGeometry:
     complete: bool
 
 
+def formed_verdict(result) -> dict | None:
+    """What a lean-evaluated formed plate's strip attempts found: its class record's reasons
+    and deviations (``info``) and the strip its roll lines follow (``roll_strip``), kept in
+    its owed shop data; None for any other result. A formed plate moved to meet its
+    neighbours (``hull.follow``, :mod:`.follow`) is the same region of the same hull, on
+    which the same strips fail alike: with its verdict only its moved patch is developed
+    (:func:`pipeline.hull.plates.run_plate`)."""
+    work = getattr(result, "shop_work", None)
+    geometry = work.args[-1] if work is not None and work.args else None
+    if not isinstance(geometry, PatchGeometry) or geometry.kind != "formed" or not geometry.info.get("families"):
+        return None
+    keys = ("strip_not_delivered_because", "families", "strip_max_deviation")
+    return {"info": {k: geometry.info[k] for k in keys}, "roll_strip": geometry.strip}
+
+
 def patch_shop(result, config, grid, geo: PatchGeometry) -> None:
     """Roll lines (devflat's strip rulings, else the hull's least-curvature lines; for steel
     those it is rolled at), frame lines and edge names (inside the cut outline of a plate cut
