@@ -256,8 +256,9 @@ def test_seams_extended_past_the_butts_are_not_tried_for_a_strip_far_off_the_hul
     assert code == 0 and not called
     rep = json.loads((out / "t_S1_B1.json").read_text())
     why = rep["plate_class"]["other_family"]["rejected_because"]
-    stands = float(re.search(r"seams extended past the butts: not tried \(the strip between them stands ([0-9.]+) off",
-                             why).group(1))
+    found = re.search(r"seams extended past the butts: not tried \(the strip between them stands ([0-9.]+) off", why)
+    assert found, why
+    stands = float(found.group(1))
     corners = np.array(rep["region"]["corners"])
     rho = np.hypot(corners[:, 0], bow - corners[:, 2])  # from the bow's axis
     angle = np.arctan2(corners[:, 1], bow - rho)  # around the tube: r = bow - bilge cos, y = bilge sin

@@ -412,9 +412,13 @@ def test_a_formed_plate_moved_to_meet_its_neighbours_keeps_its_verdict_and_is_no
     formed = [p.name for p in parts if p.hull.result.figures["plate_class"]["class"] == "formed"]
     assert formed == ["fit_S1_B2", "fit_S2_B2"]
     solved = []
+
+    def counted(name):
+        solve = getattr(plates, name)
+        return lambda *args, **kwargs: solved.append(name) or solve(*args, **kwargs)
+
     for name in ("_seam_strip", "butt_family", "seam_family_far", "flattest_plane"):
-        monkeypatch.setattr(plates, name, (lambda f, n: lambda *a, **k: solved.append(n) or f(*a, **k))(
-            getattr(plates, name), name))
+        monkeypatch.setattr(plates, name, counted(name))
     report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
                           joint=False)
     assert sorted(report.moved) == formed and not solved
@@ -426,9 +430,52 @@ def test_a_formed_plate_moved_to_meet_its_neighbours_keeps_its_verdict_and_is_no
         alone = copy.copy(part)
         alone.hull = whole
         again = complete(run_plate(alone, plates.LeanRun(config)), config)
-        assert kept.figures["plate_class"] == again.figures["plate_class"]
-        assert kept.figures["forming"] == again.figures["forming"]
+        assert _figures(kept) == _figures(again)
         assert kept.figures["forming"]["roll_line_method"].startswith("rulings of devflat's strip")
+        assert kept.figures["follow"]["largest_move_mm"] > 1.0
         assert np.array_equal(kept.mesh[0], again.mesh[0]) and np.array_equal(kept.pattern.vertices,
                                                                              again.pattern.vertices)
         assert np.array_equal(kept.pattern.bend_lines, again.pattern.bend_lines)
+
+
+def _figures(result) -> str:
+    """Every figure of a plate's report, as text (arrays as lists)."""
+    import json
+
+    return json.dumps(result.figures, default=lambda o: np.asarray(o).tolist(), sort_keys=True)
+
+
+def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
+    # the shoulder at 4 mm: two flat plates, two formed ones; a verdict is what the strips
+    # were found to be, so a flat plate, a plate developed on the hull without trying them
+    # (held for its fit-up) and a plate run in full (no owed shop data) have none; a formed
+    # plate evaluated in the plan's worker processes carries it across as the one evaluated here
+    from pipeline.hull.plates import run_plate
+    from pipeline.hull.plateshop import formed_verdict
+    from pipeline.runner import PlateEvaluator
+
+    config = load_run(shoulder(tmp_path, fit_tolerance=4.0), evaluate_plate)
+    parts = config.parts
+    lean = {p.name: evaluate_plate(p, config) for p in parts}
+    kinds = {name: r.figures["plate_class"]["class"] for name, r in lean.items()}
+    assert sorted(kinds.values()) == ["flat", "flat", "formed", "formed"]
+    for name, result in lean.items():
+        verdict = formed_verdict(result)
+        assert (verdict is not None) == (kinds[name] == "formed")
+        if verdict is not None:
+            assert [f["family"] for f in verdict["info"]["families"]] == ["rulings seam to seam", "rulings butt to butt"]
+            assert verdict["info"]["strip_max_deviation"] == result.figures["plate_class"]["strip_max_deviation"] > 4.0
+    formed = next(p for p in parts if kinds[p.name] == "formed")
+    assert formed_verdict(run_plate(formed, config)) is None  # run in full: its shop data are done
+    formed.hull.held = {"reason": "test: developed on the hull"}
+    held = evaluate_plate(formed, config)
+    assert held.figures["plate_class"]["class"] == "formed" and formed_verdict(held) is None
+    formed.hull.held = None
+    with PlateEvaluator(evaluate_plate, 2) as pool:
+        pooled = pool.many(parts, config)
+    for result in pooled:
+        verdict, here = formed_verdict(result), formed_verdict(lean[result.name])
+        assert (verdict is None) == (here is None)
+        if verdict is not None:
+            assert verdict["info"] == here["info"]
+            assert np.array_equal(verdict["roll_strip"].vertices, here["roll_strip"].vertices)

@@ -541,6 +541,7 @@ def plate_key(part, config=None) -> str:
     if hull.follow:  # a formed plate moved to meet its neighbours: its moves too
         digest.update(np.ascontiguousarray(hull.follow["offsets"], dtype=np.float64).tobytes())
         digest.update(repr(hull.follow["neighbours"]).encode())  # named in the plate's figures
+        # not its strips' verdict: that follows from the region, which the key holds
     if hull.as_strip:  # a flat plate asked for as a strip: no plane tried
         digest.update(repr(sorted(hull.as_strip.items())).encode())
     if hull.plane:  # a flat plate's plane chosen with its neighbours'

@@ -203,7 +203,9 @@ def edge_deviation(result: PartResult) -> float | None:
 def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge_limit: float | None = None) -> None:
     """The plate's class and development; ``patch_only``: why no flat or strip development is
     tried (the plate is developed on the hull as a patch); ``edge_limit``: with it, a plate that
-    is flat on a plane keeping its edges within this of the hull stays flat (else a patch)."""
+    is flat on a plane keeping its edges within this of the hull stays flat (else a patch). A
+    formed plate moved to meet its neighbours with its strips' verdict from before
+    (``hull.follow['verdict']``) is developed from its moved patch at once."""
     part, hull = result.part, result.part.hull
     mm = config.mm_per_unit
     tol = hull.fit_tolerance
@@ -230,12 +232,11 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
     verdict = (hull.follow or {}).get("verdict")
-    if verdict is not None and not patch_only:  # formed before it was moved: its strips fail alike
-        grid, v3 = _followed(grid, v3, index, hull)
-        uv, iterations = arap_development(v3, f3)
-        _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
-                       {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
-                        **verdict["info"]}, verdict["roll_strip"], (length, width))
+    if verdict is not None and not patch_only:
+        # formed before it was moved: the strips are judged on the region as it lies on the
+        # hull, which the moves leave alone, so solved again they would fail as they did
+        _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width), verdict["info"],
+                            verdict["roll_strip"], strips_tried=True)
         return
     # flat when some plane fits, not only the least-squares one: the minimax plane, the
     # mid-plane of the thinnest slab holding the region (flatten/minimax.py)
@@ -263,12 +264,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                                                         edge_limit):
         return
     if patch_only:
-        grid, v3 = _followed(grid, v3, index, hull)
-        uv, iterations = arap_development(v3, f3)
-        _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
-                       {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
-                        "strip_not_delivered_because": patch_only, "families": [], "strip_max_deviation": None},
-                       None, (length, width))
+        _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width),
+                            {"strip_not_delivered_because": patch_only, "families": [], "strip_max_deviation": None},
+                            None, strips_tried=False)
         return
     if fit.max_distance <= tol and not hull.as_strip:
         _deliver_flat(result, config, grid, v3, f3, index, fit, tol, (length, width),
@@ -323,14 +321,24 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
     best = min((d, f) for f, d in deviations.items() if d is not None) if any(
         d is not None for d in deviations.values()) else (None, SEAM_TO_SEAM)
     roll_strip = butt.attempt.strip if best[1] == BUTT_TO_BUTT and butt.attempt is not None else attempt.strip
-    grid, v3 = _followed(grid, v3, index, hull)
+    _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width),
+                        {"strip_not_delivered_because": "; ".join(f"{f}: {r}" for f, r in families.items()),
+                         "families": [_other(f, r, deviations[f]) for f, r in families.items()],
+                         "strip_max_deviation": best[0]},
+                        roll_strip, strips_tried=True)
+
+
+def _deliver_hull_patch(result, config, grid, v3, f3, index, size, verdict: dict, strip, strips_tried: bool) -> None:
+    """A formed plate: its hull patch (moved as ``hull.follow`` says) developed with minimal
+    strain; ``verdict`` why no strip was delivered (strip_not_delivered_because, families,
+    strip_max_deviation), ``strip`` the one its roll lines follow or None; ``strips_tried``:
+    the verdict is the strips' own (kept for a later move: :func:`.plateshop.formed_verdict`),
+    not a reason they were not tried."""
+    grid, v3 = _followed(grid, v3, index, result.part.hull)
     uv, iterations = arap_development(v3, f3)
     _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
-                   {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh",
-                    "strip_not_delivered_because": "; ".join(f"{f}: {r}" for f, r in families.items()),
-                    "families": [_other(f, r, deviations[f]) for f, r in families.items()],
-                    "strip_max_deviation": best[0]},
-                   roll_strip, (length, width))
+                   {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh", **verdict},
+                   strip, size, verdict if strips_tried else None)
 
 
 def _seams_too_far(deviation: float | None, tolerance: float) -> bool:
@@ -515,7 +523,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     owe(result, config, trimmed_shop, grid, dataclasses.replace(trim, attempt=None, located=None))
 
 
-def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size):
+def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size, verdict=None):
     """Pattern, strain map, completeness and class of a plate developed from its hull patch
     (its marks, heating lines and templates: :func:`.plateshop.patch_shop`, owed in a lean run).
 
@@ -586,7 +594,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
                                       "note": "developed from the hull patch itself: its 3D shape is the hull's; its "
                                               "error is the in-plane strain (see strain)"}
     geometry = PatchGeometry(kind, strip, v3, f3, index, uv_grid_flat, region_faces, region_outline, cut, info, scale,
-                             bool(check["passed"]))
+                             bool(check["passed"]), verdict)
     if not check["passed"]:
         result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
         owe(result, config, patch_shop, grid, geometry)  # its marks still go into its report

@@ -172,6 +172,8 @@ class PatchGeometry:
     info        the class record's method figures (``rolling_only`` for heating)
     scale       the workshop method's scale of the development
     complete    the delivered plate holds its region (else only its marks are drawn)
+    verdict     a formed plate's strips' verdict (strip_not_delivered_because, families,
+                strip_max_deviation) when they were tried, else None (:func:`formed_verdict`)
     """
 
     kind: str
@@ -186,21 +188,24 @@ class PatchGeometry:
     info: dict
     scale: float
     complete: bool
+    verdict: dict | None = None
 
 
 def formed_verdict(result) -> dict | None:
     """What a lean-evaluated formed plate's strip attempts found: its class record's reasons
-    and deviations (``info``) and the strip its roll lines follow (``roll_strip``), kept in
-    its owed shop data; None for any other result. A formed plate moved to meet its
-    neighbours (``hull.follow``, :mod:`.follow`) is the same region of the same hull, on
-    which the same strips fail alike: with its verdict only its moved patch is developed
-    (:func:`pipeline.hull.plates.run_plate`)."""
+    and deviations (``info``) and the strip its roll lines follow (``roll_strip``), from its
+    owed shop data; None for any other result (flat, a strip, a patch whose strips were not
+    tried, a plate run in full). The strips are judged on the region as it lies on the hull:
+    a formed plate moved to meet its neighbours (``hull.follow``, :mod:`.follow`) would solve
+    and fail them again alike, so with its verdict only its moved patch is developed
+    (:func:`pipeline.hull.plates._run_plate`)."""
     work = getattr(result, "shop_work", None)
-    geometry = work.args[-1] if work is not None and work.args else None
-    if not isinstance(geometry, PatchGeometry) or geometry.kind != "formed" or not geometry.info.get("families"):
+    if work is None or work.fn is not patch_shop:
         return None
-    keys = ("strip_not_delivered_because", "families", "strip_max_deviation")
-    return {"info": {k: geometry.info[k] for k in keys}, "roll_strip": geometry.strip}
+    geometry = work.args[-1]  # patch_shop(result, config, grid, geometry)
+    if geometry.kind != "formed" or geometry.verdict is None:
+        return None
+    return {"info": geometry.verdict, "roll_strip": geometry.strip}
 
 
 def patch_shop(result, config, grid, geo: PatchGeometry) -> None:

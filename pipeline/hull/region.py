@@ -89,7 +89,8 @@ class HullPlate:
     # edge stepped from a neighbour's ({reason, class_before, edge_deviation_before, ...})
     held: dict | None = None
     # the fit-up by forming's moves of a formed plate's region grid onto its flat and strip
-    # neighbours' edges ({offsets (R, C, 3) model units, neighbours, largest_move_mm}: pipeline.hull.follow)
+    # neighbours' edges ({offsets (R, C, 3) model units, neighbours, largest_move_mm, verdict: its
+    # strips' verdict from before or None}: pipeline.hull.follow)
     follow: dict | None = None
     # the plane the fit-up chose for a flat plate together with its neighbours' ({normal, point},
     # model units: pipeline.hull.joint); the plate is projected on it when it holds the region
