@@ -196,6 +196,12 @@ def _stats(values: np.ndarray, pairs) -> dict:
 
 
 # ------------------------------------------------------------ a plate's delivered edges
+def kept_edges(result) -> PlateEdges | None:
+    """The plate's edges as its run kept them (``figures['fitup_edges']``: a worker that
+    writes a plate's files drops its geometry), else read from its geometry now."""
+    return result.figures.get("fitup_edges") or plate_edges(result)
+
+
 def plate_edges(result) -> PlateEdges | None:
     """The delivered plate's named edges (None for a plate that delivered nothing or is no
     hull plate). Reads the strip (seam-to-seam strips trimmed by butt planes) or the region
@@ -450,7 +456,7 @@ def shell_fitup(results, config) -> ShellFitup | None:
     mm = config.mm_per_unit
     records, unmeasured = {}, []
     for r in hull_results:
-        rec = r.figures.get("fitup_edges") or plate_edges(r)
+        rec = kept_edges(r)
         if rec is None:
             unmeasured.append(r.name)
         else:

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, plate_edges, shared_edges
+from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, kept_edges, shared_edges
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
 from .plateshop import formed_verdict
@@ -189,7 +189,7 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
     current = dict(records)
     for part, result in zip(asked, evaluate_many(asked)):
         strip = honest_class(result) == "developable"
-        edges = (result.figures.get("fitup_edges") or plate_edges(result)) if strip else None
+        edges = kept_edges(result) if strip else None
         if edges is None:
             klass = result.figures.get("plate_class") or {}
             why = klass.get("strip_not_delivered_because") or result.reason or f"delivered {klass.get('class')}"
@@ -273,7 +273,7 @@ def _records(plates: list, known: dict | None = None, changed: set = frozenset()
                 records[part.name] = known[part.name]
             continue
         result = part.hull.result
-        edges = None if result is None else (result.figures.get("fitup_edges") or plate_edges(result))
+        edges = None if result is None else kept_edges(result)
         if edges is not None:
             records[part.name] = (edges, part)
     return records

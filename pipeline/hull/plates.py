@@ -290,11 +290,11 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
         try:
             if end_plate:
                 seam = seam_family_trimmed(part, config, grid, corner_tol)
-            elif hull.developable and not _seams_too_far(seam_deviation, tol):
-                seam = seam_family_far(part, config, grid, corner_tol)
-            elif hull.developable:
+            elif hull.developable and _seams_too_far(seam_deviation, tol):
                 seam.reason = (f"seams extended past the butts: not tried (the strip between them stands "
                                f"{seam_deviation:.4g} off the hull, over {HOPELESS:g} tolerances)")
+            elif hull.developable:
+                seam = seam_family_far(part, config, grid, corner_tol)
         except Exception as exc:
             seam.reason = _raised(exc)
     if not (seam_ok or seam.ok or butt.ok):

@@ -33,11 +33,11 @@ def moved_rigidly(result, move: dict):
     ``hull_fit`` measured on the moved plate now, its 3D geometry moved once its owed shop
     data are done (at once when it owes none)."""
     transform = _transform(move)
-    from .fitup import plate_edges
+    from .fitup import kept_edges
 
     # its edges as the plate was developed, moved: the sides of its boundary are told by the
     # butt planes within the tolerance, which a move along the hull could take a corner past
-    edges = result.figures.get("fitup_edges") or plate_edges(result)
+    edges = kept_edges(result)
     out = copy.copy(result)
     out.figures = dict(result.figures)
     out.figures["fitup_edges"] = None if edges is None else dataclasses.replace(
