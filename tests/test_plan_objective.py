@@ -172,6 +172,54 @@ def test_a_weighted_cost_splits_only_where_the_area_pays_for_the_weld(counted):
     assert len(dear.parts) > 3 and dear.plan_record.splits_taken >= 1
 
 
+def test_a_split_the_estimate_says_gains_nothing_is_tried_with_the_budget_left(tmp_path, monkeypatch):
+    """The split estimate is coarse (a strip's verdict is the solve's): with every split's
+    expected gain forced to nothing, {maximise: flat_strip} still spends the weld budget left
+    on them, one at a time within it, and keeps the one whose halves pay (the seam at the
+    cylinder-sphere junction: the cylinder part as a strip), the others rejected and their weld
+    refunded: a plan as good as the one it reaches with the estimate intact. The weighted cost does not
+    explore (a split that earns nothing costs its weld and its plate)."""
+    from dataclasses import replace
+
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+
+    objective = {"maximise": "flat_strip", "weld_factor": 1.5}
+    estimated = load_run(_cs(tmp_path, "est", "adaptive", objective), _plain_evaluator())
+    real = planner.choose_split
+
+    def blind(*args, **kwargs):
+        split = real(*args, **kwargs)
+        return None if split is None else replace(split, estimates=(np.inf, np.inf), fitting_share=0.0)
+
+    monkeypatch.setattr(planner, "choose_split", blind)
+    blinded = load_run(_cs(tmp_path, "blind", "adaptive", objective), _plain_evaluator())
+    fits = [p for p in blinded.parts if planner.honest_class(p.hull.result) in ("flat", "developable")]
+    assert len(blinded.parts) == 4 and len(fits) == 1
+    # the strake is symmetric end to end: the plan order meets the other end's junction first
+    assert np.allclose(sorted(_class_areas(blinded.parts)), sorted(_class_areas(estimated.parts)), rtol=1e-6)
+    assert blinded.plan_record.splits_taken == estimated.plan_record.splits_taken == 1
+    assert _weld_m(blinded.parts) <= 1.5 * blinded.plan_record.uniform_weld_m
+    weighted = load_run(_cs(tmp_path, "wblind", "adaptive", {"weights": {"weld_m": 1.0, "plate": 1.0,
+                                                                          "formed_m2": 100.0}}), _plain_evaluator())
+    assert weighted.plan_record.splits_taken == 0 and len(weighted.parts) == 3
+
+
+def _class_areas(parts) -> list:
+    """(1 for flat or strip else 0, shell area m^2) per plate."""
+    from pipeline.hull.hullplots import shell_area
+    from pipeline.hull.planner import honest_class
+
+    return [(float(honest_class(p.hull.result) in ("flat", "developable")), shell_area(p.hull.result)) for p in parts]
+
+
+def _plain_evaluator():
+    from pipeline.hull.plates import evaluate_plate
+    from pipeline.runner import PlateEvaluator
+
+    return PlateEvaluator(evaluate_plate, 1)
+
+
 def test_a_bad_objective_is_named(tmp_path):
     from pipeline.config import ConfigError, load_config
 

@@ -424,6 +424,23 @@ def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False
             return leaves, refund
 
 
+def _take(options: list, weld: float, budget: float, sides, leaves: list) -> tuple[list, float]:
+    """The splits of ``options`` (in order) taken this round within the weld budget, and the
+    weld (m) they reserve. A butt split's new butt is not yet in ``sides`` (the yard's seam
+    sides): the plates across its seams wait a round."""
+    taken, reserved, blocked = [], 0.0, set()
+    for _, _, cell, split, _, cost in options:
+        if id(cell) in blocked or weld + reserved + cost > budget + 1e-9:
+            continue
+        taken.append((cell, split, cost))
+        reserved += cost
+        if split.kind == "length" and sides is not None:
+            for girth in cell.girths:
+                for other in sides.get(id(girth), (None, [], []))[1] + sides.get(id(girth), (None, [], []))[2]:
+                    blocked.update(id(c) for c in leaves if c.part is other)
+    return taken, reserved
+
+
 def _split_for(cells: list, build, ctx: _Context) -> list:
     """With an objective (:mod:`.objective`): rounds of splits, best first, within the weld
     budget or while they lower the weighted cost; each round's new plates evaluated as one
@@ -463,17 +480,14 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             gain, cost = split.fitting_share * _area(cell), split.weld * metre
             options.append((split_priority(objective, gain, cost), len(options), cell, split, gain, cost))
         options.sort(key=lambda o: (-o[0], o[1]))
-        taken, reserved, blocked = [], 0.0, set()
-        for _, _, cell, split, gain, cost in options:
-            if id(cell) in blocked or weld + reserved + cost > budget + 1e-9 or worth(objective, gain, cost) <= 0:
-                continue
-            taken.append((cell, split, cost))
-            reserved += cost
-            if split.kind == "length" and sides is not None:
-                # its new butt is not yet in ``sides``: the plates across its seams wait a round
-                for girth in cell.girths:
-                    for other in sides.get(id(girth), (None, [], []))[1] + sides.get(id(girth), (None, [], []))[2]:
-                        blocked.update(id(c) for c in leaves if c.part is other)
+        paying = [o for o in options if worth(objective, o[4], o[5]) > 0]
+        taken, reserved = _take(paying, weld, budget, sides, leaves)
+        if not taken and objective.weights is None:
+            # no split is expected to pay: the budget left goes to splits expected to gain
+            # nothing, nearest to fitting first; the estimate is coarse (a strip's verdict
+            # is the solve's) and a split whose halves never pay is undone, its weld refunded
+            hopeful = sorted(options, key=lambda o: (min(o[3].estimates), o[1]))
+            taken, reserved = _take(hopeful, weld, budget, sides, leaves)
         if not taken:
             leaves, refund = _undo(leaves, objective, done, ctx, final=True)
             if refund <= 0:
