@@ -205,6 +205,35 @@ def test_a_split_the_estimate_says_gains_nothing_is_tried_with_the_budget_left(t
     assert weighted.plan_record.splits_taken == 0 and len(weighted.parts) == 3
 
 
+def test_a_plate_whose_split_did_not_pay_is_offered_the_other_kind(tmp_path, monkeypatch):
+    """With the estimate steered to butt splits first, the cylinder-sphere strake's plates are
+    cut across at mid length, and no half fits (each keeps part of the cap's double curvature).
+    {maximise: flat_strip} gives the weld back and offers each plate a new seam instead: the
+    seam at the junction delivers the cylinder part as a strip, the plan the estimate reaches
+    unsteered. A plan that gives up after the first kind (the control) delivers nothing flat
+    or strip."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+
+    objective = {"maximise": "flat_strip", "weld_factor": 1.5}
+    estimated = load_run(_cs(tmp_path, "est", "adaptive", objective), _plain_evaluator())
+    real = planner.choose_split
+
+    def butts_first(sample, tol, min_length, min_width, allow=None, strict_width=False, kinds=planner.SPLIT_KINDS):
+        kinds = ("length",) if "length" in kinds else kinds
+        return real(sample, tol, min_length, min_width, allow, strict_width, kinds)
+
+    monkeypatch.setattr(planner, "choose_split", butts_first)
+    steered = load_run(_cs(tmp_path, "steer", "adaptive", objective), _plain_evaluator())
+    fits = [p for p in steered.parts if planner.honest_class(p.hull.result) in ("flat", "developable")]
+    assert len(fits) == 1 and "+" in fits[0].hull.seam_names[1]  # the fitting half is below a new seam
+    assert np.allclose(sorted(_class_areas(steered.parts)), sorted(_class_areas(estimated.parts)), rtol=1e-6)
+    assert steered.plan_record.splits_rejected >= 1
+    monkeypatch.setattr(planner, "_retry", lambda cell, kind, objective: False)
+    once = load_run(_cs(tmp_path, "once", "adaptive", objective), _plain_evaluator())
+    assert not [p for p in once.parts if planner.honest_class(p.hull.result) in ("flat", "developable")]
+
+
 def _class_areas(parts) -> list:
     """(1 for flat or strip else 0, shell area m^2) per plate."""
     from pipeline.hull.hullplots import shell_area
@@ -292,8 +321,8 @@ def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path
     choose, under_rules = planner._region_split, planner._splits_under_rules
 
     def counted(job):
-        surface, axis, girths, pair, *_, allow, strict = job
-        jobs.append((tuple(g.g for g in girths), tuple(None if p is None else p.offset for p in pair), allow))
+        surface, axis, girths, pair, *_, allow, strict, kinds = job
+        jobs.append((tuple(g.g for g in girths), tuple(None if p is None else p.offset for p in pair), allow, kinds))
         return choose(job)
 
     def plan(name):

@@ -194,3 +194,23 @@ def test_a_plan_of_kcs_flat_bottom_covers_its_trimmed_area_not_its_rectangle(tmp
         total += h.inside_trim * 0.5 * (np.linalg.norm(a, axis=2).sum() + np.linalg.norm(b, axis=2).sum())
     assert total == pytest.approx(inside, rel=0.02)
     assert total < 0.5 * full
+
+
+def test_a_butt_split_keeps_each_half_as_wide_as_the_stock_by_its_own_columns():
+    """A flat plate 8 m long tapering from 1.2 m to 0.8 m (columns every metre, 50 mm
+    narrower each): with the yard's strict width (each half at least 1 m wide somewhere) the
+    butt at the middle (x = 4 m) leaves the narrow half 1.0 m wide only at the cut itself,
+    where the sample's column is not the butt plane's section; the split goes to x = 5 m,
+    whose narrow half is 1.0 m wide a column inside it. Without the strict width, the middle."""
+    from pipeline.hull.splitting import RegionSample
+
+    x = np.arange(9) * 1000.0
+    widths = 800.0 + 50.0 * np.arange(9)
+    rows = np.linspace(0.0, 1.0, 5)
+    points = np.stack(np.broadcast_arrays(x[None, :], rows[:, None] * widths[None, :], 0.0 * x[None, :]), axis=-1)
+    ones = np.ones(points.shape[:2])
+    sample = RegionSample(points, rows, 0.0 * ones, ones, 0.0 * ones, np.broadcast_to(x, ones.shape).copy(),
+                          rows[:, None] * widths[None, :], ones)
+    strict = choose_split(sample, 5.0, 3000.0, 1000.0, strict_width=True, kinds=("length",))
+    loose = choose_split(sample, 5.0, 3000.0, 1000.0, strict_width=False, kinds=("length",))
+    assert loose.at == pytest.approx(4000.0) and strict.at == pytest.approx(5000.0)

@@ -141,6 +141,8 @@ class Cell:
     settled: str = ""  # why it is split no further (the plan record's "stopped")
     parent: object = None  # the cell it was split from (an objective's plan may undo the split)
     weld_m: float = 0.0  # the weld its split from the parent added (m)
+    split: object = None  # the split the plan took of it
+    tried: tuple = ()  # the kinds of split taken of it and given up (an objective's plan)
 
 
 @dataclass
@@ -317,29 +319,41 @@ def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context) -> dict
     None: no rule). A cell's split depends on nothing else, so ``chosen`` keeps it while its
     rule stands (a plate not split this round asks again the next); the rest are chosen on
     the evaluator's workers, which sit idle between two batches of plates."""
-    keys = [(id(c), None if sides is None else butt_rule(c.part, sides, ctx.stagger, ctx.plan.block_joints))
-            for c in cells]
+    keys = [(id(c), None if sides is None else butt_rule(c.part, sides, ctx.stagger, ctx.plan.block_joints),
+             c.tried) for c in cells]
     missing = [(cell, key) for cell, key in zip(cells, keys) if key not in chosen]
     for (cell, key), split in zip(missing, ctx.spread(_region_split, [_split_job(c, ctx, k[1]) for c, k in missing])):
         chosen[key] = (cell, split)  # the cell stays referenced: its id is not reused
     return {key[0]: chosen[key][1] for key in keys}
 
 
+SPLIT_KINDS = ("length", "girth")
+
+
+def _retry(cell: Cell, kind: str, objective) -> bool:
+    """Whether a plate whose ``kind`` of split did not pay is offered the other kind: under
+    ``maximise`` (the weld comes back to the budget), once."""
+    return objective.weights is None and any(k != kind and k not in cell.tried for k in SPLIT_KINDS)
+
+
 def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
     face = ctx.faces[cell.k]
+    kinds = tuple(kind for kind in SPLIT_KINDS if kind not in cell.tried)
     return (face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
-            ctx.stock.min_width, allow, ctx.yard)
+            ctx.stock.min_width, allow, ctx.yard, kinds)
 
 
 def _region_split(job: tuple):
     """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
-    length and width, butt rule or None, strict width); module-level, so that the plan's
-    workers can compute it (:func:`_splits_under_rules`)."""
-    surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict = job
+    length and width, butt rule or None, strict width, kinds of split); module-level, so that
+    the plan's workers can compute it (:func:`_splits_under_rules`)."""
+    surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict, kinds = job
+    if not kinds:
+        return None
     sample = sample_region(surface, axis, girths, pair)
     if sample is None:
         return None
-    return choose_split(sample, tolerance, min_length, min_width, allow, strict)
+    return choose_split(sample, tolerance, min_length, min_width, allow, strict, kinds)
 
 
 def _children(cell: Cell, split) -> list[Cell]:
@@ -414,8 +428,11 @@ def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False
             leaves = [c for c in leaves if c not in kids]
             leaves.insert(first, parent)
             parent.part.hull.result = parent.result
-            _settle(parent, "split undone by the objective (its halves did not pay for the weld)", ctx.plan.method)
-            done.add(id(parent))
+            if _retry(parent, parent.split.kind, objective):
+                parent.tried += (parent.split.kind,)  # offered the other kind of split
+            else:
+                _settle(parent, "split undone by the objective (its halves did not pay for the weld)", ctx.plan.method)
+                done.add(id(parent))
             refund += sum(k.weld_m for k in kids)
             ctx.record.splits_rejected += 1
             ctx.record.splits_taken -= 1
@@ -473,8 +490,9 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
                 continue
             split = splits[id(cell)]
             if split is None:
-                _settle(cell, "no split keeps both halves within the minimum stock sizes and the butt rule",
-                        plan.method)
+                _settle(cell, "no split keeps both halves within the minimum stock sizes and the butt rule" if
+                        not cell.tried else f"{cell.tried[0]} split did not pay for its weld; no other split keeps "
+                        "both halves within the minimum stock sizes and the butt rule", plan.method)
                 done.add(id(cell))
                 continue
             gain, cost = split.fitting_share * _area(cell), split.weld * metre
@@ -512,14 +530,18 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             if kids and (worth(objective, gained, cost) > 0 or ahead):
                 for kid in kids:
                     kid.parent, kid.weld_m = cell, cost / len(kids)
+                cell.split = split
                 accepted[id(cell)] = kids
                 weld += cost
                 ctx.record.splits_taken += 1
             else:
-                _settle(cell, "split rejected by the objective (its halves did not pay for the weld)", plan.method)
                 cell.part.hull.result = cell.result
-                done.add(id(cell))
                 ctx.record.splits_rejected += 1
+                if _retry(cell, split.kind, objective):
+                    cell.tried += (split.kind,)  # offered the other kind of split next round
+                    continue
+                _settle(cell, "split rejected by the objective (its halves did not pay for the weld)", plan.method)
+                done.add(id(cell))
         leaves = [k for c in leaves for k in accepted.get(id(c), [c])]
         ctx.record.add(round_, len(leaves), weld, _share(leaves), False)
         leaves, refund = _undo(leaves, objective, done, ctx)

@@ -118,25 +118,27 @@ def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
 
 
 def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float, allow=None,
-                 strict_width: bool = False) -> Split | None:
+                 strict_width: bool = False, kinds: tuple = ("length", "girth")) -> Split | None:
     """The best split of the plate within the minimum sizes, or None when none is allowed.
     Candidates: a butt plane through each interior grid column (x = its mean x), a seam
     along each interior grid row; the halves share that column or row. ``allow(x)``: whether
     a butt at x keeps the yard's stagger rule (:mod:`.yardrules`); ``strict_width``: each half
     of a butt split keeps a girth width of at least ``min_width`` somewhere (a plate tapering
-    to the stem is not cut into a sliver)."""
+    to the stem is not cut into a sliver); ``kinds``: the kinds of split considered."""
     candidates = []
     x = s.points[..., 0]
     row_len = s.along[:, -1]
     n_rows, n_cols = x.shape
-    for j in range(2, n_cols - 2):
+    for j in range(2, n_cols - 2) if "length" in kinds else ():
         X = float(np.mean(x[:, j]))
         cut = np.array([np.interp(X, *(_monotone(x[i], s.along[i]))) for i in range(n_rows)])
         if cut.min() < min_length or (row_len - cut).min() < min_length:
             continue
         if allow is not None and not allow(X):
             continue
-        if strict_width and (s.across[-1, :j + 1].max() < min_width or s.across[-1, j:].max() < min_width):
+        # a half's width from the columns wholly inside it: the column at the cut is not the
+        # plane's section (a width read there passed a half 1 % narrower than the stock)
+        if strict_width and (s.across[-1, :j].max() < min_width or s.across[-1, j + 1:].max() < min_width):
             continue
         lengths = (np.broadcast_to(cut[:, None], x.shape), np.broadcast_to((row_len - cut)[:, None], x.shape))
         widths = (np.broadcast_to(s.across[-1:, :], x.shape),) * 2
@@ -146,7 +148,7 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         est, share = _half_scores(s, (lower, upper), lengths, widths, tol)
         candidates.append(Split("length", X, est, share, float(s.across[-1, j])))
     col_w = s.across[-1, :]
-    for i in range(1, n_rows - 1):
+    for i in range(1, n_rows - 1) if "girth" in kinds else ():
         cut = s.across[i, :]
         if cut.min() < min_width or (col_w - cut).min() < min_width:
             continue
