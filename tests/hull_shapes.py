@@ -154,3 +154,23 @@ def leaning_cylinder_iges(path: Path, radius=20000.0, angle_deg=60.0, width=4000
     w = np.array([1.0, np.cos(h), 1.0])
     poles = np.array([[a * across + b * up + t * axis for t in (0.0, width)] for a, b in arc])
     return write_iges_surface(path, 2, 1, poles, np.column_stack([w, w]), [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
+
+
+def helical_cylinder_iges(path: Path, radius=3000.0, length=20000.0, span=3.0, lead=0.2, samples=(41, 25)) -> Path:
+    """A circular cylinder of axis x (generators along x) whose girth parameter turns as it
+    runs along x: u = x in [0, length], the angle theta = (v - 1/2) span + lead (x - length/2)
+    / radius, the point (x, radius sin theta, radius (1 - cos theta)). Its iso-u curves are
+    the sections x = const (circles), its iso-v seams helices that cross the generators at
+    atan(lead); a bicubic B-spline interpolating samples (u x v) of it (off the cylinder by
+    about 1e-3 mm)."""
+    from scipy.interpolate import make_interp_spline
+
+    u = np.linspace(0.0, length, samples[0])
+    v = np.linspace(0.0, 1.0, samples[1])
+    theta = (v[None, :] - 0.5) * span + lead * (u[:, None] - length / 2) / radius
+    points = np.stack([np.broadcast_to(u[:, None], theta.shape), radius * np.sin(theta),
+                       radius * (1 - np.cos(theta))], axis=-1)
+    along = make_interp_spline(u / length, points, k=3, axis=0)
+    both = make_interp_spline(v, along.c, k=3, axis=1)  # its coefficients come (v, u, 3)
+    poles = both.c.transpose(1, 0, 2)
+    return write_iges_surface(path, 3, 3, poles, np.ones(poles.shape[:2]), along.t, both.t)

@@ -166,8 +166,8 @@ def moved_curve(curve, params: np.ndarray, offsets: np.ndarray, normals: np.ndar
     return curve(t) + np.interp(t, p, off)[:, None] * n
 
 
-def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
-    """The trim's strip moved off the hull to fit it best, re-solved up to ROUNDS times;
+def best_fit(trim: Trim, part: Part, config: RunConfig, grid, rounds: int = ROUNDS) -> Trim:
+    """The trim's strip moved off the hull to fit it best, re-solved up to ``rounds`` times;
     the best trim found (the input when no round does better)."""
     from ..io.sources import fit_points
 
@@ -184,7 +184,7 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
                 return wide
     moved, shares = 0.0, []
     points = region_points(part, grid, config.mm_per_unit)  # the same for every round
-    for round_ in range(ROUNDS):
+    for round_ in range(rounds):
         if current.attempt is None or current.attempt.solution is None or not current.attempt.solution:
             break
         smap, lam, v, gap = signed_gaps(current, points)

@@ -37,8 +37,9 @@ from flatten.minimax import flattest_plane
 from flatten.patchflat import arap_development, planar_development, plane_through, triangle_stretches
 
 from ..config import Part, RunConfig
-from .bestfit import best_fit, seam_family_far, worth_moving
+from .bestfit import ROUNDS, best_fit, seam_family_far, worth_moving
 from .plateshop import LeanRun, PatchGeometry, complete, is_lean, owe, patch_shop, trimmed_shop
+from .leaststrip import LEAST_CURVATURE, LEAST_ROUNDS, least_curvature_family
 from .platestrip import BUTT_TO_BUTT, HOPELESS, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
 from .trimcut import cut_at_trim
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
@@ -297,35 +298,55 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                 seam = seam_family_far(part, config, grid, corner_tol)
         except Exception as exc:
             seam.reason = _raised(exc)
+    least = Trim(LEAST_CURVATURE, reason="not tried: a strip through the plate's seams or butt sections fits")
     if not (seam_ok or seam.ok or butt.ok):
         seam, butt = _moved(seam, part, config, grid), _moved(butt, part, config, grid)
+        if not (seam.ok or butt.ok):
+            # neither pair of edges carries a strip on the hull: the rulings where the hull's are
+            least = _moved(_least_curvature(part, config, grid, corner_tol), part, config, grid)
     if seam.reason:
         why = f"{why}; {seam.reason}" if why and hull.developable else seam.reason
     if seam.deviation is not None and (seam_deviation is None or seam.deviation < seam_deviation):
         seam_deviation, attempt = seam.deviation, seam.attempt
-    families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason}
+    families = {SEAM_TO_SEAM: why, BUTT_TO_BUTT: butt.reason, LEAST_CURVATURE: least.reason}
     if seam_ok and (not butt.ok or seam_deviation <= butt.deviation):
         _deliver_seam_strip(result, config, attempt, area3, _other(BUTT_TO_BUTT, butt.reason or (
             f"fits within {butt.deviation:.4g}, the seam family within {seam_deviation:.4g}")))
         return
-    fitting = sorted((t for t in (seam, butt) if t.ok), key=lambda t: t.deviation)
+    fitting = sorted((t for t in (seam, butt, least) if t.ok), key=lambda t: t.deviation)
     if fitting:
         chosen = fitting[0]
-        other = butt if chosen is seam else seam
-        other_family = BUTT_TO_BUTT if chosen is seam else SEAM_TO_SEAM
+        other = _runner_up(chosen, seam, butt)
         other_why = (f"fits within {other.deviation:.4g}, the chosen family within {chosen.deviation:.4g}"
-                     if other.ok else (why if other_family == SEAM_TO_SEAM else butt.reason))
-        _deliver_trimmed(result, config, grid, chosen, area3, _other(other_family, other_why))
+                     if other.ok else (why if other.family == SEAM_TO_SEAM else other.reason))
+        _deliver_trimmed(result, config, grid, chosen, area3, _other(other.family, other_why))
         return
-    deviations = {SEAM_TO_SEAM: seam_deviation, BUTT_TO_BUTT: butt.deviation}
+    deviations = {SEAM_TO_SEAM: seam_deviation, BUTT_TO_BUTT: butt.deviation, LEAST_CURVATURE: least.deviation}
     best = min((d, f) for f, d in deviations.items() if d is not None) if any(
         d is not None for d in deviations.values()) else (None, SEAM_TO_SEAM)
-    roll_strip = butt.attempt.strip if best[1] == BUTT_TO_BUTT and butt.attempt is not None else attempt.strip
+    nearest = {BUTT_TO_BUTT: butt, LEAST_CURVATURE: least}.get(best[1])
+    roll_strip = nearest.attempt.strip if nearest is not None and nearest.attempt is not None else attempt.strip
     _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width),
                         {"strip_not_delivered_because": "; ".join(f"{f}: {r}" for f, r in families.items()),
                          "families": [_other(f, r, deviations[f]) for f, r in families.items()],
                          "strip_max_deviation": best[0]},
                         roll_strip, strips_tried=True)
+
+
+def _runner_up(chosen: Trim, seam: Trim, butt: Trim) -> Trim:
+    """The family a delivered strip is reported against: the other pair of edges, or for the
+    least-curvature strip the nearer of the two."""
+    if chosen is seam or chosen is butt:
+        return butt if chosen is seam else seam
+    return min((seam, butt), key=lambda t: (not t.ok, np.inf if t.deviation is None else t.deviation))
+
+
+def _least_curvature(part: Part, config: RunConfig, grid, corner_tol: float) -> Trim:
+    """The least-curvature family's strip, or its reason when it raises (as the others)."""
+    try:
+        return least_curvature_family(part, config, grid, corner_tol)
+    except Exception as exc:
+        return Trim(LEAST_CURVATURE, reason=_raised(exc))
 
 
 def _deliver_hull_patch(result, config, grid, v3, f3, index, size, verdict: dict, strip, strips_tried: bool) -> None:
@@ -463,11 +484,12 @@ def _deliver_flat(result, config, grid, v3, f3, index, fit, tol, size, method, e
 
 
 def _moved(trim: Trim, part: Part, config: RunConfig, grid) -> Trim:
-    """The trim's best-fit strip when it misses the tolerance by a little (else the trim)."""
+    """The trim's best-fit strip when it misses the tolerance by a little (else the trim); a
+    least-curvature strip gets one round (LEAST_ROUNDS)."""
     if not worth_moving(trim, part.hull.fit_tolerance):
         return trim
     try:
-        return best_fit(trim, part, config, grid)
+        return best_fit(trim, part, config, grid, LEAST_ROUNDS if trim.family == LEAST_CURVATURE else ROUNDS)
     except Exception as exc:  # the plain strip's verdict stands
         trim.reason = f"{trim.reason}; best fit: {_raised(exc)}"
         return trim
@@ -512,10 +534,13 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
         "class": "developable", "family": trim.family,
         "method": ("devflat strip between the plate's butt sections (rulings butt to butt), trimmed by the seams"
                    if trim.family == BUTT_TO_BUTT else
+                   "devflat strip between two hull curves across the region's least curvature (rulings along it), "
+                   "trimmed by the seams and butts" if trim.family == LEAST_CURVATURE else
                    "devflat strip between the plate's seams (rulings seam to seam), trimmed by " +
                    ("its butt and the hull's end" if None in result.part.hull.butts else "its butts")) +
                   " (the region's boundary mapped onto the strip and developed)",
         "best_fit": trim.figures.get("best_fit"), "seams_extended": trim.figures.get("seams_extended"),
+        "least_curvature": trim.figures.get("least_curvature"),
         "max_deviation": trim.deviation, "max_strain": 0.0, "area_3d_m2": area3 * (config.mm_per_unit / 1e3) ** 2,
         "complete": True, "other_family": other}
     finish_part(result, config)
