@@ -172,7 +172,7 @@ def test_twisted_flat_plates_become_strips_along_the_least_curvature(tmp_path):
     # with every strip family: two of the shoulder's twisted flat plates are strips along the
     # hull's least curvature (neither their seams nor their butt sections carry one), each
     # kept because its worst step to its flat or strip neighbours falls; the other two stay
-    # flat, saying why each family failed; the steps' excess falls further than on planes alone
+    # flat, saying why each family failed; the steps' excess falls below half of what it was
     (tmp_path / "plain").mkdir()
     _, _, before = run(shoulder(tmp_path / "plain"))
     config, results, after = run(shoulder(tmp_path, fit_up="follow"))

@@ -85,3 +85,33 @@ def test_without_the_least_curvature_strip_the_oblique_plate_is_formed(tmp_path,
     reasons = {f["family"]: f["rejected_because"] for f in klass["families"]}
     assert reasons["rulings along the least curvature"].startswith("not tried: straight rulings at -11 deg")
     assert set(reasons) == {"rulings seam to seam", "rulings butt to butt", "rulings along the least curvature"}
+
+
+def test_a_best_fit_of_the_least_curvature_strip_keeps_its_direction(tmp_path, helical, monkeypatch):
+    """The best fit solves its moved strip again: the strip it hands back still says the
+    direction it was laid along (plate_class.least_curvature), as the plain one does."""
+    import yaml
+
+    from pipeline.hull import bestfit
+    from pipeline.hull.leaststrip import least_curvature_family
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import _grid
+
+    path = tmp_path / "t.yaml"
+    path.write_text(yaml.safe_dump({"name": "t", "units": "mm", "strake": {"surface": {"iges": str(helical)},
+                                                                           **HELICAL_PLATE}}))
+    config = load_run(path)
+    part = config.parts[0]
+    grid = _grid(part, config)
+    plain = least_curvature_family(part, config, grid, 0.5)
+    assert plain.ok and "least_curvature" in plain.figures
+    solved = []
+    real = bestfit._solved_and_trimmed
+
+    def kept(*args, **kwargs):
+        solved.append(real(*args, **kwargs))
+        return solved[-1]
+
+    monkeypatch.setattr(bestfit, "_solved_and_trimmed", kept)
+    bestfit.best_fit(plain, part, config, grid, 1)
+    assert len(solved) == 1 and solved[0].figures["least_curvature"] == plain.figures["least_curvature"]

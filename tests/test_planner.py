@@ -197,8 +197,8 @@ def test_a_plan_of_kcs_flat_bottom_covers_its_trimmed_area_not_its_rectangle(tmp
 
 
 def test_a_butt_split_keeps_each_half_as_wide_as_the_stock_by_its_own_columns():
-    """A flat plate 8 m long tapering from 1.2 m to 0.8 m (columns every metre, 50 mm
-    narrower each): with the yard's strict width (each half at least 1 m wide somewhere) the
+    """A flat plate 8 m long widening from 0.8 m to 1.2 m (columns every metre, 50 mm
+    wider each): with the yard's strict width (each half at least 1 m wide somewhere) the
     butt at the middle (x = 4 m) leaves the narrow half 1.0 m wide only at the cut itself,
     where the sample's column is not the butt plane's section; the split goes to x = 5 m,
     whose narrow half is 1.0 m wide a column inside it. Without the strict width, the middle."""

@@ -205,7 +205,9 @@ def best_fit(trim: Trim, part: Part, config: RunConfig, grid, rounds: int = ROUN
         moved = max(moved, float(np.abs(np.concatenate([near, far])).max()))
         shares.append(share)
         # the corners now sit off the hull like every other point: judged by the fit tolerance
-        candidate = _solved_and_trimmed(part, c, d, config, grid, trim.family, tol)
+        # the family's own figures (the least-curvature strip's direction) stay with it
+        kept = {key: trim.figures[key] for key in ("least_curvature",) if key in trim.figures}
+        candidate = _solved_and_trimmed(part, c, d, config, grid, trim.family, tol, kept)
         if candidate.deviation is None:
             break
         candidate.figures["best_fit"] = {

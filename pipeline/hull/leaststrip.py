@@ -17,9 +17,11 @@ direction r is the weighted circular mean of the directions at a grid of the reg
 points (doubled angles: a direction has no sign; weights |kappa_2| - |kappa_1|, so that
 points where the hull bends alike every way, and say nothing of a direction, count for
 little). The curves are the hull's lines through the chart's lines perpendicular to r,
-just beyond the region on either side (by DELTA of its extent along r) and reaching EXTEND
-of its width past it, mapped from the chart to the surface's parameters by the grid
-(linear, extrapolated a little beyond it) and fitted by cubic B-splines. devflat solves the
+just beyond the region on either side (by DELTA of its extent along r), each spanning the
+region's whole extent across r and EXTEND of it more at either end (for a long plate with
+oblique rulings they reach well past its seams: 3 m beside a 1.8 m wide plate at 11
+degrees), mapped from the chart to the surface's parameters by the grid (linear,
+extrapolated beyond it) and fitted by cubic B-splines. devflat solves the
 strip between them (every branch judged as for any pair of curves); the region is mapped
 onto it and judged like the other families' trimmed strips (:mod:`.platestrip`).
 
@@ -126,7 +128,7 @@ def ruling_misfit(sample: CurvatureSample, angle: float) -> float:
             enter, leave = np.maximum(enter, ends[0]), np.minimum(leave, ends[1])
     chord = np.maximum(leave - enter, 0.0)
     misfit = np.abs(normal) * chord ** 2 / 16.0
-    return float(np.max(np.where(np.isfinite(misfit), misfit, 0.0)))
+    return float(np.max(np.where(np.isfinite(misfit), misfit, np.inf)))  # unknown curvature: not tried
 
 
 def boundary_params(grid: PatchGrid, angle: float, delta: float = DELTA, extend: float = EXTEND,
@@ -140,8 +142,8 @@ def boundary_params(grid: PatchGrid, angle: float, delta: float = DELTA, extend:
     x, y = chart(grid.points)
     ruling = np.array([np.cos(angle), np.sin(angle)])
     across = np.array([-ruling[1], ruling[0]])
-    corners = np.stack(np.meshgrid(x, y), axis=-1).reshape(-1, 2)
-    along_r, along_a = corners @ ruling, corners @ across
+    chart_points = np.stack(np.meshgrid(x, y), axis=-1).reshape(-1, 2)
+    along_r, along_a = chart_points @ ruling, chart_points @ across
     lo, hi = float(along_r.min()), float(along_r.max())
     a0, a1 = float(along_a.min()), float(along_a.max())
     offsets = (lo - delta * (hi - lo), hi + delta * (hi - lo))

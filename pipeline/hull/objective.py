@@ -7,8 +7,8 @@ a strip per metre of weld they add (best gain per weld metre first) and taken wh
 stays within the budget; a split whose halves, once evaluated, deliver no more flat or strip
 area than the plate did is rejected (its weld goes back to the budget, the plate stays whole).
 The expectation is a coarse estimate (pipeline/hull/splitting.py), the verdict the strip
-solve's: once no split is expected to pay, the budget left goes to the splits expected to gain
-nothing, those whose halves' estimates are nearest the tolerance first, and they are kept or
+solve's: once no split expected to pay can be taken (none is left, or none fits the budget
+left), that budget goes to the splits expected to gain nothing, those whose halves' estimates are nearest the tolerance first, and they are kept or
 undone by the same rule.
 
 ``{weights: {weld_m: a, plate: b, formed_m2: c}}``: the plan of least cost

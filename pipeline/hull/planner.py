@@ -469,7 +469,7 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
     ctx.record.weld_budget_m = budget if objective.weights is None else None
     ctx.record.add(0, len(leaves), weld, _share(leaves), False)
     done: set = set()  # ids of cells split no further
-    chosen: dict = {}  # (id(cell), its butt rule): (cell, its best split under the rule)
+    chosen: dict = {}  # (id(cell), its butt rule, kinds tried): (cell, its best split under the rule)
     round_ = 0
     while True:
         round_ += 1
@@ -501,8 +501,8 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
         paying = [o for o in options if worth(objective, o[4], o[5]) > 0]
         taken, reserved = _take(paying, weld, budget, sides, leaves)
         if not taken and objective.weights is None:
-            # no split is expected to pay: the budget left goes to splits expected to gain
-            # nothing, nearest to fitting first; the estimate is coarse (a strip's verdict
+            # no split expected to pay can be taken (none left, or none within the budget):
+            # the budget left goes to splits expected to gain nothing, nearest to fitting first; the estimate is coarse (a strip's verdict
             # is the solve's) and a split whose halves never pay is undone, its weld refunded
             hopeful = sorted(options, key=lambda o: (min(o[3].estimates), o[1]))
             taken, reserved = _take(hopeful, weld, budget, sides, leaves)
