@@ -367,6 +367,17 @@ def weld(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> tuple[np.
     return v, f.astype(np.int64), new_index
 
 
+def grid_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents (R, C, 3) of a grid of points (R, C, 3): along its rows (central
+    differences along axis 1), and across them (along axis 0) made orthogonal to the first."""
+    along = np.gradient(points, axis=1)
+    across = np.gradient(points, axis=0)
+    along /= np.maximum(np.linalg.norm(along, axis=2, keepdims=True), 1e-300)
+    across = across - np.sum(across * along, axis=2, keepdims=True) * along
+    across /= np.maximum(np.linalg.norm(across, axis=2, keepdims=True), 1e-300)
+    return along, across
+
+
 def principal_frame(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> tuple:
     """Principal curvatures (N, 2) [kappa_1, kappa_2] with |kappa_1| <= |kappa_2|, the
     direction (N, 2) of kappa_1 in (du, dv), and the tangents S_u, S_v (N, 3) at parameters

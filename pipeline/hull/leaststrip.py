@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flatten.patch import PatchGrid, principal_curvatures
+from flatten.patch import PatchGrid, grid_frame, principal_curvatures
 
 from ..config import Part, RunConfig
 from ..io.sources import SourceError, fit_points
@@ -88,11 +88,7 @@ def curvature_sample(surface, grid: PatchGrid, sample: tuple = SAMPLE) -> Curvat
     cols = np.unique(np.linspace(0, p.shape[1] - 1, sample[1]).round().astype(int))
     at = params[np.ix_(rows, cols)].reshape(-1, 2)
     kappa, least = principal_curvatures(surface, at[:, 0], at[:, 1])
-    t_x = np.gradient(p, axis=1)[np.ix_(rows, cols)].reshape(-1, 3)
-    t_y = np.gradient(p, axis=0)[np.ix_(rows, cols)].reshape(-1, 3)
-    t_x /= np.maximum(np.linalg.norm(t_x, axis=1, keepdims=True), 1e-300)
-    t_y -= np.sum(t_y * t_x, axis=1, keepdims=True) * t_x
-    t_y /= np.maximum(np.linalg.norm(t_y, axis=1, keepdims=True), 1e-300)
+    t_x, t_y = (t[np.ix_(rows, cols)].reshape(-1, 3) for t in grid_frame(p))
     x, y = chart(p)
     xy = np.stack(np.meshgrid(x[cols], y[rows]), axis=-1).reshape(-1, 2)
     angle = np.arctan2(np.sum(least * t_y, axis=1), np.sum(least * t_x, axis=1))

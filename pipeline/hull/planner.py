@@ -330,15 +330,20 @@ def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context) -> dict
 SPLIT_KINDS = ("length", "girth")
 
 
+def _untried(cell: Cell) -> tuple:
+    """The kinds of split the plate may still be offered."""
+    return tuple(kind for kind in SPLIT_KINDS if kind not in cell.tried)
+
+
 def _retry(cell: Cell, kind: str, objective) -> bool:
     """Whether a plate whose ``kind`` of split did not pay is offered the other kind: under
     ``maximise`` (the weld comes back to the budget), once."""
-    return objective.weights is None and any(k != kind and k not in cell.tried for k in SPLIT_KINDS)
+    return objective.weights is None and any(k != kind for k in _untried(cell))
 
 
 def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
     face = ctx.faces[cell.k]
-    kinds = tuple(kind for kind in SPLIT_KINDS if kind not in cell.tried)
+    kinds = _untried(cell)
     return (face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
             ctx.stock.min_width, allow, ctx.yard, kinds)
 
@@ -453,7 +458,8 @@ def _take(options: list, weld: float, budget: float, sides, leaves: list) -> tup
         reserved += cost
         if split.kind == "length" and sides is not None:
             for girth in cell.girths:
-                for other in sides.get(id(girth), (None, [], []))[1] + sides.get(id(girth), (None, [], []))[2]:
+                _, below, above = sides.get(id(girth), (None, [], []))
+                for other in below + above:
                     blocked.update(id(c) for c in leaves if c.part is other)
     return taken, reserved
 
@@ -490,9 +496,9 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
                 continue
             split = splits[id(cell)]
             if split is None:
-                _settle(cell, "no split keeps both halves within the minimum stock sizes and the butt rule" if
-                        not cell.tried else f"{cell.tried[0]} split did not pay for its weld; no other split keeps "
-                        "both halves within the minimum stock sizes and the butt rule", plan.method)
+                paid_not = f"{cell.tried[0]} split did not pay for its weld; no other " if cell.tried else "no "
+                _settle(cell, f"{paid_not}split keeps both halves within the minimum stock sizes and the butt rule",
+                        plan.method)
                 done.add(id(cell))
                 continue
             gain, cost = split.fitting_share * _area(cell), split.weld * metre
@@ -502,8 +508,9 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
         taken, reserved = _take(paying, weld, budget, sides, leaves)
         if not taken and objective.weights is None:
             # no split expected to pay can be taken (none left, or none within the budget):
-            # the budget left goes to splits expected to gain nothing, nearest to fitting first; the estimate is coarse (a strip's verdict
-            # is the solve's) and a split whose halves never pay is undone, its weld refunded
+            # the budget left goes to splits expected to gain nothing, nearest to fitting
+            # first; the estimate is coarse (a strip's verdict is the solve's) and a split
+            # whose halves never pay is undone, its weld refunded
             hopeful = sorted(options, key=lambda o: (min(o[3].estimates), o[1]))
             taken, reserved = _take(hopeful, weld, budget, sides, leaves)
         if not taken:

@@ -298,7 +298,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                 seam = seam_family_far(part, config, grid, corner_tol)
         except Exception as exc:
             seam.reason = _raised(exc)
-    least = Trim(LEAST_CURVATURE, reason="not tried: a strip through the plate's seams or butt sections fits")
+    least = Trim(LEAST_CURVATURE)  # tried only where no other family fits: every formed plate's verdict has it
     if not (seam_ok or seam.ok or butt.ok):
         seam, butt = _moved(seam, part, config, grid), _moved(butt, part, config, grid)
         if not (seam.ok or butt.ok):

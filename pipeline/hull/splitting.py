@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flatten.patch import principal_curvatures, region_grid
+from flatten.patch import grid_frame, principal_curvatures, region_grid
 from flatten.minimax import fits_a_plane
 
 
@@ -53,11 +53,7 @@ def sample_region(surface, axis: int, girths, planes, rows: int = 17, cols: int 
     p = grid.points
     r, c = p.shape[:2]
     k, d1 = principal_curvatures(surface, grid.params[..., 0].ravel(), grid.params[..., 1].ravel())
-    t_s = np.gradient(p, axis=1)
-    t_g = np.gradient(p, axis=0)
-    t_s /= np.maximum(np.linalg.norm(t_s, axis=2, keepdims=True), 1e-300)
-    t_g = t_g - np.sum(t_g * t_s, axis=2, keepdims=True) * t_s
-    t_g /= np.maximum(np.linalg.norm(t_g, axis=2, keepdims=True), 1e-300)
+    t_s, t_g = grid_frame(p)
     d1 = d1.reshape(r, c, 3)
     cos = np.abs(np.sum(d1 * t_s, axis=2))
     sin = np.abs(np.sum(d1 * t_g, axis=2))
