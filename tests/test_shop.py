@@ -1,5 +1,6 @@
 """Shop marks on steel plates: labels checked against the 3D geometry."""
 
+import itertools
 import json
 import re
 import shutil
@@ -185,7 +186,7 @@ def test_cylinder_bending_lines_at_the_configured_spacing(tmp_path, spacing):
     n = int(arc // step)
     bending = rep["bending"]
     assert bending["count"] == n and bending["spacing"] == step and rep["resolution"]["count"] == 7
-    assert bending["centre_line_length"] == pytest.approx(arc, rel=1e-9)
+    assert bending["length_across_rulings"] == pytest.approx(arc, rel=1e-9)
     lines = bending["lines"]
     assert [b["number"] for b in lines] == list(range(1, n + 1))
     assert all(b["radius"] == pytest.approx(2000.0, rel=1e-6) and b["length"] == pytest.approx(1500.0, rel=1e-9)
@@ -382,8 +383,63 @@ def test_hull_plate_bending_lines_do_not_depend_on_the_centre_line_sampling(tmp_
     monkeypatch.setattr(pipeline.shop.bending, "DENSE", 30 * pipeline.shop.bending.DENSE)
     dense = bending()
     assert ours["count"] == dense["count"] >= 10
-    assert ours["centre_line_length"] == pytest.approx(dense["centre_line_length"], abs=1e-3)
+    assert ours["length_across_rulings"] == pytest.approx(dense["length_across_rulings"], abs=1e-3)
     for line, ref in zip(ours["lines"], dense["lines"]):
         assert line["station"] == pytest.approx(ref["station"], abs=1e-3)
         assert np.abs(np.subtract(line["start"], ref["start"])).max() <= 1e-3
         assert np.abs(np.subtract(line["end"], ref["end"])).max() <= 1e-3
+
+
+@pytest.mark.parametrize("slope", [0.0, 3.0, 20.0])
+def test_bending_lines_are_spaced_across_the_rulings_where_a_corner_cuts_them(slope):
+    """A flat strip of parallel rulings x = const, its first metre cut obliquely (the kept
+    rulings run from y = 0 to y = slope x there, then to 2 + slope): the kept rulings'
+    middles slide along the rulings in that corner, which moves no line. The lines must be
+    `spacing` apart across the rulings, i.e. at x = m + k spacing with equal margins m, and
+    none of them shortened but by the corner (spaced along the middles' path they came
+    1 / sqrt(1 + slope^2 / 4) of the spacing apart in the corner)."""
+    from pipeline.shop.bending import lines_on_rulings
+
+    length, spacing, corner = 6.0, 0.4, 1.0
+    x = np.linspace(0.0, length, 601)
+    top = np.where(x < corner, slope * x, slope * corner) + 2.0
+    a2, b2 = np.column_stack([x, np.zeros_like(x)]), np.column_stack([x, top])
+    a3, b3 = np.column_stack([a2, np.zeros_like(x)]), np.column_stack([b2, np.zeros_like(x)])
+    normals = np.tile([0.0, 0.0, 1.0], (len(x), 1))
+    lines, across = lines_on_rulings(a2, b2, a3, b3, normals, spacing)
+    count = int(np.floor(length / spacing))
+    margin = 0.5 * (length - (count - 1) * spacing)
+    assert across == pytest.approx(length, abs=1e-12)
+    assert len(lines) == count
+    xs = np.array([line.a[0] for line in lines])
+    np.testing.assert_allclose(xs, margin + spacing * np.arange(count), rtol=0, atol=1e-12)
+    np.testing.assert_allclose([line.b[0] for line in lines], xs, rtol=0, atol=1e-12)
+    np.testing.assert_allclose([line.station for line in lines], xs, rtol=0, atol=1e-12)
+    assert all(np.isinf(line.radius) for line in lines)
+
+
+def test_hull_plate_bending_lines_are_the_spacing_apart_across_them(tmp_path):
+    """The hull plate cut by two butt planes (above): where a butt plane cuts its rulings,
+    their kept middles slide along them. Every two neighbouring lines are the spacing apart
+    across them, at their middles (to the rulings' fanning: 1 %), and the plate's length
+    across its rulings is the last line's station plus the first's margin."""
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import run_part
+
+    config = _strake_config(tmp_path, "corner", {"iges": str(SHIP / "test_1_hull_exported.igs")},
+                            [{"iso": {"v": 4.05}}, {"iso": {"v": 4.1}}], [96000, 104000], fit=4.0)
+    config.write_text(yaml.safe_dump(dict(yaml.safe_load(config.read_text()), shop={"no_roll_radius": 1e9})))
+    plan = load_run(config)
+    result = run_part(plan.parts[0], plan)
+    bending = result.figures["bending"]
+    lines = bending["lines"]
+    assert len(lines) >= 10
+    gaps = []
+    for one, two in itertools.pairwise(lines):
+        a, b = np.asarray(one["start"]), np.asarray(one["end"])
+        u = (b - a) / np.linalg.norm(b - a)
+        offset = 0.5 * (np.asarray(two["start"]) + np.asarray(two["end"])) - a
+        gaps.append(abs(u[0] * offset[1] - u[1] * offset[0]))
+    np.testing.assert_allclose(gaps, bending["spacing"], rtol=0.01)
+    margin = lines[0]["station"]
+    assert bending["length_across_rulings"] == pytest.approx(lines[-1]["station"] + margin, abs=1e-6)

@@ -134,7 +134,7 @@ def trimmed_shop(result, config, grid, trim) -> None:
     result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm, rolling)
     result.figures["bending"] = {
         "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
-        "centre_line_length": centre * mm, "family": trim.family,
+        "length_across_rulings": centre * mm, "family": trim.family,
         **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),

@@ -1,7 +1,8 @@
 """Bending (roll) lines for the plater, chosen on the solved strip.
 
 The solver's rulings are for computing (trim zones, checks); the shop gets rulings of the
-same developable strip at a regular spacing along the plate's centre line, numbered, each
+same developable strip at a regular spacing across them (measured between the middles of
+the rulings kept on the plate, not along their path: see :func:`across_rulings`), numbered, each
 with the local radius across it and the side the plate is rolled to. A ruling is a
 straight line of the strip, so rolling along it keeps the plate developable.
 """
@@ -39,11 +40,27 @@ class BendLine:
 
 
 def _centre_line(tracer: PlateTracer, lam: np.ndarray):
+    """Developed ends of the kept rulings at lam, their developed and 3D middles, the 3D
+    rulings' ends and the developed rulings' directions (c to d, whole)."""
     lo, hi, _, _, pc, pd = tracer.interval(lam)
     ac, ad = tracer.developed_at(lam)
     mid = 0.5 * (lo + hi)
     return ac + lo[:, None] * (ad - ac), ac + hi[:, None] * (ad - ac), ac + mid[:, None] * (ad - ac), \
-        pc + mid[:, None] * (pd - pc), pc, pd
+        pc + mid[:, None] * (pd - pc), pc, pd, ad - ac
+
+
+def across_rulings(middles: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (K,) of each of K rulings from the first, measured across them, and the unit
+    normals (K-1, 2) it was measured along: each step between neighbouring middles (K, 2) is
+    projected on the normal of the two rulings' mean direction (K, 2; any length, c to d).
+    Where a butt or seam cuts the rulings obliquely, the kept rulings' middles slide along
+    them; the arc length of the middles' path counts that slide, which moves no line, and
+    bunched the bending lines spaced along it (1 mm apart on butt-to-butt hull plates)."""
+    unit = directions / np.maximum(np.linalg.norm(directions, axis=1), 1e-300)[:, None]
+    mean = unit[:-1] + unit[1:]  # a ruling cut to nothing (no direction) takes its neighbour's
+    normal = np.column_stack([-mean[:, 1], mean[:, 0]]) / np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
+    steps = np.abs(np.einsum("ij,ij->i", np.diff(middles, axis=0), normal))
+    return np.concatenate([[0.0], np.cumsum(steps)]), normal
 
 
 def _middle(tracer: PlateTracer, lam: np.ndarray):
@@ -73,27 +90,27 @@ def _curvature(tracer: PlateTracer, lam: np.ndarray, step: float) -> tuple[np.nd
 
 
 def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) -> tuple[list[BendLine], float]:
-    """Lines every ``spacing`` (model units) along the plate's centre line (the middles of
-    its rulings between the butts), centred so the margins at both ends are equal; lines
-    shorter than ``min_length`` times the longest (corner slivers) are left out. Returns
-    (lines, length of the centre line)."""
+    """Lines every ``spacing`` (model units) across the rulings, measured between the
+    middles of the rulings kept between the butts (:func:`across_rulings`), centred so the
+    margins at both ends are equal; lines shorter than ``min_length`` times the longest
+    (corner slivers) are left out. Returns (lines, the plate's length across its rulings)."""
     first, last, corners = tracer.plate_range()
     # the centre line turns sharply where a corner cuts the rulings (their kept middles
     # then follow the butt plane): a sample at each corner keeps the chords' error second
     # order on the smooth pieces between (without them a strake plate's centre line came
     # out up to 2.2 mm short at 2001 samples; with them 2e-5 mm at 513)
     lam = np.union1d(np.linspace(first, last, DENSE), corners)
-    *_, mid2, _, _, _ = _centre_line(tracer, lam)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
+    _, _, mid2, _, _, _, directions = _centre_line(tracer, lam)
+    s, normal = across_rulings(mid2, directions)
     length = float(s[-1])
     stations = _stations(length, spacing)
     if not len(stations):
         return [], length
     at = np.interp(stations, s, lam)
     # one secant step on the exact centre line removes the interpolation error
-    *_, m_at, _, _, _ = _centre_line(tracer, at)
+    _, _, m_at, *_ = _centre_line(tracer, at)
     index = np.clip(np.searchsorted(s, stations) - 1, 0, len(s) - 2)
-    exact_s = s[index] + np.linalg.norm(m_at - mid2[index], axis=1)
+    exact_s = s[index] + np.abs(np.einsum("ij,ij->i", m_at - mid2[index], normal[index]))
     slope = (s[index + 1] - s[index]) / np.maximum(lam[index + 1] - lam[index], 1e-300)
     at = np.clip(at - (exact_s - stations) / slope, first, last)
     step = 1e-5 * (last - first)
@@ -130,14 +147,13 @@ def lines_on_rulings(a2: np.ndarray, b2: np.ndarray, a3: np.ndarray, b3: np.ndar
     """Bending lines of a strip given as K dense rulings already cut to the plate (a strip
     trimmed by its region, whichever family its rulings belong to): flat ends a2, b2 (K, 2)
     placed, 3D ends a3, b3 (K, 3), unit normals (K, 3) seen from the drawn side, in order
-    along the plate. Lines every ``spacing`` along the centre line of the rulings' middles,
-    each interpolated between its two neighbouring rulings (nearly a ruling: the rulings are
-    dense), with the radius across it from the turn of the normals. Returns (lines, length of
-    the centre line)."""
+    along the plate. Lines every ``spacing`` across the rulings, measured between their
+    middles (:func:`across_rulings`), each interpolated between its two neighbouring rulings
+    (nearly a ruling: the rulings are dense), with the radius across it from the turn of the
+    normals. Returns (lines, the plate's length across its rulings)."""
     if len(a2) < 3:
         return [], 0.0
-    mid2 = 0.5 * (a2 + b2)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(mid2, axis=0), axis=1))])
+    s, _ = across_rulings(0.5 * (a2 + b2), b2 - a2)
     length = float(s[-1])
     stations = _stations(length, spacing)
     if not len(stations):

@@ -8,9 +8,10 @@ paper height (ISO 3098: 2.5 mm capital height for labels and tables, 3.5 and 5 m
 headings), upright or turned 90 degrees, and placed on the paper clear of every other text
 and every drawn line (:class:`pipeline.shop.paper.PaperPlacer`): B-numbers beyond the d end of their lines,
 frame names beyond the c end, edge names outside their edges, in as many rows as their
-spacing needs. The bending lines' spacing is dimensioned along the centre line where it is
-defined (a chain line through the lines' middles); the table (B-number, radius, CVX/CCV, the
-station along the centre line, the ends' ordinates along edges c and d from the corners at
+spacing needs. The bending lines' spacing is dimensioned where it is measured (a chain line
+through the lines' middles, each figure the distance across the rulings between two lines); the
+table (B-number, radius, CVX/CCV, the station: the distance across the rulings from the plate's
+first end at the middles, the ends' ordinates along edges c and d from the corners at
 the start butt) sits beside the plate and continues on a second page when long; the
 templates that check the formed plate get a page of their own.
 
@@ -69,9 +70,9 @@ class Page:
 
 @dataclass(frozen=True)
 class BendRow:
-    """One bending line's row of the table: number, radius text, roll side, station along
-    the centre line, ordinates of its ends along edges c and d from the corners at the start
-    butt (mm; nan when the edges are not known)."""
+    """One bending line's row of the table: number, radius text, roll side, station (across
+    the rulings from the plate's first end, at the middles), ordinates of its ends along
+    edges c and d from the corners at the start butt (mm; nan when the edges are not known)."""
 
     number: int
     radius: str
@@ -297,9 +298,9 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             "PLATE LAID LENGTHWISE, DRAWN FROM THE MARKED SIDE"] + list(part_data) + list(notes)
     if rows and np.isfinite(rows[0].on_c):
         data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "
-                    "AT CL: STATION ALONG THE CENTRE LINE")
+                    "AT CL: STATION ACROSS THE LINES, AT THEIR MIDDLES")
     if rows:  # room for these lines, whether or not they are said
-        data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) "
+        data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) "
                  + ", ".join([f"B{r.number}-B{r.number}: 00000" for r in rows[1:]] or ["B0-B0: 0"])]
     sheet = choose_sheet(span, bands, len(rows), float(columns.sum()), data)
     scale, pw, ph, title_h = sheet.scale, sheet.width, sheet.height, sheet.title_height
@@ -478,7 +479,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             findings.append(f"edge name {name!r}: no room")
         else:
             page.labels.append(label)
-    # the spacing chain's figures along the centre line
+    # the spacing chain's figures: distances across the lines between their ticks
     chain_notes = []
     if len(mids) >= 2 and rows:
         steps = np.diff([r.station for r in rows])
@@ -534,7 +535,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         else:
             page.labels.append(label)
     if chain_notes:
-        data.insert(1, "SPACING ALONG THE CENTRE LINE (CHAIN LINE, TICKS AT THE LINES) " + ", ".join(chain_notes))
+        data.insert(1, "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) " + ", ".join(chain_notes))
     pages = [page]
     left = list(rows)
     note = PAGE_NUMBER

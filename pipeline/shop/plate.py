@@ -22,15 +22,15 @@ class ShopPlate:
 
     outline : the net outline (exact development within outline.tolerance)
     bending : numbered bending lines (none on a flat plate)
-    bend_spacing : their spacing along the plate's centre line
-    centre_length : length of that centre line
+    bend_spacing : their spacing across the rulings
+    length_across : the plate's length across its rulings (where that spacing is measured)
     rolling : the roll set-up (radius limit, lines rolled and not), None where not decided
     """
 
     outline: Outline
     bending: tuple[BendLine, ...] = ()
     bend_spacing: float = 0.0
-    centre_length: float = 0.0
+    length_across: float = 0.0
     rolling: RollSetup | None = None
 
 
@@ -86,7 +86,7 @@ def stage_shop(result, config) -> None:
         "units": "mm",
         "count": len(lines),
         "spacing": shop.bend_spacing,
-        "centre_line_length": centre * scale,
+        "length_across_rulings": centre * scale,
         **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
@@ -401,7 +401,7 @@ def shop_drawing(result, config, layout, target):
     notes = []
     if plate.bending:
         spacing = plate.bend_spacing if np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0 else None
-        notes.append(f"BENDING LINES B1-B{len(plate.bending)}" + (f" EVERY {spacing:g} MM ALONG THE CENTRE LINE"
+        notes.append(f"BENDING LINES B1-B{len(plate.bending)}" + (f" EVERY {spacing:g} MM ACROSS THE LINES"
                                                                    if spacing else ""))
         notes.append("CVX / CCV: CONVEX / CONCAVE ON THE DRAWN SIDE; R: RADIUS ACROSS THE LINE")
     else:
