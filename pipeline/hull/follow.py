@@ -51,6 +51,12 @@ AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more
 MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
 SHARES = (1.0, 0.75, 0.5, 0.25)  # of a strip's joint move, tried in turn until the plate stays within its tolerance
 CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
+HOLD_ROUNDS = 2  # hold, evaluate, measure again: a plate held twice is developed on the hull
+HOLD_RULE = ("strake.hold_steps: a pair of flat or strip plates that still steps by more than the limit after the joint "
+             "programme has its plate whose edge lies further from the hull held as strake.fit_up: repair holds it "
+             "(flat on the plane, or the strip between its seams, that keeps its edges within half the limit of the "
+             "hull, else developed on the hull: a formed plate, which the forming then shapes to meet its "
+             "neighbours); a plate held twice is developed on the hull; measured again after each round")
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
         "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
         "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
@@ -75,6 +81,7 @@ class FollowReport:
     joint_error: str | None = None  # why the joint programme moved nothing, if it failed
     as_strips: dict = field(default_factory=dict)  # flat plate delivered as a strip -> {step_mm, neighbours, step_after_mm}
     kept_flat: dict = field(default_factory=dict)  # flat plate asked for as a strip that no strip fits -> why
+    held: dict = field(default_factory=dict)  # plate held for a step (strake.hold_steps) -> its record and class after
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
@@ -83,6 +90,7 @@ class FollowReport:
                 "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
                 "joint_error": self.joint_error, "flats_as_strips_rule": AS_STRIP_RULE,
                 "flats_as_strips": self.as_strips, "kept_flat": self.kept_flat,
+                **({"hold_rule": HOLD_RULE, "held": self.held} if self.held else {}),
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
@@ -91,11 +99,17 @@ class FollowReport:
                 f"delivered as strips, {len(self.planes)} flat plate(s) on planes "
                 f"and {len(self.strips)} strip(s) moved, chosen together, {len(self.moved)} formed plate(s) formed to "
                 f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left"
+                + (f" ({len(self.held)} plate(s) held for their steps, {self._held_developable()} of them still flat "
+                   f"or strips)" if self.held else "")
                 + (f" (the joint programme failed: {self.joint_error})" if self.joint_error else ""))
 
 
+    def _held_developable(self) -> int:
+        return sum(h["class_after"] in ("flat", "developable") for h in self.held.values())
+
+
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
-                 joint: bool = True, strips: bool = True, as_strips: bool = True) -> FollowReport:
+                 joint: bool = True, strips: bool = True, as_strips: bool = True, hold: bool = False) -> FollowReport:
     """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates'
     planes and the strips' places first chosen together (:mod:`.joint`; ``joint=False``: each
     stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
@@ -105,7 +119,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     only its moved patch is developed) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
     (:mod:`.rigid`); ``part.hull.result`` is its new result. First (``as_strips``), a flat
     plate that misfits a flat or strip neighbour is developed again as a strip
-    (:func:`_flats_as_strips`)."""
+    (:func:`_flats_as_strips`). After the joint programme (``hold``), a pair of flat or strip
+    plates that still steps over the limit has a plate held on the hull (:func:`_hold_stepping`)."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
@@ -122,6 +137,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates, records, set(report.planes) | set(report.strips))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    if hold:
+        records, pairs = _hold_stepping(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
         records[q.a][0].klass, records[q.b][0].klass)]
     grids = {}
@@ -207,6 +224,67 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
         part.hull.result, part.hull.plane = developed[part.name]
         report.kept_flat[part.name] = why
     return current
+
+
+def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
+                   thickness_mm: float, report: FollowReport) -> tuple[dict, list]:
+    """Plates held on the hull for the steps the joint programme left between flat and strip
+    neighbours (``part.hull.held``, as :mod:`.repair` holds them), the fewest square metres
+    that hold one plate of every such pair (:func:`_cover`). A plate held the first time stays
+    flat or a strip where that keeps its edges within half the pair's limit of the hull; held
+    again, or else, it is developed on the hull, a formed plate the forming then shapes to
+    meet its neighbours, so its steps go with it. HOLD_ROUNDS rounds, measured again after
+    each. The records and pairs after."""
+    from .planner import honest_class
+    from .repair import held_record
+
+    by_name = {p.name: p for p in plates}
+    for round_no in range(1, HOLD_ROUNDS + 1):
+        stepping = [q for q in pairs if q.step_max > q.limit and FORMED not in (records[q.a][0].klass,
+                                                                                records[q.b][0].klass)]
+        chosen = {name: held_record(pair, side, records, mm_per_unit, round_no, "strake.hold_steps (fit_up: follow)")
+                  for name, (pair, side) in _cover(stepping, records, mm_per_unit).items()}
+        if not chosen:
+            break
+        held_parts = [by_name[name] for name in sorted(chosen)]
+        for part in held_parts:
+            part.hull.held, part.hull.plane, part.hull.result = chosen[part.name], None, None
+        for part, result in zip(held_parts, evaluate_many(held_parts)):
+            part.hull.result = result
+            held = chosen[part.name]
+            report.held[part.name] = {"round": round_no, "class_before": held["class_before"],
+                                      "class_after": honest_class(result), "edge": held["edge"],
+                                      "neighbour": held["neighbour"], "step_mm": held["step_mm"],
+                                      "edge_deviation_before_mm": held["edge_deviation_before_mm"]}
+        records = _records(plates, records, set(chosen))
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    return records, pairs
+
+
+def _cover(stepping: list, records: dict, mm_per_unit: float) -> dict:
+    """{plate: (its worst stepping pair, its side of it)}: plates that hold one plate of every
+    stepping pair they can, chosen greedily by stepping pairs covered per square metre of
+    plate (a plate between two stepping neighbours covers both pairs: the steel a step costs
+    is the held plate's share of flat or strip)."""
+    from .repair import holdable_sides
+
+    options: dict = {}
+    for index, pair in enumerate(stepping):
+        for side in holdable_sides(pair, records, mm_per_unit):
+            options.setdefault(side[1], []).append((index, pair, side))
+    area = {name: float((records[name][1].hull.result.figures.get("region") or {}).get("area_m2") or 1.0)
+            for name in options}
+    left, chosen = set(range(len(stepping))), {}
+    while left:
+        count = {name: sum(i in left for i, _, _ in entries) for name, entries in options.items() if name not in chosen}
+        name = max((n for n in count if count[n]), key=lambda n: (count[n] / area[n], n), default=None)
+        if name is None:
+            break
+        mine = [(i, pair, side) for i, pair, side in options[name] if i in left]
+        _, pair, side = max(mine, key=lambda entry: entry[1].step_max)
+        chosen[name] = (pair, side)
+        left -= {i for i, _, _ in mine}
+    return chosen
 
 
 def _worst_step(records: dict, name: str, neighbours: set, mm_per_unit: float, thickness_mm: float) -> float:
@@ -416,6 +494,16 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     dense = _dense(edge, SAMPLE_MM / mm_per_unit)
     points = plate.flat[plate.ring[mine]]
     feet, s = closest_on(points, dense)
+    # a corner where the neighbour's edge ends (four plates' junction, the neighbour's corner
+    # within reach) goes to that end: the closest point along the edge there need not be
+    # where the plate across the other edge meets its own neighbour (a strip's butt edge can
+    # pass within 1 mm of the hull's corner while its corner lies 5 mm off it), and two
+    # formed plates sent to different points of one junction step by their distance
+    ends = dense.p3[[0, -1]]
+    to_end = np.linalg.norm(points[:, None, :] - ends[None], axis=2)
+    nearest_end = np.argmin(to_end, axis=1)
+    at_end = corner[mine] & (to_end[np.arange(len(points)), nearest_end] <= corner_reach)
+    feet = np.where(at_end[:, None], ends[nearest_end], feet)
     apart = np.linalg.norm(feet - points, axis=1)
     inside = (s > dense.s3[0] + 1e-9 * dense.s3[-1]) & (s < dense.s3[-1] * (1.0 - 1e-9))
     taken = np.where(corner[mine], apart <= corner_reach,

@@ -233,9 +233,10 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
     verdict = (hull.follow or {}).get("verdict")
-    if verdict is not None and not patch_only:
-        # formed before it was moved: the strips are judged on the region as it lies on the
-        # hull, which the moves leave alone, so solved again they would fail as they did
+    if verdict is not None:
+        # formed before it was moved: the strips (and a held plate's plane and strip) are
+        # judged on the region as it lies on the hull, which the moves leave alone, so solved
+        # again they would fail as they did
         _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width), verdict["info"],
                             verdict["roll_strip"], strips_tried=True)
         return

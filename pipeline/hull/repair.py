@@ -123,6 +123,15 @@ def _evaluate(parts: list, evaluate_many) -> None:
 def _to_hold(pair, records: dict, mm: float, round_no: int) -> list:
     """[(plate name, held record)] of the misfit pair: the plate whose edge is further from
     the hull; the other too when its edge is further than the pair's limit (a step misfit)."""
+    sides = holdable_sides(pair, records, mm)
+    stepped = pair.step_max > pair.limit
+    keep = sides[:1] + [s for s in sides[1:] if stepped and s[0] > pair.limit]
+    return [(side[1], held_record(pair, side, records, mm, round_no)) for side in keep]
+
+
+def holdable_sides(pair, records: dict, mm: float) -> list:
+    """[(how far its edge lies off the hull (mm), plate name, edge label, the other plate,
+    its class)] of the pair's plates that may still be held, the further off first."""
     sides = []
     for name, side, other in ((pair.a, pair.side_a, pair.b), (pair.b, pair.side_b, pair.a)):
         edges, part = records[name]
@@ -133,23 +142,27 @@ def _to_hold(pair, records: dict, mm: float, round_no: int) -> list:
         distance = part.hull.distance or SurfaceDistance(part.hull.surface)
         off = float(np.max(distance(edge.points3))) * mm
         sides.append((off, name, edge.label, other, edges.klass))
-    sides.sort(reverse=True)
+    return sorted(sides, reverse=True)
+
+
+def held_record(pair, side: tuple, records: dict, mm: float, round_no: int,
+                rule: str = "strake.fit_up: repair") -> dict:
+    """What ``part.hull.held`` says of a plate held for the pair (``side``: its entry of
+    :func:`holdable_sides`): why, and the edge limit a plate held the first time may keep
+    its flat or strip development within."""
+    off, name, label, other, klass = side
     stepped = pair.step_max > pair.limit
-    keep = sides[:1] + [s for s in sides[1:] if stepped and s[0] > pair.limit]
     why = (f"step {pair.step_max:.2f} mm (limit {pair.limit:.2f} mm)" if stepped else
            f"developed lengths differ by {pair.mismatch:.2f} mm")
-    out = []
-    for off, name, label, other, klass in keep:
-        held = {"rule": "strake.fit_up: repair", "round": round_no, "class_before": klass,
-                "edge_deviation_before_mm": off, "edge": label, "neighbour": other, "step_mm": pair.step_max,
-                "step_limit_mm": pair.limit,
-                "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
-                          f"{other}'s with a {why}"}
-        if not records[name][1].hull.held and (klass == "flat" or stepped):
-            # a plate held the first time first tries what keeps its edges nearest the hull, a
-            # flat one the plane that does, an interior one the strip between its seams (they
-            # lie on the hull): within half the pair's limit, two such neighbours stay within
-            # it. (A strip held for its developed length alone would come back the same strip.)
-            held["edge_limit"] = 0.5 * pair.limit / mm
-        out.append((name, held))
-    return out
+    held = {"rule": rule, "round": round_no, "class_before": klass,
+            "edge_deviation_before_mm": off, "edge": label, "neighbour": other, "step_mm": pair.step_max,
+            "step_limit_mm": pair.limit,
+            "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
+                      f"{other}'s with a {why}"}
+    if not records[name][1].hull.held and (klass == "flat" or stepped):
+        # a plate held the first time first tries what keeps its edges nearest the hull, a
+        # flat one the plane that does, an interior one the strip between its seams (they
+        # lie on the hull): within half the pair's limit, two such neighbours stay within
+        # it. (A strip held for its developed length alone would come back the same strip.)
+        held["edge_limit"] = 0.5 * pair.limit / mm
+    return held

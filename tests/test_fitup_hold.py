@@ -1,0 +1,92 @@
+"""strake.hold_steps with fit_up: follow (pipeline/hull/follow.py): the pairs of flat or strip
+plates that still step over the limit after the joint programme have a plate held on the
+hull, the fewest square metres that cover them, and the forming shapes it to meet its
+neighbours.
+
+Real data: the 160 m hull's bow shoulder (see test_fitup_repair), four flat plates twisted
+against each other. Under follow two become strips along the least curvature and three
+pairs still step over the 2.1 mm limit (2.9, 7.4 and 3.7 mm): no plane or strip within the
+tolerance meets them. Held, the two plates that cover those pairs are developed on the hull
+and formed to meet their strip neighbours; their steps fall under the limit, and what is
+left is the formed plates' own shared seam, which takes the strips' step at its corner."""
+
+from types import SimpleNamespace
+
+import pytest
+
+from pipeline.hull import follow
+from tests.test_fitup_joint import run
+from tests.test_fitup_repair import shoulder
+
+
+@pytest.fixture(scope="module")
+def shoulders(tmp_path_factory):
+    out = []
+    for hold in (False, True):
+        tmp = tmp_path_factory.mktemp("hold" if hold else "follow")
+        out.append(run(shoulder(tmp, fit_up="follow", hold_steps=hold)))
+    return out
+
+
+def _excess(fit) -> float:
+    return sum(max(0.0, p.step_max - p.limit) for p in fit.pairs)
+
+
+def _developable(results, name) -> bool:
+    return next(r for r in results if r.name == name).figures["plate_class"]["class"] in ("flat", "developable")
+
+
+def test_pairs_of_flat_or_strip_plates_left_stepping_are_held_and_formed(shoulders):
+    (_, plain_results, plain), (config, results, held) = shoulders
+    report = config.fitup_follow
+    stepping = [(p.a, p.b) for p in plain.pairs
+                if p.step_max > p.limit and _developable(plain_results, p.a) and _developable(plain_results, p.b)]
+    assert len(stepping) == 3  # the control: follow alone leaves them
+    assert not report.untaken and report.held
+    by_name = {r.name: r for r in results}
+    for name, record in report.held.items():
+        result = by_name[name]
+        assert record["class_before"] in ("flat", "developable") and record["class_after"] == "formed"
+        assert result.figures["plate_class"]["class"] == "formed"
+        assert result.figures["edge_fit"]["rule"] == "strake.hold_steps (fit_up: follow)"
+        assert name in config.fitup_follow.moved  # formed to meet its neighbours
+        assert result.figures["hull_fit"]["max_distance"] <= result.part.hull.fit_tolerance * (1 + 1e-6)
+    # every pair that stepped has a plate held, and no flat or strip pair steps any more
+    assert all(a in report.held or b in report.held for a, b in stepping)
+    assert not [p for p in held.pairs if p.step_max > p.limit
+                and _developable(results, p.a) and _developable(results, p.b)]
+    for a, b in stepping:
+        pair = next(p for p in held.pairs if {p.a, p.b} == {a, b})
+        assert pair.step_max <= pair.limit
+    assert _excess(held) < 0.5 * _excess(plain)
+    assert "held for their steps" in report.one_line()
+    assert report.as_dict()["held"] == report.held
+
+
+def test_the_held_plates_are_the_fewest_square_metres_that_cover_the_steps(monkeypatch):
+    # a plate between two stepping neighbours covers both pairs: held alone when it is
+    # smaller than its two neighbours together, else the two neighbours are
+    from pipeline.hull import repair
+
+    def sides(pair, records, mm):
+        return [(1.0, name, "E", other, "flat") for name, other in ((pair.a, pair.b), (pair.b, pair.a))]
+
+    monkeypatch.setattr(repair, "holdable_sides", sides)
+
+    def cover(middle_m2):
+        areas = {"left": 2.0, "middle": middle_m2, "right": 2.1}
+        records = {name: (None, SimpleNamespace(hull=SimpleNamespace(result=SimpleNamespace(
+            figures={"region": {"area_m2": area}})))) for name, area in areas.items()}
+        pairs = [SimpleNamespace(a="left", b="middle", step_max=3.0), SimpleNamespace(a="middle", b="right", step_max=4.0)]
+        chosen = follow._cover(pairs, records, 1.0)
+        return sorted(chosen), {name: pair.step_max for name, (pair, _) in chosen.items()}
+
+    assert cover(3.0) == (["middle"], {"middle": 4.0})  # its worst pair is its record
+    assert cover(5.0) == (["left", "right"], {"left": 3.0, "right": 4.0})
+    assert cover(4.1) == (["left", "right"], {"left": 3.0, "right": 4.0})  # a tie in square metres
+
+
+def test_without_hold_steps_follow_is_unchanged(shoulders):
+    (config, results, _), _ = shoulders
+    assert not config.fitup_follow.held and "held" not in config.fitup_follow.as_dict()
+    assert all("edge_fit" not in r.figures for r in results)
