@@ -4,7 +4,7 @@ plan, iso-parameter or least-curvature seams.
 
     python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
                                [--seams iso least_curvature] [--objectives none weld1.5 ...]
-                               [--fit-up report follow repair] [--jobs N] [--out DIR]
+                               [--fit-up report follow follow_hold repair] [--jobs N] [--out DIR]
 
 Per hull, method and seams: plates, shares of the shell area (plate regions inside the IGES
 trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
@@ -19,8 +19,9 @@ Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell
 length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
 neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm, per
 ``strake.fit_up`` of ``--fit-up`` (report: as planned; follow: the formed plates formed to meet
-their flat and strip neighbours; repair: misfit plates developed on the hull), each after the
-same plan (its plates come from the cache).
+their flat and strip neighbours; follow_hold: follow with strake.hold_steps, the flat or strip
+pairs it leaves stepping held on the hull; repair: misfit plates developed on the hull), each
+after the same plan (its plates come from the cache).
 
 Objectives (``plan.objective``, adaptive plans only): ``none`` (split every misfit plate),
 ``weldF`` ({maximise: flat_strip, weld_factor: F}, e.g. weld1.5), ``cost`` (weights: 1 per weld
@@ -88,7 +89,8 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     data["strake"]["plan"]["seams"] = seams
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
-    data["strake"]["fit_up"] = fit_up
+    data["strake"]["fit_up"] = "follow" if fit_up == "follow_hold" else fit_up
+    data["strake"]["hold_steps"] = fit_up == "follow_hold"
     for key in ("surface",):
         data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
@@ -230,7 +232,7 @@ def main(argv=None) -> int:
                         help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
     parser.add_argument("--objectives", nargs="+", default=["none"],
                         help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
-    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow"],
+    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow", "follow_hold"],
                         help="strake.fit_up of each run (the adaptive plan is evaluated once: its plates are cached)")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")

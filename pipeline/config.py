@@ -738,6 +738,9 @@ class StrakeSpec(_Strict):
             raise ValueError("a strake gives seams and butts, or a plan")
         if self.plan is not None and (self.seams is not None or self.butts is not None):
             raise ValueError("a strake gives either seams and butts or a plan, not both")
+        if self.hold_steps and self.fit_up != "follow":
+            raise ValueError(f"hold_steps: true holds the plates that fit_up: follow leaves stepping, got fit_up: "
+                             f"{self.fit_up} (set fit_up: follow, or drop hold_steps)")
         return self
 
     @field_validator("butts")

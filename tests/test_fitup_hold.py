@@ -90,3 +90,13 @@ def test_without_hold_steps_follow_is_unchanged(shoulders):
     (config, results, _), _ = shoulders
     assert not config.fitup_follow.held and "held" not in config.fitup_follow.as_dict()
     assert all("edge_fit" not in r.figures for r in results)
+
+
+def test_hold_steps_without_follow_is_refused_naming_both_fields(tmp_path, capsys):
+    from pipeline.cli import main
+
+    path = shoulder(tmp_path, fit_up="report", hold_steps=True)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path.name}:" in err and "hold_steps: true" in err and "got fit_up: report" in err
+    assert not (tmp_path / "out").exists()
