@@ -52,11 +52,12 @@ MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is
 SHARES = (1.0, 0.75, 0.5, 0.25)  # of a strip's joint move, tried in turn until the plate stays within its tolerance
 CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
 HOLD_ROUNDS = 2  # hold, evaluate, measure again: a plate held twice is developed on the hull
-HOLD_RULE = ("strake.hold_steps: a pair of flat or strip plates that still steps by more than the limit after the joint "
-             "programme has its plate whose edge lies further from the hull held as strake.fit_up: repair holds it "
-             "(flat on the plane, or the strip between its seams, that keeps its edges within half the limit of the "
-             "hull, else developed on the hull: a formed plate, which the forming then shapes to meet its "
-             "neighbours); a plate held twice is developed on the hull; measured again after each round")
+HOLD_RULE = ("strake.hold_steps: of the pairs of flat or strip plates that still step by more than the limit after the "
+             "joint programme, the plates holding one of every pair in the fewest square metres (greedy: pairs per "
+             "m2) are held as strake.fit_up: repair holds a plate (flat on the plane, or the strip between its seams, "
+             "that keeps its edges within half the limit of the hull, else developed on the hull: a formed plate, "
+             "which the forming then shapes to meet its neighbours); a plate held twice is developed on the hull; "
+             "measured again after each round")
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
         "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
         "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
@@ -102,7 +103,6 @@ class FollowReport:
                 + (f" ({len(self.held)} plate(s) held for their steps, {self._held_developable()} of them still flat "
                    f"or strips)" if self.held else "")
                 + (f" (the joint programme failed: {self.joint_error})" if self.joint_error else ""))
-
 
     def _held_developable(self) -> int:
         return sum(h["class_after"] in ("flat", "developable") for h in self.held.values())
@@ -242,7 +242,8 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
     for round_no in range(1, HOLD_ROUNDS + 1):
         stepping = [q for q in pairs if q.step_max > q.limit and FORMED not in (records[q.a][0].klass,
                                                                                 records[q.b][0].klass)]
-        chosen = {name: held_record(pair, side, records, mm_per_unit, round_no, "strake.hold_steps (fit_up: follow)")
+        chosen = {name: held_record(pair, side, records, mm_per_unit, round_no, "strake.hold_steps (fit_up: follow)",
+                                    "held for a step (strake.hold_steps)")
                   for name, (pair, side) in _cover(stepping, records, mm_per_unit).items()}
         if not chosen:
             break

@@ -146,7 +146,7 @@ def holdable_sides(pair, records: dict, mm: float) -> list:
 
 
 def held_record(pair, side: tuple, records: dict, mm: float, round_no: int,
-                rule: str = "strake.fit_up: repair") -> dict:
+                rule: str = "strake.fit_up: repair", why_held: str = "fit-up repair") -> dict:
     """What ``part.hull.held`` says of a plate held for the pair (``side``: its entry of
     :func:`holdable_sides`): why, and the edge limit a plate held the first time may keep
     its flat or strip development within."""
@@ -157,7 +157,7 @@ def held_record(pair, side: tuple, records: dict, mm: float, round_no: int,
     held = {"rule": rule, "round": round_no, "class_before": klass,
             "edge_deviation_before_mm": off, "edge": label, "neighbour": other, "step_mm": pair.step_max,
             "step_limit_mm": pair.limit,
-            "reason": f"fit-up repair: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
+            "reason": f"{why_held}: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
                       f"{other}'s with a {why}"}
     if not records[name][1].hull.held and (klass == "flat" or stepped):
         # a plate held the first time first tries what keeps its edges nearest the hull, a
