@@ -91,10 +91,10 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
         data["strake"]["plan"]["objective"] = objective_of(objective)
     data["strake"]["fit_up"] = "follow" if fit_up == "follow_hold" else fit_up
     data["strake"]["hold_steps"] = fit_up == "follow_hold"
-    for key in ("surface",):
-        data["strake"][key]["iges"] = str((ROOT / "configs" / data["strake"][key]["iges"]).resolve())
-    for s in data["strake"]["plan"].get("surfaces", []):
-        s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())
+    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
+        for key in ("iges", "model"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
+            if key in source:
+                source[key] = str((ROOT / "configs" / source[key]).resolve())
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))
