@@ -720,13 +720,13 @@ class StrakeSpec(_Strict):
                                   "through its seams lies on the hull along them, where two planes over a twisting "
                                   "hull step by twice their distance from it; kept only where it steps less. Off, the "
                                   "rest of follow is unchanged (formed plates that step as developed still meet halfway)")
-    hold_steps: bool = Field(False, description="with fit_up: follow, a pair of flat or strip plates that still steps "
-                             "by more than min(0.15 t, 3 mm) after their planes and places are chosen together has its "
-                             "plate further off the hull held as fit_up: repair holds it (flat on the plane, or the "
-                             "strip between its seams, that keeps its edges within half the limit of the hull, else "
-                             "developed on the hull: a formed plate, which the forming then shapes to meet its "
-                             "neighbours); trades flat + strip share for the steps. Off (default): such pairs are "
-                             "reported and left")
+    hold_steps: bool = Field(False, description="with fit_up: follow, the pairs of flat or strip plates that still "
+                             "step by more than min(0.15 t, 3 mm) after their planes and places are chosen together "
+                             "have plates held as fit_up: repair holds them, the fewest square metres that hold one "
+                             "plate of every pair (flat on the plane, or the strip between its seams, that keeps its "
+                             "edges within half the limit of the hull, else developed on the hull: a formed plate, "
+                             "which the forming then shapes to meet its neighbours); trades flat + strip share for "
+                             "the steps. Off (default): such pairs are reported and left")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "

@@ -186,7 +186,10 @@ def test_table_stations_and_ordinates_are_measured_along_their_lines(runs):
     assert {f"{round(s):g}" for s in steps} <= words
     mids = np.array([0.5 * (np.array(b["start"]) + np.array(b["end"])) for b in lines])
     chords = np.linalg.norm(np.diff(mids, axis=0), axis=1)
-    assert np.all(chords <= steps + 1e-6) and np.all(chords >= 0.98 * steps)  # chords of the centre line's arcs
+    # the bilge plate's middles move straight across its lines: a chord between two middles is
+    # the station's step, the distance across the lines, to the lines' fanning (an arc about
+    # their apex against its chord)
+    np.testing.assert_allclose(chords, steps, rtol=1e-3)
 
 
 def test_a_long_table_continues_on_the_next_page(tmp_path):

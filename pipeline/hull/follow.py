@@ -29,7 +29,9 @@ is developed again as a strip where one fits (:func:`_flats_as_strips`: a strip 
 its seams lies on the hull along them), and then the flat plates' planes and the strips'
 places (a small rigid motion each) are chosen together (:mod:`.joint`, :mod:`.rigid`), so
 that flat and strip neighbours step as little as their tolerance allows; the formed plates
-then meet them where they lie.
+then meet them where they lie. With ``strake.hold_steps`` the pairs of flat or strip plates
+that still step over the limit then have plates held on the hull (:func:`_hold_stepping`):
+those become formed plates, and the forming shapes them to meet their neighbours too.
 """
 
 from __future__ import annotations
@@ -59,7 +61,8 @@ HOLD_RULE = ("strake.hold_steps: of the pairs of flat or strip plates that still
              "which the forming then shapes to meet its neighbours); a plate held twice is developed on the hull; "
              "measured again after each round")
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
-        "neighbour's edge (closest points, each move at most the fit tolerance), the rest by the harmonic blend of "
+        "neighbour's edge (closest points; a corner within reach of the edge's end to that end; each move at most "
+        "the fit tolerance), the rest by the harmonic blend of "
         "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
         "hull; two formed plates that step as developed by more than the limit each moved halfway to the "
         "other's edge instead); strips and flat plates keep their development")
@@ -83,6 +86,7 @@ class FollowReport:
     as_strips: dict = field(default_factory=dict)  # flat plate delivered as a strip -> {step_mm, neighbours, step_after_mm}
     kept_flat: dict = field(default_factory=dict)  # flat plate asked for as a strip that no strip fits -> why
     held: dict = field(default_factory=dict)  # plate held for a step (strake.hold_steps) -> its record and class after
+    hold_failed: dict = field(default_factory=dict)  # plate whose held development failed (kept as it was) -> why
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
@@ -91,7 +95,8 @@ class FollowReport:
                 "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
                 "joint_error": self.joint_error, "flats_as_strips_rule": AS_STRIP_RULE,
                 "flats_as_strips": self.as_strips, "kept_flat": self.kept_flat,
-                **({"hold_rule": HOLD_RULE, "held": self.held} if self.held else {}),
+                **({"hold_rule": HOLD_RULE, "held": self.held, "hold_failed": self.hold_failed}
+                   if self.held or self.hold_failed else {}),
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
                             for a, b, label, step in self.untaken]}
 
@@ -248,25 +253,37 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
         if not chosen:
             break
         held_parts = [by_name[name] for name in sorted(chosen)]
+        before = {p.name: (p.hull.result, p.hull.plane, p.hull.held) for p in held_parts}
         for part in held_parts:
             part.hull.held, part.hull.plane, part.hull.result = chosen[part.name], None, None
         for part, result in zip(held_parts, evaluate_many(held_parts)):
+            if not result.ok or kept_edges(result) is None:
+                # a plate that cannot be developed held stays as it was (the pair stays untaken)
+                part.hull.result, part.hull.plane, part.hull.held = before[part.name]
+                report.hold_failed[part.name] = result.reason or "the held plate has no edges to measure"
+                continue
             part.hull.result = result
             held = chosen[part.name]
+            # what the joint programme or the flat-as-strip step made of it is gone with its development
+            was = [what for what, entries in (("joint_plane", report.planes), ("strip_moved", report.strips),
+                                              ("strip_move_shortened", report.shortened),
+                                              ("flat_as_strip", report.as_strips)) if entries.pop(part.name, None)]
             report.held[part.name] = {"round": round_no, "class_before": held["class_before"],
                                       "class_after": honest_class(result), "edge": held["edge"],
                                       "neighbour": held["neighbour"], "step_mm": held["step_mm"],
-                                      "edge_deviation_before_mm": held["edge_deviation_before_mm"]}
+                                      "edge_deviation_before_mm": held["edge_deviation_before_mm"],
+                                      "undone": was}
         records = _records(plates, records, set(chosen))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     return records, pairs
 
 
 def _cover(stepping: list, records: dict, mm_per_unit: float) -> dict:
-    """{plate: (its worst stepping pair, its side of it)}: plates that hold one plate of every
-    stepping pair they can, chosen greedily by stepping pairs covered per square metre of
-    plate (a plate between two stepping neighbours covers both pairs: the steel a step costs
-    is the held plate's share of flat or strip)."""
+    """{plate: (the worst stepping pair it was chosen to cover, its side of it)}: plates that
+    hold one plate of every stepping pair they can, chosen greedily by stepping pairs covered
+    per square metre of region (a plate between two stepping neighbours covers both pairs: the
+    steel a step costs is the held plate's share of flat or strip; ties to the name). A plate
+    whose region reports no area counts as 1 m2."""
     from .repair import holdable_sides
 
     options: dict = {}
@@ -482,7 +499,8 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     (a point beyond it is another neighbour's) and within ``reach`` (default four
     tolerances: a plate and a neighbour that part further are not one edge there), a corner
     within ``corner_reach`` (default twice the tolerance: its end, the neighbour's corner, up
-    to the tolerance off the hull and along it); ``share`` of the way (a half: two formed
+    to the tolerance off the hull and along it), and moved to the edge's end itself when that
+    end is within ``corner_reach`` (a junction of plates); ``share`` of the way (a half: two formed
     plates meeting halfway), each move shortened to the tolerance; the smaller claim where two
     neighbours claim a point."""
     if edge is None:

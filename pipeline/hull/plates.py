@@ -233,10 +233,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                                 "butt_planes": [None if b is None else {"normal": list(b.normal), "offset": b.offset}
                                                 for b in hull.butts]}
     verdict = (hull.follow or {}).get("verdict")
-    if verdict is not None:
-        # formed before it was moved: the strips (and a held plate's plane and strip) are
-        # judged on the region as it lies on the hull, which the moves leave alone, so solved
-        # again they would fail as they did
+    if verdict is not None and not patch_only:
+        # formed before it was moved: the strips are judged on the region as it lies on the
+        # hull, which the moves leave alone, so solved again they would fail as they did
         _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width), verdict["info"],
                             verdict["roll_strip"], strips_tried=True)
         return
@@ -251,6 +250,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                           "follow): within the tolerance of the region, its edges meeting theirs",
                           {"joint_plane": True})
             return
+    # a held plate moved by the forming (strake.hold_steps) was delivered as a patch: its
+    # plane and strip were tried on the same region and failed
+    edge_limit = None if hull.follow else edge_limit
     fit = None if patch_only and edge_limit is None else flattest_plane(v_grid, tol)
     if edge_limit is not None and fit.max_distance <= tol:
         # held for its fit-up: flat only on the plane that keeps its edges nearest the hull

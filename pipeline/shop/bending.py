@@ -15,7 +15,7 @@ import numpy as np
 
 from .outline import PlateTracer
 
-DENSE = 513  # samples of the centre line for its arc length (the plate's corners besides)
+DENSE = 513  # samples of the kept rulings' middles for the length across them (the plate's corners besides)
 
 
 @dataclass(frozen=True)
@@ -24,7 +24,7 @@ class BendLine:
 
     number : 1, 2, ... along the plate
     a, b : (2,) ends, on the c side and the d side of the plate
-    station : position along the plate's centre line from its first end
+    station : distance across the rulings from the plate's first end (at the rulings' middles)
     radius : radius of curvature across the line at its middle (inf where flat)
     convex_on_drawn_side : the plate bulges towards the viewer of the drawing (the side
         the strip normal c' x (d - c) points to); None where not known (the roll lines of
@@ -57,7 +57,11 @@ def across_rulings(middles: np.ndarray, directions: np.ndarray) -> tuple[np.ndar
     them; the arc length of the middles' path counts that slide, which moves no line, and
     bunched the bending lines spaced along it (1 mm apart on butt-to-butt hull plates)."""
     unit = directions / np.maximum(np.linalg.norm(directions, axis=1), 1e-300)[:, None]
-    mean = unit[:-1] + unit[1:]  # a ruling cut to nothing (no direction) takes its neighbour's
+    # a ruling is a line: each taken the way its predecessor points, so that the mean of two
+    # never cancels (a ruling cut to nothing, no direction, then takes its neighbour's)
+    turn = np.einsum("ij,ij->i", unit[1:], unit[:-1])
+    unit[1:] *= np.cumprod(np.where(turn < 0.0, -1.0, 1.0))[:, None]
+    mean = unit[:-1] + unit[1:]
     normal = np.column_stack([-mean[:, 1], mean[:, 0]]) / np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
     steps = np.abs(np.einsum("ij,ij->i", np.diff(middles, axis=0), normal))
     return np.concatenate([[0.0], np.cumsum(steps)]), normal
@@ -107,7 +111,7 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     if not len(stations):
         return [], length
     at = np.interp(stations, s, lam)
-    # one secant step on the exact centre line removes the interpolation error
+    # one secant step on the exact middles removes the interpolation error
     _, _, m_at, *_ = _centre_line(tracer, at)
     index = np.clip(np.searchsorted(s, stations) - 1, 0, len(s) - 2)
     exact_s = s[index] + np.abs(np.einsum("ij,ij->i", m_at - mid2[index], normal[index]))
@@ -122,8 +126,8 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
 
 
 def _stations(length: float, spacing: float) -> np.ndarray:
-    """Positions (K,) every ``spacing`` along a centre line of ``length``, centred so the
-    margins at both ends are equal; empty when the line is shorter than one spacing."""
+    """Positions (K,) every ``spacing`` along a ``length``, centred so the margins at both
+    ends are equal; empty when it is shorter than one spacing."""
     count = int(np.floor(length / spacing))
     return 0.5 * (length - (count - 1) * spacing) + spacing * np.arange(count) if count >= 1 else np.zeros(0)
 

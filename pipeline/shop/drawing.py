@@ -686,10 +686,10 @@ def write_shop_drawing(target: str | Path, layout, title: str, part_data: list[s
     """Write the drawing; returns what the report says of it (paper, scale, pages).
 
     layout : a :class:`pipeline.shop.layout.Layout` (mm)
-    bends : [(number, mark text, (2,) a on the c side, (2,) b on the d side[, station along
-        the centre line])] in mm
+    bends : [(number, mark text, (2,) a on the c side, (2,) b on the d side[, station: the
+        distance across the rulings from the plate's first end])] in mm
     edges : {name: (K, 2) polyline of the net edge it names}, c and d first
-    spacing : the bending lines' spacing along the centre line (mm), None when none
+    spacing : the bending lines' spacing across them (mm), None when none
     templates : the plate's templates: a page of them
     """
     pages, info = plan_pages(layout, title, part_data, bends, spacing, list(notes), edges, templates)
