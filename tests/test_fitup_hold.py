@@ -155,7 +155,7 @@ def test_a_held_plate_moved_by_the_forming_is_not_tried_flat_or_as_a_strip_again
 
     monkeypatch.setattr(plates, "_edge_held_strip", spy_strip)
     monkeypatch.setattr(flatten.edgeplane, "edge_held_plane", spy_plane)
-    config, results, _ = run(shoulder(tmp_path, fit_up="follow", hold_steps=True))
+    config, _, _ = run(shoulder(tmp_path, fit_up="follow", hold_steps=True))
     held = set(config.fitup_follow.held)
     assert held and held <= set(config.fitup_follow.moved)
     assert sorted(name for kind, *rest in tried if kind == "strip" for name, _ in [rest]) == sorted(held)
