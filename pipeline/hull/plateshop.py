@@ -112,7 +112,7 @@ def trimmed_shop(result, config, grid, trim) -> None:
     a2, b2, a3, b3 = trim.rulings
     a2, b2 = a2 @ rot.T + shift, b2 @ rot.T + shift
     spacing = config.spec.shop.bend_spacing / mm
-    lines, centre = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
+    lines, across = lines_on_rulings(a2, b2, a3, b3, trim.normals, spacing)
     rolling = None
     if lines and config.spec.profile == "steel":  # only the lines the plate is rolled at (shop.rolling)
         kept, rolling = roll_setup([dataclasses.replace(b, radius=b.radius * mm) for b in lines], part.steel,
@@ -131,10 +131,10 @@ def trimmed_shop(result, config, grid, trim) -> None:
     outline_mm = _scaled(net, mm)
     lines_mm = [dataclasses.replace(b, a=b.a * mm, b=b.b * mm, station=b.station * mm, radius=b.radius * mm)
                 for b in lines]
-    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, centre * mm, rolling)
+    result.shop = ShopPlate(outline_mm, tuple(lines_mm), config.spec.shop.bend_spacing, across * mm, rolling)
     result.figures["bending"] = {
         "units": "mm", "count": len(lines_mm), "spacing": config.spec.shop.bend_spacing,
-        "length_across_rulings": centre * mm, "family": trim.family,
+        "length_across_rulings": across * mm, "family": trim.family,
         **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "seen from the side the seam family draws: seam direction x across the girth",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),

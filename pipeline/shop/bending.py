@@ -99,10 +99,10 @@ def bending_lines(tracer: PlateTracer, spacing: float, min_length: float = 0.1) 
     margins at both ends are equal; lines shorter than ``min_length`` times the longest
     (corner slivers) are left out. Returns (lines, the plate's length across its rulings)."""
     first, last, corners = tracer.plate_range()
-    # the centre line turns sharply where a corner cuts the rulings (their kept middles
-    # then follow the butt plane): a sample at each corner keeps the chords' error second
-    # order on the smooth pieces between (without them a strake plate's centre line came
-    # out up to 2.2 mm short at 2001 samples; with them 2e-5 mm at 513)
+    # the kept middles turn sharply where a corner cuts the rulings (they then follow the
+    # butt plane): a sample at each corner keeps the steps' error second order on the smooth
+    # pieces between (without them a strake plate's centre line came out up to 2.2 mm short
+    # at 2001 samples; with them 2e-5 mm at 513)
     lam = np.union1d(np.linspace(first, last, DENSE), corners)
     _, _, mid2, _, _, _, directions = _centre_line(tracer, lam)
     s, normal = across_rulings(mid2, directions)

@@ -48,6 +48,7 @@ STYLES = {"cut": ("black", 0.9, None), "net": ("black", 0.4, (0, (6, 3))), "fram
           "sight": ("tab:red", 0.4, (0, (6, 2))), "station": ("grey", 0.25, None)}
 OTHER_COLOURS = ("tab:red", "tab:purple", "tab:brown", "tab:olive")  # mark kinds the drawing does not know
 PAGE_NUMBER = "PAGE 00 OF 00"  # stands for the page number until the pages are counted
+SPACING_NOTE = "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) "  # + the runs
 
 
 @dataclass
@@ -300,8 +301,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "
                     "AT CL: STATION ACROSS THE LINES, AT THEIR MIDDLES")
     if rows:  # room for these lines, whether or not they are said
-        data += ["BENDING LINE TABLE ON PAGE 2", "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) "
-                 + ", ".join([f"B{r.number}-B{r.number}: 00000" for r in rows[1:]] or ["B0-B0: 0"])]
+        data += ["BENDING LINE TABLE ON PAGE 2", SPACING_NOTE + ", ".join([f"B{r.number}-B{r.number}: 00000" for r in rows[1:]] or ["B0-B0: 0"])]
     sheet = choose_sheet(span, bands, len(rows), float(columns.sum()), data)
     scale, pw, ph, title_h = sheet.scale, sheet.width, sheet.height, sheet.title_height
     data[0] = data[0].format(scale=scale, paper=sheet.paper)
@@ -535,7 +535,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         else:
             page.labels.append(label)
     if chain_notes:
-        data.insert(1, "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) " + ", ".join(chain_notes))
+        data.insert(1, SPACING_NOTE + ", ".join(chain_notes))
     pages = [page]
     left = list(rows)
     note = PAGE_NUMBER

@@ -69,7 +69,7 @@ def stage_shop(result, config) -> None:
     tracer = plate_tracer(result)
     outline = exact_outline(tracer, shop.outline_tolerance / scale)
     outline_mm = _scaled(outline, scale)
-    lines, centre = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
+    lines, across = ([], 0.0) if result.solution.kind == "coplanar" else bending_lines(tracer, shop.bend_spacing / scale)
     # the pattern (previews, sheet, nesting) shows what the DXF holds: the exact outline and
     # the shop's bending lines, not the solver's rulings
     lines = [dataclasses.replace(b, a=b.a * scale, b=b.b * scale, station=b.station * scale, radius=b.radius * scale)
@@ -81,12 +81,12 @@ def stage_shop(result, config) -> None:
     if result.solution.kind != "coplanar":
         curvature = "none" if rolling is None or not rolling.needs_rolling else "single"
         result.templates, _ = strip_templates(result, tracer, scale, outline_mm.points, curvature, shop)
-    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, centre * scale, rolling)
+    result.shop = ShopPlate(outline_mm, tuple(lines), shop.bend_spacing, across * scale, rolling)
     result.figures["bending"] = {
         "units": "mm",
         "count": len(lines),
         "spacing": shop.bend_spacing,
-        "length_across_rulings": centre * scale,
+        "length_across_rulings": across * scale,
         **({"rolling": rolling.figures()} if rolling is not None else {}),
         "drawn_side": "the side the strip normal c' x (d - c) points to; marks CVX / CCV: convex / concave on it",
         "lines": [{"number": b.number, "station": b.station, "start": b.a.tolist(), "end": b.b.tolist(),
