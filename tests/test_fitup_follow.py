@@ -307,13 +307,13 @@ def test_the_joined_blend_stays_between_its_given_values(values):
     assert solved[~fixed].max() <= ring.max() + 1e-12 and solved[~fixed].min() >= ring.min() - 1e-12
 
 
-def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=None):
+def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=None, butt_lift=None):
     """Two formed plates' region grids side by side in the plane z = 0 (5 x 6 points, 500 mm
     apart; model units of ``unit`` mm), sharing the edge x = 2500 mm (butt 1 of the left,
     butt 0 of the right), the right one lifted by ``gap`` mm (two faces of a hull model that
     disagree where a plan cut them). ``flat_lift``: a flat
-    neighbour along the left plate's seam 0, its edge that far (mm) above it. (grids, pairs,
-    records)."""
+    neighbour along the left plate's seam 0, its edge that far (mm) above it; ``butt_lift``:
+    one along its butt 0 (the shell's end otherwise). (grids, pairs, records)."""
     from pipeline.hull import follow
     from pipeline.hull.fitup import Edge
 
@@ -324,7 +324,7 @@ def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=Non
         return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
 
     monkeypatch.setattr(follow, "_grid_ring", ring_of)
-    hulls = {name: SimpleNamespace(fit_tolerance=5.0 / unit) for name in ("L", "R", "F")}
+    hulls = {name: SimpleNamespace(fit_tolerance=5.0 / unit) for name in ("L", "R", "F", "B")}
     y, x = np.meshgrid(np.arange(5) * 500.0, np.arange(6) * 500.0, indexing="ij")
     left = np.stack([x, y, np.zeros_like(x)], axis=-1) / unit
     right = np.stack([x + 2500.0, y, np.full_like(x, gap)], axis=-1) / unit
@@ -340,6 +340,9 @@ def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=Non
     if flat_lift is not None:
         records["F"] = record("flat", "seam1", left[0] + np.array([0.0, 0.0, flat_lift / unit]), "F")
         pairs.append(SimpleNamespace(a="F", b="L", side_a="seam1", side_b="seam0", step_max=flat_lift, limit=2.1))
+    if butt_lift is not None:
+        records["B"] = record("flat", "butt1", left[:, 0] + np.array([0.0, 0.0, butt_lift / unit]), "B")
+        pairs.append(SimpleNamespace(a="B", b="L", side_a="butt1", side_b="butt0", step_max=butt_lift, limit=2.1))
     return grids, pairs, records
 
 
@@ -370,15 +373,53 @@ def test_two_formed_plates_that_step_are_formed_to_meet_halfway(monkeypatch, gap
 
 def test_a_flat_neighbour_holds_its_corner_against_the_halfway_move(monkeypatch):
     # the left plate's seam 0 meets a flat plate 1 mm above it: its points there, the shared
-    # edge's corner among them, meet the flat plate; the right plate's corner still moves
-    # halfway (3 mm) and the rest of the shared edge meets halfway
+    # edge's corner among them, meet the flat plate; the right plate's corner there, with no
+    # flat neighbour of its own, goes where the left one's went (6 - 1 = 5 mm down, the
+    # tolerance: the junction's corners meet) and the rest of the shared edge meets halfway
     from pipeline.hull.follow import shell_moves
 
     grids, pairs, records = _two_formed_plates(monkeypatch, 6.0, flat_lift=1.0)
     moves = shell_moves(grids, pairs, records, 1.0)
     assert np.allclose(moves["L"][0], [0.0, 0.0, 1.0], atol=1e-9)  # the whole seam, corner included
     assert np.allclose(moves["L"][1:, -1], [0.0, 0.0, 3.0], atol=1e-9)
-    assert np.allclose(moves["R"][:, 0], [0.0, 0.0, -3.0], atol=1e-9)
+    assert np.allclose(moves["R"][1:, 0], [0.0, 0.0, -3.0], atol=1e-9)
+    assert np.allclose(moves["R"][0, 0], [0.0, 0.0, -5.0], atol=1e-9)
+    assert np.allclose(grids["R"].points[0, 0] + moves["R"][0, 0], grids["L"].points[0, -1] + moves["L"][0, -1])
+
+
+@pytest.mark.parametrize("unit", [1.0, 1000.0])
+def test_a_formed_corner_between_two_flat_neighbours_that_part_goes_between_them(monkeypatch, unit):
+    # the left plate's seam 0 meets a flat plate lying on it and its butt 0 one 4 mm above it:
+    # their edges end at the plate's corner 4 mm apart. Sent to either end the corner would
+    # step 4 mm from the other neighbour (what one edge's end claims: the nearer, 0); at the
+    # centre of the two ends it steps 2 mm from each. The seam's and the butt's other points
+    # meet their own neighbour, and the right plate, joined, meets the left at the corner
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 0.0, unit, flat_lift=0.0, butt_lift=4.0)
+    moves = shell_moves(grids, pairs, records, unit)
+    assert np.allclose(moves["L"][0, 0], [0.0, 0.0, 2.0 / unit], atol=1e-12)
+    assert np.allclose(moves["L"][0, 1:], 0.0, atol=1e-12)
+    assert np.allclose(moves["L"][1:, 0], [0.0, 0.0, 4.0 / unit], atol=1e-12)
+    corner = grids["L"].points[0, 0] + moves["L"][0, 0]
+    for name, side in (("F", "seam1"), ("B", "butt1")):
+        assert np.linalg.norm(records[name][0].edge(side).points3[0] - corner) * unit == pytest.approx(2.0)
+
+
+def test_a_formed_corner_with_only_formed_neighbours_at_a_junction_goes_where_theirs_go(monkeypatch):
+    # the flat plate along the left plate's seam 0 lies 3 mm above it: the left plate's
+    # corner at the shared butt goes to its end; the right plate's corner there, whose only
+    # neighbour there is the left plate, goes to the same point (kept on the hull as a corner
+    # of the shell's free seam, the two formed plates stepped 3 mm at the junction)
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 0.0, flat_lift=3.0)
+    moves = shell_moves(grids, pairs, records, 1.0)
+    left = grids["L"].points + moves["L"]
+    right = grids["R"].points + moves["R"]
+    assert np.allclose(moves["L"][0], [0.0, 0.0, 3.0], atol=1e-9)
+    assert np.allclose(right[0, 0], left[0, -1], atol=1e-9)
+    assert np.all(moves["R"][0, 1:] == 0.0)  # the rest of its free seam stays on the hull
 
 
 def test_two_formed_plates_within_the_limit_are_joined_as_they_lie(monkeypatch):

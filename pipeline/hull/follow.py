@@ -22,6 +22,9 @@ it. Where two flat or strip plates that step from each other meet at a corner of
 plates, each formed plate meets its own flat neighbour there, so the formed plates' shared
 edge takes the flat plates' step at its end, and within a grid cell or two no longer (the
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
+A formed plate's corner between two flat or strip neighbours whose corners part goes between
+them, and a formed corner whose neighbours there are formed goes where theirs go
+(:mod:`.junction`).
 A formed plate stays formed: the strips and the flat plates left flat keep their
 developments, the formed ones that move are developed again from their moved shape (pin jig, templates and heating
 lines follow it). Before the forming, a flat plate that misfits a flat or strip neighbour
@@ -40,9 +43,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitup import SAMPLE_MM, _dense, _grid_ring, closest_on, kept_edges, shared_edges
+from .fitup import (
+    SAMPLE_MM,
+    SIDES,
+    _dense,
+    _grid_ring,
+    closest_on,
+    kept_edges,
+    shared_edges,
+)
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
+from .junction import JUNCTION_RULE, junction_moves
 from .plateshop import formed_verdict
 
 FORMED = "formed"
@@ -61,7 +73,7 @@ HOLD_RULE = ("strake.hold_steps: of the pairs of flat or strip plates that still
              "which the forming then shapes to meet its neighbours); a plate held twice is developed on the hull; "
              "measured again after each round")
 RULE = ("the formed plates are formed to meet their flat and strip neighbours: their edge points moved onto the "
-        "neighbour's edge (closest points; a corner within reach of the edge's end to that end; each move at most "
+        "neighbour's edge (closest points; a corner at a junction as junction_rule says; each move at most "
         "the fit tolerance), the rest by the harmonic blend of "
         "those moves over all formed plates joined at their shared edges (the shell's free edges stay on the "
         "hull; two formed plates that step as developed by more than the limit each moved halfway to the "
@@ -89,7 +101,7 @@ class FollowReport:
     hold_failed: dict = field(default_factory=dict)  # plate whose held development failed (kept as it was) -> why
 
     def as_dict(self) -> dict:
-        return {"rule": RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
+        return {"rule": RULE, "junction_rule": JUNCTION_RULE, "misfits_found": self.misfits, "plates_moved": len(self.moved),
                 "moved": self.moved, "joint_rule": JOINT_RULE, "flat_planes_moved": len(self.planes),
                 "planes": self.planes, "strips_moved": len(self.strips), "strips": self.strips,
                 "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
@@ -476,6 +488,7 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
                 halfways.append((plate, mine, records[other][0].edge(theirs), start[me], reach))
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
+    _junction_corners(grids, names, start, pairs, records, fixed, value, best)
     # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
     # meet those, and can meet its formed neighbour halfway only where nothing else holds it
     best = np.where(fixed, -np.inf, best)
@@ -490,6 +503,49 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
                                                                                    plate.free_corners(paired[name])))
         fixed[ring[free]] = True
     return _solve(grids, names, start, total, fixed, value, across)
+
+
+def _junction_corners(grids: dict, names: list, start: dict, pairs: list, records: dict, fixed, value,
+                      best) -> None:
+    """The formed plates' corners at junctions with flat or strip plates' edge ends moved to
+    one point each (:func:`.junction.junction_moves`), in place of what one edge's end claimed
+    for them (:func:`_anchor`): two flat or strip corners a few millimetres apart at one
+    junction would otherwise leave a formed plate stepping by the whole spread from one of
+    them, or two formed plates from each other. Each move at most the tolerance."""
+    ends, owners = [], []
+    for name, (edges, _) in records.items():
+        if edges.klass in MOVABLE_NEIGHBOURS:
+            for edge in (edges.edge(side) for side in SIDES):
+                if edge is not None:
+                    ends += [edge.points3[0], edge.points3[-1]]
+                    owners += [name, name]
+    if not ends:
+        return
+    welded = {name: set() for name in names}
+    for q in pairs:
+        for me, other in ((q.a, q.b), (q.b, q.a)):
+            if me in welded:
+                welded[me].add(other)
+    index, points, reach, tolerance, plates, neighbours = [], [], [], [], [], []
+    for name in names:
+        plate = grids[name]
+        rows, cols = plate.points.shape[:2]
+        for k in sorted({0, cols - 1, (rows - 1) * cols, rows * cols - 1}):
+            index.append(start[name] + k)
+            points.append(plate.flat[k])
+            reach.append(2.0 * plate.hull.fit_tolerance)
+            tolerance.append(plate.hull.fit_tolerance)
+            plates.append(name)
+            neighbours.append(welded[name])
+    points, tolerance, index = np.array(points), np.array(tolerance), np.array(index)
+    found, targets = junction_moves(points, np.array(reach), plates, neighbours, np.array(ends), owners)
+    move = targets[found] - points[found]
+    size = np.linalg.norm(move, axis=1)
+    move *= np.minimum(1.0, tolerance[found] / np.maximum(size, 1e-300))[:, None]
+    where = index[found]
+    fixed[where] = True
+    value[where] = move
+    best[where] = np.minimum(size, tolerance[found])
 
 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,
