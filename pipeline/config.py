@@ -722,6 +722,7 @@ class StrakeSpec(_Strict):
                                   "rest of follow is unchanged (formed plates that step as developed still meet halfway)")
     hold_steps: bool = Field(False, description="with fit_up: follow, the pairs of flat or strip plates that still "
                              "step by more than min(0.15 t, 3 mm) after their planes and places are chosen together "
+                             "(or part by twice that at a formed neighbour's corner, which would step from both) "
                              "have plates held as fit_up: repair holds them, the fewest square metres that hold one "
                              "plate of every pair (flat on the plane, or the strip between its seams, that keeps its "
                              "edges within half the limit of the hull, else developed on the hull: a formed plate, "

@@ -117,10 +117,13 @@ def test_a_held_plate_that_cannot_be_developed_stays_as_it_was(tmp_path):
     from pipeline.hull.plan import load_run
     from pipeline.hull.plates import evaluate_plate
 
+    failed = []
+
     def evaluate(part, config):
         result = evaluate_plate(part, config)
         if part.hull.held and part.name == "fit_S2_B2":
             result.status, result.reason = "failed", "no development (test)"
+            failed.append(part.name)
         return result
 
     config = load_run(shoulder(tmp_path, fit_up="follow", hold_steps=True), evaluate)
@@ -134,6 +137,15 @@ def test_a_held_plate_that_cannot_be_developed_stays_as_it_was(tmp_path):
     assert report.held["fit_S2_B1"]["round"] == 2 and report.held["fit_S2_B1"]["neighbour"] == "fit_S2_B2"
     assert report.held["fit_S2_B1"]["undone"] == ["strip_moved", "flat_as_strip"]
     assert not report.untaken
+    assert failed == ["fit_S2_B2"]  # not held again in round two, though it would cover two steps there
+    # round two also finds the strip fit_S1_B1 and the flat fit_S2_B2 parting at the corner of
+    # fit_S1_B2 (held and formed in round one) by 6.6 mm: the formed corner between them would
+    # step 3.3 mm from each (limit 2.1); they share no edge, and the strip is held for it
+    junction = report.held["fit_S1_B1"]
+    assert junction["round"] == 2 and junction["junction"] == "fit_S1_B2" and junction["neighbour"] == "fit_S2_B2"
+    assert 2.1 < junction["step_mm"] < 5.0
+    strip = next(p for p in config.parts if p.name == "fit_S1_B1")
+    assert "from fit_S2_B2's at formed plate fit_S1_B2's corner" in strip.hull.held["reason"]
 
 
 def test_a_held_plate_moved_by_the_forming_is_not_tried_flat_or_as_a_strip_again(tmp_path, monkeypatch):

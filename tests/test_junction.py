@@ -1,5 +1,8 @@
 """Junctions of plates (pipeline/hull/junction.py): the smallest ball holding a junction's
-corners, against closed forms and an independent minimiser, and where formed corners go."""
+corners, against closed forms and an independent minimiser; where formed corners go; which
+flat or strip plates part at a formed plate's corner by more than its step limit allows."""
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -8,7 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.optimize import minimize
 
-from pipeline.hull.junction import junction_moves, smallest_ball
+from pipeline.hull.junction import junction_moves, junction_steps, smallest_ball
 
 
 def test_the_ball_of_two_points_is_centred_between_them():
@@ -74,3 +77,42 @@ def test_ends_out_of_reach_or_spread_wider_than_it_move_nothing():
     assert not _junction([-9.0, 9.0], ["A", "B"], [{"A", "B"}])[0][0]
     assert not _junction([], [], [{"A"}])[0].any()
 
+
+def _plate(klass, edges, tolerance=5.0):
+    from pipeline.hull.fitup import Edge
+
+    edges = tuple(Edge(side, side.upper(), np.asarray(points, dtype=float), np.asarray(points, dtype=float)[:, :2])
+                  for side, points in edges.items())
+    record = SimpleNamespace(klass=klass, edges=edges, edge=lambda s: next((e for e in edges if e.side == s), None))
+    return record, SimpleNamespace(hull=SimpleNamespace(fit_tolerance=tolerance))
+
+
+def _corner_of_three(lift_b, klass_f="formed"):
+    # a formed plate F (x, y in 0..1000) with a strip A along its seam 0 (y = 0) and one B
+    # along its butt 0 (x = 0); their edges end at F's corner (0, 0), B's lifted by lift_b mm
+    records = {"F": _plate(klass_f, {"seam0": [[0, 0, 0], [1000, 0, 0]], "butt0": [[0, 0, 0], [0, 1000, 0]]}),
+               "A": _plate("developable", {"seam1": [[0, 0, 0], [1000, 0, 0]]}),
+               "B": _plate("flat", {"butt1": [[0, 0, lift_b], [0, 1000, lift_b]]})}
+    pairs = [SimpleNamespace(a="A", b="F", side_a="seam1", side_b="seam0", limit=2.1),
+             SimpleNamespace(a="B", b="F", side_a="butt1", side_b="butt0", limit=2.1)]
+    return records, pairs
+
+
+def test_two_flat_or_strip_neighbours_parting_at_a_formed_corner_are_a_junction_step():
+    # 6 mm apart: the formed corner between them steps 3 mm from each, over the 2.1 mm limit
+    records, pairs = _corner_of_three(6.0)
+    (step,) = junction_steps(records, pairs, 1.0)
+    assert (step.a, step.b, step.side_a, step.side_b, step.formed) == ("A", "B", "seam1", "butt1", "F")
+    assert step.step_max == pytest.approx(3.0) and step.limit == 2.1 and step.step_max > step.limit
+    # in metres the same
+    metres = {n: _plate(r.klass, {e.side: e.points3 / 1000.0 for e in r.edges}, 0.005) for n, (r, _) in records.items()}
+    assert junction_steps(metres, pairs, 1000.0)[0].step_max == pytest.approx(3.0)
+
+
+def test_no_junction_step_within_the_limit_between_neighbours_or_without_a_formed_plate():
+    assert junction_steps(*_corner_of_three(4.0), 1.0) == []  # 2 mm from each, within 2.1
+    records, pairs = _corner_of_three(6.0)
+    pairs.append(SimpleNamespace(a="A", b="B", side_a="butt0", side_b="seam0", limit=2.1))
+    assert junction_steps(records, pairs, 1.0) == []  # they share an edge: their own step says it
+    assert junction_steps(*_corner_of_three(6.0, klass_f="developable"), 1.0) == []
+    assert junction_steps(*_corner_of_three(12.0), 1.0) == []  # out of reach (10 mm): no junction

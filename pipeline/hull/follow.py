@@ -54,7 +54,7 @@ from .fitup import (
 )
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
-from .junction import JUNCTION_RULE, junction_moves
+from .junction import JUNCTION_RULE, JunctionStep, junction_moves, junction_steps
 from .plateshop import formed_verdict
 
 FORMED = "formed"
@@ -259,9 +259,10 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
     for round_no in range(1, HOLD_ROUNDS + 1):
         stepping = [q for q in pairs if q.step_max > q.limit and FORMED not in (records[q.a][0].klass,
                                                                                 records[q.b][0].klass)]
+        stepping += junction_steps(records, pairs, mm_per_unit, FORMED, MOVABLE_NEIGHBOURS)
         chosen = {name: held_record(pair, side, records, mm_per_unit, round_no, "strake.hold_steps (fit_up: follow)",
-                                    "held for a step (strake.hold_steps)")
-                  for name, (pair, side) in _cover(stepping, records, mm_per_unit).items()}
+                                    "held for a step (strake.hold_steps)", _meets(pair, side))
+                  for name, (pair, side) in _cover(stepping, records, mm_per_unit, set(report.hold_failed)).items()}
         if not chosen:
             break
         held_parts = [by_name[name] for name in sorted(chosen)]
@@ -284,24 +285,35 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
                                       "class_after": honest_class(result), "edge": held["edge"],
                                       "neighbour": held["neighbour"], "step_mm": held["step_mm"],
                                       "edge_deviation_before_mm": held["edge_deviation_before_mm"],
-                                      "undone": was}
+                                      "undone": was, **({"junction": held["junction"]} if "junction" in held else {})}
         records = _records(plates, records, set(chosen))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     return records, pairs
 
 
-def _cover(stepping: list, records: dict, mm_per_unit: float) -> dict:
+def _meets(pair, side: tuple) -> str | None:
+    """How a held plate's record says it meets the other plate of a junction step (None: the
+    pair's shared edge)."""
+    if not isinstance(pair, JunctionStep):
+        return None
+    return (f"ends {2.0 * pair.step_max:.2f} mm from {side[3]}'s at formed plate {pair.formed}'s corner, which "
+            "takes between them")
+
+
+def _cover(stepping: list, records: dict, mm_per_unit: float, failed: set = frozenset()) -> dict:
     """{plate: (the worst stepping pair it was chosen to cover, its side of it)}: plates that
     hold one plate of every stepping pair they can, chosen greedily by stepping pairs covered
     per square metre of region (a plate between two stepping neighbours covers both pairs: the
-    steel a step costs is the held plate's share of flat or strip; ties to the name). A plate
-    whose region reports no area counts as 1 m2."""
+    steel a step costs is the held plate's share of flat or strip; ties to the name); none of
+    the ``failed`` ones (held before, their development failed). A plate whose region reports
+    no area counts as 1 m2."""
     from .repair import holdable_sides
 
     options: dict = {}
     for index, pair in enumerate(stepping):
         for side in holdable_sides(pair, records, mm_per_unit):
-            options.setdefault(side[1], []).append((index, pair, side))
+            if side[1] not in failed:
+                options.setdefault(side[1], []).append((index, pair, side))
     area = {name: float((records[name][1].hull.result.figures.get("region") or {}).get("area_m2") or 1.0)
             for name in options}
     left, chosen = set(range(len(stepping))), {}

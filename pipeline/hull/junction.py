@@ -16,6 +16,7 @@ still meets its own neighbour: sent between them, both would step where now neit
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
@@ -87,3 +88,57 @@ def junction_moves(corners: np.ndarray, reach: np.ndarray, plates: list, neighbo
             found[k], targets[k] = radius <= 0.5 * reach[k], centre
     return found, np.where(found[:, None], targets, 0.0)
 
+
+@dataclass(frozen=True)
+class JunctionStep:
+    """Two flat or strip plates that share no edge but both share one with a formed plate,
+    whose edges end at its corner further apart than twice the step limit: the formed corner
+    between them (:func:`junction_moves`) steps from each by more than the limit. Read as a
+    stepping pair by :func:`.follow._hold_stepping` (holding either plate takes the step)."""
+
+    a: str
+    b: str
+    side_a: str  # the edge of plate a it shares with the formed plate ...
+    side_b: str  # ... and of plate b
+    step_max: float  # mm: half the ends' distance, what the formed corner steps from each
+    limit: float  # mm: the smaller of the two edges' step limits
+    formed: str  # the formed plate at whose corner they part
+    label: str = "junction"
+    mismatch: float = 0.0  # no shared edge, no developed lengths to compare
+
+
+def junction_steps(records: dict, pairs: list, mm: float, formed: str = "formed",
+                   movable: tuple = ("flat", "developable")) -> list:
+    """[JunctionStep] of the shell's formed plates' corners (the ends of their edges) whose
+    flat or strip neighbours' edges (``pairs``: the shared edges) end within reach of it (twice
+    the fit tolerance) and more than twice the step limit apart (mm per model unit ``mm``),
+    the worst per pair of plates. ``records``: {plate: (PlateEdges, part)}."""
+    around: dict = {}
+    for q in pairs:
+        for me, other, side in ((q.a, q.b, q.side_b), (q.b, q.a, q.side_a)):
+            if records[me][0].klass == formed and records[other][0].klass in movable:
+                around.setdefault(me, []).append((other, side, q.limit))
+    paired = {frozenset((q.a, q.b)) for q in pairs}
+    worst: dict = {}
+    for name, neighbours in sorted(around.items()):
+        edges, part = records[name]
+        reach = 2.0 * part.hull.fit_tolerance
+        corners = np.array([p for edge in edges.edges for p in (edge.points3[0], edge.points3[-1])])
+        for (a, side_a, limit_a), (b, side_b, limit_b) in combinations(sorted(neighbours), 2):
+            if a == b or frozenset((a, b)) in paired:
+                continue
+            ends_a, ends_b = (records[n][0].edge(s) for n, s in ((a, side_a), (b, side_b)))
+            if ends_a is None or ends_b is None:
+                continue
+            ends_a, ends_b = ends_a.points3[[0, -1]], ends_b.points3[[0, -1]]
+            for corner in corners:
+                near_a = ends_a[np.linalg.norm(ends_a - corner, axis=1) <= reach]
+                near_b = ends_b[np.linalg.norm(ends_b - corner, axis=1) <= reach]
+                if not len(near_a) or not len(near_b):
+                    continue
+                spread = float(np.linalg.norm(near_a[:, None] - near_b[None], axis=2).min()) * mm
+                limit = min(limit_a, limit_b)
+                key = (a, b)
+                if 0.5 * spread > limit and 0.5 * spread > (worst[key].step_max if key in worst else 0.0):
+                    worst[key] = JunctionStep(a, b, side_a, side_b, 0.5 * spread, limit, name)
+    return [worst[key] for key in sorted(worst)]

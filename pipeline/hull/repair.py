@@ -146,19 +146,22 @@ def holdable_sides(pair, records: dict, mm: float) -> list:
 
 
 def held_record(pair, side: tuple, records: dict, mm: float, round_no: int,
-                rule: str = "strake.fit_up: repair", why_held: str = "fit-up repair") -> dict:
+                rule: str = "strake.fit_up: repair", why_held: str = "fit-up repair", meets: str | None = None) -> dict:
     """What ``part.hull.held`` says of a plate held for the pair (``side``: its entry of
     :func:`holdable_sides`): why, and the edge limit a plate held the first time may keep
-    its flat or strip development within."""
+    its flat or strip development within. ``meets``: how its edge meets the other plate's,
+    said before the step (default: it meets the other plate's edge with it)."""
     off, name, label, other, klass = side
     stepped = pair.step_max > pair.limit
     why = (f"step {pair.step_max:.2f} mm (limit {pair.limit:.2f} mm)" if stepped else
            f"developed lengths differ by {pair.mismatch:.2f} mm")
+    meets = meets or f"meets {other}'s with"
     held = {"rule": rule, "round": round_no, "class_before": klass,
             "edge_deviation_before_mm": off, "edge": label, "neighbour": other, "step_mm": pair.step_max,
             "step_limit_mm": pair.limit,
-            "reason": f"{why_held}: its {klass} edge {label} lies {off:.2f} mm off the hull and meets "
-                      f"{other}'s with a {why}"}
+            "reason": f"{why_held}: its {klass} edge {label} lies {off:.2f} mm off the hull and {meets} a {why}"}
+    if getattr(pair, "formed", None):  # a junction step: the formed plate at whose corner the two part
+        held["junction"] = pair.formed
     if not records[name][1].hull.held and (klass == "flat" or stepped):
         # a plate held the first time first tries what keeps its edges nearest the hull, a
         # flat one the plane that does, an interior one the strip between its seams (they
