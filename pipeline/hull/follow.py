@@ -553,11 +553,17 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     found, targets = junction_moves(points, np.array(reach), plates, neighbours, np.array(ends), owners)
     move = targets[found] - points[found]
     size = np.linalg.norm(move, axis=1)
-    move *= np.minimum(1.0, tolerance[found] / np.maximum(size, 1e-300))[:, None]
+    move = _capped(move, size, tolerance[found])
     where = index[found]
     fixed[where] = True
     value[where] = move
     best[where] = np.minimum(size, tolerance[found])
+
+
+def _capped(move: np.ndarray, size: np.ndarray, tolerance) -> np.ndarray:
+    """Moves (N, 3) of lengths ``size`` (N,) each shortened to the tolerance (a formed plate
+    stays within it of the hull)."""
+    return move * np.minimum(1.0, tolerance / np.maximum(size, 1e-300))[:, None]
 
 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,
@@ -596,7 +602,7 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     taken = np.where(corner[mine], apart <= corner_reach,
                      inside & (plate.codes[mine] == CODES[side]) & (apart <= reach))
     move, size = share * (feet - points), share * apart
-    move *= np.minimum(1.0, hull.fit_tolerance / np.maximum(size, 1e-300))[:, None]
+    move = _capped(move, size, hull.fit_tolerance)
     where = offset + plate.ring[mine]
     better = taken & (size < best[where])
     fixed[where[better]] = True
