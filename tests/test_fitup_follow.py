@@ -7,6 +7,7 @@ of their planes but 3.5-4.5 mm off the hull at their edges. One of them develope
 (a formed plate) steps from its two flat neighbours by their distance from the hull; formed
 to meet them, it does not, and it stays within the tolerance of the hull."""
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -324,7 +325,11 @@ def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=Non
         return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
 
     monkeypatch.setattr(follow, "_grid_ring", ring_of)
-    hulls = {name: SimpleNamespace(fit_tolerance=5.0 / unit) for name in ("L", "R", "F", "B")}
+    def plane_at(z_mm):  # each plate's hull is its own plane (the faces that disagree)
+        return lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2] - z_mm / unit)
+
+    hulls = {name: SimpleNamespace(fit_tolerance=5.0 / unit, distance=plane_at(gap if name == "R" else 0.0))
+             for name in ("L", "R", "F", "B")}
     y, x = np.meshgrid(np.arange(5) * 500.0, np.arange(6) * 500.0, indexing="ij")
     left = np.stack([x, y, np.zeros_like(x)], axis=-1) / unit
     right = np.stack([x + 2500.0, y, np.full_like(x, gap)], axis=-1) / unit
@@ -385,6 +390,32 @@ def test_a_flat_neighbour_holds_its_corner_against_the_halfway_move(monkeypatch)
     assert np.allclose(moves["R"][1:, 0], [0.0, 0.0, -3.0], atol=1e-9)
     assert np.allclose(moves["R"][0, 0], [0.0, 0.0, -5.0], atol=1e-9)
     assert np.allclose(grids["R"].points[0, 0] + moves["R"][0, 0], grids["L"].points[0, -1] + moves["L"][0, -1])
+
+
+@pytest.mark.parametrize("unit", [1.0, 1000.0])
+@pytest.mark.parametrize("along, lift, left_mm", [(3.0, 4.75, 0.0), (0.0, 7.0, 2.0), (12.0, 1.0, np.hypot(12.0, 1.0) - 10.0)])
+def test_a_formed_plate_meets_a_neighbour_off_the_hull_within_the_tolerance_of_it(monkeypatch, unit, along, lift,
+                                                                                   left_mm):
+    # a flat neighbour's edge 4.75 mm above the hull (the plane z = 0) and 3 mm along it,
+    # outwards: 5.6 mm from the formed plate's seam, but within the 5 mm tolerance of the
+    # hull, so the seam goes all the way onto it (shortened to 5 mm, as the moves were before,
+    # it stepped 0.6 mm); 7 mm above, the seam goes up to the tolerance and steps 2 mm; 12 mm
+    # along (1 mm above) it slides at most twice the tolerance, 10 mm of the 12.04
+    from pipeline.hull.follow import _within_tolerance, shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 0.0, unit, flat_lift=0.0)
+    edge = records["F"][0].edge("seam1")
+    shifted = edge.points3 + np.array([0.0, -along, lift]) / unit
+    records["F"] = (SimpleNamespace(klass="flat", edge=lambda s: dataclasses.replace(edge, points3=shifted)
+                                    if s == "seam1" else None), records["F"][1])
+    moves = shell_moves(grids, pairs, records, unit)
+    seam = grids["L"].points[0, 1:-1] + moves["L"][0, 1:-1]
+    gap = np.linalg.norm(seam - shifted[1:-1], axis=1) * unit
+    assert np.allclose(gap, left_mm, atol=1e-9)
+    assert np.abs(seam[:, 2]).max() * unit <= 5.0 + 1e-9  # within the tolerance of the hull
+    _, off = _within_tolerance(grids["L"].points, moves["L"], grids["L"].hull)
+    slid = lift * min(1.0, 10.0 / np.hypot(along, lift))  # the move shortened to twice the tolerance
+    assert off * unit <= 5.0 + 1e-9 and off * unit == pytest.approx(min(slid, 5.0))
 
 
 @pytest.mark.parametrize("unit", [1.0, 1000.0])

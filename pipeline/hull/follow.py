@@ -17,8 +17,10 @@ developed by more than the limit (two faces that disagree where a plan cut them)
 joined but each formed to meet the other halfway, at most the tolerance, where no flat or
 strip neighbour holds the point; the shell's free edges stay on the hull. The blend takes its largest value where it is
 given (maximum principle), so every formed plate stays within the tolerance of the hull
-wherever its flat and strip neighbours do; a move larger than the tolerance is shortened to
-it. Where two flat or strip plates that step from each other meet at a corner of formed
+wherever its flat and strip neighbours do; a move that would end further from the hull than
+the tolerance is shortened to end at it (the tolerance bounds the plate's distance from the
+hull, not how far it moves along it: a move is at most twice it), and a plate whose blended
+moves leave the hull further anywhere is moved less as a whole (:func:`_within_tolerance`). Where two flat or strip plates that step from each other meet at a corner of formed
 plates, each formed plate meets its own flat neighbour there, so the formed plates' shared
 edge takes the flat plates' step at its end, and within a grid cell or two no longer (the
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
@@ -63,6 +65,7 @@ AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more
                  "from those neighbours than its plane did, else flat as before; the joint programme then places the "
                  "plates as they are")
 MOVABLE_NEIGHBOURS = ("flat", "developable")  # the neighbours a formed plate is formed to meet
+SLIDE = 2.0  # a formed plate's point moves at most this many fit tolerances (within one of the hull)
 SHARES = (1.0, 0.75, 0.5, 0.25)  # of a strip's joint move, tried in turn until the plate stays within its tolerance
 CODES = {"seam0": 0, "seam1": 1, "butt0": 2, "butt1": 3}
 HOLD_ROUNDS = 2  # hold, evaluate, measure again: a plate held twice is developed on the hull
@@ -172,20 +175,37 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         if size.max() <= 1e-6 * by_name[name].hull.fit_tolerance:
             continue
         part = by_name[name]
-        offsets = _welded(grids[name].points, offsets)
+        offsets, off = _within_tolerance(grids[name].points, _welded(grids[name].points, offsets), part.hull)
         size = np.linalg.norm(offsets, axis=2)
         neighbours = sorted({q.b if q.a == name else q.a for q in pairs if name in (q.a, q.b)
                              and records[q.b if q.a == name else q.a][0].klass in MOVABLE_NEIGHBOURS})
         largest = float(size.max()) * mm_per_unit
         part.hull.follow = {"offsets": offsets, "neighbours": neighbours, "largest_move_mm": largest,
-                            "verdict": formed_verdict(part.hull.result)}
+                            "largest_distance_mm": off * mm_per_unit, "verdict": formed_verdict(part.hull.result)}
         part.hull.result = None
-        report.moved[name] = {"largest_move_mm": largest, "neighbours": neighbours}
+        report.moved[name] = {"largest_move_mm": largest, "largest_distance_mm": off * mm_per_unit,
+                              "neighbours": neighbours}
         moved.append(part)
     if moved:
         for part, result in zip(moved, evaluate_many(moved)):
             part.hull.result = result
     return report
+
+
+def _within_tolerance(points: np.ndarray, offsets: np.ndarray, hull) -> tuple[np.ndarray, float]:
+    """The plate's moves (R, C, 3) scaled down where the moved grid would leave the hull by
+    more than the fit tolerance, and the moved grid's largest distance from the hull (model
+    units). Every given move ends within the tolerance (:func:`_held`) and the blend of them
+    stays within their largest along the hull's normal where the hull bends little over a
+    plate; where it bends more, the whole field is scaled (the distance is about linear in
+    it: the grid lies on the hull)."""
+    distance = hull_distance(hull)
+    flat = points.reshape(-1, 3)
+    off = float(distance(flat + offsets.reshape(-1, 3)).max())
+    if off > hull.fit_tolerance:
+        offsets = offsets * (hull.fit_tolerance / off)
+        off = float(distance(flat + offsets.reshape(-1, 3)).max())
+    return offsets, off
 
 
 def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
@@ -464,7 +484,8 @@ SIDES_BY_CODE = {code: side for side, code in CODES.items()}
 
 def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> dict:
     """{formed plate: moves (R, C, 3), model units} of every formed plate's region grid: its
-    edge points on a flat or strip neighbour's edge moved onto it (at most the fit tolerance),
+    edge points on a flat or strip neighbour's edge moved onto it (ending within the fit
+    tolerance of the hull, :func:`_held`),
     those on a formed neighbour's edge that steps from it over the limit as developed moved
     halfway to it where no flat or strip neighbour holds them, the shell's free edges still, and the
     discrete Laplace equation everywhere else, over all the formed plates' grids joined at
@@ -523,7 +544,8 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     one point each (:func:`.junction.junction_moves`), in place of what one edge's end claimed
     for them (:func:`_anchor`): two flat or strip corners a few millimetres apart at one
     junction would otherwise leave a formed plate stepping by the whole spread from one of
-    them, or two formed plates from each other. Each move at most the tolerance."""
+    them, or two formed plates from each other. Each move ends within the tolerance of the
+    hull (:func:`_held`)."""
     ends, owners = [], []
     for name, (edges, _) in records.items():
         if edges.klass in MOVABLE_NEIGHBOURS:
@@ -553,17 +575,46 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     found, targets = junction_moves(points, np.array(reach), plates, neighbours, np.array(ends), owners)
     move = targets[found] - points[found]
     size = np.linalg.norm(move, axis=1)
-    move = _capped(move, size, tolerance[found])
+    owner = np.array(plates)[found]
+    for name in np.unique(owner):
+        mine = owner == name
+        move[mine] = _held(points[found][mine], move[mine], grids[name].hull)
     where = index[found]
     fixed[where] = True
     value[where] = move
     best[where] = np.minimum(size, tolerance[found])
 
 
-def _capped(move: np.ndarray, size: np.ndarray, tolerance) -> np.ndarray:
-    """Moves (N, 3) of lengths ``size`` (N,) each shortened to the tolerance (a formed plate
-    stays within it of the hull)."""
-    return move * np.minimum(1.0, tolerance / np.maximum(size, 1e-300))[:, None]
+def _held(points: np.ndarray, move: np.ndarray, hull) -> np.ndarray:
+    """Moves (N, 3) of hull points (N, 3) shortened so that each ends within the fit
+    tolerance of the hull (a formed plate stays within it) and is at most SLIDE tolerances
+    long. The tolerance bounds the distance from the hull, not the move: a strip placed by
+    the joint programme lies up to 0.95 of it off the hull and up to all of it along the
+    hull, so its edge can lie 1.4 tolerances from the formed plate's edge point it meets
+    while within the tolerance of the hull (a move shortened to the tolerance left KCS's
+    and KVLCC2's formed plates stepping 3-5 mm from strips there)."""
+    tolerance = hull.fit_tolerance
+    size = np.linalg.norm(move, axis=1)
+    move = move * np.minimum(1.0, SLIDE * tolerance / np.maximum(size, 1e-300))[:, None]
+    off = hull_distance(hull)(points + move)
+    # the points lie on the hull, so a move's distance from it is about its normal part
+    return move * np.minimum(1.0, tolerance / np.maximum(off, 1e-300))[:, None]
+
+
+def hull_distance(hull):
+    """Distances (N,) of points (N, 3) from the plate's own surface: the plan's shared
+    distance restricted to it (a plan of several faces measures against the nearest face, and
+    where two faces disagree a plate formed toward the other would pass for on the hull)."""
+    from flatten.closest import CONVERGED, SurfaceDistance
+
+    shared = hull.distance
+    surfaces = getattr(shared, "surfaces", None)
+    if shared is not None and surfaces is None:
+        return shared  # a distance function of the plate's own hull
+    k = next((i for i, s in enumerate(surfaces or ()) if s is hull.surface), None)
+    if k is None:
+        return SurfaceDistance(hull.surface)
+    return lambda points: shared.closest(points, k, converged=CONVERGED)[1]
 
 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,
@@ -575,7 +626,8 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     within ``corner_reach`` (default twice the tolerance: its end, the neighbour's corner, up
     to the tolerance off the hull and along it), and moved to the edge's end itself when that
     end is within ``corner_reach`` (a junction of plates); ``share`` of the way (a half: two formed
-    plates meeting halfway), each move shortened to the tolerance; the smaller claim where two
+    plates meeting halfway), each move ending within the tolerance of the hull (:func:`_held`);
+    the smaller claim where two
     neighbours claim a point."""
     if edge is None:
         return
@@ -602,7 +654,7 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     taken = np.where(corner[mine], apart <= corner_reach,
                      inside & (plate.codes[mine] == CODES[side]) & (apart <= reach))
     move, size = share * (feet - points), share * apart
-    move = _capped(move, size, hull.fit_tolerance)
+    move = _held(points, move, hull)
     where = offset + plate.ring[mine]
     better = taken & (size < best[where])
     fixed[where[better]] = True

@@ -610,11 +610,12 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         {"class": kind, "max_deviation": info.get("plane_max_distance", 0.0), "max_strain": strains["max_abs_strain"],
          "area_3d_m2": area3, "complete": check["passed"]}, **info)
     if kind != "flat" and hull.follow:
-        move = hull.follow["largest_move_mm"] / mm
-        result.figures["hull_fit"] = {"max_distance": move, "tolerance": tol, "passed": bool(move <= tol),
+        off = hull.follow["largest_distance_mm"] / mm
+        result.figures["hull_fit"] = {"max_distance": off, "tolerance": tol, "passed": bool(off <= tol * (1 + 1e-9)),
                                       "note": "developed from the hull patch formed to meet its flat and strip "
                                               "neighbours' edges (strake.fit_up: follow): its 3D shape is the hull's "
-                                              "moved by at most max_distance; its error is the in-plane strain"}
+                                              "moved, max_distance from it at most (its grid measured); its error is "
+                                              "the in-plane strain"}
         result.figures["follow"] = {"neighbours": list(hull.follow["neighbours"]),
                                     "largest_move_mm": hull.follow["largest_move_mm"]}
     elif kind != "flat":
