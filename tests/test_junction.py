@@ -112,7 +112,50 @@ def test_two_flat_or_strip_neighbours_parting_at_a_formed_corner_are_a_junction_
 def test_no_junction_step_within_the_limit_between_neighbours_or_without_a_formed_plate():
     assert junction_steps(*_corner_of_three(4.0), 1.0) == []  # 2 mm from each, within 2.1
     records, pairs = _corner_of_three(6.0)
-    pairs.append(SimpleNamespace(a="A", b="B", side_a="butt0", side_b="seam0", limit=2.1))
-    assert junction_steps(records, pairs, 1.0) == []  # they share an edge: their own step says it
+    pairs.append(SimpleNamespace(a="A", b="B", side_a="butt0", side_b="seam0", limit=2.1, step_max=6.0))
+    assert junction_steps(records, pairs, 1.0) == []  # they share an edge that steps: its own step says it
     assert junction_steps(*_corner_of_three(6.0, klass_f="developable"), 1.0) == []
     assert junction_steps(*_corner_of_three(12.0), 1.0) == []  # out of reach (10 mm): no junction
+
+
+def _tee(short_b, unit=1.0):
+    # a formed plate F (x 0..2000, y 0..1000 mm) with two strips along its seam 0, A (x
+    # 0..1000) and B (x 1000..2000), sharing their butt at x = 1000 (within the limit: one
+    # line), B short of F's seam by short_b mm along it: F's seam is one curve, and the T
+    # where A's and B's ends part steps from one of them by half their distance at least
+    edge = {"F": {"seam0": [[0, 0, 0], [2000, 0, 0]]},
+            "A": {"seam1": [[0, 0, 0], [1000, 0, 0]], "butt1": [[1000, -1000, 0], [1000, 0, 0]]},
+            "B": {"seam1": [[1000, -short_b, 0], [2000, -short_b, 0]],
+                  "butt0": [[1000, -1000, 0], [1000, -short_b, 0]]}}
+    klass = {"F": "formed", "A": "developable", "B": "flat"}
+    records = {n: _plate(klass[n], {side: np.array(p, dtype=float) / unit for side, p in sides.items()}, 5.0 / unit)
+               for n, sides in edge.items()}
+    pairs = [SimpleNamespace(a="A", b="F", side_a="seam1", side_b="seam0", limit=2.1, step_max=0.0),
+             SimpleNamespace(a="B", b="F", side_a="seam1", side_b="seam0", limit=2.1, step_max=short_b),
+             SimpleNamespace(a="A", b="B", side_a="butt1", side_b="butt0", limit=2.1, step_max=0.0)]
+    return records, pairs
+
+
+@pytest.mark.parametrize("unit", [1.0, 1000.0])
+def test_two_neighbours_that_share_an_edge_and_part_along_a_formed_edge_are_a_junction_step(unit):
+    # B 6 mm short of A's end where their shared butt meets F's seam: F's seam, one curve
+    # through grid points each formed to meet one of them, steps from the other by up to the
+    # 6 mm, over the 2.1 mm limit; 2 mm short: within it, none
+    (step,) = junction_steps(*_tee(6.0, unit), unit)
+    assert (step.a, step.b, step.formed, step.where) == ("A", "B", "F", "edge")
+    assert step.step_max == pytest.approx(6.0) and step.limit == 2.1
+    assert junction_steps(*_tee(2.0, unit), unit) == []
+    records, pairs = _tee(12.0, unit)
+    assert junction_steps(records, pairs, unit) == []  # 12 mm: out of reach of each other, not one junction
+
+
+def test_a_neighbour_whose_edge_runs_past_a_formed_corner_meets_it_along_the_edge():
+    # the strip A along F's seam 0 runs 500 mm past F's corner (the butts of the two strakes
+    # staggered): its edge, not its end, meets the corner, 6 mm from B's end: a junction step
+    records, pairs = _corner_of_three(6.0)
+    records["A"] = _plate("developable", {"seam1": [[-500, 0, 0], [1000, 0, 0]]})
+    (step,) = junction_steps(records, pairs, 1.0)
+    assert (step.a, step.b, step.formed, step.where) == ("A", "B", "F", "corner")
+    assert step.step_max == pytest.approx(3.0)
+    records["A"] = _plate("developable", {"seam1": [[-500, 12, 0], [1000, 12, 0]]})
+    assert junction_steps(records, pairs, 1.0) == []  # 12 mm off the corner: out of reach

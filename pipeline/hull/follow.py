@@ -316,6 +316,9 @@ def _meets(pair, side: tuple) -> str | None:
     pair's shared edge)."""
     if not isinstance(pair, JunctionStep):
         return None
+    if pair.where == "edge":
+        return (f"ends {2.0 * pair.step_max:.2f} mm from {side[3]}'s, where the edge they share meets formed plate "
+                f"{pair.formed}'s, whose edge steps from one of them by up to that")
     return (f"ends {2.0 * pair.step_max:.2f} mm from {side[3]}'s at formed plate {pair.formed}'s corner, which "
             "takes between them")
 

@@ -91,19 +91,24 @@ def junction_moves(corners: np.ndarray, reach: np.ndarray, plates: list, neighbo
 
 @dataclass(frozen=True)
 class JunctionStep:
-    """Two flat or strip plates that share no edge but both share one with a formed plate,
-    whose edges end at its corner further apart than twice the step limit: the formed corner
-    between them (:func:`junction_moves`) steps from each by more than the limit. Read as a
-    stepping pair by :func:`.follow._hold_stepping` (holding either plate takes the step)."""
+    """Two flat or strip plates that both share an edge with a formed plate, whose edges end
+    further apart than twice the step limit: at its corner, where they share no edge (the
+    formed corner between them, :func:`junction_moves`, steps from each by more than the
+    limit), or along its edge where they share one that ends there and does not step itself
+    (a T: one of the two overshoots the other along their shared edge, and the formed plate's
+    edge, one curve through grid points each formed to meet one of them, steps from one by up
+    to their ends' whole distance: counted whole, over the limit). Read as
+    a stepping pair by :func:`.follow._hold_stepping` (holding either plate takes the step)."""
 
     a: str
     b: str
     side_a: str  # the edge of plate a it shares with the formed plate ...
     side_b: str  # ... and of plate b
-    step_max: float  # mm: half the ends' distance, what the formed corner steps from each
+    step_max: float  # mm: what the formed plate may step from one: half the ends' distance (a corner), all of it (a T)
     limit: float  # mm: the smaller of the two edges' step limits
-    formed: str  # the formed plate at whose corner they part
+    formed: str  # the formed plate at whose corner (or along whose edge) they part
     label: str = "junction"
+    where: str = "corner"  # "edge": the two share an edge that ends on the formed plate's (a T)
     mismatch: float = 0.0  # no shared edge, no developed lengths to compare
 
 
@@ -112,33 +117,69 @@ def junction_steps(records: dict, pairs: list, mm: float, formed: str = "formed"
     """[JunctionStep] of the shell's formed plates' corners (the ends of their edges) whose
     flat or strip neighbours' edges (``pairs``: the shared edges) end within reach of it (twice
     the fit tolerance) and more than twice the step limit apart (mm per model unit ``mm``),
-    the worst per pair of plates. ``records``: {plate: (PlateEdges, part)}."""
+    or whose edges run past it within that reach (their closest points count), and of two such
+    neighbours that share an edge within its limit (a T on the formed plate's edge) whose
+    edges along the formed plate end within reach of each other and more than the limit
+    apart; the worst per pair of plates. ``records``: {plate: (PlateEdges, part)}."""
     around: dict = {}
     for q in pairs:
         for me, other, side in ((q.a, q.b, q.side_b), (q.b, q.a, q.side_a)):
             if records[me][0].klass == formed and records[other][0].klass in movable:
                 around.setdefault(me, []).append((other, side, q.limit))
-    paired = {frozenset((q.a, q.b)) for q in pairs}
+    # the pairs that share an edge, with its step: one within the limit can still end apart
+    own = {}
+    for q in pairs:
+        key = frozenset((q.a, q.b))
+        own[key] = max(own.get(key, 0.0), float(getattr(q, "step_max", 0.0)))
     worst: dict = {}
     for name, neighbours in sorted(around.items()):
         edges, part = records[name]
         reach = 2.0 * part.hull.fit_tolerance
         corners = np.array([p for edge in edges.edges for p in (edge.points3[0], edge.points3[-1])])
         for (a, side_a, limit_a), (b, side_b, limit_b) in combinations(sorted(neighbours), 2):
-            if a == b or frozenset((a, b)) in paired:
-                continue
             ends_a, ends_b = (records[n][0].edge(s) for n, s in ((a, side_a), (b, side_b)))
-            if ends_a is None or ends_b is None:
+            if a == b or ends_a is None or ends_b is None:
                 continue
-            ends_a, ends_b = ends_a.points3[[0, -1]], ends_b.points3[[0, -1]]
-            for corner in corners:
-                near_a = ends_a[np.linalg.norm(ends_a - corner, axis=1) <= reach]
-                near_b = ends_b[np.linalg.norm(ends_b - corner, axis=1) <= reach]
-                if not len(near_a) or not len(near_b):
-                    continue
-                spread = float(np.linalg.norm(near_a[:, None] - near_b[None], axis=2).min()) * mm
-                limit = min(limit_a, limit_b)
-                key = (a, b)
+            line_a, line_b = ends_a.points3, ends_b.points3
+            ends_a, ends_b = line_a[[0, -1]], line_b[[0, -1]]
+            limit, key = min(limit_a, limit_b), (a, b)
+            if frozenset((a, b)) in own:
+                # a T: the edge the two share ends on the formed plate's edge, whose one point
+                # there cannot lie at both their ends (their own step, along their shared
+                # edge, may be nil where one overshoots the other along it)
+                if own[frozenset((a, b))] > limit:
+                    continue  # their own step says it
+                gap = float(np.linalg.norm(ends_a[:, None] - ends_b[None], axis=2).min())
+                # the formed edge's grid points near the T each meet one of the two (their
+                # closest claim, :func:`.follow._anchor`): between them it steps by up to the
+                # whole spread (3.2 mm for 5.5 on KVLCC2, 5.7 for 5.9 on KCS), so counted whole
+                spreads = [(2.0 * gap * mm, "edge")] if gap <= reach else []
+            else:
+                spreads = []
+                for corner in corners:
+                    near_a, near_b = (_near(ends, line, corner, reach) for ends, line in ((ends_a, line_a),
+                                                                                          (ends_b, line_b)))
+                    if len(near_a) and len(near_b):
+                        spreads.append((float(np.linalg.norm(near_a[:, None] - near_b[None], axis=2).min()) * mm,
+                                        "corner"))
+            for spread, where in spreads:  # a corner between them steps by half the spread
                 if 0.5 * spread > limit and 0.5 * spread > (worst[key].step_max if key in worst else 0.0):
-                    worst[key] = JunctionStep(a, b, side_a, side_b, 0.5 * spread, limit, name)
+                    worst[key] = JunctionStep(a, b, side_a, side_b, 0.5 * spread, limit, name, where=where)
     return [worst[key] for key in sorted(worst)]
+
+
+def _near(ends: np.ndarray, line: np.ndarray, corner: np.ndarray, reach: float) -> np.ndarray:
+    """The points (M, 3) of a neighbour's edge that meet a formed plate's corner: its ends
+    (2, 3) within ``reach`` of it, else, where the corner lies along the edge (staggered butts
+    a few centimetres apart: the edge runs past the corner), the edge's (polyline ``line``,
+    (N, 3)) closest point to it when within reach."""
+    near = ends[np.linalg.norm(ends - corner, axis=1) <= reach]
+    if len(near):
+        return near
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    f = np.clip(np.einsum("ij,ij->i", corner - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    feet = a + f[:, None] * ab
+    gaps = np.linalg.norm(feet - corner, axis=1)
+    k = int(np.argmin(gaps))
+    return feet[k:k + 1] if gaps[k] <= reach else feet[:0]
