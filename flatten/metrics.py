@@ -39,6 +39,18 @@ def polyline_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
 
 
+def closest_on_polyline(point: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, float]:
+    """The closest point (3,) of a polyline (N, 3) to a point (3,), and its distance."""
+    if len(polyline) < 2:
+        return polyline[0].copy(), float(np.linalg.norm(polyline[0] - point))
+    a, ab = polyline[:-1], np.diff(polyline, axis=0)
+    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    feet = a + t[:, None] * ab
+    gaps = np.linalg.norm(feet - point, axis=1)
+    k = int(np.argmin(gaps))
+    return feet[k], float(gaps[k])
+
+
 def distortion(vertices3d: np.ndarray, flat: np.ndarray, m: int, c: NurbsCurve, d: NurbsCurve,
                rulings: np.ndarray, chunk: int = CHUNK_RULINGS) -> dict:
     """Figures of the flat strip against the 3D one.

@@ -316,8 +316,8 @@ def _meets(pair, side: tuple) -> str | None:
     pair's shared edge)."""
     if not isinstance(pair, JunctionStep):
         return None
-    if pair.where == "edge":
-        return (f"ends {2.0 * pair.step_max:.2f} mm from {side[3]}'s, where the edge they share meets formed plate "
+    if pair.where == "edge":  # a T: the step counted is the ends' whole distance
+        return (f"ends {pair.step_max:.2f} mm from {side[3]}'s, where the edge they share meets formed plate "
                 f"{pair.formed}'s, whose edge steps from one of them by up to that")
     return (f"ends {2.0 * pair.step_max:.2f} mm from {side[3]}'s at formed plate {pair.formed}'s corner, which "
             "takes between them")
@@ -450,6 +450,7 @@ class _PlateGrid:
 
     def __init__(self, name: str, points: np.ndarray, hull):
         self.name, self.points, self.hull = name, points, hull
+        self.distance = hull_distance(hull)  # resolved once: every anchor of the plate measures with it
         rows, cols = points.shape[:2]
         self.ring, self.codes = _grid_ring(points, hull, hull.fit_tolerance)
         idx = np.arange(rows * cols).reshape(rows, cols)
@@ -581,25 +582,26 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     owner = np.array(plates)[found]
     for name in np.unique(owner):
         mine = owner == name
-        move[mine] = _held(points[found][mine], move[mine], grids[name].hull)
+        plate = grids[name]
+        move[mine] = _held(points[found][mine], move[mine], plate.hull.fit_tolerance, plate.distance)
     where = index[found]
     fixed[where] = True
     value[where] = move
     best[where] = np.minimum(size, tolerance[found])
 
 
-def _held(points: np.ndarray, move: np.ndarray, hull) -> np.ndarray:
+def _held(points: np.ndarray, move: np.ndarray, tolerance: float, distance) -> np.ndarray:
     """Moves (N, 3) of hull points (N, 3) shortened so that each ends within the fit
     tolerance of the hull (a formed plate stays within it) and is at most SLIDE tolerances
     long. The tolerance bounds the distance from the hull, not the move: a strip placed by
     the joint programme lies up to 0.95 of it off the hull and up to all of it along the
     hull, so its edge can lie 1.4 tolerances from the formed plate's edge point it meets
     while within the tolerance of the hull (a move shortened to the tolerance left KCS's
-    and KVLCC2's formed plates stepping 3-5 mm from strips there)."""
-    tolerance = hull.fit_tolerance
+    and KVLCC2's formed plates stepping 3-5 mm from strips there). ``distance``: the plate's
+    :func:`hull_distance`."""
     size = np.linalg.norm(move, axis=1)
     move = move * np.minimum(1.0, SLIDE * tolerance / np.maximum(size, 1e-300))[:, None]
-    off = hull_distance(hull)(points + move)
+    off = distance(points + move)
     # the points lie on the hull, so a move's distance from it is about its normal part
     return move * np.minimum(1.0, tolerance / np.maximum(off, 1e-300))[:, None]
 
@@ -657,7 +659,7 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     taken = np.where(corner[mine], apart <= corner_reach,
                      inside & (plate.codes[mine] == CODES[side]) & (apart <= reach))
     move, size = share * (feet - points), share * apart
-    move = _held(points, move, hull)
+    move = _held(points, move, hull.fit_tolerance, plate.distance)
     where = offset + plate.ring[mine]
     better = taken & (size < best[where])
     fixed[where[better]] = True

@@ -21,6 +21,8 @@ from itertools import combinations
 
 import numpy as np
 
+from flatten.metrics import closest_on_polyline
+
 JUNCTION_RULE = ("a formed plate's corner within reach (twice the fit tolerance) of the ends of its flat or strip "
                  "neighbours' edges (a junction) is moved to the centre of the smallest ball holding those ends; a "
                  "formed corner with no flat or strip neighbour there to where its formed neighbours' corners go")
@@ -153,18 +155,18 @@ def junction_steps(records: dict, pairs: list, mm: float, formed: str = "formed"
                 # the formed edge's grid points near the T each meet one of the two (their
                 # closest claim, :func:`.follow._anchor`): between them it steps by up to the
                 # whole spread (3.2 mm for 5.5 on KVLCC2, 5.7 for 5.9 on KCS), so counted whole
-                spreads = [(2.0 * gap * mm, "edge")] if gap <= reach else []
-            else:
-                spreads = []
+                steps = [(gap * mm, "edge")] if gap <= reach else []
+            else:  # the formed corner between them steps by half their spread from each
+                steps = []
                 for corner in corners:
                     near_a, near_b = (_near(ends, line, corner, reach) for ends, line in ((ends_a, line_a),
                                                                                           (ends_b, line_b)))
                     if len(near_a) and len(near_b):
-                        spreads.append((float(np.linalg.norm(near_a[:, None] - near_b[None], axis=2).min()) * mm,
-                                        "corner"))
-            for spread, where in spreads:  # a corner between them steps by half the spread
-                if 0.5 * spread > limit and 0.5 * spread > (worst[key].step_max if key in worst else 0.0):
-                    worst[key] = JunctionStep(a, b, side_a, side_b, 0.5 * spread, limit, name, where=where)
+                        steps.append((0.5 * float(np.linalg.norm(near_a[:, None] - near_b[None], axis=2).min()) * mm,
+                                      "corner"))
+            for step, where in steps:
+                if step > limit and step > (worst[key].step_max if key in worst else 0.0):
+                    worst[key] = JunctionStep(a, b, side_a, side_b, step, limit, name, where=where)
     return [worst[key] for key in sorted(worst)]
 
 
@@ -176,10 +178,5 @@ def _near(ends: np.ndarray, line: np.ndarray, corner: np.ndarray, reach: float) 
     near = ends[np.linalg.norm(ends - corner, axis=1) <= reach]
     if len(near):
         return near
-    a, b = line[:-1], line[1:]
-    ab = b - a
-    f = np.clip(np.einsum("ij,ij->i", corner - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
-    feet = a + f[:, None] * ab
-    gaps = np.linalg.norm(feet - corner, axis=1)
-    k = int(np.argmin(gaps))
-    return feet[k:k + 1] if gaps[k] <= reach else feet[:0]
+    foot, gap = closest_on_polyline(corner, line)
+    return foot[None] if gap <= reach else near

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
+from flatten.metrics import closest_on_polyline
 from flatten.surface import NurbsSurface, nurbs_surface
 
 SECTION_GRID = 161  # samples per parameter direction of a face for its sections
@@ -197,11 +198,7 @@ def _chain_from(pieces, k: int, side: int, join: float):
 
 def _to_polyline(point: np.ndarray, polyline: np.ndarray) -> float:
     """Distance of a point (3,) to a polyline (N, 3)."""
-    if len(polyline) < 2:
-        return float(np.linalg.norm(polyline[0] - point))
-    a, ab = polyline[:-1], np.diff(polyline, axis=0)
-    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
-    return float(np.linalg.norm(a + t[:, None] * ab - point, axis=1).min())
+    return closest_on_polyline(point, polyline)[1]
 
 
 def _reversed(chain: np.ndarray, starts: list) -> tuple[np.ndarray, list]:
