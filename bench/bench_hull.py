@@ -4,7 +4,8 @@ plan, iso-parameter or least-curvature seams.
 
     python bench/bench_hull.py [--hulls hull160 dtmb5415 kvlcc2 kcs] [--methods uniform adaptive]
                                [--seams iso least_curvature] [--objectives none weld1.5 ...]
-                               [--fit-up report follow follow_hold repair] [--jobs N] [--out DIR]
+                               [--fit-up report follow follow_pull follow_pull_hold follow_hold repair]
+                               [--jobs N] [--out DIR]
 
 Per hull, method and seams: plates, shares of the shell area (plate regions inside the IGES
 trims) per class, delivered complete: flat, strip (devflat's strip between the plate's seams
@@ -19,8 +20,10 @@ Fit-up (pipeline/hull/fitup.py): shell covered and covered twice (% of the shell
 length mismatch of flat/strip neighbours' shared edges (p95 / max mm), step between
 neighbours' 3D edges (p95 / max mm) and the number of shared edges stepping over 3 mm, per
 ``strake.fit_up`` of ``--fit-up`` (report: as planned; follow: the formed plates formed to meet
-their flat and strip neighbours; follow_hold: follow with strake.hold_steps, the flat or strip
-pairs it leaves stepping held on the hull; repair: misfit plates developed on the hull), each
+their flat and strip neighbours; follow_pull: follow with strake.pull_steps, the flat or strip
+pairs it leaves stepping pulled together at erection; follow_hold: follow with
+strake.hold_steps, those pairs held on the hull; follow_pull_hold: both, the pulls first;
+repair: misfit plates developed on the hull), each
 after the same plan (its plates come from the cache).
 
 Objectives (``plan.objective``, adaptive plans only): ``none`` (split every misfit plate),
@@ -89,8 +92,9 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     data["strake"]["plan"]["seams"] = seams
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
-    data["strake"]["fit_up"] = "follow" if fit_up == "follow_hold" else fit_up
-    data["strake"]["hold_steps"] = fit_up == "follow_hold"
+    data["strake"]["fit_up"] = "follow" if fit_up.startswith("follow") else fit_up
+    data["strake"]["hold_steps"] = fit_up.endswith("_hold")
+    data["strake"]["pull_steps"] = "_pull" in fit_up
     for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
         for key in ("iges", "model"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
             if key in source:
@@ -232,7 +236,7 @@ def main(argv=None) -> int:
                         help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
     parser.add_argument("--objectives", nargs="+", default=["none"],
                         help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
-    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow", "follow_hold"],
+    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow", "follow_pull", "follow_pull_hold", "follow_hold"],
                         help="strake.fit_up of each run (the adaptive plan is evaluated once: its plates are cached)")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")

@@ -728,6 +728,16 @@ class StrakeSpec(_Strict):
                              "edges within half the limit of the hull, else developed on the hull: a formed plate, "
                              "which the forming then shapes to meet its neighbours); trades flat + strip share for "
                              "the steps. Off (default): such pairs are reported and left")
+    pull_steps: bool = Field(False, description="with fit_up: follow, the flat and strip plates that still step from "
+                             "a flat or strip neighbour by more than min(0.15 t, 3 mm) after their planes and places "
+                             "are chosen together are pulled together at erection (strongbacks and wedges): each by a "
+                             "smooth displacement of degree 2 in its in-plane coordinates, chosen together so that "
+                             "their shared edges meet along the normal, each keeping its lengths and drawn toward the "
+                             "hull, taken only as far as it stays within the fit tolerance of the hull, bends the "
+                             "plate to at most a quarter of its yield stress and stretches it at most 1e-4 (cut and "
+                             "rolled as developed, pulled elastically into place: class and share unchanged; "
+                             "pipeline.hull.pull); before hold_steps, which then holds what still steps. Off "
+                             "(default): not pulled")
     patch_spacing: float | None = Field(None, gt=0, description="mesh spacing of the hull patch of flat and formed "
                                         "plates (config units; default 200 mm)")
     scale: float = Field(1.0, gt=0, le=1e4, description="scale of the hull surfaces (a model-scale hull "
@@ -739,6 +749,9 @@ class StrakeSpec(_Strict):
             raise ValueError("a strake gives seams and butts, or a plan")
         if self.plan is not None and (self.seams is not None or self.butts is not None):
             raise ValueError("a strake gives either seams and butts or a plan, not both")
+        if self.pull_steps and self.fit_up != "follow":
+            raise ValueError(f"pull_steps: true pulls the plates that fit_up: follow leaves stepping, got fit_up: "
+                             f"{self.fit_up} (set fit_up: follow, or drop pull_steps)")
         if self.hold_steps and self.fit_up != "follow":
             raise ValueError(f"hold_steps: true holds the plates that fit_up: follow leaves stepping, got fit_up: "
                              f"{self.fit_up} (set fit_up: follow, or drop hold_steps)")

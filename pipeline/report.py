@@ -93,6 +93,8 @@ def part_report(result: PartResult, units: str) -> dict:
         report["follow"] = result.figures["follow"]
     if result.figures.get("rigid_move") is not None:  # a strip moved to meet its neighbours' edges
         report["rigid_move"] = result.figures["rigid_move"]
+    if result.figures.get("erection_pull") is not None:  # pulled at erection to meet its neighbours' edges
+        report["erection_pull"] = result.figures["erection_pull"]
     if result.figures.get("heating") is not None:  # formed steel plates (pipeline.shop.heating)
         report["heating"] = result.figures["heating"]
     return report

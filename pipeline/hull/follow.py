@@ -58,6 +58,7 @@ from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
 from .junction import JUNCTION_RULE, JunctionStep, junction_moves, junction_steps
 from .plateshop import formed_verdict
+from .pull import RULE as PULL_RULE
 
 FORMED = "formed"
 AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more than the limit is developed again "
@@ -100,6 +101,8 @@ class FollowReport:
     joint_error: str | None = None  # why the joint programme moved nothing, if it failed
     as_strips: dict = field(default_factory=dict)  # flat plate delivered as a strip -> {step_mm, neighbours, step_after_mm}
     kept_flat: dict = field(default_factory=dict)  # flat plate asked for as a strip that no strip fits -> why
+    pulled: dict = field(default_factory=dict)  # plate pulled at erection (strake.pull_steps) -> its pull's figures
+    pull_refused: dict = field(default_factory=dict)  # plate whose pull was refused -> why
     held: dict = field(default_factory=dict)  # plate held for a step (strake.hold_steps) -> its record and class after
     hold_failed: dict = field(default_factory=dict)  # plate whose held development failed (kept as it was) -> why
 
@@ -110,6 +113,8 @@ class FollowReport:
                 "moves_refused": self.refused, "strip_moves_shortened": self.shortened,
                 "joint_error": self.joint_error, "flats_as_strips_rule": AS_STRIP_RULE,
                 "flats_as_strips": self.as_strips, "kept_flat": self.kept_flat,
+                **({"pull_rule": PULL_RULE, "pulled": self.pulled, "pull_refused": self.pull_refused}
+                   if self.pulled or self.pull_refused else {}),
                 **({"hold_rule": HOLD_RULE, "held": self.held, "hold_failed": self.hold_failed}
                    if self.held or self.hold_failed else {}),
                 "untaken": [{"plates": [a, b], "edge": label, "step_max_mm": step}
@@ -120,6 +125,8 @@ class FollowReport:
                 f"delivered as strips, {len(self.planes)} flat plate(s) on planes "
                 f"and {len(self.strips)} strip(s) moved, chosen together, {len(self.moved)} formed plate(s) formed to "
                 f"meet their flat and strip neighbours, {len(self.untaken)} pair(s) of flat or strip plates left"
+                + (f" ({len(self.pulled)} flat or strip plate(s) pulled at erection, {len(self.pull_refused)} "
+                   f"refused)" if self.pulled or self.pull_refused else "")
                 + (f" ({len(self.held)} plate(s) held for their steps, {self._held_developable()} of them still flat "
                    f"or strips)" if self.held else "")
                 + (f" (the joint programme failed: {self.joint_error})" if self.joint_error else ""))
@@ -129,7 +136,8 @@ class FollowReport:
 
 
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
-                 joint: bool = True, strips: bool = True, as_strips: bool = True, hold: bool = False) -> FollowReport:
+                 joint: bool = True, strips: bool = True, as_strips: bool = True, hold: bool = False,
+                 pull: bool = False) -> FollowReport:
     """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates'
     planes and the strips' places first chosen together (:mod:`.joint`; ``joint=False``: each
     stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
@@ -140,7 +148,9 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     (:mod:`.rigid`); ``part.hull.result`` is its new result. First (``as_strips``), a flat
     plate that misfits a flat or strip neighbour is developed again as a strip
     (:func:`_flats_as_strips`). After the joint programme (``hold``), a pair of flat or strip
-    plates that still steps over the limit has a plate held on the hull (:func:`_hold_stepping`)."""
+    plates that still steps over the limit is pulled together at erection (``pull``,
+    :mod:`.pull`), and one that steps still has a plate held on the hull (``hold``,
+    :func:`_hold_stepping`)."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
@@ -157,6 +167,16 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates, records, set(report.planes) | set(report.strips))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    if pull:
+        from .pull import pull_stepping
+
+        results, report.pulled, report.pull_refused = pull_stepping(records, pairs, mm_per_unit, thickness_mm,
+                                                                    hull_distance)
+        if results:
+            for part in plates:
+                part.hull.result = results.get(part.name, part.hull.result)
+            records = _records(plates, records, set(results))
+            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     if hold:
         records, pairs = _hold_stepping(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
@@ -300,7 +320,8 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
             # what the joint programme or the flat-as-strip step made of it is gone with its development
             was = [what for what, entries in (("joint_plane", report.planes), ("strip_moved", report.strips),
                                               ("strip_move_shortened", report.shortened),
-                                              ("flat_as_strip", report.as_strips)) if entries.pop(part.name, None)]
+                                              ("flat_as_strip", report.as_strips),
+                                              ("erection_pull", report.pulled)) if entries.pop(part.name, None)]
             report.held[part.name] = {"round": round_no, "class_before": held["class_before"],
                                       "class_after": honest_class(result), "edge": held["edge"],
                                       "neighbour": held["neighbour"], "step_mm": held["step_mm"],

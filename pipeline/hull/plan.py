@@ -96,7 +96,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
 
             follow = follow_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
                                   float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
-                                  hold=spec.strake.hold_steps)
+                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps)
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
