@@ -66,6 +66,8 @@ ISOMETRY_EDGES = 400  # mesh edges a plate's stretch is held at
 TOWARD_HULL = 0.3  # weight of an edge point's pull onto the hull (against 1 for its meeting the neighbour)
 DEGREE = 2  # of the pull's polynomial in each in-plane coordinate
 PULLABLE = ("flat", "developable")
+FORMED = "formed"
+FORMED_HOLDS = 0.5  # weight of a formed neighbour's edge point (against 1 for a flat or strip neighbour's)
 RULE = ("pulled at erection (strake.pull_steps): the flat and strip plates that step from a flat or strip "
         "neighbour by more than the limit after the joint programme are pulled, each by a displacement of degree 2 "
         "in each of its in-plane coordinates, all chosen together by least squares so that every shared edge with a "
@@ -210,8 +212,13 @@ def solve_pulls(frames: dict, names: list, records: dict, pairs: list, mm_per_un
     column = system.column
     spacing = ROW_MM / mm_per_unit
     for q in pairs:
-        if (q.a not in column and q.b not in column) or any(records[n][0].klass not in PULLABLE for n in (q.a, q.b)):
+        kinds = [records[n][0].klass for n in (q.a, q.b)]
+        if (q.a not in column and q.b not in column) or any(k not in (*PULLABLE, FORMED) for k in kinds):
             continue
+        # a formed neighbour is formed afterwards to meet the pulled edge, but only within its
+        # own tolerance of the hull: its edge (on the hull as developed) holds the pulled one
+        # more weakly than a flat or strip neighbour's does
+        weight = FORMED_HOLDS if FORMED in kinds else 1.0
         ea, eb = records[q.a][0].edge(q.side_a), records[q.b][0].edge(q.side_b)
         if ea is None or eb is None:
             continue
@@ -223,16 +230,18 @@ def solve_pulls(frames: dict, names: list, records: dict, pairs: list, mm_per_un
                 continue
             p = dense_a.p3[inside]
             feet, _ = closest_on(p, dense_b)
-            n_a, n_b = frames[na].normal(p), frames[nb].normal(feet)
+            known = na if na in frames else nb
+            n_a = frames[na].normal(p) if na in frames else frames[known].normal(feet)
+            n_b = frames[nb].normal(feet) if nb in frames else n_a
             n_b = np.where(np.sum(n_a * n_b, axis=1)[:, None] < 0, -n_b, n_b)
             # they meet along the mean normal, each by its pull along its own normal: the steps
             # are misalignments through the plates, and where two plates meet at an angle a
             # slide in its own surface would close one at the cost of moving all its other edges
             d = n_a + n_b
             d /= np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
-            blocks = [(name, sign * frames[name].basis(at), np.sum(d * n, axis=1)[:, None] * n)
+            blocks = [(name, weight * sign * frames[name].basis(at), np.sum(d * n, axis=1)[:, None] * n)
                       for name, sign, at, n in ((na, -1.0, p, n_a), (nb, 1.0, feet, n_b)) if name in column]
-            system.add(blocks, -np.sum(d * (feet - p), axis=1))
+            system.add(blocks, -weight * np.sum(d * (feet - p), axis=1))
     for name in column:
         frame = frames[name]
         edges = records[name][0]
@@ -446,7 +455,7 @@ def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: 
         names = [n for n in names if n in frames]
         if not names:
             break
-        pulls = solve_pulls(frames, names, records, [q for q in pairs if q.a in frames and q.b in frames],
+        pulls = solve_pulls(frames, names, records, [q for q in pairs if q.a in frames or q.b in frames],
                             mm_per_unit, {n: base[n][1] for n in frames})
         changed = set()
         for name in names:
