@@ -731,7 +731,7 @@ class StrakeSpec(_Strict):
     pull_steps: bool = Field(False, description="with fit_up: follow, the flat and strip plates that still step from "
                              "a flat or strip neighbour by more than min(0.15 t, 3 mm) after their planes and places "
                              "are chosen together are pulled together at erection (strongbacks and wedges): each by a "
-                             "smooth displacement of degree 2 in its in-plane coordinates, chosen together so that "
+                             "smooth displacement of degree 3 in its in-plane coordinates, chosen together so that "
                              "their shared edges meet along the normal, each keeping its lengths and drawn toward the "
                              "hull, taken only as far as it stays within the fit tolerance of the hull, bends the "
                              "plate to at most a quarter of its yield stress and stretches it at most 1e-4 (cut and "

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from pipeline.hull.fitup import Edge, PlateEdges
 from pipeline.hull.pull import (
+    DEGREE,
     PULL_STRAIN,
     PullField,
     bending,
@@ -101,6 +102,14 @@ def test_two_flat_plates_that_step_are_pulled_to_meet_on_the_hull(monkeypatch, u
         assert check.distance_mm <= 0.5 * lift + 1e-6 and check.strain < PULL_STRAIN
 
 
+K = (DEGREE + 1) ** 2  # the pull's polynomial terms
+
+
+def _term(i: int, j: int = 0) -> int:
+    """The index of the term u^i v^j among the pull's K."""
+    return i * (DEGREE + 1) + j
+
+
 def _field(points: np.ndarray, coefficients: np.ndarray) -> PullField:
     """A pull in plain coordinates (u, v) = (x, y), model units, along +z normals."""
     return PullField(np.zeros(3), np.eye(3)[:2], np.zeros(2), np.ones(2), points,
@@ -115,10 +124,10 @@ def test_a_pull_bends_by_the_plane_strain_formula(unit, radius):
     # R = 50 m a 40 mm AH36 plate would carry 90.5 MPa, over a quarter of 355 MPa: three
     # quarters of the pull are taken (67.9 MPa)
     points, faces = _grid(11, 11, 100.0)
-    coefficients = np.zeros((9, 3))
-    coefficients[6, 2] = unit / (2.0 * radius)  # u^2
-    coefficients[3, 2] = -500.0 / radius  # u
-    coefficients[0, 2] = 125000.0 / (radius * unit)
+    coefficients = np.zeros((K, 3))
+    coefficients[_term(2), 2] = unit / (2.0 * radius)
+    coefficients[_term(1), 2] = -500.0 / radius
+    coefficients[_term(0), 2] = 125000.0 / (radius * unit)
     check = check_pull(points / unit, faces, (_field(points / unit, coefficients),), lambda p: np.zeros(len(p)),
                        5.0 / unit, 40.0, "AH36", unit)
     stress = E_STEEL / (1.0 - NU_STEEL ** 2) * 40.0 / (2.0 * radius)
@@ -137,14 +146,14 @@ def test_a_curved_plate_pulled_along_its_normals_stretches_and_is_refused(unit):
     points, faces = _grid(11, 11, 100.0)
     curved = _rolled(points, 2000.0) / unit
     radius, w = 2000.0 / unit, 4.0 / unit
-    inward = np.zeros((9, 3))  # u = w (-sin a, 0, cos a) to second order in x = R sin a
-    inward[3, 0] = -w / radius
-    inward[0, 2], inward[6, 2] = w, -w / (2.0 * radius ** 2)
+    inward = np.zeros((K, 3))  # u = w (-sin a, 0, cos a) to second order in x = R sin a
+    inward[_term(1), 0] = -w / radius
+    inward[_term(0), 2], inward[_term(2), 2] = w, -w / (2.0 * radius ** 2)
     check = check_pull(curved, faces, (_field(curved, inward),), lambda p: np.zeros(len(p)), 5.0 / unit, 14.0,
                        "AH36", unit)
     assert check.share == 0.0 and "stretches it by 0.002" in check.refused
-    shift = np.zeros((9, 3))
-    shift[0, 2] = w
+    shift = np.zeros((K, 3))
+    shift[_term(0), 2] = w
     check = check_pull(curved, faces, (_field(curved, shift),), lambda p: np.zeros(len(p)), 5.0 / unit, 14.0,
                        "AH36", unit)
     assert check.share == 1.0 and check.strain < 1e-12 and check.stress_mpa < 1e-6
@@ -182,9 +191,10 @@ def test_the_shoulder_plates_pulled_at_erection_meet_and_keep_their_developments
         assert plate["erection_pull"]["bending_stress_mpa"] <= 0.25 * 355.0
         assert plate["erection_pull"]["stretch"] <= PULL_STRAIN
         assert plate["hull_fit"]["max_distance"] <= 5.0 and plate["hull_fit"]["passed"]
-        # the OBJ is the plate as pulled: its vertices moved by up to the pull, not more
+        # the OBJ is the plate as pulled: its vertices moved by about the pull, not more (a flat
+        # plate's OBJ is its region on the hull, the pull measured on its plane: within 0.1 %)
         moved = _obj(outs["pull"] / f"{name}.obj") - _obj(outs["follow"] / f"{name}.obj")
-        assert 0.3 < np.linalg.norm(moved, axis=1).max() <= figures["largest_pull_mm"] + 1e-6
+        assert 0.3 < np.linalg.norm(moved, axis=1).max() <= 1.001 * figures["largest_pull_mm"]
 
 
 def _obj(path) -> np.ndarray:
