@@ -63,7 +63,7 @@ KEEP_STILL = 1.0  # ... and along it
 LEAST_BENDING = 1.0  # weight of the pull's bending (its sagittas over the plate), as of an edge point
 ISOMETRY_MM = 20000.0  # weight of a mesh edge's first-order stretch: 1e-4 weighs as 2 mm of an edge point's miss
 ISOMETRY_EDGES = 400  # mesh edges a plate's stretch is held at
-TOWARD_HULL = 0.3  # weight of an edge point's pull onto the hull (against 1 for its meeting the neighbour)
+TOWARD_HULL = 0.3  # weight of a point's pull onto the hull (against 1 for an edge point meeting its neighbour)
 DEGREE = 3  # of the pull's polynomial in each in-plane coordinate: a corner twisted, an edge bowed twice
 PULLABLE = ("flat", "developable")
 FORMED = "formed"
@@ -203,11 +203,13 @@ def solve_pulls(frames: dict, names: list, records: dict, pairs: list, mm_per_un
                 faces: dict) -> dict:
     """{plate: PullField} the pulls of the plates ``names`` chosen together (least squares):
     every shared edge in ``pairs`` between a plate pulled and a flat or strip plate
-    (``records``: {name: (PlateEdges, part)}) meets across the edge (along the mean normal
-    and in the surface), each plate's mesh (``faces``) keeps its lengths to first order
-    (ISOMETRY_MM), its edge points are drawn onto the hull along the normal (TOWARD_HULL) and
-    the pulls are kept short (KEEP_SHORT). ``frames``: a zero pull (:func:`plate_frame`) of
-    every plate pulled and of its flat and strip neighbours (their normals)."""
+    (``records``: {name: (PlateEdges, part)}) meets along the mean normal, each plate moving
+    along its own (a formed neighbour's edge holding at FORMED_HOLDS); each plate's mesh
+    (``faces``) keeps its lengths to first order (ISOMETRY_MM), its points are drawn onto
+    the hull along its normal (TOWARD_HULL) and its pull bends it little (LEAST_BENDING) and
+    moves it little, through it (KEEP_SHORT) and less along it (KEEP_STILL). ``frames``: a
+    zero pull (:func:`plate_frame`) of every plate pulled and of its flat and strip
+    neighbours (their normals)."""
     system = _Rows(names)
     column = system.column
     spacing = ROW_MM / mm_per_unit
@@ -253,15 +255,15 @@ def solve_pulls(frames: dict, names: list, records: dict, pairs: list, mm_per_un
         normal = frame.normal(ring)
         on_hull = hull_points(records[name][1].hull, ring)
         system.add([(name, TOWARD_HULL * frame.basis(ring), normal)], TOWARD_HULL * np.sum(normal * (on_hull - ring), axis=1))
-        first, second = _sample_edges(faces[name], ISOMETRY_EDGES)
-        chord = frame.anchors[second] - frame.anchors[first]
-        weight = (ISOMETRY_MM / mm_per_unit) / np.maximum(np.sum(chord * chord, axis=1), 1e-300)[:, None]
-        system.add([(name, frame.basis(frame.anchors[second]), weight * chord),
-                    (name, -frame.basis(frame.anchors[first]), weight * chord)], np.zeros(len(chord)))
+        start, end = _sample_edges(faces[name], ISOMETRY_EDGES)
+        chord = frame.anchors[end] - frame.anchors[start]
+        stiff = (ISOMETRY_MM / mm_per_unit) / np.maximum(np.sum(chord * chord, axis=1), 1e-300)[:, None]
+        system.add([(name, frame.basis(frame.anchors[end]), stiff * chord),
+                    (name, -frame.basis(frame.anchors[start]), stiff * chord)], np.zeros(len(chord)))
         normal = frame.normal(pick)
-        first = np.cross(normal, frame.axes[1])
-        first /= np.maximum(np.linalg.norm(first, axis=1), 1e-300)[:, None]
-        for along, weight in ((normal, KEEP_SHORT), (first, KEEP_STILL), (np.cross(normal, first), KEEP_STILL)):
+        along_u = np.cross(normal, frame.axes[1])
+        along_u /= np.maximum(np.linalg.norm(along_u, axis=1), 1e-300)[:, None]
+        for along, weight in ((normal, KEEP_SHORT), (along_u, KEEP_STILL), (np.cross(normal, along_u), KEEP_STILL)):
             # short through the plate, shorter along it: a slide along the plate moves all its edges
             system.add([(name, np.sqrt(weight / len(pick)) * frame.basis(pick), along)], np.zeros(len(pick)))
             for sagitta in frame.sagittas(pick):
