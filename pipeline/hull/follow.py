@@ -57,8 +57,10 @@ from .fitup import (
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
 from .junction import JUNCTION_RULE, JunctionStep, junction_moves, junction_steps
+from .ownsurface import hull_distance
 from .plateshop import formed_verdict
 from .pull import RULE as PULL_RULE
+from .pull import pull_stepping
 
 FORMED = "formed"
 AS_STRIP_RULE = ("a flat plate that steps from a flat or strip neighbour by more than the limit is developed again "
@@ -147,8 +149,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     only its moved patch is developed) or ``part.hull.plane`` (a flat one) set, a strip is moved as delivered
     (:mod:`.rigid`); ``part.hull.result`` is its new result. First (``as_strips``), a flat
     plate that misfits a flat or strip neighbour is developed again as a strip
-    (:func:`_flats_as_strips`). After the joint programme (``hold``), a pair of flat or strip
-    plates that still steps over the limit is pulled together at erection (``pull``,
+    (:func:`_flats_as_strips`). After the joint programme, a pair of flat or strip plates
+    that still steps over the limit is pulled together at erection (``pull``,
     :mod:`.pull`), and one that steps still has a plate held on the hull (``hold``,
     :func:`_hold_stepping`)."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
@@ -168,10 +170,7 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         records = _records(plates, records, set(report.planes) | set(report.strips))
         pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
     if pull:
-        from .pull import pull_stepping
-
-        results, report.pulled, report.pull_refused = pull_stepping(records, pairs, mm_per_unit, thickness_mm,
-                                                                    hull_distance)
+        results, report.pulled, report.pull_refused = pull_stepping(records, pairs, mm_per_unit, thickness_mm)
         if results:
             for part in plates:
                 part.hull.result = results.get(part.name, part.hull.result)
@@ -625,22 +624,6 @@ def _held(points: np.ndarray, move: np.ndarray, tolerance: float, distance) -> n
     off = distance(points + move)
     # the points lie on the hull, so a move's distance from it is about its normal part
     return move * np.minimum(1.0, tolerance / np.maximum(off, 1e-300))[:, None]
-
-
-def hull_distance(hull):
-    """Distances (N,) of points (N, 3) from the plate's own surface: the plan's shared
-    distance restricted to it (a plan of several faces measures against the nearest face, and
-    where two faces disagree a plate formed toward the other would pass for on the hull)."""
-    from flatten.closest import CONVERGED, SurfaceDistance
-
-    shared = hull.distance
-    surfaces = getattr(shared, "surfaces", None)
-    if shared is not None and surfaces is None:
-        return shared  # a distance function of the plate's own hull
-    k = next((i for i, s in enumerate(surfaces or ()) if s is hull.surface), None)
-    if k is None:
-        return SurfaceDistance(hull.surface)
-    return lambda points: shared.closest(points, k, converged=CONVERGED)[1]
 
 
 def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int, fixed, value, best,

@@ -44,13 +44,17 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from pipeline.shop.rolling import E_STEEL, NU_STEEL, yield_stress
 
 from .fitup import _common, _dense, closest_on
+from .ownsurface import hull_distance, hull_points
+from .rigid import moved_edges, pending_transform, place_when_done
 
 PULL_STRESS_SHARE = 0.25  # of the yield stress: the pull's own bending stress at most
 PULL_STRAIN = 1e-4  # the largest stretch of a mesh edge a pull may put in (membrane stress about 21 MPa)
@@ -120,11 +124,15 @@ class PullField:
                        .reshape(len(uv), -1))
         return tuple(out)
 
-    def normal(self, points: np.ndarray) -> np.ndarray:
-        """(N, 3) the unit normal of the plate's anchor nearest each point (N, 3)."""
+    @cached_property
+    def _tree(self):
         from scipy.spatial import cKDTree
 
-        _, nearest = cKDTree(self.anchors).query(np.asarray(points, dtype=np.float64))
+        return cKDTree(self.anchors)
+
+    def normal(self, points: np.ndarray) -> np.ndarray:
+        """(N, 3) the unit normal of the plate's anchor nearest each point (N, 3)."""
+        _, nearest = self._tree.query(np.asarray(points, dtype=np.float64))
         return self.normals[nearest]
 
     def scaled(self, share: float) -> PullField:
@@ -272,10 +280,15 @@ def solve_pulls(frames: dict, names: list, records: dict, pairs: list, mm_per_un
     return {name: dataclasses.replace(frames[name], coefficients=solution[name]) for name in column}
 
 
+def mesh_edges(faces: np.ndarray) -> np.ndarray:
+    """(E, 2) the mesh's edges, each once, by their two vertex indices (sorted)."""
+    faces = np.asarray(faces, dtype=np.int64)
+    return np.unique(np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1), axis=0)
+
+
 def _sample_edges(faces: np.ndarray, most: int) -> tuple[np.ndarray, np.ndarray]:
     """Up to ``most`` of the mesh's edges (their two vertex indices), spread over the mesh."""
-    faces = np.asarray(faces, dtype=np.int64)
-    pairs = np.unique(np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1), axis=0)
+    pairs = mesh_edges(faces)
     pick = np.unique(np.linspace(0, len(pairs) - 1, min(len(pairs), most)).astype(int))
     return pairs[pick, 0], pairs[pick, 1]
 
@@ -311,18 +324,6 @@ def bending(before: np.ndarray, after: np.ndarray, faces: np.ndarray) -> np.ndar
     return np.abs(angle_after - angle_before) * length / np.maximum(area, 1e-300)
 
 
-def hull_points(hull, points: np.ndarray) -> np.ndarray:
-    """(N, 3) the closest points of the plate's own surface to points (N, 3)."""
-    from flatten.closest import CONVERGED, SurfaceDistance
-
-    shared = hull.distance
-    surfaces = getattr(shared, "surfaces", None) or ()
-    k = next((i for i, s in enumerate(surfaces) if s is hull.surface), None)
-    finder, k = (shared, k) if k is not None else (SurfaceDistance(hull.surface), 0)
-    uv, _ = finder.closest(points, k, converged=CONVERGED)
-    return np.asarray(hull.surface(uv[:, 0], uv[:, 1]), dtype=np.float64)
-
-
 @dataclass(frozen=True)
 class PullCheck:
     """What a pull does to its plate: the share of it taken (0: none), its largest move
@@ -349,7 +350,7 @@ def check_pull(base: np.ndarray, faces: np.ndarray, steps: tuple, distance, tole
     sigma_y, _ = yield_stress(material)
     modulus = E_STEEL / (1.0 - NU_STEEL ** 2)
     faces = np.asarray(faces, dtype=np.int64)
-    edges = np.unique(np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1), axis=0)
+    edges = mesh_edges(faces)
     length = np.linalg.norm(base[edges[:, 0]] - base[edges[:, 1]], axis=1)
     keep = length > 0
     edges, length = edges[keep], length[keep]
@@ -389,12 +390,10 @@ def pulled(result, steps: tuple, check: PullCheck):
     owes none)."""
     from .fitup import kept_edges
 
-    edges = kept_edges(result)
+    transform = functools.partial(apply_steps, steps)
     out = copy.copy(result)
     out.figures = dict(result.figures)
-    out.figures["fitup_edges"] = None if edges is None else dataclasses.replace(
-        edges, ring3=apply_steps(steps, edges.ring3),
-        edges=tuple(dataclasses.replace(e, points3=apply_steps(steps, e.points3)) for e in edges.edges))
+    out.figures["fitup_edges"] = moved_edges(kept_edges(result), transform)
     before = dict(result.figures.get("hull_fit") or {})
     out.figures["hull_fit"] = dict(before, max_distance=check.distance, passed=True,
                                    measured_on="the pulled plate's points, their distance from the hull",
@@ -406,37 +405,16 @@ def pulled(result, steps: tuple, check: PullCheck):
                                     "largest_pull_mm": check.largest_pull_mm, "distance_mm": check.distance_mm,
                                     "bending_stress_mpa": check.stress_mpa, "stretch": check.strain,
                                     "refused_more_because": check.refused or None, "placed": False}
-    work = result.shop_work
-    if work is None:
-        _place(out, steps)
-    else:
-        out.shop_work = dataclasses.replace(work, fn=_shop_then_pull, args=(work.fn, work.args, steps))
+    place_when_done(out, result, transform, "erection_pull")
     return out
 
 
-def _shop_then_pull(result, config, fn, args, steps: tuple) -> None:
-    fn(result, config, *args)
-    _place(result, steps)
-
-
-def _place(result, steps: tuple) -> None:
-    """Pull the result's 3D geometry (its strip's vertices, its mesh) in place: a copy
-    :func:`pulled` made, whose arrays are replaced, never written into."""
-    if result.strip is not None:
-        result.strip = dataclasses.replace(result.strip, vertices=apply_steps(steps, result.strip.vertices))
-    if result.mesh is not None:
-        result.mesh = (apply_steps(steps, result.mesh[0]), result.mesh[1])
-    result.figures["erection_pull"] = dict(result.figures["erection_pull"], placed=True)
-
-
-def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: float,
-                  distance_of) -> tuple[dict, dict, dict]:
+def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: float) -> tuple[dict, dict, dict]:
     """({plate: its result pulled}, {plate: its pull's figures}, {plate: why it was not
     pulled}) for the flat and strip plates of the ``pairs`` that step by more than their
     limit, their pulls chosen together (:func:`solve_pulls`) and each checked
     (:func:`check_pull`), PULL_ROUNDS rounds measured again after each. ``records``: {name:
-    (PlateEdges, part)} as the pairs were measured; ``distance_of(hull)``: the distance
-    function (points (N, 3) -> (N,)) of a plate's own surface."""
+    (PlateEdges, part)} as the pairs were measured."""
     from .fitup import kept_edges, shared_edges
 
     records = dict(records)
@@ -464,7 +442,7 @@ def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: 
             part = records[name][1]
             steel = getattr(part, "steel", None)
             trial = (*steps.get(name, ()), pulls[name])
-            check = check_pull(base[name][0], base[name][1], trial, distance_of(part.hull),
+            check = check_pull(base[name][0], base[name][1], trial, hull_distance(part.hull),
                                part.hull.fit_tolerance, float(getattr(steel, "thickness", None) or thickness_mm),
                                str(getattr(steel, "material", "") or ""), mm_per_unit)
             if check.share == 0.0:
@@ -496,9 +474,5 @@ def delivered_mesh(result) -> tuple[np.ndarray, np.ndarray] | None:
         from .fitup import _on_plane
 
         vertices = _on_plane(vertices, klass)
-    move = result.figures.get("rigid_move")
-    if move is not None and not move.get("placed"):
-        rotation = np.asarray(move["rotation"], dtype=np.float64)
-        centre = np.asarray(move["about"], dtype=np.float64)
-        vertices = centre + (vertices - centre) @ rotation.T + np.asarray(move["translation"], dtype=np.float64)
-    return vertices, np.asarray(mesh[1], dtype=np.int64)
+    move = pending_transform(result)
+    return (vertices if move is None else move(vertices)), np.asarray(mesh[1], dtype=np.int64)

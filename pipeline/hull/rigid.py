@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -37,12 +38,9 @@ def moved_rigidly(result, move: dict):
 
     # its edges as the plate was developed, moved: the sides of its boundary are told by the
     # butt planes within the tolerance, which a move along the hull could take a corner past
-    edges = kept_edges(result)
     out = copy.copy(result)
     out.figures = dict(result.figures)
-    out.figures["fitup_edges"] = None if edges is None else dataclasses.replace(
-        edges, ring3=transform(edges.ring3),
-        edges=tuple(dataclasses.replace(e, points3=transform(e.points3)) for e in edges.edges))
+    out.figures["fitup_edges"] = moved_edges(kept_edges(result), transform)
     points = transform(_geometry(result))
     hull = result.part.hull
     from flatten.closest import SurfaceDistance
@@ -65,30 +63,54 @@ def moved_rigidly(result, move: dict):
                                  "rotation": np.asarray(move["rotation"], dtype=np.float64).tolist(),
                                  "translation": list(move["translation"]), "largest_move_mm": move["largest_move_mm"],
                                  "placed": False}
-    work = result.shop_work
-    if work is None:  # nothing owed: the plate is moved now
-        _place(out, move)
-    else:  # its owed shop data first, on the plate as developed, then the move (where they are computed)
-        out.shop_work = dataclasses.replace(work, fn=_shop_then_place, args=(work.fn, work.args, move))
+    place_when_done(out, result, transform, "rigid_move")
     return out
 
 
-def _shop_then_place(result, config, fn, args, move: dict) -> None:
+def moved_edges(edges, transform):
+    """A plate's fit-up edges (a :class:`.fitup.PlateEdges`, or None) moved by ``transform``
+    (points (N, 3) -> (N, 3))."""
+    if edges is None:
+        return None
+    return dataclasses.replace(edges, ring3=transform(edges.ring3),
+                               edges=tuple(dataclasses.replace(e, points3=transform(e.points3)) for e in edges.edges))
+
+
+def place_when_done(out, result, transform, key: str) -> None:
+    """Move ``out``'s 3D geometry (a copy of ``result`` whose ``figures[key]`` records the
+    move) by ``transform`` (picklable: it may travel to the worker that writes the plate) once
+    the shop data the plate owes are done, on the plate as developed; at once when it owes none."""
+    work = result.shop_work
+    if work is None:
+        _place(out, transform, key)
+    else:
+        out.shop_work = dataclasses.replace(work, fn=_shop_then_place, args=(work.fn, work.args, transform, key))
+
+
+def _shop_then_place(result, config, fn, args, transform, key: str) -> None:
     """The shop data the plate owes (``fn(result, config, *args)``), on the plate as
     developed, then its 3D geometry moved: a :class:`.plateshop.ShopWork` that ends in the move."""
     fn(result, config, *args)
-    _place(result, move)
+    _place(result, transform, key)
 
 
-def _place(result, move: dict) -> None:
+def _place(result, transform, key: str) -> None:
     """Move the result's 3D geometry (its strip's vertices, its region mesh) in place: a copy
-    :func:`moved_rigidly` made, whose arrays are replaced, never written into."""
-    transform = _transform(move)
+    whose arrays are replaced, never written into."""
     if result.strip is not None:
         result.strip = dataclasses.replace(result.strip, vertices=transform(result.strip.vertices))
     if result.mesh is not None:
         result.mesh = (transform(result.mesh[0]), result.mesh[1])
-    result.figures["rigid_move"] = dict(result.figures["rigid_move"], placed=True)
+    result.figures[key] = dict(result.figures[key], placed=True)
+
+
+def pending_transform(result):
+    """The rigid move a result records but has not yet applied to its 3D geometry (it waits
+    for the plate's shop data), as a transform; None when there is none."""
+    move = result.figures.get("rigid_move")
+    if move is None or move.get("placed"):
+        return None
+    return _transform({"rotation": move["rotation"], "translation": move["translation"], "centre": move["about"]})
 
 
 def shortened(move: dict, share: float) -> dict:
@@ -102,10 +124,15 @@ def shortened(move: dict, share: float) -> dict:
 
 
 def _transform(move: dict):
+    return functools.partial(rigid_transform, move)
+
+
+def rigid_transform(move: dict, points) -> np.ndarray:
+    """Points (N, 3) moved by ``move``: centre + rotation (p - centre) + translation."""
     rotation = np.asarray(move["rotation"], dtype=np.float64)
     translation = np.asarray(move["translation"], dtype=np.float64)
     centre = np.asarray(move["centre"], dtype=np.float64)
-    return lambda points: centre + (np.asarray(points, dtype=np.float64) - centre) @ rotation.T + translation
+    return centre + (np.asarray(points, dtype=np.float64) - centre) @ rotation.T + translation
 
 
 def _geometry(result) -> np.ndarray:
