@@ -685,6 +685,9 @@ class PlanSpec(_Strict):
                                       "(config units): butts of neighbouring strakes may align only there")
     butt_stagger: float | None = Field(None, gt=0, description="least distance between butts of neighbouring "
                                        "strakes off the block joints (config units; default 300 mm)")
+    overlaps: Literal["cut", "fair"] = Field("cut", description="faces that lie on each other: each keeps its "
+                                             "side of a transverse cut (cut), or one is also faired into the "
+                                             "other over the overlap so that the two meet at the cut (fair)")
 
 
 class StrakeSpec(_Strict):
@@ -867,6 +870,7 @@ class RunConfig:
         self.spec, self.parts, self.source = spec, parts, source
         self.lines = lines or {}  # key path -> line of the YAML source, for later messages
         self.plan_record = None  # what an adaptive plan evaluated (pipeline.hull.planner.PlanRecord)
+        self.plan_fairings = None  # what plan.overlaps: fair did, one dict per overlap (pipeline.hull.fairing)
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
         self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
 

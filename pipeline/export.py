@@ -336,6 +336,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
             extra["shell"]["repair"] = config.fitup_repair.as_dict()
         if getattr(config, "fitup_follow", None) is not None:
             extra["shell"]["follow"] = config.fitup_follow.as_dict()
+    if getattr(config, "plan_fairings", None):  # faces faired into the faces they overlap
+        extra["faired_overlaps"] = config.plan_fairings
     models = model_sources(config)
     if models:  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports

@@ -75,7 +75,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
-    record = repair = follow = None
+    record = repair = follow = fairings = None
     try:
         if spec.strake.plan is not None:
             from .objective import PlanRecord
@@ -83,7 +83,8 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
 
             judge = None if evaluate is None else _Judge(evaluate, config)
             record = PlanRecord() if judge is not None and spec.strake.plan.method == "adaptive" else None
-            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record)
+            fairings = []
+            parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record, fairings)
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
         if spec.strake.fit_up == "repair" and evaluate is not None:
@@ -106,6 +107,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             close()  # an evaluator's workers end with the plan (its cache stays)
     run = RunConfig(spec, parts, path, config.lines)
     run.plan_record = record
+    run.plan_fairings = fairings
     run.fitup_repair = repair
     run.fitup_follow = follow
     return run

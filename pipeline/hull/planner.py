@@ -156,10 +156,12 @@ class _Face:
     limits: tuple
 
 
-def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record: PlanRecord | None = None) -> list:
+def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record: PlanRecord | None = None,
+              fairings: list | None = None) -> list:
     """The plates of a planned hull. ``evaluate``: ``evaluate(part) -> result``, or an object
     whose ``many(parts)`` evaluates a batch (spread over workers, cached); ``record``: filled
-    with what an adaptive plan evaluated."""
+    with what an adaptive plan evaluated; ``fairings``: filled with what ``plan.overlaps:
+    fair`` did (:class:`.fairing.Fairing`)."""
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
@@ -183,6 +185,14 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     for k, lim in zip(free, cut):  # the tighter of a loft's own ends and an overlap's cut
         limits[k] = tuple(a if b is None else b if a is None else pick(a, b)
                           for a, b, pick in zip(limits[k], lim, (max, min)))
+    faired = []
+    if plan.overlaps == "fair" and overlaps:
+        from .fairing import fair_overlaps
+
+        surfaces, faired = fair_overlaps(surfaces, overlaps, limits, tolerance)
+        distance = SurfaceDistance(surfaces)
+        if fairings is not None:
+            fairings.extend(f.as_dict(mm_per_unit) for f in faired)
     faces, cells = [], []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)
@@ -194,6 +204,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         cut_note = "; ".join(f"faces {o.faces[0] + 1} and {o.faces[1] + 1} overlap over x {o.x_range_mm[0]:.0f}.."
                              f"{o.x_range_mm[1]:.0f} ({o.median_distance_mm:.3g} apart, median): cut at x = "
                              f"{o.cut_x_mm:.0f}, step {o.step_at_cut_mm:.3g} there" for o in overlaps if k in o.faces)
+        cut_note = "; ".join(n for n in [cut_note] + [f.note(mm_per_unit) for f in faired if k in (f.face, f.onto)] if n)
         faces.append(_Face(surface, axis, loaded[k][1], "; ".join(n for n in (loaded[k][2], cut_note) if n),
                            limits[k]))
         prefix = f"{spec.name}_P{k + 1}" if multi else spec.name

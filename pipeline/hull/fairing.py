@@ -1,0 +1,227 @@
+"""A face faired into the face it overlaps, so that the two meet where a plan cuts them.
+
+A hull file whose faces lie on each other over a stretch describes the shell twice there, and
+the two descriptions need not agree: DTMB 5415's bow and main-hull faces run 9 mm apart
+(median) over 3.9 m, up to 49 mm, and 27 mm at the transverse plane where they are closest.
+Wherever a plan cuts them, the plates on either side of the cut step by that distance, which no
+plate within a 5 mm fit tolerance can close. A loftsman fairs such a join: one face is moved
+onto the other over the overlap, by nothing at the overlap's far end and by the whole distance
+at the cut, so that the faces meet at the cut and the moved one stays fair.
+
+:func:`fair_into` does that on the NURBS face. The move at a point is the way to its foot on the
+other face (which runs along that face's normal), times a C2 ramp in x (``6 s^5 - 15 s^4 + 10 s^3``, zero
+slope and curvature at both ends). The moved face is carried onto its own knots with the spans
+over the ramp subdivided (exactly: its spline space lies inside the refined one), and the move
+is fitted by least squares on the poles that act where something moves: beyond them (a knot
+span past the ramp's start) the face is reproduced to round-off.
+The result says how far the face moved, how well the refit follows the intended move and how
+far the two faces still are apart at the cut.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from flatten.closest import SurfaceDistance
+from flatten.surface import NurbsSurface, nurbs_surface
+
+SAMPLES_PER_SPAN = 4  # least-squares samples per refined knot span and direction
+REFINE = 8  # a knot span the ramp touches is cut into this many
+SECTION_LINES = 200  # points of the cut's section measured against the other face
+REFIT_SHARE = 0.25  # of the fit tolerance: a refit that strays further from the intended move is not taken
+
+
+@dataclass(frozen=True)
+class Fairing:
+    """What fairing one face into another did, lengths in the surfaces' units."""
+
+    face: int
+    onto: int
+    ramp_x: tuple[float, float]  # from where the move is nothing to the cut, where it is whole
+    moved_max: float
+    moved_median: float  # over the points that moved
+    refit_error: float  # largest distance of the refitted face from the intended move, between the samples
+    step_at_cut_before: float
+    step_at_cut_after: float
+    poles: tuple[int, int]  # of the refitted face
+    taken: bool = True  # False: the face was left as the file gives it (``reason``)
+    reason: str = ""
+
+    def as_dict(self, mm_per_unit: float = 1.0) -> dict:
+        out = asdict(self)
+        for key in ("moved_max", "moved_median", "refit_error", "step_at_cut_before", "step_at_cut_after"):
+            out[f"{key}_mm"] = round(out.pop(key) * mm_per_unit, 4)
+        out["ramp_x_mm"] = [round(x * mm_per_unit, 3) for x in out.pop("ramp_x")]
+        return out
+
+    def note(self, mm_per_unit: float = 1.0) -> str:
+        """One line for the plates of both faces."""
+        mm = mm_per_unit
+        where = f"over x {self.ramp_x[0] * mm:.0f}..{self.ramp_x[1] * mm:.0f} mm"
+        if not self.taken:
+            return f"face {self.face + 1} not faired into face {self.onto + 1} {where}: {self.reason}"
+        return (f"face {self.face + 1} faired into face {self.onto + 1} {where}: moved up to "
+                f"{self.moved_max * mm:.3g} mm ({self.moved_median * mm:.3g} median), refit within "
+                f"{self.refit_error * mm:.3g} mm, step at the cut {self.step_at_cut_before * mm:.3g} -> "
+                f"{self.step_at_cut_after * mm:.3g} mm")
+
+
+def fair_overlaps(surfaces: list, overlaps: list, limits: list, tolerance: float) -> tuple[list, list[Fairing]]:
+    """The surfaces with, of each pair that lies on each other (``sewing.Overlap``), the face
+    that keeps more of the overlap faired into the other up to their cut; ``limits``: each
+    face's kept x range (lo, hi), None for its own end. A fairing is taken when its refit
+    follows the intended move within REFIT_SHARE of the tolerance and the faces then meet
+    closer at the cut than before; the ones not taken are returned too, with the reason."""
+    out, done = list(surfaces), []
+    for overlap in overlaps:
+        x0, x1 = overlap.x_range_mm
+        cut = overlap.cut_x_mm
+        reach = {}  # face -> (length of the overlap on its kept side, where its ramp starts)
+        for k in overlap.faces:
+            lo, hi = limits[k]
+            if hi is not None and np.isclose(hi, cut):
+                reach[k] = (cut - x0, x0)
+            elif lo is not None and np.isclose(lo, cut):
+                reach[k] = (x1 - cut, x1)
+        if not reach or max(length for length, _ in reach.values()) <= 0.0:
+            continue
+        k = max(reach, key=lambda face: reach[face][0])
+        other = overlap.faces[1] if k == overlap.faces[0] else overlap.faces[0]
+        faired, fairing = fair_into(out[k], out[other], reach[k][1], cut, k, other)
+        if fairing.refit_error > REFIT_SHARE * tolerance:
+            fairing = replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the "
+                              f"intended move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
+        elif not fairing.step_at_cut_after < fairing.step_at_cut_before:
+            fairing = replace(fairing, taken=False, reason=f"the faces would meet no closer at the cut "
+                              f"({fairing.step_at_cut_before:.3g} -> {fairing.step_at_cut_after:.3g})")
+        else:
+            out[k] = faired
+        done.append(fairing)
+    return out, done
+
+
+def ramp(x: np.ndarray, start: float, end: float) -> np.ndarray:
+    """0 at and beyond ``start``, 1 at and beyond ``end``, C2 between (either order of the two)."""
+    s = np.clip((np.asarray(x, dtype=np.float64) - start) / (end - start), 0.0, 1.0)
+    return s * s * s * (10.0 + s * (-15.0 + 6.0 * s))
+
+
+def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float, face: int = 0, other: int = 1,
+              name: str | None = None) -> tuple[NurbsSurface, Fairing]:
+    """``moved`` refitted so that from x = ``start`` to x = ``cut`` it ramps onto ``onto``
+    onto its foot points there (beyond the cut it follows ``onto`` wholly, before ``start`` it is
+    itself). ``face`` and ``other`` only label the result."""
+    distance = SurfaceDistance(onto, grid=60)
+    coarse = moved.grid(np.linspace(*moved.domain_u, 41), np.linspace(*moved.domain_v, 41))
+    touched = ramp(coarse[..., 0], start, cut) > 0.0
+    knots_u = _refined(moved.knots_u, moved.degree_u, np.linspace(*moved.domain_u, 41)[touched.any(axis=1)])
+    knots_v = _refined(moved.knots_v, moved.degree_v, np.linspace(*moved.domain_v, 41)[touched.any(axis=0)])
+    su, sv = _samples(knots_u, moved.degree_u, 0.5), _samples(knots_v, moved.degree_v, 0.5)
+    target, shift = _target(moved, distance, su, sv, start, cut)
+    bu = BSpline.design_matrix(su, knots_u, moved.degree_u).toarray()
+    bv = BSpline.design_matrix(sv, knots_v, moved.degree_v).toarray()
+    weights = _weights_at(moved, su, sv)
+    # the face on the refined knots (exact: its spline space lies inside), then the move fitted
+    # on the poles that act where something moves, so the rest of the face stays as it was
+    points = moved.grid(su, sv)
+    net = _fit(bu, np.concatenate([points * weights[..., None], weights[..., None]], axis=-1), bv)
+    moving_u, moving_v = (shift > 0.0).any(axis=1), (shift > 0.0).any(axis=0)
+    acting_u = (bu[moving_u] != 0.0).any(axis=0)
+    acting_v = (bv[moving_v] != 0.0).any(axis=0)
+    move = np.concatenate([(target - points) * weights[..., None], np.zeros(weights.shape + (1,))], axis=-1)
+    net[np.ix_(acting_u, acting_v)] += _fit(bu[:, acting_u], move, bv[:, acting_v])
+    rational = np.ptp(moved.weights) > 0
+    w = net[..., 3] if rational else np.full(net.shape[:2], float(moved.weights.flat[0]))
+    poles = net[..., :3] / (net[..., 3:] if rational else weights.flat[0])
+    faired = nurbs_surface(moved.degree_u, moved.degree_v, poles, knots_u, knots_v, w, name=name or moved.name)
+    # between the samples: where a refit would stray from the intended move
+    cu, cv = _samples(knots_u, moved.degree_u, 0.0), _samples(knots_v, moved.degree_v, 0.0)
+    intended, _ = _target(moved, distance, cu, cv, start, cut)
+    refit_error = float(np.linalg.norm(faired.grid(cu, cv) - intended, axis=-1).max())
+    moving = shift > 1e-9 * max(1.0, float(np.ptp(coarse)))
+    return faired, Fairing(face, other, (float(start), float(cut)), float(shift.max(initial=0.0)),
+                           float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
+                           _step_at(moved, distance, cut), _step_at(faired, distance, cut),
+                           tuple(int(n) for n in poles.shape[:2]))
+
+
+def _fit(bu: np.ndarray, values: np.ndarray, bv: np.ndarray) -> np.ndarray:
+    """The net (nu, nv, k) whose tensor-product spline fits ``values`` (Nu, Nv, k) best on the
+    sample grid with basis matrices ``bu`` (Nu, nu) and ``bv`` (Nv, nv), by least squares."""
+    return np.einsum("ia,abk,jb->ijk", np.linalg.pinv(bu), values, np.linalg.pinv(bv), optimize=True)
+
+
+def _refined(knots: np.ndarray, degree: int, touched: np.ndarray) -> np.ndarray:
+    """The knot vector with every span that holds a touched parameter, and its neighbours, cut
+    into REFINE (the neighbours too, so that the poles acting on the move reach past it by a
+    few fine spans, not by a few of the face's own)."""
+    breaks = np.unique(knots[degree:len(knots) - degree])
+    span = np.clip(np.searchsorted(breaks, touched, side="right") - 1, 0, len(breaks) - 2)
+    span = np.unique(np.clip(np.concatenate([span - 1, span, span + 1]), 0, len(breaks) - 2)) if len(span) else span
+    new = [breaks[i] + (breaks[i + 1] - breaks[i]) * np.arange(1, REFINE) / REFINE for i in span]
+    return np.sort(np.concatenate([knots] + new)) if new else knots.copy()
+
+
+def _samples(knots: np.ndarray, degree: int, offset: float) -> np.ndarray:
+    """SAMPLES_PER_SPAN parameters in every knot span, at (k + offset) / SAMPLES_PER_SPAN of it,
+    and the domain's ends."""
+    breaks = np.unique(knots[degree:len(knots) - degree])
+    at = (np.arange(SAMPLES_PER_SPAN) + offset) / SAMPLES_PER_SPAN
+    inside = (breaks[:-1, None] + np.diff(breaks)[:, None] * at[None, :]).ravel()
+    return np.unique(np.concatenate([inside, breaks[[0, -1]]]))
+
+
+def _weights_at(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The rational denominator W(u_i, v_j) on the grid (Nu, Nv)."""
+    bu = BSpline.design_matrix(u, surface.knots_u, surface.degree_u).toarray()
+    bv = BSpline.design_matrix(v, surface.knots_v, surface.degree_v).toarray()
+    return bu @ surface.weights @ bv.T
+
+
+def _target(moved: NurbsSurface, distance: SurfaceDistance, u: np.ndarray, v: np.ndarray, start: float,
+            cut: float) -> tuple[np.ndarray, np.ndarray]:
+    """The faired face's points on the grid (Nu, Nv, 3) and how far each moved (Nu, Nv)."""
+    points = moved.grid(u, v)
+    weight = ramp(points[..., 0], start, cut)
+    target = points.copy()
+    on = weight > 0.0
+    if not on.any():
+        return target, np.zeros(weight.shape)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    params, _ = distance.closest(points[on])
+    onto = distance.surfaces[0]
+    offset = onto(params[:, 0], params[:, 1]) - points[on]  # along the other face's normal: the foot is a foot
+    # a foot on the other face's edge (the faces' centreline, deck edge or end) is a foot only
+    # along the normal: the point moves along its own normal by the other face's edge's height
+    # over its tangent plane, which carries the gap past the edge and is the foot where it is one
+    (u0, u1), (v0, v1) = onto.domain_u, onto.domain_v
+    edge = (np.isclose(params[:, 0], u0) | np.isclose(params[:, 0], u1)
+            | np.isclose(params[:, 1], v0) | np.isclose(params[:, 1], v1))
+    if edge.any():
+        su, sv = moved.partials(uu[on][edge], vv[on][edge])
+        normal = np.cross(su, sv)
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        offset[edge] = np.einsum("ij,ij->i", offset[edge], normal)[:, None] * normal
+    move = weight[on][:, None] * offset
+    target[on] += move
+    shift = np.zeros(weight.shape)
+    shift[on] = np.linalg.norm(move, axis=1)
+    return target, shift
+
+
+def _step_at(surface: NurbsSurface, distance: SurfaceDistance, cut: float) -> float:
+    """The largest distance of the face's section at x = ``cut`` from the other face, over the
+    points whose foot lies inside it."""
+    section = surface.plane_section_points((cut, 0.0, 0.0), (1.0, 0.0, 0.0), SECTION_LINES)
+    if len(section) == 0:
+        return float("nan")
+    params, dist = distance.closest(section)
+    onto = distance.surfaces[0]
+    (u0, u1), (v0, v1) = onto.domain_u, onto.domain_v
+    margin_u, margin_v = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
+    inside = ((params[:, 0] > u0 + margin_u) & (params[:, 0] < u1 - margin_u)
+              & (params[:, 1] > v0 + margin_v) & (params[:, 1] < v1 - margin_v))
+    return float(dist[inside].max()) if inside.any() else float("nan")
