@@ -144,3 +144,14 @@ def test_dtmb5415s_bow_meets_the_main_hull_at_the_cut_when_faired(tmp_path):
     main_cut = next(p.hull.surface for p in runs["cut"].parts if "_P1_" in p.name)
     main_fair = next(p.hull.surface for p in runs["fair"].parts if "_P1_" in p.name)
     assert np.array_equal(main_cut.poles, main_fair.poles)
+
+
+def test_an_unknown_overlaps_choice_is_refused_naming_the_field(tmp_path, capsys):
+    from pipeline.cli import main
+
+    path = _dtmb_config(tmp_path, "cut")
+    path.write_text(path.read_text().replace("overlaps: cut", "overlaps: blend"))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "overlaps" in err and "blend" in err and not out.exists()

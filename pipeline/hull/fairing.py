@@ -111,9 +111,9 @@ def ramp(x: np.ndarray, start: float, end: float) -> np.ndarray:
 
 def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float, face: int = 0, other: int = 1,
               name: str | None = None) -> tuple[NurbsSurface, Fairing]:
-    """``moved`` refitted so that from x = ``start`` to x = ``cut`` it ramps onto ``onto``
-    onto its foot points there (beyond the cut it follows ``onto`` wholly, before ``start`` it is
-    itself). ``face`` and ``other`` only label the result."""
+    """``moved`` refitted so that between x = ``start`` and x = ``cut`` its points ramp toward
+    their foot points on ``onto`` (none of the way at ``start``, all of it at and beyond the
+    cut; before ``start`` the face is itself). ``face`` and ``other`` only label the result."""
     distance = SurfaceDistance(onto, grid=60)
     coarse = moved.grid(np.linspace(*moved.domain_u, 41), np.linspace(*moved.domain_v, 41))
     touched = ramp(coarse[..., 0], start, cut) > 0.0
