@@ -211,7 +211,8 @@ def test_kvlcc2_flat_bottom_and_side_loft_into_one_shell():
     """KVLCC2's main-hull face and its trimmed flat of bottom (faces 10 and 11, meeting smoothly
     along 5.1 m of the model) loft at ship scale (1:58) into one surface over x 15-300 m (the
     faces' 14-312 m, less the ends where they leave gaps of up to 5.5 mm in the model): on a
-    61 x 61 grid of it, the distance to the faces is at most 4 mm, p95 at most 1.5 mm, and the
+    61 x 61 grid of it, the distance to the faces is at most 2.5 mm, p95 at most 0.25 mm (2.1 and
+    0.17 measured; 3.4 and 0.60 when the stations' sections were the contour's chords), and the
     note reports the loft's own misfit."""
     from flatten.closest import SurfaceDistance
     from pipeline.hull.region import load_surface_trimmed
@@ -225,7 +226,7 @@ def test_kvlcc2_flat_bottom_and_side_loft_into_one_shell():
     model = read_hull_model(DATA / "ship_kvlcc2.igs")
     faces = SurfaceDistance([model.faces[10].surface, model.faces[11].surface])
     distance = faces(grid.reshape(-1, 3)) * scale
-    assert distance.max() <= 4.0 and np.percentile(distance, 95) <= 1.5
+    assert distance.max() <= 2.5 and np.percentile(distance, 95) <= 0.25
 
 
 def area_inside_trim(part, rows: int = 41, columns: int = 161) -> float:

@@ -45,6 +45,7 @@ from flatten.metrics import closest_on_polyline
 from flatten.surface import NurbsSurface, nurbs_surface
 
 SECTION_GRID = 161  # samples per parameter direction of a face for its sections
+SECTION_SUBDIVIDE = 4  # points per contour segment moved onto the face and the plane: the girth curve's chords
 GIRTH_SAMPLES = 321  # points per station on the girth curve (two per pole at most poles)
 JOIN_MM = 2.0  # pieces of a station whose ends are nearer than this are joined
 MAX_POLES = 160  # per direction of the lofted surface
@@ -99,6 +100,9 @@ def _face_grid(surface: NurbsSurface, n: int) -> tuple[np.ndarray, np.ndarray, n
 
 def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -> list[np.ndarray]:
     """The section of a face by the plane x = ``x``: pieces, each (N, 3) mm, inside the trim.
+    The grid's contour is cut into SECTION_SUBDIVIDE points per segment, each moved onto the
+    face and the plane: the loft resamples these polylines, and their chords across a bilge
+    missed the section by up to 1.4 mm (KCS at its loft's ends) with the contour's points alone.
 
     trim_region : the face's trimmed region as a shapely geometry in (u, v), or None
     grid : (u, v, points) of the face from :func:`_face_grid`, to share between stations
@@ -115,7 +119,7 @@ def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -
     for line in lines:
         if len(line) < 2:
             continue
-        uv = _on_plane(surface, np.column_stack([line[:, 1], line[:, 0]]), x)
+        uv = _on_plane(surface, _subdivided(np.column_stack([line[:, 1], line[:, 0]]), SECTION_SUBDIVIDE), x)
         if trim_region is not None:
             clipped = shapely.LineString(uv).intersection(trim_region)
             parts = [np.asarray(g.coords) for g in getattr(clipped, "geoms", [clipped])
@@ -128,6 +132,15 @@ def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -
                 p3[:, 0] = x
                 pieces.append(p3)
     return pieces
+
+
+def _subdivided(polyline: np.ndarray, parts: int) -> np.ndarray:
+    """The polyline (N, d) with every segment cut into ``parts`` equal pieces."""
+    if parts <= 1 or len(polyline) < 2:
+        return polyline
+    t = np.arange(parts) / parts
+    pieces = polyline[:-1, None, :] + t[None, :, None] * np.diff(polyline, axis=0)[:, None, :]
+    return np.concatenate([pieces.reshape(-1, polyline.shape[1]), polyline[-1:]])
 
 
 def _on_plane(surface: NurbsSurface, uv: np.ndarray, x: float, steps: int = 3) -> np.ndarray:
