@@ -122,6 +122,7 @@ def test_dtmb5415s_bow_meets_the_main_hull_at_the_cut_when_faired(tmp_path):
     runs = {how: load_run(_dtmb_config(tmp_path, how)) for how in ("cut", "fair")}
     fairings = runs["fair"].plan_fairings
     assert runs["cut"].plan_fairings == [] and len(fairings) == 1 and fairings[0]["taken"]
+    assert (fairings[0]["face"], fairings[0]["onto"]) == (2, 1)  # the bow (the plan's second surface) moved
     cut = fairings[0]["ramp_x_mm"][1]
     assert cut == pytest.approx(20198.0, abs=1.0)
 

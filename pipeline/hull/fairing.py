@@ -51,7 +51,10 @@ class Fairing:
     reason: str = ""
 
     def as_dict(self, mm_per_unit: float = 1.0) -> dict:
+        """Lengths in mm; faces numbered from 1 as the plates' notes number them (1: the
+        strake's surface, then the plan's surfaces in order)."""
         out = asdict(self)
+        out["face"], out["onto"] = self.face + 1, self.onto + 1
         for key in ("moved_max", "moved_median", "refit_error", "step_at_cut_before", "step_at_cut_after"):
             out[f"{key}_mm"] = round(out.pop(key) * mm_per_unit, 4)
         out["ramp_x_mm"] = [round(x * mm_per_unit, 3) for x in out.pop("ramp_x")]
