@@ -156,3 +156,12 @@ def test_an_unknown_overlaps_choice_is_refused_naming_the_field(tmp_path, capsys
     assert main(["run", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "overlaps" in err and "blend" in err and not out.exists()
+
+
+def test_inspect_points_to_fairing_where_faces_overlap(capsys):
+    from pipeline.cli import main
+
+    assert main(["hull", "inspect", str(SHIP / "ship_5415.igs")]) == 0
+    out = capsys.readouterr().out
+    overlap = next(line for line in out.splitlines() if line.startswith("overlap:"))
+    assert "faces 0 and 1" in overlap and "overlaps: fair" in overlap

@@ -90,7 +90,8 @@ class SewingReport:
                        f"x {o.x_range_mm[0]:.1f}..{o.x_range_mm[1]:.1f} mm, {o.median_distance_mm:.3g} mm apart "
                        f"(median; up to {o.max_distance_mm:.3g}): nearly parallel, their intersection is no "
                        f"well-placed cut; cut at x = {o.cut_x_mm:.1f} mm, where the sections are closest "
-                       f"(step {o.step_at_cut_mm:.3g} mm)")
+                       f"(step {o.step_at_cut_mm:.3g} mm; a plan with overlaps: fair fairs one into the other "
+                       f"so that they meet there)")
         if not self.overlaps:
             out.append("overlaps: none")
         for j in self.junctions:
