@@ -28,6 +28,8 @@ from scipy.interpolate import BSpline
 from flatten.closest import SurfaceDistance
 from flatten.surface import NurbsSurface, nurbs_surface
 
+from .sewing import interior
+
 SAMPLES_PER_SPAN = 4  # least-squares samples per refined knot span and direction
 REFINE = 8  # a knot span the ramp touches is cut into this many
 SECTION_LINES = 200  # points of the cut's section measured against the other face
@@ -200,9 +202,7 @@ def _target(moved: NurbsSurface, distance: SurfaceDistance, u: np.ndarray, v: np
     # a foot on the other face's edge (the faces' centreline, deck edge or end) is a foot only
     # along the normal: the point moves along its own normal by the other face's edge's height
     # over its tangent plane, which carries the gap past the edge and is the foot where it is one
-    (u0, u1), (v0, v1) = onto.domain_u, onto.domain_v
-    edge = (np.isclose(params[:, 0], u0) | np.isclose(params[:, 0], u1)
-            | np.isclose(params[:, 1], v0) | np.isclose(params[:, 1], v1))
+    edge = ~interior(onto, params)
     if edge.any():
         su, sv = moved.partials(uu[on][edge], vv[on][edge])
         normal = np.cross(su, sv)
@@ -222,9 +222,5 @@ def _step_at(surface: NurbsSurface, distance: SurfaceDistance, cut: float) -> fl
     if len(section) == 0:
         return float("nan")
     params, dist = distance.closest(section)
-    onto = distance.surfaces[0]
-    (u0, u1), (v0, v1) = onto.domain_u, onto.domain_v
-    margin_u, margin_v = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
-    inside = ((params[:, 0] > u0 + margin_u) & (params[:, 0] < u1 - margin_u)
-              & (params[:, 1] > v0 + margin_v) & (params[:, 1] < v1 - margin_v))
+    inside = interior(distance.surfaces[0], params)
     return float(dist[inside].max()) if inside.any() else float("nan")

@@ -275,7 +275,7 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
                 continue
             points, weights = samples[a]
             params, dist = distances[b].closest(points)
-            on = (dist <= reach) & _interior(faces[b].surface, params) & _inside(faces[b], params)
+            on = (dist <= reach) & interior(faces[b].surface, params) & _inside(faces[b], params)
             if on.sum() < 4:
                 continue
             area = float(weights[on].sum())
@@ -291,7 +291,7 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
     return [best[pair] for pair in sorted(best)]
 
 
-def _interior(surface, params: np.ndarray, margin: float = 1e-6) -> np.ndarray:
+def interior(surface, params: np.ndarray, margin: float = 1e-6) -> np.ndarray:
     """(u, v) strictly inside the surface's parameter rectangle (a closest-point search that
     ends clamped on the edge found the edge, not a foot point)."""
     (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
@@ -309,7 +309,7 @@ def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: 
         if len(section) == 0:
             continue
         params, dist = other.closest(section)
-        inside = _interior(other.surfaces[0], params)
+        inside = interior(other.surfaces[0], params)
         if inside.sum() < 2:
             continue
         step = float(dist[inside].max())
