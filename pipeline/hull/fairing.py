@@ -28,7 +28,7 @@ from scipy.interpolate import BSpline
 from flatten.closest import SurfaceDistance
 from flatten.surface import NurbsSurface, nurbs_surface
 
-from .sewing import interior
+from .sewing import interior, section_distances
 
 SAMPLES_PER_SPAN = 4  # least-squares samples per refined knot span and direction
 REFINE = 8  # a knot span the ramp touches is cut into this many
@@ -120,18 +120,18 @@ def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float,
     their foot points on ``onto`` (none of the way at ``start``, all of it at and beyond the
     cut; before ``start`` the face is itself). ``face`` and ``other`` only label the result."""
     distance = SurfaceDistance(onto, grid=60)
-    coarse = moved.grid(np.linspace(*moved.domain_u, 41), np.linspace(*moved.domain_v, 41))
+    coarse_u, coarse_v = np.linspace(*moved.domain_u, 41), np.linspace(*moved.domain_v, 41)
+    coarse = moved.grid(coarse_u, coarse_v)
     touched = ramp(coarse[..., 0], start, cut) > 0.0
-    knots_u = _refined(moved.knots_u, moved.degree_u, np.linspace(*moved.domain_u, 41)[touched.any(axis=1)])
-    knots_v = _refined(moved.knots_v, moved.degree_v, np.linspace(*moved.domain_v, 41)[touched.any(axis=0)])
+    knots_u = _refined(moved.knots_u, moved.degree_u, coarse_u[touched.any(axis=1)])
+    knots_v = _refined(moved.knots_v, moved.degree_v, coarse_v[touched.any(axis=0)])
     su, sv = _samples(knots_u, moved.degree_u, 0.5), _samples(knots_v, moved.degree_v, 0.5)
-    target, shift = _target(moved, distance, su, sv, start, cut)
+    points, target, shift = _target(moved, distance, su, sv, start, cut)
     bu = BSpline.design_matrix(su, knots_u, moved.degree_u).toarray()
     bv = BSpline.design_matrix(sv, knots_v, moved.degree_v).toarray()
     weights = _weights_at(moved, su, sv)
     # the face on the refined knots (exact: its spline space lies inside), then the move fitted
     # on the poles that act where something moves, so the rest of the face stays as it was
-    points = moved.grid(su, sv)
     net = _fit(bu, np.concatenate([points * weights[..., None], weights[..., None]], axis=-1), bv)
     moving_u, moving_v = (shift > 0.0).any(axis=1), (shift > 0.0).any(axis=0)
     acting_u = (bu[moving_u] != 0.0).any(axis=0)
@@ -144,7 +144,7 @@ def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float,
     faired = nurbs_surface(moved.degree_u, moved.degree_v, poles, knots_u, knots_v, w, name=name or moved.name)
     # between the samples: where a refit would stray from the intended move
     cu, cv = _samples(knots_u, moved.degree_u, 0.0), _samples(knots_v, moved.degree_v, 0.0)
-    intended, _ = _target(moved, distance, cu, cv, start, cut)
+    _, intended, _ = _target(moved, distance, cu, cv, start, cut)
     refit_error = float(np.linalg.norm(faired.grid(cu, cv) - intended, axis=-1).max())
     moving = shift > 1e-9 * max(1.0, float(np.ptp(coarse)))
     return faired, Fairing(face, other, (float(start), float(cut)), float(shift.max(initial=0.0)),
@@ -187,14 +187,15 @@ def _weights_at(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> np.ndarr
 
 
 def _target(moved: NurbsSurface, distance: SurfaceDistance, u: np.ndarray, v: np.ndarray, start: float,
-            cut: float) -> tuple[np.ndarray, np.ndarray]:
-    """The faired face's points on the grid (Nu, Nv, 3) and how far each moved (Nu, Nv)."""
+            cut: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The face's points on the grid (Nu, Nv, 3), the faired face's there and how far each
+    moved (Nu, Nv)."""
     points = moved.grid(u, v)
     weight = ramp(points[..., 0], start, cut)
     target = points.copy()
     on = weight > 0.0
     if not on.any():
-        return target, np.zeros(weight.shape)
+        return points, target, np.zeros(weight.shape)
     uu, vv = np.meshgrid(u, v, indexing="ij")
     params, _ = distance.closest(points[on])
     onto = distance.surfaces[0]
@@ -212,15 +213,11 @@ def _target(moved: NurbsSurface, distance: SurfaceDistance, u: np.ndarray, v: np
     target[on] += move
     shift = np.zeros(weight.shape)
     shift[on] = np.linalg.norm(move, axis=1)
-    return target, shift
+    return points, target, shift
 
 
 def _step_at(surface: NurbsSurface, distance: SurfaceDistance, cut: float) -> float:
     """The largest distance of the face's section at x = ``cut`` from the other face, over the
     points whose foot lies inside it."""
-    section = surface.plane_section_points((cut, 0.0, 0.0), (1.0, 0.0, 0.0), SECTION_LINES)
-    if len(section) == 0:
-        return float("nan")
-    params, dist = distance.closest(section)
-    inside = interior(distance.surfaces[0], params)
-    return float(dist[inside].max()) if inside.any() else float("nan")
+    dist = section_distances(surface, distance, cut, SECTION_LINES)
+    return float(dist.max()) if len(dist) else float("nan")

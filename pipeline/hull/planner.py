@@ -168,7 +168,6 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     planned = load_plan_surfaces(sources, path.parent, mm_per_unit, strake.scale)
     loaded = [(p.surface, p.trim, p.note) for p in planned]
     surfaces = [s for s, _, _ in loaded]
-    distance = SurfaceDistance(surfaces)
     resolution = float(strake.patch_spacing or 200.0 / mm_per_unit)
     stock = plan.stock
     multi = len(surfaces) > 1
@@ -190,9 +189,9 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         from .fairing import fair_overlaps
 
         surfaces, faired = fair_overlaps(surfaces, overlaps, limits, tolerance)
-        distance = SurfaceDistance(surfaces)
         if fairings is not None:
             fairings.extend(f.as_dict(mm_per_unit) for f in faired)
+    distance = SurfaceDistance(surfaces)  # after any fairing: the plates measure the faces they lie on
     faces, cells = [], []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)

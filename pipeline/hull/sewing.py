@@ -305,17 +305,23 @@ def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: 
     other face (least largest distance): where cutting the two leaves the smallest step."""
     best = (0.5 * (x0 + x1), np.inf)
     for x in np.linspace(x0, x1, stations):
-        section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), 60)
-        if len(section) == 0:
+        dist = section_distances(surface, other, float(x), 60)
+        if len(dist) < 2:
             continue
-        params, dist = other.closest(section)
-        inside = interior(other.surfaces[0], params)
-        if inside.sum() < 2:
-            continue
-        step = float(dist[inside].max())
+        step = float(dist.max())
         if step < best[1]:
             best = (float(x), step)
     return best
+
+
+def section_distances(surface, other: SurfaceDistance, x: float, lines: int) -> np.ndarray:
+    """Distances (N,) from the other face of the face's section by the plane x = ``x``
+    (``lines`` iso-lines cut), over the section's points whose foot lies inside that face."""
+    section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), lines)
+    if len(section) == 0:
+        return np.zeros(0)
+    params, dist = other.closest(section)
+    return dist[interior(other.surfaces[0], params)]
 
 
 def _samples(face: HullFace) -> tuple[np.ndarray, np.ndarray]:
