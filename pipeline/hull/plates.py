@@ -32,7 +32,7 @@ import numpy as np
 
 from flatten.closest import SurfaceDistance
 from flatten.metrics import polygon_area
-from flatten.patch import grid_ring, region_grid, weld
+from flatten.patch import grid_ring, region_grid, turn_refined_grid, weld
 from flatten.minimax import flattest_plane
 from flatten.patchflat import arap_development, planar_development, plane_through, triangle_stretches
 
@@ -49,6 +49,17 @@ from ..stages import run_part as run_curve_part
 # order of the 0.3-1 mm/m a shell expansion program prompts for)
 FORMING_STRAIN = 1e-3
 REGION_SIZE_MM = 1000.0  # strain map cells about 1 m square
+# a plate grid's seam rows and butt columns are its edges against its neighbours, each of
+# which samples the same seam or butt at its own points (staggered butts, split plates, two
+# faces): where a chord of the grid's edge would stand off the hull's seam or butt by more
+# than TURN_TRIGGER fit tolerances, its columns (rows) there are cut until within
+# TURN_TARGET (:func:`flatten.patch.turn_refined_grid`). DTMB 5415's seam 2 turning up the
+# stem stepped 20.6 mm between plates that sampled it 150 mm apart. The trigger is low so
+# that two plates sampling one turn both cut: at one tolerance KCS's plate estimated at 4.5
+# mm was left beside its neighbour at 5.04 mm, cut, and the two stepped 3.06 mm
+TURN_TRIGGER = 0.2
+TURN_TARGET = 0.1
+TURN_PASSES = 3
 
 
 def run_part(part: Part, config: RunConfig) -> PartResult:
@@ -92,8 +103,9 @@ def _grid(part: Part, config: RunConfig):
     rows = int(np.clip(np.ceil(width / h) + 1, 5, 60))
     cols = int(np.clip(np.ceil(length / h) + 1, 9, 160))
     # rows even in 3D girth length: the plate's mesh, fit-up edges and development sample it
-    return region_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, rows, cols, probe=400,
-                       spacing="length")
+    return turn_refined_grid(hull.surface, hull.long_axis, hull.girths[0], hull.girths[1], planes, rows, cols,
+                             TURN_TRIGGER * hull.fit_tolerance, TURN_TARGET * hull.fit_tolerance, TURN_PASSES,
+                             probe=400, spacing="length")
 
 
 def _grid_faces_region(shape, region_cells) -> np.ndarray:

@@ -1,0 +1,138 @@
+"""A plate grid's edges where the hull's seam turns sharply (flatten.patch.turn_refined_grid).
+
+DTMB 5415's seam 2 turns from the keel up the stem within about 300 mm; the plates either
+side of it sample it at their own columns, about 150 mm apart, and their chords parted by
+up to 20.6 mm there. Here a surface extruded from a profile that runs along x, turns up
+through a quarter circle of radius R and runs up z: its seams (v constant) are that
+profile, whose distance from any point is known in closed form."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flatten.patch import chord_sagittas, region_grid, turn_refined, turn_refined_grid
+from flatten.surface import nurbs_surface
+
+R = 0.05
+SQ = np.sqrt(0.5)
+NORMAL = np.array([SQ, 0.0, SQ])  # x + z grows along the whole profile: butt planes cut it once
+
+
+def bent_sheet():
+    """u along the profile: (0, 0) to (1, 0), the exact quarter circle to (1 + R, R), up to
+    (1 + R, 1) (degree 2, double knots at the joins); v: y from 0 to 1."""
+    profile = [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (1.0 + R, 0.0), (1.0 + R, R), (1.0 + R, 0.5 + R / 2),
+               (1.0 + R, 1.0)]
+    weights = [1.0, 1.0, 1.0, SQ, 1.0, 1.0, 1.0]
+    poles = np.array([[(x, y, z) for y in (0.0, 1.0)] for x, z in profile])
+    return nurbs_surface(2, 1, poles, [0, 0, 0, 0.45, 0.45, 0.55, 0.55, 1, 1, 1], [0, 0, 1, 1],
+                         weights=np.repeat(np.array(weights)[:, None], 2, axis=1), name="bent")
+
+
+def profile_distance(points):
+    """Distance (N,) of points (N, 3) from the profile at y = 0.5 (closed form)."""
+    x, y, z = points.T
+    on_line = np.hypot(np.clip(x, 0.0, 1.0) - x, z)
+    up = np.hypot(x - (1.0 + R), np.clip(z, R, 1.0) - z)
+    angle = np.arctan2(z - R, x - 1.0)  # the arc's points lie at angles -90..0 degrees from (1, R)
+    inside = (angle >= -np.pi / 2) & (angle <= 0.0)
+    arc = np.where(inside, np.abs(np.hypot(x - 1.0, z - R) - R), np.inf)
+    return np.sqrt(np.minimum(np.minimum(on_line, up), arc) ** 2 + (y - 0.5) ** 2)
+
+
+def chord_standoff(polyline, samples=41):
+    """The largest distance from the profile of the polyline's chords (sampled)."""
+    t = np.linspace(0.0, 1.0, samples)[None, :, None]
+    pts = polyline[:-1, None, :] + t * np.diff(polyline, axis=0)[:, None, :]
+    return float(profile_distance(pts.reshape(-1, 3)).max())
+
+
+def planes(lo, hi):
+    return [(NORMAL, lo * SQ), (NORMAL, hi * SQ)]  # x + z between lo and hi
+
+
+def const(value):
+    return lambda s: np.full(np.shape(s), float(value))
+
+
+def test_a_chords_sagitta_on_a_circle_is_the_closed_form():
+    # chords of angle d on a circle of radius r stand off it by r (1 - cos(d / 2))
+    for r, n in ((100.0, 5), (3.0, 40), (0.05, 3)):
+        theta = np.linspace(0.0, np.pi / 2, n)
+        circle = np.c_[r * np.cos(theta), r * np.sin(theta), np.zeros(n)]
+        expected = r * (1.0 - np.cos(theta[1] / 2))
+        assert chord_sagittas(circle) == pytest.approx(np.full(n - 1, expected), rel=2e-2)
+    straight = np.c_[np.linspace(0, 1, 9), np.zeros(9), np.zeros(9)]
+    assert np.all(chord_sagittas(straight) == 0.0)
+
+
+def test_fractions_of_gently_turning_edges_are_kept_as_they_are():
+    theta = np.linspace(0.0, 0.1, 11)
+    arc = np.c_[10.0 * np.cos(theta), 10.0 * np.sin(theta), np.zeros(11)]  # sagitta 1.25e-4
+    fractions = np.linspace(0.0, 1.0, 11)
+    assert turn_refined(fractions, (arc,), 1e-3, 1e-4) is fractions
+    refined = turn_refined(fractions, (arc,), 1e-4, 1e-5)
+    assert len(refined) > 11 and np.all(np.diff(refined) > 0) and set(fractions) <= set(refined)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.integers(3, 30), st.floats(0.01, 100.0), st.floats(0.05, 3.0), st.floats(1e-4, 0.8))
+def test_refined_fractions_keep_the_old_ones_and_bring_a_circle_within_the_target(n, radius, sweep, target):
+    # any arc of a circle sampled evenly: the cut fractions still increase from 0 to 1, hold
+    # the old ones, and the chords of the arc sampled at them stand off it by at most the
+    # target where they were cut (and by the old sagitta, under the trigger, elsewhere)
+    fractions = np.linspace(0.0, 1.0, n)
+
+    def arc(f):
+        return np.c_[radius * np.cos(sweep * f), radius * np.sin(sweep * f), np.zeros(len(f))]
+
+    sagitta = radius * (1.0 - np.cos(sweep / (n - 1) / 2))
+    refined = turn_refined(fractions, (arc(fractions),), 0.5 * sagitta, target * sagitta, most=8)
+    assert refined[0] == 0.0 and refined[-1] == 1.0 and np.all(np.diff(refined) > 0)
+    assert set(fractions) <= set(refined)
+    pieces = (len(refined) - 1) // (n - 1)  # every chord of a circle alike
+    assert len(refined) == (n - 1) * pieces + 1 and 2 <= pieces <= 8
+    exact = radius * (1.0 - np.cos(sweep * np.diff(refined) / 2))
+    assert exact.max() <= max(target, 1.0 / 64) * sagitta * 1.02
+    assert pieces == 2 or exact.max() > 0.5 * target * sagitta  # no more pieces than it takes
+
+
+@pytest.mark.parametrize("spacing", ["length", "parameter"])
+def test_two_plates_across_a_sharply_turning_seam_meet_once_their_columns_are_cut(spacing):
+    # plate A (seams v 0..0.5) and B (v 0.5..1) share seam v = 0.5 over x + z 0.4..1.7, the
+    # turn inside; their butts are staggered, so each samples the turn at its own columns
+    surface = bent_sheet()
+    trigger, target = 5e-3, 5e-4
+    standoff, refined = {}, {}
+    for name, (lo_seam, hi_seam, lo, hi, row) in {"A": (0.0, 0.5, 0.3, 1.7, -1), "B": (0.5, 1.0, 0.4, 1.8, 0)}.items():
+        args = (surface, 0, const(lo_seam), const(hi_seam), planes(lo, hi))
+        plain = region_grid(*args, 5, 11, probe=200, spacing=spacing)
+        grid = turn_refined_grid(*args, 5, 11, trigger, target, probe=200, spacing=spacing)
+        standoff[name] = chord_standoff(plain.points[row]), chord_standoff(grid.points[row])
+        refined[name] = grid
+        # the butts lie on their planes and the seams on the surface, as before
+        ends = grid.points[:, [0, -1]] @ NORMAL / SQ
+        np.testing.assert_allclose(ends, np.broadcast_to([lo, hi], ends.shape), atol=1e-9)
+        assert grid.shape[0] == plain.shape[0] and grid.shape[1] > plain.shape[1]
+    for name in "AB":
+        before, after = standoff[name]
+        assert before > trigger  # the plain grid's edge chords cut the turn
+        assert after <= 1.5 * target  # the estimate from the turn: within half as much again
+    # either plate's seam points lie on the other's edge within the chords' standoff
+    a, b = refined["A"].points[-1], refined["B"].points[0]
+    common = (a @ NORMAL / SQ >= 0.4) & (a @ NORMAL / SQ <= 1.7)
+    assert profile_distance(a[common]).max() < 1e-9 and profile_distance(b).max() < 1e-9
+
+
+def test_fractions_that_do_not_increase_are_refused_naming_them():
+    surface = bent_sheet()
+    with pytest.raises(ValueError, match="cols fractions"):
+        region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), 5, [0.0, 0.6, 0.5, 1.0])
+    with pytest.raises(ValueError, match="cols fractions"):
+        region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), 5, [0.1, 0.5, 1.0])
+    with pytest.raises(ValueError, match="rows fractions"):
+        region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), [0.0, 1.2], 9)
+    same = region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), 5, 9)
+    given = region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), np.linspace(0, 1, 5), np.linspace(0, 1, 9))
+    assert np.array_equal(same.points, given.points)
