@@ -226,6 +226,8 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows,
 
 
 def _fractions(count_or_fractions, name: str, ends: bool) -> np.ndarray:
+    """Grid fractions (N,): even ones for a count, else the given ones, checked to increase
+    within [0, 1] (from 0 to 1 when ``ends``); ``name`` names them in the error."""
     if np.ndim(count_or_fractions) == 0:
         return np.linspace(0.0, 1.0, int(count_or_fractions))
     f = np.asarray(count_or_fractions, dtype=np.float64)
@@ -238,31 +240,32 @@ def _fractions(count_or_fractions, name: str, ends: bool) -> np.ndarray:
 def chord_sagittas(polyline: np.ndarray) -> np.ndarray:
     """How far (N - 1,) each chord of a polyline (N, 3) sampling a smooth curve stands off
     the curve, estimated from the turn at its ends: L^2 kappa / 8, kappa the larger of the
-    two ends' turning angle over their mean chord length (0 at the polyline's own ends)."""
+    two ends' turning angle over their mean chord length. Not seen: a turn within a
+    polyline's end chords (they have one inner end) and within a single chord. A vertex
+    beside a chord under 1e-9 of the polyline's length (points that coincide, such as a seam
+    collapsing to a point at a strake's end) turns by nothing: its direction is round-off."""
     d = np.diff(np.asarray(polyline, dtype=np.float64), axis=0)
     length = np.linalg.norm(d, axis=1)
     kappa = np.zeros(len(length))
     if len(length) >= 2:
         unit = d / np.maximum(length, 1e-300)[:, None]
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", unit[:-1], unit[1:]), -1.0, 1.0))
-        at_vertex = turn / np.maximum(0.5 * (length[:-1] + length[1:]), 1e-300)
+        real = np.minimum(length[:-1], length[1:]) > 1e-9 * length.sum()
+        at_vertex = np.where(real, turn, 0.0) / np.maximum(0.5 * (length[:-1] + length[1:]), 1e-300)
         kappa[:-1] = at_vertex
         kappa[1:] = np.maximum(kappa[1:], at_vertex)
     return length ** 2 * kappa / 8.0
 
 
-def turn_refined(fractions: np.ndarray, polylines, trigger, target: float, most: int = 8) -> np.ndarray:
-    """Fractions (N,) with every interval where one of the polylines (each (N, 3), sampled at
-    these fractions) has a chord standing off its curve by more than ``trigger`` (a number,
-    or one (N - 1,) per interval; :func:`chord_sagittas`) cut into even pieces, as many as
-    bring it within ``target`` (a sagitta falls with the square of the chord), at most
-    ``most``; the same array when none is. Where two plates meet along a seam or a butt that
-    turns sharply (DTMB 5415's forefoot: seam 2 turns from the keel up the stem within 300
-    mm) each samples it at its own columns, and their chords may part by their sagittas
-    (20 mm there at 150 mm)."""
+def turn_refined(fractions: np.ndarray, polylines, trigger, target: float, max_pieces: int = 8) -> np.ndarray:
+    """Fractions (M,) holding the given ones (N,), with every interval where one of the
+    polylines (each (N, 3), sampled at these fractions) has a chord standing off its curve by
+    more than ``trigger`` (a number, or one per interval (N - 1,); :func:`chord_sagittas`)
+    cut into even pieces, as many as bring it within ``target`` (a sagitta falls with the
+    square of the chord), at most ``max_pieces``; M = N when none is."""
     fractions = np.asarray(fractions, dtype=np.float64)
     worst = np.max([chord_sagittas(p) for p in polylines], axis=0)
-    pieces = np.where(worst > trigger, np.clip(np.ceil(np.sqrt(worst / target)), 1, most), 1).astype(np.int64)
+    pieces = np.where(worst > trigger, np.clip(np.ceil(np.sqrt(worst / target)), 1, max_pieces), 1).astype(np.int64)
     if np.all(pieces == 1):
         return fractions
     parts = [np.linspace(lo, hi, k + 1)[:-1] for lo, hi, k in zip(fractions[:-1], fractions[1:], pieces)]
@@ -270,8 +273,9 @@ def turn_refined(fractions: np.ndarray, polylines, trigger, target: float, most:
 
 
 def _near_cuts(old: np.ndarray, new: np.ndarray) -> np.ndarray:
-    """(len(new) - 1,) whether each interval of ``new`` is a piece of a cut interval of
-    ``old`` or next to one (a turn spreads over the chords either side of it)."""
+    """(len(new) - 1,) whether each interval of ``new`` is no interval of ``old`` (a piece of
+    a cut one, or one that spans a dropped fraction) or lies next to such an interval (a
+    turn spreads over the chords either side of it)."""
     kept = np.isin(new, old)
     position = np.searchsorted(old, new)
     cut = ~(kept[:-1] & kept[1:] & (np.diff(position) == 1))
@@ -281,31 +285,40 @@ def _near_cuts(old: np.ndarray, new: np.ndarray) -> np.ndarray:
     return near
 
 
+# a grid cut where its edges turn grows at most this many times along each direction
+# (the most on the four real hulls: 9 times, the rows of DTMB 5415's plate at the stem)
+TURN_GROWTH = 12
+
+
 def turn_refined_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows: int, cols: int,
                       trigger: float, target: float, passes: int = 3, **kwargs) -> PatchGrid | None:
     """:func:`region_grid` (``kwargs`` passed on), with its columns cut where a seam row's
-    chords stand off the seam by more than ``trigger`` and its rows where a butt column's do
-    (:func:`turn_refined`); the pieces and the chords next to them are cut again while over
-    ``target`` (the estimate from the turn at a chord's ends spreads a turn concentrated in
-    a short arc over the chord: a chord next to a cut one, estimated under ``trigger``, stood
-    off by 0.8 of ``trigger``), at most ``passes`` times. A grid whose edges turn gently is
-    the plain grid, unchanged."""
+    chords (its first and last rows) stand off the seam by more than ``trigger`` and its
+    rows where a butt column's do (:func:`turn_refined`). The pieces and the chords next to
+    them are cut again while over ``target``: the estimate from the turn at a chord's ends
+    spreads a turn concentrated in a short arc over the chord, and a chord next to a cut
+    one, estimated under ``trigger``, stood off by 0.8 of ``trigger``. At most ``passes``
+    rounds and TURN_GROWTH times the plain grid's size each way, so the chords aim at the
+    target and may stay above it. A grid whose edges turn gently is the plain grid itself."""
     along = np.linspace(0.0, 1.0, cols)
     grid = region_grid(surface, long_axis, g_lo, g_hi, planes, rows, along, **kwargs)
-    cut_along, cut_across = np.zeros(cols - 1, dtype=bool), None
+    if grid is None:
+        return None
+    most_along, most_across = TURN_GROWTH * len(along), TURN_GROWTH * len(grid.rows)
+    near_along, near_across = np.zeros(len(along) - 1, dtype=bool), np.zeros(len(grid.rows) - 1, dtype=bool)
     for _ in range(passes):
-        if grid is None:
-            return None
-        p = grid.points
-        if cut_across is None or len(cut_across) != len(grid.rows) - 1:
-            cut_across = np.zeros(len(grid.rows) - 1, dtype=bool)
-        new_along = turn_refined(along, (p[0], p[-1]), np.where(cut_along, target, trigger), target)
-        new_across = turn_refined(grid.rows, (p[:, 0], p[:, -1]), np.where(cut_across, target, trigger), target)
-        if new_along is along and new_across is grid.rows:
+        seams, butts = (grid.points[0], grid.points[-1]), (grid.points[:, 0], grid.points[:, -1])
+        new_along = turn_refined(along, seams, np.where(near_along, target, trigger), target)
+        new_across = turn_refined(grid.rows, butts, np.where(near_across, target, trigger), target)
+        new_along = new_along if len(new_along) <= most_along else along
+        new_across = new_across if len(new_across) <= most_across else grid.rows
+        if len(new_along) == len(along) and len(new_across) == len(grid.rows):
             break
-        cut_along, cut_across = _near_cuts(along, new_along), _near_cuts(grid.rows, new_across)
-        along = new_along
-        grid = region_grid(surface, long_axis, g_lo, g_hi, planes, new_across, along, **kwargs)
+        refined = region_grid(surface, long_axis, g_lo, g_hi, planes, new_across, new_along, **kwargs)
+        if refined is None:
+            return grid
+        near_along, near_across = _near_cuts(along, new_along), _near_cuts(grid.rows, refined.rows)
+        along, grid = new_along, refined
     return grid
 
 

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flatten.patch import chord_sagittas, region_grid, turn_refined, turn_refined_grid
+from flatten.patch import _near_cuts, chord_sagittas, region_grid, turn_refined, turn_refined_grid
 from flatten.surface import nurbs_surface
 
 R = 0.05
@@ -88,14 +88,14 @@ def test_refined_fractions_keep_the_old_ones_and_bring_a_circle_within_the_targe
         return np.c_[radius * np.cos(sweep * f), radius * np.sin(sweep * f), np.zeros(len(f))]
 
     sagitta = radius * (1.0 - np.cos(sweep / (n - 1) / 2))
-    refined = turn_refined(fractions, (arc(fractions),), 0.5 * sagitta, target * sagitta, most=8)
+    refined = turn_refined(fractions, (arc(fractions),), 0.5 * sagitta, target * sagitta, max_pieces=8)
     assert refined[0] == 0.0 and refined[-1] == 1.0 and np.all(np.diff(refined) > 0)
     assert set(fractions) <= set(refined)
     pieces = (len(refined) - 1) // (n - 1)  # every chord of a circle alike
     assert len(refined) == (n - 1) * pieces + 1 and 2 <= pieces <= 8
     exact = radius * (1.0 - np.cos(sweep * np.diff(refined) / 2))
     assert exact.max() <= max(target, 1.0 / 64) * sagitta * 1.02
-    assert pieces == 2 or exact.max() > 0.5 * target * sagitta  # no more pieces than it takes
+    assert pieces == 8 or (pieces - 1) ** 2 < 1.02 / target  # no more pieces than it takes: one fewer would not do
 
 
 @pytest.mark.parametrize("spacing", ["length", "parameter"])
@@ -104,13 +104,13 @@ def test_two_plates_across_a_sharply_turning_seam_meet_once_their_columns_are_cu
     # turn inside; their butts are staggered, so each samples the turn at its own columns
     surface = bent_sheet()
     trigger, target = 5e-3, 5e-4
-    standoff, refined = {}, {}
+    standoff, refined, plain_grids = {}, {}, {}
     for name, (lo_seam, hi_seam, lo, hi, row) in {"A": (0.0, 0.5, 0.3, 1.7, -1), "B": (0.5, 1.0, 0.4, 1.8, 0)}.items():
         args = (surface, 0, const(lo_seam), const(hi_seam), planes(lo, hi))
         plain = region_grid(*args, 5, 11, probe=200, spacing=spacing)
         grid = turn_refined_grid(*args, 5, 11, trigger, target, probe=200, spacing=spacing)
         standoff[name] = chord_standoff(plain.points[row]), chord_standoff(grid.points[row])
-        refined[name] = grid
+        refined[name], plain_grids[name] = grid, plain
         # the butts lie on their planes and the seams on the surface, as before
         ends = grid.points[:, [0, -1]] @ NORMAL / SQ
         np.testing.assert_allclose(ends, np.broadcast_to([lo, hi], ends.shape), atol=1e-9)
@@ -119,10 +119,79 @@ def test_two_plates_across_a_sharply_turning_seam_meet_once_their_columns_are_cu
         before, after = standoff[name]
         assert before > trigger  # the plain grid's edge chords cut the turn
         assert after <= 1.5 * target  # the estimate from the turn: within half as much again
-    # either plate's seam points lie on the other's edge within the chords' standoff
-    a, b = refined["A"].points[-1], refined["B"].points[0]
-    common = (a @ NORMAL / SQ >= 0.4) & (a @ NORMAL / SQ <= 1.7)
-    assert profile_distance(a[common]).max() < 1e-9 and profile_distance(b).max() < 1e-9
+    # the step between the two plates' edges (each one's seam points from the other's
+    # chords, over their common part): the turn's chord before, the target now
+    for grids, bound in (({n: plain_grids[n] for n in "AB"}, None), (refined, 2.0 * target)):
+        a, b = grids["A"].points[-1], grids["B"].points[0]
+        step = max(polyline_distance(a[along_profile(a, 0.4, 1.7)], b), polyline_distance(b[along_profile(b, 0.4, 1.7)], a))
+        if bound is None:
+            assert step > trigger
+        else:
+            assert step <= bound
+
+
+def along_profile(points, lo, hi):
+    return (points @ NORMAL / SQ >= lo) & (points @ NORMAL / SQ <= hi)
+
+
+def polyline_distance(points, polyline):
+    """Largest distance (scalar) of points (N, 3) from a polyline (M, 3)."""
+    a, ab = polyline[:-1], np.diff(polyline, axis=0)
+    f = np.clip(np.einsum("pij,ij->pi", points[:, None] - a[None], ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    return float(np.linalg.norm(a[None] + f[..., None] * ab[None] - points[:, None], axis=2).min(axis=1).max())
+
+
+@pytest.mark.parametrize("spacing", ["length", "parameter"])
+def test_two_plates_across_a_sharply_turning_butt_meet_once_their_rows_are_cut(spacing):
+    # the same sheet with u across the girth (long_axis 1: the plates run along y and their
+    # butts, planes y = const, are the profile): plate A (y 0..0.5) spans the girth u
+    # 0.1..0.9 and B (y 0.5..1) 0.2..0.95, so each samples the turn of their common butt at
+    # its own rows; cut, A's butt points lie on B's butt chords within twice the target
+    surface = bent_sheet()
+    trigger, target = 5e-3, 5e-4
+    y_planes = {"A": [None, (np.array([0.0, 1.0, 0.0]), 0.5)], "B": [(np.array([0.0, 1.0, 0.0]), 0.5), None]}
+    girths = {"A": (0.1, 0.9), "B": (0.2, 0.95)}
+    butt = {}
+    for name, column in (("A", -1), ("B", 0)):
+        args = (surface, 1, const(girths[name][0]), const(girths[name][1]), y_planes[name])
+        plain = region_grid(*args, 9, 5, probe=200, spacing=spacing)
+        grid = turn_refined_grid(*args, 9, 5, trigger, target, probe=200, spacing=spacing)
+        assert grid.shape[1] == plain.shape[1] and grid.shape[0] > plain.shape[0]
+        np.testing.assert_allclose(grid.points[:, column, 1], 0.5, atol=1e-12)
+        butt[name] = plain.points[:, column], grid.points[:, column]
+    for k, bound in ((0, None), (1, 2.0 * target)):
+        a, b = butt["A"][k], butt["B"][k]
+        inside = along_profile(a, float(b[0] @ NORMAL / SQ), float(b[-1] @ NORMAL / SQ))
+        step = max(polyline_distance(a[inside], b), polyline_distance(b[along_profile(b, float(a[0] @ NORMAL / SQ),
+                                                                                       float(a[-1] @ NORMAL / SQ))], a))
+        assert step > trigger if bound is None else step <= bound
+
+
+def test_a_grid_whose_edges_turn_gently_is_the_plain_grid_to_the_bit():
+    surface = bent_sheet()
+    args = (surface, 0, const(0.1), const(0.6), planes(0.2, 0.9))  # the flat part: no turn
+    for spacing in ("length", "parameter"):
+        plain = region_grid(*args, 6, 13, probe=200, spacing=spacing)
+        grid = turn_refined_grid(*args, 6, 13, 5e-3, 5e-4, probe=200, spacing=spacing)
+        assert grid.points.tobytes() == plain.points.tobytes() and grid.params.tobytes() == plain.params.tobytes()
+
+
+def test_pieces_of_cut_intervals_and_their_neighbours_are_marked():
+    old = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    new = np.array([0.0, 0.25, 0.375, 0.5, 0.75, 1.0])  # the second interval cut in two
+    assert _near_cuts(old, new).tolist() == [True, True, True, True, False]
+    assert _near_cuts(old, old).tolist() == [False] * 4
+    dropped = np.array([0.0, 0.25, 0.75, 1.0])  # a row dropped: the interval across it is no old one
+    assert _near_cuts(old, dropped).tolist() == [True, True, True]
+
+
+def test_points_that_coincide_make_no_turn():
+    # a seam collapsing to a point at a strake's end repeats its point: its direction is
+    # round-off, not a turn of the straight line it lies on
+    for gap in (0.0, 1e-13):
+        line = np.array([[0.0, 0.0, 0.0], [gap, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+        assert np.all(chord_sagittas(line) == 0.0)
+        assert len(turn_refined(np.linspace(0, 1, 4), (line,), 1e-6, 1e-7)) == 4
 
 
 def test_fractions_that_do_not_increase_are_refused_naming_them():
