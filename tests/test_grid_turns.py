@@ -11,7 +11,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flatten.patch import _near_cuts, chord_sagittas, region_grid, turn_refined, turn_refined_grid
+from flatten.patch import (
+    _near_cuts,
+    chord_sagittas,
+    region_grid,
+    turn_refined,
+    turn_refined_grid,
+)
 from flatten.surface import nurbs_surface
 
 R = 0.05
