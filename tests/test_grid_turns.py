@@ -25,33 +25,36 @@ SQ = np.sqrt(0.5)
 NORMAL = np.array([SQ, 0.0, SQ])  # x + z grows along the whole profile: butt planes cut it once
 
 
-def bent_sheet():
+def bent_sheet(straight_far=False):
     """u along the profile: (0, 0) to (1, 0), the exact quarter circle to (1 + R, R), up to
-    (1 + R, 1) (degree 2, double knots at the joins); v: y from 0 to 1."""
+    (1 + R, 1) (degree 2, double knots at the joins); v: y from 0 to 1, linear, to the same
+    profile at y = 1, or (``straight_far``) to a straight line there (the edge y = 0 is the
+    profile exactly)."""
     profile = [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (1.0 + R, 0.0), (1.0 + R, R), (1.0 + R, 0.5 + R / 2),
                (1.0 + R, 1.0)]
+    far = [(1.6 * t, 0.6 * t) for t in (0.0, 0.2, 0.4, 0.5, 0.6, 0.8, 1.0)] if straight_far else profile
     weights = [1.0, 1.0, 1.0, SQ, 1.0, 1.0, 1.0]
-    poles = np.array([[(x, y, z) for y in (0.0, 1.0)] for x, z in profile])
+    poles = np.array([[(x, 0.0, z), (x_far, 1.0, z_far)] for (x, z), (x_far, z_far) in zip(profile, far)])
     return nurbs_surface(2, 1, poles, [0, 0, 0, 0.45, 0.45, 0.55, 0.55, 1, 1, 1], [0, 0, 1, 1],
                          weights=np.repeat(np.array(weights)[:, None], 2, axis=1), name="bent")
 
 
-def profile_distance(points):
-    """Distance (N,) of points (N, 3) from the profile at y = 0.5 (closed form)."""
+def profile_distance(points, at_y=0.5):
+    """Distance (N,) of points (N, 3) from the profile at y = ``at_y`` (closed form)."""
     x, y, z = points.T
     on_line = np.hypot(np.clip(x, 0.0, 1.0) - x, z)
     up = np.hypot(x - (1.0 + R), np.clip(z, R, 1.0) - z)
     angle = np.arctan2(z - R, x - 1.0)  # the arc's points lie at angles -90..0 degrees from (1, R)
     inside = (angle >= -np.pi / 2) & (angle <= 0.0)
     arc = np.where(inside, np.abs(np.hypot(x - 1.0, z - R) - R), np.inf)
-    return np.sqrt(np.minimum(np.minimum(on_line, up), arc) ** 2 + (y - 0.5) ** 2)
+    return np.sqrt(np.minimum(np.minimum(on_line, up), arc) ** 2 + (y - at_y) ** 2)
 
 
-def chord_standoff(polyline, samples=41):
-    """The largest distance from the profile of the polyline's chords (sampled)."""
+def chord_standoff(polyline, samples=41, at_y=0.5):
+    """The largest distance from the profile at y = ``at_y`` of the polyline's chords (sampled)."""
     t = np.linspace(0.0, 1.0, samples)[None, :, None]
     pts = polyline[:-1, None, :] + t * np.diff(polyline, axis=0)[:, None, :]
-    return float(profile_distance(pts.reshape(-1, 3)).max())
+    return float(profile_distance(pts.reshape(-1, 3), at_y).max())
 
 
 def planes(lo, hi):
@@ -171,6 +174,19 @@ def test_two_plates_across_a_sharply_turning_butt_meet_once_their_rows_are_cut(s
         step = max(polyline_distance(a[inside], b), polyline_distance(b[along_profile(b, float(a[0] @ NORMAL / SQ),
                                                                                        float(a[-1] @ NORMAL / SQ))], a))
         assert step > trigger if bound is None else step <= bound
+
+
+def test_the_seam_that_turns_is_cut_whichever_edge_of_the_grid_it_is():
+    # the sheet bends at y = 0 and is straight at y = 1: a plate between the seams v 0..1 has
+    # its turning seam as its first row and a straight one as its last; the columns are cut
+    # for the first, within the target
+    surface = bent_sheet(straight_far=True)
+    trigger, target = 5e-3, 5e-4
+    args = (surface, 0, const(0.0), const(1.0), planes(0.3, 1.7))
+    plain = region_grid(*args, 5, 11, probe=200, spacing="length")
+    grid = turn_refined_grid(*args, 5, 11, trigger, target, probe=200, spacing="length")
+    assert chord_sagittas(plain.points[-1]).max() < trigger < chord_standoff(plain.points[0], at_y=0.0)
+    assert chord_standoff(grid.points[0], at_y=0.0) <= 1.5 * target
 
 
 def test_a_grid_whose_edges_turn_gently_is_the_plain_grid_to_the_bit():
