@@ -268,8 +268,22 @@ def turn_refined(fractions: np.ndarray, polylines, trigger, target: float, max_p
     pieces = np.where(worst > trigger, np.clip(np.ceil(np.sqrt(worst / target)), 1, max_pieces), 1).astype(np.int64)
     if np.all(pieces == 1):
         return fractions
-    parts = [np.linspace(lo, hi, k + 1)[:-1] for lo, hi, k in zip(fractions[:-1], fractions[1:], pieces)]
-    return np.r_[np.concatenate(parts), fractions[-1]]
+    return subdivided(fractions, pieces)
+
+
+def subdivided(values: np.ndarray, pieces) -> np.ndarray:
+    """Values (N, ...) (fractions, or the points of a polyline) with each interval between
+    consecutive ones cut into ``pieces`` even parts (a count, or one per interval (N - 1,)):
+    shape (sum of the pieces + 1, ...). The j-th of k parts starts at lo + j (hi - lo) / k,
+    as ``np.linspace`` places it."""
+    values = np.asarray(values, dtype=np.float64)
+    if len(values) < 2:
+        return values
+    counts = np.broadcast_to(np.asarray(pieces, dtype=np.int64), (len(values) - 1,))
+    trailing = (1,) * (values.ndim - 1)
+    step = np.repeat(np.diff(values, axis=0) / counts.reshape(-1, *trailing), counts, axis=0)
+    j = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)).reshape(-1, *trailing)
+    return np.concatenate([j * step + np.repeat(values[:-1], counts, axis=0), values[-1:]])
 
 
 def _near_cuts(old: np.ndarray, new: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ from flatten.patch import (
     _near_cuts,
     chord_sagittas,
     region_grid,
+    subdivided,
     turn_refined,
     turn_refined_grid,
 )
@@ -227,3 +228,13 @@ def test_fractions_that_do_not_increase_are_refused_naming_them():
     same = region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), 5, 9)
     given = region_grid(surface, 0, const(0.0), const(0.5), planes(0.3, 1.7), np.linspace(0, 1, 5), np.linspace(0, 1, 9))
     assert np.array_equal(same.points, given.points)
+
+
+def test_intervals_cut_into_even_parts_as_linspace_places_them():
+    assert subdivided(np.array([0.0, 1.0, 3.0]), [2, 1]).tolist() == [0.0, 0.5, 1.0, 3.0]
+    points = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 8.0]])  # a polyline: every segment in 4
+    expected = np.r_[np.c_[np.arange(4.0), np.zeros(4)], np.c_[np.full(4, 4.0), 2.0 * np.arange(4.0)], [[4.0, 8.0]]]
+    assert np.array_equal(subdivided(points, 4), expected)
+    f = np.array([0.0, 0.1, 0.7, 1.0])
+    assert np.array_equal(subdivided(f, [3, 1, 5])[:-1], np.concatenate([np.linspace(0.0, 0.1, 4)[:-1], [0.1],
+                                                                       np.linspace(0.7, 1.0, 6)[:-1]]))

@@ -42,6 +42,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from flatten.metrics import closest_on_polyline
+from flatten.patch import subdivided
 from flatten.surface import NurbsSurface, nurbs_surface
 
 SECTION_GRID = 161  # samples per parameter direction of a face for its sections
@@ -119,7 +120,7 @@ def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -
     for line in lines:
         if len(line) < 2:
             continue
-        uv = _on_plane(surface, _subdivided(np.column_stack([line[:, 1], line[:, 0]]), SECTION_SUBDIVIDE), x)
+        uv = _on_plane(surface, subdivided(np.column_stack([line[:, 1], line[:, 0]]), SECTION_SUBDIVIDE), x)
         if trim_region is not None:
             clipped = shapely.LineString(uv).intersection(trim_region)
             parts = [np.asarray(g.coords) for g in getattr(clipped, "geoms", [clipped])
@@ -132,15 +133,6 @@ def face_section(surface: NurbsSurface, x: float, trim_region=None, grid=None) -
                 p3[:, 0] = x
                 pieces.append(p3)
     return pieces
-
-
-def _subdivided(polyline: np.ndarray, parts: int) -> np.ndarray:
-    """The polyline (N, d) with every segment cut into ``parts`` equal pieces."""
-    if parts <= 1 or len(polyline) < 2:
-        return polyline
-    t = np.arange(parts) / parts
-    pieces = polyline[:-1, None, :] + t[None, :, None] * np.diff(polyline, axis=0)[:, None, :]
-    return np.concatenate([pieces.reshape(-1, polyline.shape[1]), polyline[-1:]])
 
 
 def _on_plane(surface: NurbsSurface, uv: np.ndarray, x: float, steps: int = 3) -> np.ndarray:
