@@ -367,6 +367,33 @@ class PlateEvaluator:
                 out.append(func(item))
         return out
 
+    def develop(self, results: list, config) -> list:
+        """The results with any development they owe done (:func:`pipeline.hull.plateshop.develop`:
+        a plan's kept formed plates, before a fit-up reads them), by the workers while they
+        run (as :meth:`map`), else here. Results are handed back, their parts re-attached."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        from .hull.plateshop import develop, owes_development
+
+        out = list(results)
+        owing = [k for k, result in enumerate(results) if owes_development(result)]
+        if self._pool is None or len(owing) < 2:
+            for k in owing:
+                out[k] = develop(results[k], config)
+            return out
+        futures = {k: self._pool.submit(_develop_blob, _dumps(replace(results[k], part=None), self._index))
+                   for k in owing}
+        for k, future in futures.items():
+            try:
+                blob, cpu = future.result()
+                out[k] = _loads(blob, self._shared)
+                out[k].part = results[k].part
+                self.mapped_cpu_seconds += cpu
+            except BrokenProcessPool:
+                self.close()
+                out[k] = develop(results[k], config)
+        return out
+
     def close(self) -> None:
         """Stop the workers (the cache stays for the next plan)."""
         if self._pool is not None:
@@ -407,6 +434,16 @@ def _evaluate_blob(blob: bytes) -> tuple[bytes, float]:
     part = _loads(blob, _Evaluating.shared)
     result = _Evaluating.evaluate(part, _Evaluating.config)
     result.part = None
+    return _dumps(result, _Evaluating.index), time.process_time() - cpu
+
+
+def _develop_blob(blob: bytes) -> tuple[bytes, float]:
+    import time
+
+    from .hull.plateshop import develop
+
+    cpu = time.process_time()
+    result = develop(_loads(blob, _Evaluating.shared), _Evaluating.config)
     return _dumps(result, _Evaluating.index), time.process_time() - cpu
 
 

@@ -21,6 +21,7 @@ from pipeline.hull.fitup import shell_fitup
 from pipeline.hull.follow import _solve, follow_fitup
 from pipeline.hull.plan import load_run
 from pipeline.hull.plates import evaluate_plate, run_part
+from pipeline.hull.plateshop import develop
 from pipeline.shop.templates import hull_mesh
 from tests.test_fitup_repair import shoulder
 
@@ -144,6 +145,12 @@ def one_formed(tmp_path_factory):
     return _formed_to_meet(tmp_path_factory.mktemp("follow"), (0,))
 
 
+def _developed(part, config):
+    """The plate evaluated as a plan does (lean), its development done: what a fit-up reads
+    (``load_run`` develops the plan's plates before the fit-up)."""
+    return develop(evaluate_plate(part, config), config)
+
+
 def _formed_to_meet(tmp, held_plates: tuple):
     """The shoulder with the given plates developed on the hull, before and after the fit-up
     by forming."""
@@ -152,13 +159,13 @@ def _formed_to_meet(tmp, held_plates: tuple):
     for k in held_plates:
         parts[k].hull.held = {"reason": "test: developed on the hull"}
     for part in parts:
-        part.hull.result = evaluate_plate(part, config)
+        part.hull.result = _developed(part, config)
     before = [run_part(part, config) for part in parts]
     fit_before = shell_fitup(before, config)
     flat = [k for k in range(len(parts)) if k not in held_plates]
     kept = [parts[k].hull.result for k in flat]
     # the forming alone: the flat plates keep their own (minimax) planes (joint moves: test_fitup_joint.py)
-    report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
+    report = follow_fitup(parts, lambda batch: [_developed(p, config) for p in batch], config.mm_per_unit, 14.0,
                           joint=False)
     assert all(parts[k].hull.result is was for k, was in zip(flat, kept))  # the flat plates are not touched
     after = [run_part(part, config) for part in parts]
@@ -485,7 +492,7 @@ def test_a_formed_plate_moved_to_meet_its_neighbours_keeps_its_verdict_and_is_no
     config = load_run(shoulder(tmp_path, fit_tolerance=4.0), evaluate_plate)
     parts = config.parts
     for part in parts:
-        part.hull.result = evaluate_plate(part, config)
+        part.hull.result = _developed(part, config)
     formed = [p.name for p in parts if p.hull.result.figures["plate_class"]["class"] == "formed"]
     assert formed == ["fit_S1_B2", "fit_S2_B2"]
     solved = []
@@ -496,7 +503,7 @@ def test_a_formed_plate_moved_to_meet_its_neighbours_keeps_its_verdict_and_is_no
 
     for name in ("_seam_strip", "butt_family", "seam_family_far", "flattest_plane"):
         monkeypatch.setattr(plates, name, counted(name))
-    report = follow_fitup(parts, lambda batch: [evaluate_plate(p, config) for p in batch], config.mm_per_unit, 14.0,
+    report = follow_fitup(parts, lambda batch: [_developed(p, config) for p in batch], config.mm_per_unit, 14.0,
                           joint=False)
     assert sorted(report.moved) == formed and not solved
     monkeypatch.undo()
@@ -542,7 +549,11 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
         if verdict is not None:
             assert [f["family"] for f in verdict["info"]["families"]] == ["rulings seam to seam", "rulings butt to butt",
                                                                          "rulings along the least curvature"]
-            assert verdict["info"]["strip_max_deviation"] == result.figures["plate_class"]["strip_max_deviation"] > 4.0
+            # read from the owed development's inputs, as the developed plate has it
+            assert verdict["info"]["strip_max_deviation"] > 4.0
+            developed = develop(result, config)
+            assert developed.figures["plate_class"]["strip_max_deviation"] == verdict["info"]["strip_max_deviation"]
+            assert formed_verdict(developed)["info"] == verdict["info"]
     formed = next(p for p in parts if kinds[p.name] == "formed")
     assert formed_verdict(run_plate(formed, config)) is None  # run in full: its shop data are done
     formed.hull.held = {"reason": "test: developed on the hull"}
@@ -551,6 +562,17 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
     formed.hull.held = None
     with PlateEvaluator(evaluate_plate, 2) as pool:
         pooled = pool.many(parts, config)
+        # the owed developments done by the workers, as here (a fit-up reads them)
+        in_pool = pool.develop([dataclasses.replace(r) for r in pooled], config)
+    owed = [r.name for r in pooled if r.shop_work is not None and r.shop_work.develops]
+    assert sorted(owed) == sorted(n for n, k in kinds.items() if k == "formed")
+    for result in in_pool:
+        here = develop(dataclasses.replace(lean[result.name], figures=dict(lean[result.name].figures)), config)
+        assert result.part is next(p for p in parts if p.name == result.name)
+        assert not result.shop_work.develops and result.figures["plate_class"] == here.figures["plate_class"]
+        if result.name in owed:
+            assert np.array_equal(result.pattern.vertices, here.pattern.vertices)
+            assert result.figures["strain"] == here.figures["strain"]
     for result in pooled:
         verdict, here = formed_verdict(result), formed_verdict(lean[result.name])
         assert (verdict is None) == (here is None)

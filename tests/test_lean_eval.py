@@ -15,6 +15,7 @@ from pipeline.export import export_part
 from pipeline.hull.hullplots import shell_area
 from pipeline.hull.plan import load_run
 from pipeline.hull.planner import honest_class
+from pipeline.hull.plateshop import develop
 from pipeline.hull.plates import evaluate_plate, run_part
 from pipeline.runner import PlateEvaluator
 from tests.hull_shapes import cylinder_sphere_iges
@@ -81,7 +82,10 @@ def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, evaluated, n
     assert lean.ok and lean.shop_work is not None and lean.figures["plate_class"]["class"] == klass
     assert lean.shop is None and lean.templates == () and lean.pinjig is None
     assert not [k for k in SHOP_FIGURES if lean.figures.get(k)]
-    if how != "seam":  # no marks yet (a seam strip's pattern is its solver's rulings until shop.plate)
+    if klass == "formed":  # the plan reads its class and wholeness: its development itself is owed
+        assert lean.shop_work.develops and lean.pattern is None and lean.mesh is None
+        assert "strain" not in lean.figures and "completeness" not in lean.figures
+    elif how != "seam":  # no marks yet (a seam strip's pattern is its solver's rulings until shop.plate)
         assert not len(lean.pattern.bend_lines) and lean.pattern.frame_lines == () and lean.pattern.labels == ()
     # a second plan asks again: the cache's copy, sent to a worker (pickled) and completed
     # there, before this process runs the plate itself
@@ -104,8 +108,16 @@ def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, evaluated, n
     # the plan judged the lean result as it would have judged the full one
     assert honest_class(lean) == honest_class(full)
     assert shell_area(lean) == shell_area(full)
-    assert lean.figures["plate_class"] == full.figures["plate_class"]
     assert lean.figures["region"] == full.figures["region"]
+    # what a fit-up reads before the shop data: the development, as the full run has it
+    developed = develop(pickle.loads(pickle.dumps(lean)), config)
+    assert developed.shop_work is not None and not developed.shop_work.develops
+    assert developed.figures["plate_class"] == full.figures["plate_class"]
+    assert developed.status == full.status and developed.reason == full.reason
+    if klass == "formed":
+        assert np.array_equal(developed.pattern.vertices, full.pattern.vertices)
+        assert developed.figures["strain"] == full.figures["strain"]
+    assert develop(developed, config) is developed  # nothing more owed there
     if klass != "flat":  # a flat plate gets frame lines and names only
         assert [k for k in SHOP_FIGURES if full.figures.get(k)]
     if how == "seam":  # the exact outline replaced the ruling polygon at completion
@@ -190,3 +202,32 @@ def test_plates_the_plan_drops_never_get_shop_data(tmp_path, monkeypatch):
     for part in config.parts:
         run_part(part, config)
     assert len(calls) == before
+
+
+def test_formed_plates_the_plan_drops_are_never_developed(tmp_path, monkeypatch):
+    """A formed candidate's development (its hull patch's ARAP) is owed while the plan
+    evaluates (the plan reads its class and wholeness): the formed plates it splits are never
+    developed, each kept formed plate once, when it is run."""
+    import pipeline.hull.plates as plates
+
+    developed: list = []
+    real = plates._developed_patch
+
+    def counted(result, *args, **kwargs):
+        developed.append(result.name)
+        return real(result, *args, **kwargs)
+
+    monkeypatch.setattr(plates, "_developed_patch", counted)
+    evaluator = PlateEvaluator(evaluate_plate, 1)
+    config = load_run(_cs_config(tmp_path), evaluator)
+    assert developed == []
+    kept = {p.name for p in config.parts}
+    candidates = {r.name: r for r in evaluator.cache.values()}
+    dropped = [n for n, r in candidates.items() if n not in kept and r.figures["plate_class"]["class"] == "formed"]
+    assert "cs_S01_B02" in dropped and all(candidates[n].shop_work.develops for n in dropped)
+    assert all(honest_class(candidates[n]) == "formed" for n in dropped)  # as the plan judged them
+    results = [run_part(part, config) for part in config.parts]
+    formed = sorted(r.name for r in results if r.figures["plate_class"]["class"] == "formed")
+    assert formed and sorted(developed) == formed
+    assert all("development" not in r.figures["plate_class"] and r.figures.get("strain") for r in results
+               if r.name in formed)

@@ -206,6 +206,10 @@ def plate_edges(result) -> PlateEdges | None:
     """The delivered plate's named edges (None for a plate that delivered nothing or is no
     hull plate). Reads the strip (seam-to-seam strips trimmed by butt planes) or the region
     grid mesh (flat, formed, strips trimmed by the region) with the pattern's vertices."""
+    from .plateshop import owes_development
+
+    if owes_development(result):  # a formed plate's edges are its development's
+        raise ValueError(f"plate {result.name}: its development is owed (pipeline.hull.plateshop.develop it first)")
     part = result.part
     hull = getattr(part, "hull", None)
     if hull is None or not result.ok or result.pattern is None:

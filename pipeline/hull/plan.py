@@ -87,15 +87,19 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record, fairings)
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
+        if spec.strake.fit_up in ("repair", "follow") and evaluate is not None:
+            # the fit-up reads the plates' developments, which a plan's evaluation may owe
+            fitting = _Judge(evaluate, config)
+            fitting.develop_plates(parts)
         if spec.strake.fit_up == "repair" and evaluate is not None:
             from .repair import repair_fitup
 
-            repair = repair_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
+            repair = repair_fitup(parts, fitting.many_developed, config.mm_per_unit,
                                   float(spec.steel.thickness))
         elif spec.strake.fit_up == "follow" and evaluate is not None:
             from .follow import follow_fitup
 
-            follow = follow_fitup(parts, _Judge(evaluate, config).many, config.mm_per_unit,
+            follow = follow_fitup(parts, fitting.many_developed, config.mm_per_unit,
                                   float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
                                   hold=spec.strake.hold_steps, pull=spec.strake.pull_steps)
     except SourceError as exc:
@@ -128,6 +132,26 @@ class _Judge:
         if batch is not None:
             return batch(parts, self.config)
         return [self.evaluate(part, self.config) for part in parts]
+
+    def many_developed(self, parts: list) -> list:
+        """:meth:`many`, each result's owed development done (:func:`.plateshop.develop`)."""
+        return self.developed(self.many(parts))
+
+    def developed(self, results: list) -> list:
+        """The results with any development they owe done, their shop data still owed (by
+        the evaluator's workers when it has them)."""
+        from .plateshop import develop
+
+        spread = getattr(self.evaluate, "develop", None)
+        if spread is not None:
+            return spread(results, self.config)
+        return [develop(result, self.config) for result in results]
+
+    def develop_plates(self, parts: list) -> None:
+        """Each hull plate's evaluated result (``part.hull.result``) with its owed development done."""
+        held = [p for p in parts if getattr(p, "hull", None) is not None and p.hull.result is not None]
+        for part, result in zip(held, self.developed([p.hull.result for p in held])):
+            part.hull.result = result
 
     def map(self, func, items: list) -> list:
         """``func`` over items, on the evaluator's workers when it has them."""

@@ -38,10 +38,11 @@ from flatten.patchflat import arap_development, planar_development, plane_throug
 
 from ..config import Part, RunConfig
 from .bestfit import ROUNDS, best_fit, seam_family_far, worth_moving
-from .plateshop import LeanRun, PatchGeometry, complete, is_lean, owe, patch_shop, trimmed_shop
+from .plateshop import (LeanRun, OwedPatch, PatchGeometry, complete, is_lean, owe, owe_development, patch_shop,
+                        trimmed_shop)
 from .leaststrip import LEAST_CURVATURE, LEAST_ROUNDS, least_curvature_family
 from .platestrip import BUTT_TO_BUTT, HOPELESS, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
-from .trimcut import cut_at_trim
+from .trimcut import cut_at_trim, outside_trim
 from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
 from ..stages import run_part as run_curve_part
 
@@ -57,6 +58,8 @@ REGION_SIZE_MM = 1000.0  # strain map cells about 1 m square
 # stem stepped 20.6 mm between plates that sampled it 150 mm apart. The trigger is low so
 # that two plates sampling one turn both cut: at one tolerance KCS's plate estimated at 4.5
 # mm was left beside its neighbour at 5.04 mm, cut, and the two stepped 3.06 mm
+# a lean-evaluated formed plate's class record until its development is done
+OWED_CLASS = {"class": "formed", "development": "owed (pipeline.hull.plateshop.owe_development)"}
 TURN_TRIGGER = 0.2
 TURN_TARGET = 0.1
 TURN_PASSES = 3
@@ -370,11 +373,51 @@ def _deliver_hull_patch(result, config, grid, v3, f3, index, size, verdict: dict
     strip_max_deviation), ``strip`` the one its roll lines follow or None; ``strips_tried``:
     the verdict is the strips' own (kept for a later move: :func:`.plateshop.formed_verdict`),
     not a reason they were not tried."""
-    grid, v3 = _followed(grid, v3, index, result.part.hull)
+    hull = result.part.hull
+    grid, v3 = _followed(grid, v3, index, hull)
+    if is_lean(config) and (hull.trim is None or not outside_trim(hull.trim, grid.params)):
+        # the plan reads a formed plate's class and wholeness, not its development: owed
+        check = completeness(v3, f3, grid, hull.fit_tolerance, _patch_corner_tolerance(hull, size))
+        result.figures["plate_class"] = dict(OWED_CLASS)
+        if check["passed"]:
+            result.status = "ok"
+        else:
+            result.reason = _incomplete(check)
+        owe_development(result, _owed_patch, OwedPatch(grid, v3, f3, index, size, verdict, strip, strips_tried, check,
+                                                       (result.status, result.reason)))
+        return
+    _developed_patch(result, config, grid, v3, f3, index, size, verdict, strip, strips_tried)
+
+
+def _owed_patch(result, config, owed: OwedPatch) -> None:
+    """:func:`_developed_patch` of a lean-evaluated formed plate, the state its evaluation
+    left for the plan (class, ok or why incomplete) undone first: the same figures as had it
+    been developed at once, with what was added to its class record since (``flat_declined``).
+    A plate failed since (not by its evaluation) stays failed, undeveloped."""
+    if (result.status, result.reason) != owed.left:
+        return
+    added = {k: v for k, v in result.figures.pop("plate_class", {}).items() if k not in OWED_CLASS}
+    result.status, result.reason = "failed", ""
+    _developed_patch(result, config, owed.grid, owed.v3, owed.f3, owed.index, owed.size, owed.verdict, owed.strip,
+                     owed.strips_tried, owed.check)
+    if added and "plate_class" in result.figures:
+        result.figures["plate_class"].update(added)
+
+
+def _developed_patch(result, config, grid, v3, f3, index, size, verdict, strip, strips_tried, check=None) -> None:
     uv, iterations = arap_development(v3, f3)
     _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
                    {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh", **verdict},
-                   strip, size, verdict if strips_tried else None)
+                   strip, size, verdict if strips_tried else None, check)
+
+
+def _patch_corner_tolerance(hull, size) -> float:
+    """A patch's corners lie on its own mesh: judged to round-off of the plate's size."""
+    return min(hull.fit_tolerance, 1e-6 * max(size) + 1e-9)
+
+
+def _incomplete(check: dict) -> str:
+    return f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
 
 
 def _seams_too_far(deviation: float | None, tolerance: float) -> bool:
@@ -563,7 +606,8 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     owe(result, config, trimmed_shop, grid, dataclasses.replace(trim, attempt=None, located=None))
 
 
-def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size, verdict=None):
+def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info, strip, size, verdict=None,
+                   check=None):
     """Pattern, strain map, completeness and class of a plate developed from its hull patch
     (its marks, heating lines and templates: :func:`.plateshop.patch_shop`, owed in a lean run).
 
@@ -607,7 +651,8 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
             result.figures["plate_class"] = {"class": "failed"}
             return
         outline, f_grid = cut.outline, f_grid[cut.inside_faces]
-    check = completeness(v3, f3, grid, tol, min(tol, 1e-6 * max(size) + 1e-9))
+    # (a lean evaluation's, when it owed the development: the same figures)
+    check = completeness(v3, f3, grid, tol, _patch_corner_tolerance(hull, size)) if check is None else dict(check)
     if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
         fit = info["plane_max_distance"]
         check["max_region_gap"] = fit
@@ -637,7 +682,7 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
     geometry = PatchGeometry(kind, strip, v3, f3, index, uv_grid_flat, region_faces, region_outline, cut, info, scale,
                              bool(check["passed"]), verdict)
     if not check["passed"]:
-        result.reason = f"plate incomplete: largest gap to its region {check['max_region_gap']:.4g}"
+        result.reason = _incomplete(check)
         owe(result, config, patch_shop, grid, geometry)  # its marks still go into its report
         return
     finish_part(result, config)

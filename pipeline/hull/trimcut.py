@@ -30,14 +30,7 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
     """The region of a plate's grid (params (R, C, 2), its developed points ``placed``
     (R C, 2), triangles ``faces`` (F, 3)) cut by ``trim`` (outer loop, holes; (u, v)).
     None when the region lies inside the trim; a TrimCut with an empty outline when outside."""
-    from shapely.geometry import Polygon
-
-    from flatten.patch import grid_ring
-
-    region = Polygon(grid_ring(params)).buffer(0)
-    u0, v0, u1, v1 = region.bounds
-    pad = max(u1 - u0, v1 - v0)  # a box around the region: the trim's loops are what cuts it
-    kept = region.intersection(trim.polygon(u0 - pad, v0 - pad, u1 + pad, v1 + pad))
+    region, kept = _kept(trim, params)
     if kept.area >= region.area * (1.0 - 1e-9):
         return None
     flat_params = params.reshape(-1, 2)
@@ -50,6 +43,24 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
     uv = np.asarray(kept.exterior.coords)[:-1]
     flat = grid_map(flat_params, faces, placed, uv)
     return TrimCut(flat, uv, inside)
+
+
+def outside_trim(trim, params: np.ndarray) -> bool:
+    """Whether a plate's region (grid params (R, C, 2)) lies wholly outside ``trim``: what
+    :func:`cut_at_trim` finds before any development."""
+    return _kept(trim, params)[1].is_empty
+
+
+def _kept(trim, params: np.ndarray):
+    """The region's polygon in (u, v) and its part inside the trim."""
+    from shapely.geometry import Polygon
+
+    from flatten.patch import grid_ring
+
+    region = Polygon(grid_ring(params)).buffer(0)
+    u0, v0, u1, v1 = region.bounds
+    pad = max(u1 - u0, v1 - v0)  # a box around the region: the trim's loops are what cuts it
+    return region, region.intersection(trim.polygon(u0 - pad, v0 - pad, u1 + pad, v1 + pad))
 
 
 def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
