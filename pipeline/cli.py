@@ -115,7 +115,7 @@ def command_run(args, early=None) -> int:
 
 
 def _run(args, early) -> int:
-    from .export import export_summary, export_textile, printout_line, textile_pieces
+    from .export import export_summary, export_textile, printout_line, summary_edges, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
     import time
@@ -150,8 +150,11 @@ def _run(args, early) -> int:
             # steel parts are written by whoever computes them; textile pieces are laid out
             # side by side first (their options are checked against every piece)
             keep_geometry = config.spec.output.png and len(parts) > 1
+            # this process samples each hull plate's region for the summary as the plate comes
+            # in, while its workers run the others (the summary's edges, else a serial second)
+            sampled: dict = {}
             results = run_parts(config, None if textile else folder.staging, args.out, args.jobs, progress,
-                                keep_geometry)
+                                keep_geometry, None if textile else lambda r: sampled.update(summary_edges([r])))
             # the export's CPU counts the drawings' forked copy too (reaped within the stage)
             ran = (time.perf_counter(), time.process_time() + _children_cpu())
             if progress is not None:
@@ -165,13 +168,13 @@ def _run(args, early) -> int:
             if textile:
                 export_summary(results, config, folder.run_folder)  # waits for every image
             else:
-                from .export import summary_drawings, summary_edges
+                from .export import summary_drawings
                 from .forked import beside
                 from .hull.fitup import shell_fitup
 
                 # the drawings are drawn by a copy of this process (when it may fork) while
                 # this one computes the fit-up: neither needs the other
-                edges = summary_edges(results)
+                edges = {r.name: sampled[r.name] for r in results if r.name in sampled}
                 with beside(lambda: summary_drawings(results, config, folder.run_folder, edges)) as drawn:
                     shell = shell_fitup(results, config)  # None unless the run has hull plates
                     export_summary(results, config, folder.run_folder, shell, edges, drawn)  # waits for every image

@@ -149,9 +149,10 @@ def worker_count(jobs: int, n_parts: int) -> int:
 
 
 def run_parts(config: RunConfig, staging: Path | None, out: Path | None, jobs: int = 1, progress=None,
-              keep_geometry: bool = False) -> list[PartResult]:
+              keep_geometry: bool = False, each=None) -> list[PartResult]:
     """Every part's result, in the order of ``config.parts``. With ``staging`` the parts are
-    also written there (``staging/part-NNNNNN/``)."""
+    also written there (``staging/part-NNNNNN/``). ``each(result)``: called with each result
+    as it comes in (its part attached), in this process, while the workers run the others."""
     n = len(config.parts)
     results: list[PartResult | None] = [None] * n
     workers = worker_count(jobs, n)
@@ -159,6 +160,8 @@ def run_parts(config: RunConfig, staging: Path | None, out: Path | None, jobs: i
     def done(index: int, result: PartResult) -> None:
         result.part = config.parts[index]
         results[index] = result
+        if each is not None:
+            each(result)
         if progress is not None:
             progress.set_postfix_str(result.name)
             progress.update()
