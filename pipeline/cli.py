@@ -168,14 +168,14 @@ def _run(args, early) -> int:
             if textile:
                 export_summary(results, config, folder.run_folder)  # waits for every image
             else:
-                from .export import summary_drawings
-                from .forked import beside
+                from .export import summary_drawing_jobs
+                from .forked import beside_all
                 from .hull.fitup import shell_fitup
 
-                # the drawings are drawn by a copy of this process (when it may fork) while
-                # this one computes the fit-up: neither needs the other
+                # the drawings are drawn by copies of this process (when it may fork), one per
+                # drawing job, while this one computes the fit-up: none needs another
                 edges = {r.name: sampled[r.name] for r in results if r.name in sampled}
-                with beside(lambda: summary_drawings(results, config, folder.run_folder, edges)) as drawn:
+                with beside_all(summary_drawing_jobs(results, config, folder.run_folder, edges)) as drawn:
                     shell = shell_fitup(results, config)  # None unless the run has hull plates
                     export_summary(results, config, folder.run_folder, shell, edges, drawn)  # waits for every image
             # what the commit moves in: every staged file (it refuses a name the plan lacks)
@@ -310,10 +310,9 @@ def spare_core(loadavg: str = "/proc/loadavg") -> bool:
     process pays for itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork
     shares and either process then writes are copied; the images' arguments are pickled),
     and on a machine whose cores are all busy it measured slower in wall time too."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:
-        cores = os.cpu_count() or 1
+    from .cores import usable_cores
+
+    cores = usable_cores()
     others = others_runnable(loadavg)
     if others is None:
         return os.getloadavg()[0] <= cores - 1

@@ -141,11 +141,9 @@ def _work(index: int) -> PartResult:
 
 def worker_count(jobs: int, n_parts: int) -> int:
     """Workers worth starting: not more than parts, nor than CPUs this process may use."""
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:
-        cpus = os.cpu_count() or 1
-    return max(1, min(jobs, n_parts, cpus))
+    from .cores import usable_cores
+
+    return max(1, min(jobs, n_parts, usable_cores()))
 
 
 def run_parts(config: RunConfig, staging: Path | None, out: Path | None, jobs: int = 1, progress=None,

@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from pipeline.forked import beside, can_fork
+from pipeline.forked import BesideAll, beside, beside_all, can_fork
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks only on Linux")
 
@@ -55,6 +55,41 @@ def test_the_copys_exceptions_are_raised_in_the_run_an_output_fault_stays_one():
 
     with beside(unpicklable, fork=True) as drawn, pytest.raises(RuntimeError, match="NeedsTwo: 1 and 2"):
         drawn.result()
+
+
+def test_works_beside_share_as_many_copies_as_asked_their_lists_joined_in_order():
+    works = [lambda k=k: [(k, os.getpid())] for k in range(5)]
+    for copies, expected in ((1, 1), (2, 2), (3, 3), (9, 5)):
+        with BesideAll(works, copies, fork=True) as drawn:
+            assert len(drawn.parts) == expected and all(part.forked for part in drawn.parts)
+            got = drawn.result()
+        assert [k for k, _ in got] == list(range(5))  # in the works' order
+        pids = [pid for _, pid in got]
+        assert os.getpid() not in pids and len(set(pids)) == expected
+        order = {pid: k for k, pid in enumerate(dict.fromkeys(pids))}
+        ranks = [order[pid] for pid in pids]
+        assert ranks == sorted(ranks)  # consecutive works share a copy
+
+
+def test_one_copy_per_spare_core_draws_beside_the_run(monkeypatch):
+    import pipeline.cores as cores
+
+    works = [lambda k=k: [k] for k in range(3)]
+    for usable, copies in ((1, 1), (2, 1), (3, 2), (16, 3)):
+        monkeypatch.setattr(cores, "usable_cores", lambda usable=usable: usable)
+        with beside_all(works, fork=False) as drawn:  # in place: the split alone is tested
+            assert len(drawn.parts) == copies and drawn.result() == [0, 1, 2]
+
+
+def test_an_error_in_one_copy_is_raised_and_the_others_are_reaped():
+    def broken():
+        raise ValueError("no plan DXF")
+
+    with BesideAll([lambda: [1], broken, lambda: time.sleep(60) or [3]], 3, fork=True) as drawn:
+        pids = [part.pid for part in drawn.parts]
+        with pytest.raises(ValueError, match="no plan DXF"):
+            drawn.result()
+    assert not any(alive(pid) for pid in pids)  # the sleeper killed when the run left
 
 
 def test_a_copy_that_dies_is_an_error_naming_the_signal():
