@@ -149,7 +149,8 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
 
 def lean_vs_full(hull: str, every: int) -> None:
     """CPU per plate, full plate run vs lean evaluation (and its completion), every
-    ``every``-th plate of the hull's uniform layout."""
+    ``every``-th plate of the hull's uniform layout. A formed plate's lean evaluation leaves
+    its development owed too (``plateshop.owe_development``): its completion column holds it."""
     from pipeline.hull.plan import load_run
     from pipeline.hull.planner import honest_class
     from pipeline.hull.plates import evaluate_plate, run_plate

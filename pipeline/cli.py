@@ -173,7 +173,8 @@ def _run(args, early) -> int:
                 from .hull.fitup import shell_fitup
 
                 # the drawings are drawn by copies of this process (when it may fork), one per
-                # drawing job, while this one computes the fit-up: none needs another
+                # free core (consecutive jobs share one), while this one computes the fit-up:
+                # none needs another
                 edges = {r.name: sampled[r.name] for r in results if r.name in sampled}
                 with beside_all(summary_drawing_jobs(results, config, folder.run_folder, edges)) as drawn:
                     shell = shell_fitup(results, config)  # None unless the run has hull plates
@@ -310,47 +311,13 @@ def spare_core(loadavg: str = "/proc/loadavg") -> bool:
     process pays for itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork
     shares and either process then writes are copied; the images' arguments are pickled),
     and on a machine whose cores are all busy it measured slower in wall time too."""
-    from .cores import usable_cores
+    from .cores import others_runnable, usable_cores
 
     cores = usable_cores()
     others = others_runnable(loadavg)
     if others is None:
         return os.getloadavg()[0] <= cores - 1
     return others <= cores - 2
-
-
-def others_runnable(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
-    """Tasks of other processes runnable now (the least of ``readings`` a millisecond
-    apart); None where the counts cannot be read."""
-    import time
-
-    counts = []
-    for k in range(readings):
-        if k:
-            time.sleep(0.001)
-        try:
-            with open(loadavg, encoding="ascii") as stream:
-                runnable = int(stream.read().split()[3].split("/")[0])
-        except (OSError, ValueError, IndexError):
-            return None
-        counts.append(max(runnable - _own_running_threads(), 0))
-    return min(counts)
-
-
-def _own_running_threads() -> int:
-    """This process's threads that are running or runnable (state R; at least the caller)."""
-    running = 0
-    try:
-        tasks = os.listdir("/proc/self/task")
-    except OSError:
-        return 1
-    for task in tasks:
-        try:
-            with open(f"/proc/self/task/{task}/stat", encoding="ascii", errors="replace") as stream:
-                running += stream.read().rsplit(")", 1)[1].split()[0] == "R"
-        except (OSError, IndexError):
-            continue
-    return max(running, 1)
 
 
 def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:

@@ -1,5 +1,6 @@
-"""The cores a run may use: the CPUs this process may run on (its affinity mask, which a
-container or ``taskset`` narrows), else the machine's count."""
+"""The cores a run may use: the CPUs this process may run on (its affinity mask, which
+``taskset`` or a cpuset narrows; a CPU quota does not), else the machine's count; and how
+many of them other processes keep busy now."""
 
 from __future__ import annotations
 
@@ -12,3 +13,37 @@ def usable_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+def others_runnable(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
+    """Tasks of other processes runnable now (the least of ``readings`` a millisecond
+    apart); None where the counts cannot be read."""
+    import time
+
+    counts = []
+    for k in range(readings):
+        if k:
+            time.sleep(0.001)
+        try:
+            with open(loadavg, encoding="ascii") as stream:
+                runnable = int(stream.read().split()[3].split("/")[0])
+        except (OSError, ValueError, IndexError):
+            return None
+        counts.append(max(runnable - _own_running_threads(), 0))
+    return min(counts)
+
+
+def _own_running_threads() -> int:
+    """This process's threads that are running or runnable (state R; at least the caller)."""
+    running = 0
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return 1
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/stat", encoding="ascii", errors="replace") as stream:
+                running += stream.read().rsplit(")", 1)[1].split()[0] == "R"
+        except (OSError, IndexError):
+            continue
+    return max(running, 1)

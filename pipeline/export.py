@@ -272,8 +272,8 @@ def summary_drawings(results: list[PartResult], config: RunConfig, out_dir: Path
 def summary_drawing_jobs(results: list[PartResult], config: RunConfig, out_dir: Path, edges: dict) -> list:
     """:func:`summary_drawings` as independent jobs, each ``job() -> [paths]`` (in the order
     of the paths): the shell expansion, the plan DXF and the images, which
-    :func:`pipeline.forked.beside_all` draws in forked copies at once while the run computes
-    the fit-up (on the 160 m hull 1.9, 1.5 and 1.0 s)."""
+    :func:`pipeline.forked.beside_all` draws in forked copies (one per free core) while the
+    run computes the fit-up (on the 160 m hull 1.9, 1.5 and 1.0 s)."""
     style = config.spec.name or config.source.stem
     jobs = []
     if edges:  # the shell expansion drawing: every plate in girth x length
@@ -333,7 +333,7 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
     """The run summary: summary.csv and summary.json of every part, and its drawings
     (:func:`summary_drawings`). ``shell``: the run's :class:`pipeline.hull.fitup.ShellFitup`
     (computed here when None); ``edges``: :func:`summary_edges` (computed here when None);
-    ``drawn``: the drawings being drawn beside the run (a :class:`pipeline.forked.Beside`,
+    ``drawn``: the drawings being drawn beside the run (a :class:`pipeline.forked.BesideAll`,
     whose result is their paths), else they are drawn here."""
     from .report import summary_csv, summary_json
 

@@ -126,8 +126,10 @@ class BesideAll:
 
     def __init__(self, works: list, copies: int, fork: bool | None = None):
         self.parts: list[Beside] = []
-        n = max(1, min(copies, len(works)))
-        bounds = [round(k * len(works) / n) for k in range(n + 1)]
+        n = min(max(copies, 1), len(works))
+        # the first copies take the fewer works (the first work, a hull's expansion drawing,
+        # is the longest: alone beside the two others on 3 cores)
+        bounds = [len(works) - round((n - k) * len(works) / n) for k in range(n + 1)] if n else []
         try:
             for lo, hi in itertools.pairwise(bounds):
                 self.parts.append(Beside(functools.partial(_joined, works[lo:hi]), fork))
@@ -148,7 +150,8 @@ class BesideAll:
 
 def beside_all(works: list, fork: bool | None = None) -> BesideAll:
     """The ``works`` (each ``work() -> list``) in forked copies when :func:`can_fork`, else
-    now: one copy per core beside the run's own, at most one per work (:class:`BesideAll`).
+    now: one copy per free core beside the run's own (:func:`spare_cores`), at most one per
+    work, none for no work (:class:`BesideAll`).
     A hull run's summary drawings (expansion, plan DXF, images: 1.9, 1.5 and 1.0 s on the 160
     m hull) are independent: with cores to spare they take the longest one's time, not the
     sum; on 2 cores one copy draws them all (three copies beside the fit-up made KCS's export
@@ -157,10 +160,11 @@ def beside_all(works: list, fork: bool | None = None) -> BesideAll:
 
 
 def spare_cores() -> int:
-    """Cores this process may run on, less its own (at least 1)."""
-    from .cores import usable_cores
+    """Cores free beside this process now: those it may run on, less its own and those the
+    tasks of other processes keep busy (at least 1)."""
+    from .cores import others_runnable, usable_cores
 
-    return max(1, usable_cores() - 1)
+    return max(1, usable_cores() - 1 - (others_runnable() or 0))
 
 
 def _joined(works: list) -> list:

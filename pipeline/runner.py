@@ -371,7 +371,9 @@ class PlateEvaluator:
     def develop(self, results: list, config) -> list:
         """The results with any development they owe done (:func:`pipeline.hull.plateshop.develop`:
         a plan's kept formed plates, before a fit-up reads them), by the workers while they
-        run (as :meth:`map`), else here. Results are handed back, their parts re-attached."""
+        run (as :meth:`map`; under the configuration the workers were started with, the run's),
+        else here under ``config``. Use the results handed back (a worker's come back as new
+        objects, the parts given re-attached; done here, the given ones are changed)."""
         from concurrent.futures.process import BrokenProcessPool
 
         from .hull.plateshop import develop, owes_development

@@ -8,6 +8,7 @@ of their planes but 3.5-4.5 mm off the hull at their edges. One of them develope
 to meet them, it does not, and it stays within the tolerance of the hull."""
 
 import dataclasses
+import pickle
 from types import SimpleNamespace
 
 import numpy as np
@@ -549,11 +550,13 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
         if verdict is not None:
             assert [f["family"] for f in verdict["info"]["families"]] == ["rulings seam to seam", "rulings butt to butt",
                                                                          "rulings along the least curvature"]
-            # read from the owed development's inputs, as the developed plate has it
+            # read from the owed development's inputs: the developed plate (a copy) has it too
             assert verdict["info"]["strip_max_deviation"] > 4.0
-            developed = develop(result, config)
-            assert developed.figures["plate_class"]["strip_max_deviation"] == verdict["info"]["strip_max_deviation"]
-            assert formed_verdict(developed)["info"] == verdict["info"]
+            developed = develop(pickle.loads(pickle.dumps(result)), config)
+            assert not developed.shop_work.develops and result.shop_work.develops
+            again = formed_verdict(developed)  # read from its owed shop data now
+            assert developed.figures["plate_class"]["strip_max_deviation"] == again["info"]["strip_max_deviation"]
+            assert again["info"] == verdict["info"]
     formed = next(p for p in parts if kinds[p.name] == "formed")
     assert formed_verdict(run_plate(formed, config)) is None  # run in full: its shop data are done
     formed.hull.held = {"reason": "test: developed on the hull"}
@@ -563,12 +566,14 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
     with PlateEvaluator(evaluate_plate, 2) as pool:
         pooled = pool.many(parts, config)
         # the owed developments done by the workers, as here (a fit-up reads them)
-        in_pool = pool.develop([dataclasses.replace(r) for r in pooled], config)
+        sent = [pickle.loads(pickle.dumps(r)) for r in pooled]
+        in_pool = pool.develop(sent, config)
+        assert pool._pool is not None  # the workers developed them (two owed: not in turn here)
     owed = [r.name for r in pooled if r.shop_work is not None and r.shop_work.develops]
     assert sorted(owed) == sorted(n for n, k in kinds.items() if k == "formed")
-    for result in in_pool:
-        here = develop(dataclasses.replace(lean[result.name], figures=dict(lean[result.name].figures)), config)
-        assert result.part is next(p for p in parts if p.name == result.name)
+    for given, result in zip(sent, in_pool):
+        here = develop(pickle.loads(pickle.dumps(lean[result.name])), config)
+        assert result.part is given.part  # handed back with the part it was given
         assert not result.shop_work.develops and result.figures["plate_class"] == here.figures["plate_class"]
         if result.name in owed:
             assert np.array_equal(result.pattern.vertices, here.pattern.vertices)
@@ -579,3 +584,23 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
         if verdict is not None:
             assert verdict["info"] == here["info"]
             assert np.array_equal(verdict["roll_strip"].vertices, here["roll_strip"].vertices)
+
+
+def test_a_fit_up_on_two_workers_develops_the_plates_as_one_process_does(tmp_path):
+    # the shoulder at 4 mm under follow: its two formed plates owe their developments after
+    # their lean evaluation; the fit-up reads them, so load_run has them developed first, by
+    # the evaluator's workers (two of them) or in turn here: the plates the run writes agree
+    from pipeline.runner import plate_evaluator
+
+    path = shoulder(tmp_path, fit_tolerance=4.0, fit_up="follow")
+    with plate_evaluator(2) as two:
+        pooled = load_run(path, two)
+    assert two.mapped_cpu_seconds > 0  # the developments were the workers' (no plan maps here)
+    alone = load_run(path, evaluate_plate)
+    assert pooled.fitup_follow.as_dict() == alone.fitup_follow.as_dict()
+    assert sorted(pooled.fitup_follow.moved) == ["fit_S1_B2", "fit_S2_B2"]  # the formed plates, developed
+    for a, b in zip(pooled.parts, alone.parts):
+        ra, rb = run_part(a, pooled), run_part(b, alone)
+        for result in (ra, rb):
+            result.figures.pop("fitup_edges")  # the fit-up report's (objects, not figures)
+        assert ra.ok and _figures(ra) == _figures(rb), a.name

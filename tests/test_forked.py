@@ -71,14 +71,21 @@ def test_works_beside_share_as_many_copies_as_asked_their_lists_joined_in_order(
         assert ranks == sorted(ranks)  # consecutive works share a copy
 
 
-def test_one_copy_per_spare_core_draws_beside_the_run(monkeypatch):
+def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
     import pipeline.cores as cores
 
     works = [lambda k=k: [k] for k in range(3)]
-    for usable, copies in ((1, 1), (2, 1), (3, 2), (16, 3)):
+    # (cores usable, tasks of other processes runnable) -> copies
+    for (usable, busy), copies in (((1, 0), 1), ((2, 0), 1), ((3, 0), 2), ((16, 0), 3), ((16, 14), 1),
+                                   ((16, 13), 2), ((4, None), 3)):
         monkeypatch.setattr(cores, "usable_cores", lambda usable=usable: usable)
+        monkeypatch.setattr(cores, "others_runnable", lambda busy=busy: busy)
         with beside_all(works, fork=False) as drawn:  # in place: the split alone is tested
             assert len(drawn.parts) == copies and drawn.result() == [0, 1, 2]
+    with beside_all([], fork=False) as drawn:
+        assert drawn.parts == [] and drawn.result() == []  # no drawing, no copy
+    # two copies: the first work (a hull's expansion, the longest) alone
+    assert [len(part.result()) for part in BesideAll(works, 2, fork=False).parts] == [1, 2]
 
 
 def test_an_error_in_one_copy_is_raised_and_the_others_are_reaped():

@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from pipeline.export import export_part
+from pipeline.hull.fitup import plate_edges
 from pipeline.hull.hullplots import shell_area
 from pipeline.hull.plan import load_run
 from pipeline.hull.planner import honest_class
@@ -117,6 +118,15 @@ def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, evaluated, n
     if klass == "formed":
         assert np.array_equal(developed.pattern.vertices, full.pattern.vertices)
         assert developed.figures["strain"] == full.figures["strain"]
+        with pytest.raises(ValueError, match="development is owed"):  # a fit-up reads no owed plate
+            plate_edges(lean)
+        # failed after its evaluation (by something else): developed, and still failed
+        failed = pickle.loads(pickle.dumps(lean))
+        failed.status, failed.reason = "failed", "failed later (test)"
+        failed = develop(failed, config)
+        assert (failed.status, failed.reason) == ("failed", "failed later (test)")
+        assert failed.figures["plate_class"] == full.figures["plate_class"]
+        assert failed.figures["strain"] == full.figures["strain"]
     assert develop(developed, config) is developed  # nothing more owed there
     if klass != "flat":  # a flat plate gets frame lines and names only
         assert [k for k in SHOP_FIGURES if full.figures.get(k)]

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import pipeline.cores as run_cores
 from pipeline.cli import main
 from pipeline.renderproc import ACTIVE, Renderer, render, wait
 
@@ -180,7 +181,7 @@ def test_spare_core_counts_the_tasks_runnable_now(tmp_path, monkeypatch, line, a
 
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(os, "getloadavg", lambda: (average, average, average))
-    monkeypatch.setattr(cli, "_own_running_threads", lambda: 1)  # the counts are of a process running alone
+    monkeypatch.setattr(run_cores, "_own_running_threads", lambda: 1)  # the counts are of a process running alone
     loadavg = tmp_path / "loadavg"
     loadavg.write_text(line + "\n")
     assert cli.spare_core(str(loadavg)) is spare
@@ -195,7 +196,7 @@ def test_spare_core_sees_a_cpu_bound_task_on_every_other_core():
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(cores - 1)]
     try:
         time.sleep(0.3)  # each has started its loop
-        assert cli.others_runnable() >= cores - 1
+        assert run_cores.others_runnable() >= cores - 1
         assert not cli.spare_core()
     finally:
         for hog in hogs:
@@ -225,12 +226,12 @@ def test_spare_core_does_not_count_this_processs_own_threads(tmp_path, monkeypat
     try:
         time.sleep(0.05)
         # the busy thread waits for the GIL between two calls (a few ms in ~100): read a few times
-        own = max(cli._own_running_threads() for _ in range(5))
+        own = max(run_cores._own_running_threads() for _ in range(5))
         assert own >= 2  # this thread and the busy one at least
         loadavg.write_text(f"0.10 0.10 0.10 {own}/78 4242\n")  # only our threads runnable
-        assert cli.others_runnable(str(loadavg)) == 0 and cli.spare_core(str(loadavg))
+        assert run_cores.others_runnable(str(loadavg)) == 0 and cli.spare_core(str(loadavg))
         loadavg.write_text(f"0.10 0.10 0.10 {own + 1}/78 4242\n")  # and one task of another process
-        assert cli.others_runnable(str(loadavg)) >= 1 and not cli.spare_core(str(loadavg))
+        assert run_cores.others_runnable(str(loadavg)) >= 1 and not cli.spare_core(str(loadavg))
     finally:
         stop.set()
         worker.join()

@@ -58,11 +58,11 @@ REGION_SIZE_MM = 1000.0  # strain map cells about 1 m square
 # stem stepped 20.6 mm between plates that sampled it 150 mm apart. The trigger is low so
 # that two plates sampling one turn both cut: at one tolerance KCS's plate estimated at 4.5
 # mm was left beside its neighbour at 5.04 mm, cut, and the two stepped 3.06 mm
-# a lean-evaluated formed plate's class record until its development is done
-OWED_CLASS = {"class": "formed", "development": "owed (pipeline.hull.plateshop.owe_development)"}
 TURN_TRIGGER = 0.2
 TURN_TARGET = 0.1
 TURN_PASSES = 3
+# a lean-evaluated formed plate's class record until its development is done
+OWED_CLASS = {"class": "formed", "development": "owed (pipeline.hull.plateshop.owe_development)"}
 
 
 def run_part(part: Part, config: RunConfig) -> PartResult:
@@ -87,9 +87,10 @@ def run_part(part: Part, config: RunConfig) -> PartResult:
 
 
 def evaluate_plate(part: Part, config: RunConfig) -> PartResult:
-    """The evaluator an adaptive plan uses: the plate run, lean (class, development, fit,
-    area; its shop data left owed, :mod:`.plateshop`: only the plates the plan keeps get
-    them, in :func:`run_part`)."""
+    """The evaluator an adaptive plan uses: the plate run, lean (class, fit, area, and the
+    development of a flat or strip plate; a formed plate's development and every plate's
+    shop data left owed, :mod:`.plateshop`: only the plates the plan keeps get them, in
+    :func:`run_part`)."""
     return run_plate(part, LeanRun(config))
 
 
@@ -393,15 +394,19 @@ def _owed_patch(result, config, owed: OwedPatch) -> None:
     """:func:`_developed_patch` of a lean-evaluated formed plate, the state its evaluation
     left for the plan (class, ok or why incomplete) undone first: the same figures as had it
     been developed at once, with what was added to its class record since (``flat_declined``).
-    A plate failed since (not by its evaluation) stays failed, undeveloped."""
-    if (result.status, result.reason) != owed.left:
-        return
+    A plate failed since its evaluation (by something else) is developed and stays failed, as
+    it would have been developed at once and failed after. (A development that raises fails
+    the plate now, at its completion, where it failed its evaluation before: the plan judged
+    such a plate formed where it judged it failed, and splits both alike.)"""
+    since = (result.status, result.reason)
     added = {k: v for k, v in result.figures.pop("plate_class", {}).items() if k not in OWED_CLASS}
     result.status, result.reason = "failed", ""
     _developed_patch(result, config, owed.grid, owed.v3, owed.f3, owed.index, owed.size, owed.verdict, owed.strip,
                      owed.strips_tried, owed.check)
     if added and "plate_class" in result.figures:
         result.figures["plate_class"].update(added)
+    if since != owed.left:
+        result.status, result.reason = since
 
 
 def _developed_patch(result, config, grid, v3, f3, index, size, verdict, strip, strips_tried, check=None) -> None:

@@ -77,7 +77,10 @@ def owe_development(result, fn, owed: OwedPatch) -> None:
     whose class and wholeness the plan reads and whose development it never does: of the 160 m
     hull's 556 candidates the plan splits 224, all formed, whose patch developments took 8 %
     of its evaluation CPU. :func:`complete` does it with the shop data; :func:`develop` alone,
-    for what reads a kept plate's development before its shop data (the fit-up modes)."""
+    for what reads a kept plate's development before its shop data (the fit-up modes). The
+    figures are the same as had it been developed at once; a development that raises fails
+    the plate then, not during the plan (which judged it formed, and splits formed and failed
+    plates alike)."""
     result.shop_work = ShopWork(fn, (owed,), result.part, develops=True)
 
 
