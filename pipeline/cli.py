@@ -115,7 +115,7 @@ def command_run(args, early=None) -> int:
 
 
 def _run(args, early) -> int:
-    from .export import export_summary, export_textile, printout_line, summary_edges, textile_pieces
+    from .export import export_summary, export_textile, printout_line, textile_pieces
     from .outdir import OutputError, OutputFolder, check_plan, run_name
     from .report import summary_table
     import time
@@ -153,8 +153,17 @@ def _run(args, early) -> int:
             # this process samples each hull plate's region for the summary as the plate comes
             # in, while its workers run the others (the summary's edges, else a serial second)
             sampled: dict = {}
+            sample = None
+            if not textile and any(p.hull is not None for p in parts):
+                # imported before the parts run: a Ctrl-C that lands inside an import's
+                # dataclass (built by exec) makes CPython end the process by SIGINT at its
+                # exit, whatever the run returns (130 became -2, one run in ten)
+                from .hull.expansion import shell_edges
+
+                def sample(result):
+                    sampled.update(shell_edges([result]))
             results = run_parts(config, None if textile else folder.staging, args.out, args.jobs, progress,
-                                keep_geometry, None if textile else lambda r: sampled.update(summary_edges([r])))
+                                keep_geometry, sample)
             # the export's CPU counts the drawings' forked copy too (reaped within the stage)
             ran = (time.perf_counter(), time.process_time() + _children_cpu())
             if progress is not None:
