@@ -352,21 +352,9 @@ class PlateEvaluator:
         the first batch of plates; the objects every plate shares travel as references, as
         plates do), else computed here in turn. ``func``: a module-level function. The
         workers' CPU seconds go into ``mapped_cpu_seconds``."""
-        from concurrent.futures.process import BrokenProcessPool
-
         if self._pool is None or len(items) < 2:
             return [func(item) for item in items]
-        futures = [self._pool.submit(_call_blob, _dumps((func, item), self._index)) for item in items]
-        out = []
-        for item, future in zip(items, futures):
-            try:
-                blob, cpu = future.result()
-                out.append(_loads(blob, self._shared))
-                self.mapped_cpu_seconds += cpu
-            except BrokenProcessPool:
-                self.close()
-                out.append(func(item))
-        return out
+        return self._spread(_call_blob, [(func, item) for item in items], lambda k: func(items[k]))
 
     def develop(self, results: list, config) -> list:
         """The results with any development they owe done (:func:`pipeline.hull.plateshop.develop`:
@@ -374,8 +362,6 @@ class PlateEvaluator:
         run (as :meth:`map`; under the configuration the workers were started with, the run's),
         else here under ``config``. Use the results handed back (a worker's come back as new
         objects, the parts given re-attached; done here, the given ones are changed)."""
-        from concurrent.futures.process import BrokenProcessPool
-
         from .hull.plateshop import develop, owes_development
 
         out = list(results)
@@ -384,17 +370,29 @@ class PlateEvaluator:
             for k in owing:
                 out[k] = develop(results[k], config)
             return out
-        futures = {k: self._pool.submit(_develop_blob, _dumps(replace(results[k], part=None), self._index))
-                   for k in owing}
-        for k, future in futures.items():
+        done = self._spread(_develop_blob, [replace(results[k], part=None) for k in owing],
+                            lambda j: develop(results[owing[j]], config))
+        for k, result in zip(owing, done):
+            result.part = results[k].part
+            out[k] = result
+        return out
+
+    def _spread(self, task, payloads: list, here) -> list:
+        """``task(blob)`` of each payload on the workers, their answers in order; the
+        workers' CPU seconds into ``mapped_cpu_seconds``; once a worker dies the pool is
+        closed and payload ``k``'s answer is ``here(k)``, computed in this process."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
+        out = []
+        for k, future in enumerate(futures):
             try:
                 blob, cpu = future.result()
-                out[k] = _loads(blob, self._shared)
-                out[k].part = results[k].part
+                out.append(_loads(blob, self._shared))
                 self.mapped_cpu_seconds += cpu
             except BrokenProcessPool:
                 self.close()
-                out[k] = develop(results[k], config)
+                out.append(here(k))
         return out
 
     def close(self) -> None:

@@ -384,10 +384,9 @@ def _deliver_hull_patch(result, config, grid, v3, f3, index, size, verdict: dict
             result.status = "ok"
         else:
             result.reason = _incomplete(check)
-        owe_development(result, _owed_patch, OwedPatch(grid, v3, f3, index, size, verdict, strip, strips_tried, check,
-                                                       (result.status, result.reason)))
+        owe_development(result, _owed_patch, OwedPatch(grid, v3, f3, index, size, verdict, strip, strips_tried, check))
         return
-    _developed_patch(result, config, grid, v3, f3, index, size, verdict, strip, strips_tried)
+    _developed_patch(result, config, OwedPatch(grid, v3, f3, index, size, verdict, strip, strips_tried))
 
 
 def _owed_patch(result, config, owed: OwedPatch) -> None:
@@ -399,21 +398,24 @@ def _owed_patch(result, config, owed: OwedPatch) -> None:
     the plate now, at its completion, where it failed its evaluation before: the plan judged
     such a plate formed where it judged it failed, and splits both alike.)"""
     since = (result.status, result.reason)
+    left = ("ok", "") if owed.check["passed"] else ("failed", _incomplete(owed.check))  # by the evaluation
     added = {k: v for k, v in result.figures.pop("plate_class", {}).items() if k not in OWED_CLASS}
     result.status, result.reason = "failed", ""
-    _developed_patch(result, config, owed.grid, owed.v3, owed.f3, owed.index, owed.size, owed.verdict, owed.strip,
-                     owed.strips_tried, owed.check)
+    _developed_patch(result, config, owed)
     if added and "plate_class" in result.figures:
         result.figures["plate_class"].update(added)
-    if since != owed.left:
+    if since != left:
         result.status, result.reason = since
 
 
-def _developed_patch(result, config, grid, v3, f3, index, size, verdict, strip, strips_tried, check=None) -> None:
-    uv, iterations = arap_development(v3, f3)
-    _deliver_patch(result, config, grid, uv[index], v3, f3, index, "patch",
-                   {"method": f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh", **verdict},
-                   strip, size, verdict if strips_tried else None, check)
+def _developed_patch(result, config, patch: OwedPatch) -> None:
+    """A formed plate's hull patch developed (ARAP) and delivered (its ``check`` reused when
+    its evaluation made one)."""
+    uv, iterations = arap_development(patch.v3, patch.f3)
+    method = f"libigl LSCM seed then ARAP ({iterations} iterations) on the hull patch mesh"
+    _deliver_patch(result, config, patch.grid, uv[patch.index], patch.v3, patch.f3, patch.index, "patch",
+                   {"method": method, **patch.verdict}, patch.strip, patch.size,
+                   patch.verdict if patch.strips_tried else None, patch.check)
 
 
 def _patch_corner_tolerance(hull, size) -> float:

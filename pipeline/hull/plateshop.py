@@ -230,8 +230,8 @@ class OwedPatch:
     (:func:`pipeline.hull.plates._owed_patch`): its region ``grid`` and welded mesh ``v3``,
     ``f3``, ``index`` (moved as ``hull.follow`` said), ``size`` (length, width), its strips'
     ``verdict`` and the ``strip`` its roll lines follow, whether the strips were tried, and the
-    region's ``check`` (:func:`pipeline.hull.plates.completeness`) the plan read, and the
-    ``left`` (status, reason) the evaluation left the plate in."""
+    region's ``check`` (:func:`pipeline.hull.plates.completeness`) the plan read (None for a
+    plate developed at once: its delivery makes it)."""
 
     grid: object
     v3: np.ndarray
@@ -241,8 +241,7 @@ class OwedPatch:
     verdict: dict
     strip: object
     strips_tried: bool
-    check: dict
-    left: tuple = ("ok", "")
+    check: dict | None = None
 
 
 def formed_verdict(result) -> dict | None:
