@@ -117,6 +117,37 @@ def test_a_plate_moved_off_the_hull_steps_by_the_move(bilge, delta, caught):
     assert all("bilge_S1_B1" in w and "limit 2.10 mm" in w for w in warnings)
 
 
+def test_measures_kept_across_a_move_measure_only_the_moved_plate_again(bilge, monkeypatch):
+    """One EdgeMeasures carried through a fit-up's measurements (as follow and repair carry
+    it): after S1_B1 moves, its two shared edges are measured again and give the fresh
+    answer; the two edges of unmoved plates are not measured again."""
+    from pipeline.hull import fitup
+
+    config, results = bilge
+    records = {r.name: (plate_edges(r), r.part) for r in results}
+    measures = fitup.EdgeMeasures(fitup.SAMPLE_MM / config.mm_per_unit)
+    before, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS, measures)
+    calls = []
+    real = fitup._measure
+    monkeypatch.setattr(fitup, "_measure", lambda da, db: calls.append((da, db)) or real(da, db))
+    shifted = moved(results[0], radial(2.5))
+    records["bilge_S1_B1"] = (plate_edges(shifted), shifted.part)
+    kept, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS, measures)
+    again = len(calls)
+    fresh, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS)
+    assert kept == fresh
+    # measured again: only candidate pairs with an edge of the moved plate, a part of all
+    mine = {id(measures.dense(e)) for e in records["bilge_S1_B1"][0].edges}
+    assert 2 <= again < len(calls) - again
+    assert all(id(da) in mine or id(db) in mine for da, db in calls[:again])
+    assert {(p.a, p.b): p.step_max for p in kept if "bilge_S1_B1" in (p.a, p.b)} == pytest.approx(
+        {("bilge_S1_B1", "bilge_S2_B1"): 2.5, ("bilge_S1_B1", "bilge_S1_B2"): 2.5}, abs=1e-3)
+    assert [p for p in kept if "bilge_S1_B1" not in (p.a, p.b)] == [
+        p for p in before if "bilge_S1_B1" not in (p.a, p.b)]
+    with pytest.raises(ValueError, match="sampled"):
+        fitup.shared_edges(records, 2 * config.mm_per_unit, THICKNESS, measures)
+
+
 def test_a_stretched_development_is_a_length_mismatch(bilge):
     """S1_B1's development 1e-3 longer along the seam: SEAM 2 differs by 6 mm between two
     strip plates, over the 1 mm rule; the 3D edges still meet."""

@@ -433,6 +433,38 @@ def measure(a: Edge, b: Edge, spacing: float) -> tuple | None:
     return _measure(_dense(a, spacing), _dense(b, spacing))
 
 
+class EdgeMeasures:
+    """Edges sampled and shared edges measured, kept across the measurements of one fit-up:
+    a fit-up measures the whole shell again after each of its steps, which move a few of its
+    hundreds of plates, so an edge whose points are unchanged is not sampled again and a pair
+    of such edges not measured again. Keyed by the edges' points (a plate's record read again
+    from its result hits too), the results are those of measuring afresh, bit for bit.
+    ``spacing``: the samples' spacing (model units)."""
+
+    def __init__(self, spacing: float):
+        self.spacing = float(spacing)
+        self._dense: dict = {}  # edge key -> _Dense
+        self._measured: dict = {}  # (edge key, edge key) -> _measure's tuple or None
+
+    @staticmethod
+    def _key(edge: Edge) -> tuple:
+        return (edge.points3.shape, edge.points3.tobytes(), edge.points2.tobytes())
+
+    def dense(self, edge: Edge) -> _Dense:
+        """The edge sampled (:func:`_dense`)."""
+        key = self._key(edge)
+        if key not in self._dense:
+            self._dense[key] = _dense(edge, self.spacing)
+        return self._dense[key]
+
+    def measure(self, a: Edge, b: Edge) -> tuple | None:
+        """:func:`measure` of the two edges."""
+        key = (self._key(a), self._key(b))
+        if key not in self._measured:
+            self._measured[key] = _measure(self.dense(a), self.dense(b))
+        return self._measured[key]
+
+
 def _measure(da: _Dense, db: _Dense) -> tuple | None:
     lo_a, hi_a = _common(da, db)
     lo_b, hi_b = _common(db, da)
@@ -483,25 +515,25 @@ def shell_fitup(results, config) -> ShellFitup | None:
     return ShellFitup(tuple(pairs), tuple(strains), coverage, thickness, tuple(unmeasured), tuple(apart))
 
 
-def shared_edges(records: dict, mm: float, thickness: float) -> tuple[list, list]:
+def shared_edges(records: dict, mm: float, thickness: float,
+                 measures: EdgeMeasures | None = None) -> tuple[list, list]:
     """(pairs, apart): every shared edge of the plates in ``records`` ({plate name:
     (PlateEdges, part)}) measured (:class:`SharedEdge`), and the neighbours by the plan whose
     edges lie apart. ``mm``: millimetres per model unit; ``thickness``: the run's plate
-    thickness (mm), for plates that do not give their own."""
+    thickness (mm), for plates that do not give their own; ``measures``: the edges measured
+    before in this fit-up (:class:`EdgeMeasures`; None: all measured here)."""
+    if measures is None:
+        measures = EdgeMeasures(SAMPLE_MM / mm)
+    if measures.spacing != SAMPLE_MM / mm:
+        raise ValueError(f"shared_edges: measures sampled {measures.spacing} apart, "
+                         f"not {SAMPLE_MM / mm} (SAMPLE_MM at {mm} mm per unit)")
     pairs, apart = [], []
-    dense = {}  # (plate, side) -> its edge sampled: each edge is asked for by several candidates
-
-    def sampled(name, side, edge):
-        if (name, side) not in dense:
-            dense[name, side] = _dense(edge, SAMPLE_MM / mm)
-        return dense[name, side]
-
     for (na, nb, side_a, side_b, kind) in _neighbours(records):
         (ra, pa), (rb, pb) = records[na], records[nb]
         ea, eb = ra.edge(side_a), rb.edge(side_b)
         if ea is None or eb is None or not _near(ea, eb, NEAR_MM / mm):
             continue
-        got = _measure(sampled(na, side_a, ea), sampled(nb, side_b, eb))
+        got = measures.measure(ea, eb)
         if got is None:
             continue
         steps, where, l3, l2 = got

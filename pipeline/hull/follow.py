@@ -48,6 +48,7 @@ import numpy as np
 from .fitup import (
     SAMPLE_MM,
     SIDES,
+    EdgeMeasures,
     _dense,
     _grid_ring,
     closest_on,
@@ -159,25 +160,28 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         for part, result in zip(missing, evaluate_many(missing)):
             part.hull.result = result
     records = _records(plates)
-    pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit)  # most plates stay as they are from one measurement to the next
+    pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
     if joint and as_strips:
-        records = _flats_as_strips(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report)
+        records = _flats_as_strips(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report, measures)
         if report.as_strips:
-            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     if joint and _move_jointly(plates, records, pairs, evaluate_many, mm_per_unit, strips, report):
         # the flat plates and strips where they now lie: the formed plates meet them there
         records = _records(plates, records, set(report.planes) | set(report.strips))
-        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     if pull:
-        results, report.pulled, report.pull_refused = pull_stepping(records, pairs, mm_per_unit, thickness_mm)
+        results, report.pulled, report.pull_refused = pull_stepping(records, pairs, mm_per_unit, thickness_mm,
+                                                                    measures)
         if results:
             for part in plates:
                 part.hull.result = results.get(part.name, part.hull.result)
             records = _records(plates, records, set(results))
-            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+            pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     if hold:
-        records, pairs = _hold_stepping(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report)
+        records, pairs = _hold_stepping(plates, records, pairs, evaluate_many, mm_per_unit, thickness_mm, report,
+                                        measures)
     report.untaken = [(q.a, q.b, q.label, q.step_max) for q in pairs if q.misfit and FORMED not in (
         records[q.a][0].klass, records[q.b][0].klass)]
     grids = {}
@@ -228,7 +232,7 @@ def _within_tolerance(points: np.ndarray, offsets: np.ndarray, hull) -> tuple[np
 
 
 def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
-                     thickness_mm: float, report: FollowReport) -> dict:
+                     thickness_mm: float, report: FollowReport, measures: EdgeMeasures | None = None) -> dict:
     """Flat plates that step from a flat or strip neighbour by more than the limit developed
     again as strips (``part.hull.as_strip``): kept where one fits and steps less from those
     neighbours than the plane did (the worst step first, against the neighbours as they are
@@ -267,9 +271,9 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
             klass = result.figures.get("plate_class") or {}
             why = klass.get("strip_not_delivered_because") or result.reason or f"delivered {klass.get('class')}"
         else:
-            before = _worst_step(current, part.name, neighbours[part.name], mm_per_unit, thickness_mm)
+            before = _worst_step(current, part.name, neighbours[part.name], mm_per_unit, thickness_mm, measures)
             trial = dict(current, **{part.name: (edges, part)})
-            after = _worst_step(trial, part.name, neighbours[part.name], mm_per_unit, thickness_mm)
+            after = _worst_step(trial, part.name, neighbours[part.name], mm_per_unit, thickness_mm, measures)
             if after < before:
                 part.hull.result, current = result, trial
                 report.as_strips[part.name] = dict(wanted[part.name], step_after_mm=after)
@@ -283,7 +287,8 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
 
 
 def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_per_unit: float,
-                   thickness_mm: float, report: FollowReport) -> tuple[dict, list]:
+                   thickness_mm: float, report: FollowReport,
+                   measures: EdgeMeasures | None = None) -> tuple[dict, list]:
     """Plates held on the hull for the steps the joint programme left between flat and strip
     neighbours (``part.hull.held``, as :mod:`.repair` holds them), the fewest square metres
     that hold one plate of every such pair (:func:`_cover`). A plate held the first time stays
@@ -327,7 +332,7 @@ def _hold_stepping(plates: list, records: dict, pairs: list, evaluate_many, mm_p
                                       "edge_deviation_before_mm": held["edge_deviation_before_mm"],
                                       "undone": was, **({"junction": held["junction"]} if "junction" in held else {})}
         records = _records(plates, records, set(chosen))
-        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     return records, pairs
 
 
@@ -372,12 +377,13 @@ def _cover(stepping: list, records: dict, mm_per_unit: float, failed: set = froz
     return chosen
 
 
-def _worst_step(records: dict, name: str, neighbours: set, mm_per_unit: float, thickness_mm: float) -> float:
+def _worst_step(records: dict, name: str, neighbours: set, mm_per_unit: float, thickness_mm: float,
+                measures: EdgeMeasures | None = None) -> float:
     """The largest step (mm) of plate ``name`` from its flat and strip ``neighbours`` as
     ``records`` has them."""
     near = {n: records[n] for n in {name, *neighbours}
             if n in records and (n == name or records[n][0].klass in MOVABLE_NEIGHBOURS)}
-    pairs, apart = shared_edges(near, mm_per_unit, thickness_mm)
+    pairs, apart = shared_edges(near, mm_per_unit, thickness_mm, measures)
     return max((q.step_max for q in pairs + apart if name in (q.a, q.b)), default=0.0)
 
 

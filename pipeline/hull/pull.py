@@ -409,12 +409,14 @@ def pulled(result, steps: tuple, check: PullCheck):
     return out
 
 
-def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: float) -> tuple[dict, dict, dict]:
+def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: float,
+                  measures=None) -> tuple[dict, dict, dict]:
     """({plate: its result pulled}, {plate: its pull's figures}, {plate: why it was not
     pulled}) for the flat and strip plates of the ``pairs`` that step by more than their
     limit, their pulls chosen together (:func:`solve_pulls`) and each checked
     (:func:`check_pull`), PULL_ROUNDS rounds measured again after each. ``records``: {name:
-    (PlateEdges, part)} as the pairs were measured."""
+    (PlateEdges, part)} as the pairs were measured; ``measures``: the fit-up's edges measured
+    before (:class:`.fitup.EdgeMeasures`)."""
     from .fitup import kept_edges, shared_edges
 
     records = dict(records)
@@ -456,7 +458,7 @@ def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: 
             changed.add(name)
         if not changed:
             break
-        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     return results, {name: {k: v for k, v in r.figures["erection_pull"].items() if k not in ("rule", "placed")}
                      for name, r in results.items()}, refused
 

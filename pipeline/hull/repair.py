@@ -31,7 +31,7 @@ import numpy as np
 
 from flatten.closest import SurfaceDistance
 
-from .fitup import plate_edges, shared_edges
+from .fitup import SAMPLE_MM, EdgeMeasures, plate_edges, shared_edges
 from .planner import honest_class
 
 ROUNDS = 4  # measure, hold, evaluate again: rounds at most
@@ -82,6 +82,7 @@ def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     report = RepairReport()
     by_name = {p.name: p for p in plates}
     measured: dict = {}  # plate name -> (its result, its edges): only plates held since are measured again
+    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit)  # and only their shared edges
     for round_no in range(1, ROUNDS + 1):
         records = {}
         for part in plates:
@@ -93,7 +94,7 @@ def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
             edges = measured[part.name][1]
             if edges is not None:
                 records[part.name] = (edges, part)
-        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm)
+        pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
         misfits = [q for q in pairs if q.misfit]
         chosen: dict = {}
         report.unrepaired = []
