@@ -148,6 +148,31 @@ def test_measures_kept_across_a_move_measure_only_the_moved_plate_again(bilge, m
         fitup.shared_edges(records, 2 * config.mm_per_unit, THICKNESS, measures)
 
 
+def test_measures_spread_over_worker_processes_are_those_measured_here(bilge, monkeypatch):
+    """A batch of pairs not measured before goes to the workers (SPREAD_MIN lowered to the
+    bilge's size, two processes): the same shared edges, bit for bit, as measured here."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from pipeline.hull import fitup
+
+    config, results = bilge
+    records = {r.name: (plate_edges(r), r.part) for r in results}
+    here, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS)
+    monkeypatch.setattr(fitup, "SPREAD_MIN", 2)
+    monkeypatch.setattr(fitup, "SPREAD_BATCH", 3)
+    tasks = []
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
+        def spread(func, items):
+            tasks.extend(items)
+            return list(pool.map(func, items))
+
+        measures = fitup.EdgeMeasures(fitup.SAMPLE_MM / config.mm_per_unit, spread)
+        there, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS, measures)
+    assert len(tasks) >= 2 and there == here
+    assert not measures._dense  # nothing was sampled here
+
+
 def test_a_stretched_development_is_a_length_mismatch(bilge):
     """S1_B1's development 1e-3 longer along the seam: SEAM 2 differs by 6 mm between two
     strip plates, over the 1 mm rule; the 3D edges still meet."""

@@ -51,6 +51,8 @@ RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({ST
         f"plates (isometric developments) differ by more than {LENGTH_LIMIT_MM:g} mm in the developed length of "
         "their shared edge")
 SIDES = ("seam0", "seam1", "butt0", "butt1")
+SPREAD_MIN = 64  # pairs not measured before that are worth the workers' round trip
+SPREAD_BATCH = 32  # pairs a worker measures per task
 
 
 @dataclass(frozen=True)
@@ -439,10 +441,14 @@ class EdgeMeasures:
     hundreds of plates, so an edge whose points are unchanged is not sampled again and a pair
     of such edges not measured again. Keyed by the edges' points (a plate's record read again
     from its result hits too), the results are those of measuring afresh, bit for bit.
-    ``spacing``: the samples' spacing (model units)."""
+    ``spacing``: the samples' spacing (model units); ``spread``: ``map(func, items)`` over
+    worker processes (:meth:`pipeline.runner.PlateEvaluator.map`), which measures a batch of
+    SPREAD_MIN pairs or more not measured before (the first measurement of a shell: the
+    workers wait for the fit-up), or None."""
 
-    def __init__(self, spacing: float):
+    def __init__(self, spacing: float, spread=None):
         self.spacing = float(spacing)
+        self.spread = spread
         self._dense: dict = {}  # edge key -> _Dense
         self._measured: dict = {}  # (edge key, edge key) -> _measure's tuple or None
 
@@ -459,10 +465,31 @@ class EdgeMeasures:
 
     def measure(self, a: Edge, b: Edge) -> tuple | None:
         """:func:`measure` of the two edges."""
-        key = (self._key(a), self._key(b))
-        if key not in self._measured:
-            self._measured[key] = _measure(self.dense(a), self.dense(b))
-        return self._measured[key]
+        return self.measure_all([(a, b)])[0]
+
+    def measure_all(self, edge_pairs: list) -> list:
+        """:func:`measure` of each pair of edges (a, b) in ``edge_pairs``."""
+        keys = [(self._key(a), self._key(b)) for a, b in edge_pairs]
+        todo: dict = {}
+        for key, pair in zip(keys, edge_pairs):
+            if key not in self._measured:
+                todo.setdefault(key, pair)
+        if self.spread is not None and len(todo) >= SPREAD_MIN:
+            batches = [list(todo.items())[k:k + SPREAD_BATCH] for k in range(0, len(todo), SPREAD_BATCH)]
+            answers = self.spread(_measured_batch, [(self.spacing, [pair for _, pair in batch]) for batch in batches])
+            for batch, got in zip(batches, answers):
+                self._measured.update(zip((key for key, _ in batch), got))
+        else:
+            for key, (a, b) in todo.items():
+                self._measured[key] = _measure(self.dense(a), self.dense(b))
+        return [self._measured[key] for key in keys]
+
+
+def _measured_batch(task: tuple) -> list:
+    """:func:`measure` of each pair of edges in ``task`` (spacing, [(a, b), ...]), each edge
+    sampled once (a worker's share of :meth:`EdgeMeasures.measure_all`)."""
+    spacing, edge_pairs = task
+    return EdgeMeasures(spacing).measure_all(edge_pairs)
 
 
 def _measure(da: _Dense, db: _Dense) -> tuple | None:
@@ -527,15 +554,16 @@ def shared_edges(records: dict, mm: float, thickness: float,
     if measures.spacing != SAMPLE_MM / mm:
         raise ValueError(f"shared_edges: measures sampled {measures.spacing} apart, "
                          f"not {SAMPLE_MM / mm} (SAMPLE_MM at {mm} mm per unit)")
-    pairs, apart = [], []
+    pairs, apart, candidates = [], [], []
     for (na, nb, side_a, side_b, kind) in _neighbours(records):
-        (ra, pa), (rb, pb) = records[na], records[nb]
-        ea, eb = ra.edge(side_a), rb.edge(side_b)
-        if ea is None or eb is None or not _near(ea, eb, NEAR_MM / mm):
-            continue
-        got = measures.measure(ea, eb)
+        ea, eb = records[na][0].edge(side_a), records[nb][0].edge(side_b)
+        if ea is not None and eb is not None and _near(ea, eb, NEAR_MM / mm):
+            candidates.append((na, nb, side_a, side_b, kind, ea, eb))
+    measured = measures.measure_all([(ea, eb) for *_, ea, eb in candidates])
+    for (na, nb, side_a, side_b, kind, ea, eb), got in zip(candidates, measured):
         if got is None:
             continue
+        (ra, pa), (rb, pb) = records[na], records[nb]
         steps, where, l3, l2 = got
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         far = np.median(steps) > APART * min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)

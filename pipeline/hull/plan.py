@@ -95,13 +95,13 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             from .repair import repair_fitup
 
             repair = repair_fitup(parts, fitting.many_developed, config.mm_per_unit,
-                                  float(spec.steel.thickness))
+                                  float(spec.steel.thickness), spread=fitting.map)
         elif spec.strake.fit_up == "follow" and evaluate is not None:
             from .follow import follow_fitup
 
             follow = follow_fitup(parts, fitting.many_developed, config.mm_per_unit,
                                   float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
-                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps)
+                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps, spread=fitting.map)
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
