@@ -77,6 +77,15 @@ def objective_of(name: str) -> dict | None:
     return OBJECTIVES[name]
 
 
+FIT_UPS = ("report", "repair", "follow", "follow_pull", "follow_pull_hold", "follow_hold")
+
+
+def fit_up_of(name: str) -> dict:
+    """The strake options of a ``--fit-up`` name (one of FIT_UPS)."""
+    return {"fit_up": "follow" if name.startswith("follow") else name,
+            "hold_steps": name.endswith("_hold"), "pull_steps": "_pull" in name}
+
+
 def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = "none", evaluator=None,
         fit_up: str = "report") -> dict:
     from pipeline.hull.hullplots import class_hull_png, display_class, shell_area
@@ -92,9 +101,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     data["strake"]["plan"]["seams"] = seams
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
-    data["strake"]["fit_up"] = "follow" if fit_up.startswith("follow") else fit_up
-    data["strake"]["hold_steps"] = fit_up.endswith("_hold")
-    data["strake"]["pull_steps"] = "_pull" in fit_up
+    data["strake"].update(fit_up_of(fit_up))
     for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
         for key in ("iges", "model"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
             if key in source:
@@ -237,7 +244,7 @@ def main(argv=None) -> int:
                         help="seam layouts to compare (iso-parameter lines, lines of least curvature)")
     parser.add_argument("--objectives", nargs="+", default=["none"],
                         help="adaptive plans' objectives: none, weldF (e.g. weld1.5), cost")
-    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=["report", "repair", "follow", "follow_pull", "follow_pull_hold", "follow_hold"],
+    parser.add_argument("--fit-up", nargs="+", default=["report"], choices=list(FIT_UPS),
                         help="strake.fit_up of each run (the adaptive plan is evaluated once: its plates are cached)")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes for the plans' plate evaluations")
     parser.add_argument("--out", type=Path, default=Path(tempfile.gettempdir()) / "bench_hull")

@@ -3,6 +3,7 @@ baseline revision, interleaved round by round so that the machine's drift (these
 machines run the same plan 1.3-1.7 times slower one hour than the next) falls on both alike.
 
     python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2] [--objective weld1.5]
+                              [--fit-up follow_pull_hold]
 
 Each round runs both checkouts in fresh processes (``git archive REV`` for the baseline), in
 alternating order, on this checkout's shell config; per checkout it prints the wall time of
@@ -51,15 +52,18 @@ def interleaved(rounds: int, checkouts: dict, one) -> dict:
     return out
 
 
-def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, objective: dict | None = None) -> Path:
+def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, objective: dict | None = None,
+                 strake: dict | None = None) -> Path:
     """The hull's shell config of the checkout at ``root`` written into ``folder`` with its
     model files as absolute paths (both checkouts run the same config); ``uniform``: its
-    plan made uniform; ``objective``: the plan's objective (bench_hull.py's names)."""
+    plan made uniform; ``objective``: the plan's objective (bench_hull.py's names);
+    ``strake``: strake options set (bench_hull.py's ``fit_up_of``)."""
     data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
     if uniform:
         data["strake"]["plan"]["method"] = "uniform"
     if objective is not None:
         data["strake"]["plan"]["objective"] = objective
+    data["strake"].update(strake or {})
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):
             if key in surface:
@@ -102,15 +106,20 @@ def main(argv=None) -> int:
     parser = comparison_parser(__doc__, "9d0000e")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
+    parser.add_argument("--fit-up", default="report", help="strake.fit_up and its options, as bench_hull.py names "
+                        "them (report, follow, follow_pull_hold, ...)")
     args = parser.parse_args(argv)
-    from bench_hull import objective_of
+    from bench_hull import FIT_UPS, fit_up_of, objective_of
 
+    if args.fit_up not in FIT_UPS:
+        parser.error(f"--fit-up: one of {', '.join(FIT_UPS)}, not {args.fit_up!r}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        config = shell_config(ROOT, args.hull, tmp, objective=objective_of(args.objective))
+        config = shell_config(ROOT, args.hull, tmp, objective=objective_of(args.objective),
+                              strake=fit_up_of(args.fit_up))
         runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
                            lambda label, root, k: whole_run(root, config, args.jobs, tmp / f"{label}-{k}"))
-    print(f"{args.hull} (objective {args.objective}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
+    print(f"{args.hull} (objective {args.objective}, fit-up {args.fit_up}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
     for label, rounds in runs.items():
         walls = [r["wall"] for r in rounds]
         names = list(rounds[0]["stages"])
