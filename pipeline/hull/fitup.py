@@ -454,7 +454,8 @@ class EdgeMeasures:
 
     @staticmethod
     def _key(edge: Edge) -> tuple:
-        return (edge.points3.shape, edge.points3.tobytes(), edge.points2.tobytes())
+        return (edge.points3.shape, edge.points3.dtype.str, edge.points2.dtype.str, edge.points3.tobytes(),
+                edge.points2.tobytes())
 
     def dense(self, edge: Edge) -> _Dense:
         """The edge sampled (:func:`_dense`)."""
@@ -475,7 +476,8 @@ class EdgeMeasures:
             if key not in self._measured:
                 todo.setdefault(key, pair)
         if self.spread is not None and len(todo) >= SPREAD_MIN:
-            batches = [list(todo.items())[k:k + SPREAD_BATCH] for k in range(0, len(todo), SPREAD_BATCH)]
+            items = list(todo.items())
+            batches = [items[k:k + SPREAD_BATCH] for k in range(0, len(items), SPREAD_BATCH)]
             answers = self.spread(_measured_batch, [(self.spacing, [pair for _, pair in batch]) for batch in batches])
             for batch, got in zip(batches, answers):
                 self._measured.update(zip((key for key, _ in batch), got))

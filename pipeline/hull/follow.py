@@ -161,7 +161,8 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
         for part, result in zip(missing, evaluate_many(missing)):
             part.hull.result = result
     records = _records(plates)
-    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, spread)  # most plates stay as they are from one measurement to the next
+    # each step below moves few plates: their neighbours' edges are not measured again
+    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, spread)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
     if joint and as_strips:
