@@ -241,3 +241,43 @@ def test_formed_plates_the_plan_drops_are_never_developed(tmp_path, monkeypatch)
     assert formed and sorted(developed) == formed
     assert all("development" not in r.figures["plate_class"] and r.figures.get("strain") for r in results
                if r.name in formed)
+
+
+def test_a_formed_plate_cut_at_its_faces_trim_owes_and_gets_the_full_runs_development(tmp_path):
+    """A formed plate of the sphere cap whose face is trimmed through its middle (the trim's
+    outer loop ends half way along the plate): evaluated lean its development is owed, and
+    developed and completed it writes the full run's files byte for byte, cut at the trim."""
+    from flatten.patch import region_grid
+    from pipeline.hull.trims import Trim
+
+    config = load_run(_cs_config(tmp_path))  # no evaluator: the uniform layout
+    part = next(p for p in config.parts if p.name == "cs_S01_B02")
+    h = part.hull
+    grid = region_grid(h.surface, h.long_axis, h.girths[0], h.girths[1],
+                       [None if p is None else p.as_tuple() for p in h.butts], 9, 17)
+    along = grid.params[..., h.long_axis]
+    cut = 0.5 * (along.min() + along.max())
+    (u0, u1), (v0, v1) = h.surface.domain_u, h.surface.domain_v
+    box = [[u0, v0], [u1, v0], [u1, v1], [u0, v1]]
+    for corner in (1, 2) if h.long_axis == 0 else (2, 3):  # the loop's far side moved to the cut
+        box[corner][h.long_axis] = cut
+    trim = Trim(1, np.array(box + box[:1], dtype=np.float64), (), 144)
+    h.trim, h.face_trim, h.inside_trim = trim, trim, 0.5  # this test's own plan
+    full = run_part(part, config)
+    assert full.ok and full.figures["plate_class"]["class"] == "formed"
+    assert 0.3 < full.figures["trim_cut"]["share"] < 0.7
+    lean = evaluate_plate(part, config)
+    assert lean.shop_work.develops and lean.pattern is None and "trim_cut" not in lean.figures
+    developed = develop(pickle.loads(pickle.dumps(lean)), config)
+    assert developed.figures["plate_class"] == full.figures["plate_class"]
+    assert developed.figures["trim_cut"] == full.figures["trim_cut"]
+    assert np.array_equal(developed.pattern.vertices, full.pattern.vertices)
+    assert np.array_equal(developed.pattern.outline, full.pattern.outline)
+    sent = pickle.loads(pickle.dumps(lean))
+    sent.part.hull.result = sent
+    completed = run_part(sent.part, config)
+    full_files = _files(full, config, tmp_path / "full")
+    lean_files = _files(completed, config, tmp_path / "lean")
+    assert list(lean_files) == list(full_files) and {n.rsplit(".", 1)[-1] for n in full_files} >= {"json", "dxf"}
+    for file in full_files:
+        assert lean_files[file] == full_files[file], file
