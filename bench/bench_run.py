@@ -103,16 +103,14 @@ def comparison_parser(doc: str, baseline: str, hull: str = "hull160", rounds: in
 
 
 def main(argv=None) -> int:
+    from bench_hull import FIT_UPS, fit_up_of, objective_of
+
     parser = comparison_parser(__doc__, "9d0000e")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
-    parser.add_argument("--fit-up", default="report", help="strake.fit_up and its options, as bench_hull.py names "
-                        "them (report, follow, follow_pull_hold, ...)")
+    parser.add_argument("--fit-up", default="report", choices=FIT_UPS,
+                        help="strake.fit_up and its options, as bench_hull.py names them")
     args = parser.parse_args(argv)
-    from bench_hull import FIT_UPS, fit_up_of, objective_of
-
-    if args.fit_up not in FIT_UPS:
-        parser.error(f"--fit-up: one of {', '.join(FIT_UPS)}, not {args.fit_up!r}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         config = shell_config(ROOT, args.hull, tmp, objective=objective_of(args.objective),

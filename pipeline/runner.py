@@ -347,6 +347,11 @@ class PlateEvaluator:
             results.append(result)
         return results
 
+    @property
+    def running(self) -> bool:
+        """Are the workers running (forked by a batch of plates, not closed since)?"""
+        return self._pool is not None
+
     def map(self, func, items: list) -> list:
         """``[func(item) for item in items]``, spread over the workers while they run (after
         the first batch of plates; the objects every plate shares travel as references, as

@@ -144,6 +144,12 @@ def test_measures_kept_across_a_move_measure_only_the_moved_plate_again(bilge, m
         {("bilge_S1_B1", "bilge_S2_B1"): 2.5, ("bilge_S1_B1", "bilge_S1_B2"): 2.5}, abs=1e-3)
     assert [p for p in kept if "bilge_S1_B1" not in (p.a, p.b)] == [
         p for p in before if "bilge_S1_B1" not in (p.a, p.b)]
+    # a development stretched, its 3D edges unchanged: its length mismatches measured again
+    stretched = moved(next(r for r in results if r.name == "bilge_S2_B2"), stretch2=1.001)
+    records["bilge_S2_B2"] = (plate_edges(stretched), stretched.part)
+    kept, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS, measures)
+    fresh, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS)
+    assert kept == fresh and any(p.misfit and "bilge_S2_B2" in (p.a, p.b) for p in kept)
     with pytest.raises(ValueError, match="sampled"):
         fitup.shared_edges(records, 2 * config.mm_per_unit, THICKNESS, measures)
 
@@ -163,14 +169,17 @@ def test_measures_spread_over_worker_processes_are_those_measured_here(bilge, mo
     monkeypatch.setattr(fitup, "SPREAD_BATCH", 3)
     tasks = []
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
-        def spread(func, items):
-            tasks.extend(items)
-            return list(pool.map(func, items))
+        class Workers:
+            running = True
 
-        measures = fitup.EdgeMeasures(fitup.SAMPLE_MM / config.mm_per_unit, spread)
+            def map(self, func, items):
+                tasks.extend(items)
+                return list(pool.map(func, items))
+
+        measures = fitup.EdgeMeasures(fitup.SAMPLE_MM / config.mm_per_unit, Workers())
         there, _ = fitup.shared_edges(records, config.mm_per_unit, THICKNESS, measures)
     assert len(tasks) >= 2 and there == here
-    assert not measures._dense  # nothing was sampled here
+    assert not measures._sampled  # nothing was sampled here
 
 
 def test_a_stretched_development_is_a_length_mismatch(bilge):

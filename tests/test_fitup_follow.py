@@ -586,6 +586,30 @@ def test_only_a_formed_plate_whose_strips_were_tried_keeps_a_verdict(tmp_path):
             assert np.array_equal(verdict["roll_strip"].vertices, here["roll_strip"].vertices)
 
 
+def test_a_fit_up_measured_on_two_workers_is_the_one_measured_here(tmp_path, monkeypatch):
+    # the shoulder's shell measured by the evaluator's workers (every batch of new pairs
+    # sent to them, as a shell's first measurement is) gives the fit-up of one process
+    from pipeline.hull import fitup
+    from pipeline.runner import PlateEvaluator, plate_evaluator
+
+    path = shoulder(tmp_path, fit_tolerance=4.0, fit_up="follow")
+    alone = load_run(path, evaluate_plate)
+    monkeypatch.setattr(fitup, "SPREAD_MIN", 2)
+    monkeypatch.setattr(fitup, "SPREAD_BATCH", 1)
+    mapped, real = [], PlateEvaluator.map
+    monkeypatch.setattr(PlateEvaluator, "map", lambda self, func, items: mapped.append((func, self.running))
+                        or real(self, func, items))
+    with plate_evaluator(2) as two:
+        pooled = load_run(path, two)
+    assert (fitup._measured_batch, True) in mapped  # measured by the running workers
+    assert pooled.fitup_follow.as_dict() == alone.fitup_follow.as_dict()
+    for a, b in zip(pooled.parts, alone.parts):
+        ra, rb = run_part(a, pooled), run_part(b, alone)
+        for result in (ra, rb):
+            result.figures.pop("fitup_edges")  # the fit-up report's (objects, not figures)
+        assert _figures(ra) == _figures(rb), a.name
+
+
 def test_a_fit_up_on_two_workers_develops_the_plates_as_one_process_does(tmp_path):
     # the shoulder at 4 mm under follow: its two formed plates owe their developments after
     # their lean evaluation; the fit-up reads them, so load_run has them developed first, by

@@ -441,32 +441,31 @@ class EdgeMeasures:
     hundreds of plates, so an edge whose points are unchanged is not sampled again and a pair
     of such edges not measured again. Keyed by the edges' points (a plate's record read again
     from its result hits too), the results are those of measuring afresh, bit for bit.
-    ``spacing``: the samples' spacing (model units); ``spread``: ``map(func, items)`` over
-    worker processes (:meth:`pipeline.runner.PlateEvaluator.map`), which measures a batch of
-    SPREAD_MIN pairs or more not measured before (the first measurement of a shell: the
-    workers wait for the fit-up), or None."""
+    ``spacing``: the samples' spacing (model units); ``workers``: worker processes that
+    measure a batch of SPREAD_MIN pairs or more not measured before while they run (the
+    first measurement of a shell: they wait for the fit-up; the edges they sample are not
+    kept here), an object with ``running`` (bool) and ``map(func, items)`` (answers in the
+    items' order; :class:`pipeline.hull.plan._Judge`), or None: all measured here."""
 
-    def __init__(self, spacing: float, spread=None):
+    def __init__(self, spacing: float, workers=None):
         self.spacing = float(spacing)
-        self.spread = spread
-        self._dense: dict = {}  # edge key -> _Dense
+        self.workers = workers
+        self._sampled: dict = {}  # edge key -> _Dense
         self._measured: dict = {}  # (edge key, edge key) -> _measure's tuple or None
 
     @staticmethod
     def _key(edge: Edge) -> tuple:
-        return (edge.points3.shape, edge.points3.dtype.str, edge.points2.dtype.str, edge.points3.tobytes(),
-                edge.points2.tobytes())
+        """What an edge's measurements depend on (its 3D and developed points): edges of
+        equal keys are measured alike."""
+        return tuple(x for points in (edge.points3, edge.points2)
+                     for x in (points.shape, points.dtype.str, points.tobytes()))
 
     def dense(self, edge: Edge) -> _Dense:
         """The edge sampled (:func:`_dense`)."""
         key = self._key(edge)
-        if key not in self._dense:
-            self._dense[key] = _dense(edge, self.spacing)
-        return self._dense[key]
-
-    def measure(self, a: Edge, b: Edge) -> tuple | None:
-        """:func:`measure` of the two edges."""
-        return self.measure_all([(a, b)])[0]
+        if key not in self._sampled:
+            self._sampled[key] = _dense(edge, self.spacing)
+        return self._sampled[key]
 
     def measure_all(self, edge_pairs: list) -> list:
         """:func:`measure` of each pair of edges (a, b) in ``edge_pairs``."""
@@ -475,12 +474,13 @@ class EdgeMeasures:
         for key, pair in zip(keys, edge_pairs):
             if key not in self._measured:
                 todo.setdefault(key, pair)
-        if self.spread is not None and len(todo) >= SPREAD_MIN:
+        if len(todo) >= SPREAD_MIN and self.workers is not None and self.workers.running:
             items = list(todo.items())
             batches = [items[k:k + SPREAD_BATCH] for k in range(0, len(items), SPREAD_BATCH)]
-            answers = self.spread(_measured_batch, [(self.spacing, [pair for _, pair in batch]) for batch in batches])
-            for batch, got in zip(batches, answers):
-                self._measured.update(zip((key for key, _ in batch), got))
+            answers = self.workers.map(_measured_batch, [(self.spacing, [pair for _, pair in batch])
+                                                         for batch in batches])
+            for batch, got in zip(batches, answers, strict=True):
+                self._measured.update(zip((key for key, _ in batch), got, strict=True))
         else:
             for key, (a, b) in todo.items():
                 self._measured[key] = _measure(self.dense(a), self.dense(b))
@@ -505,7 +505,7 @@ def _measure(da: _Dense, db: _Dense) -> tuple | None:
     steps_a, _ = project(da.p3[ina], db)
     steps_b, _ = project(db.p3[inb], da)
     steps = np.r_[steps_a, steps_b]
-    where = np.vstack([da.p3[ina], db.p3[inb]])[int(np.argmax(steps))]
+    where = np.vstack([da.p3[ina], db.p3[inb]])[int(np.argmax(steps))].copy()  # not a view that keeps the stack
     length3 = (hi_a - lo_a, hi_b - lo_b)
     length2 = tuple(float(np.interp(hi, d.s3, d.s2) - np.interp(lo, d.s3, d.s2))
                     for d, lo, hi in ((da, lo_a, hi_a), (db, lo_b, hi_b)))

@@ -140,7 +140,7 @@ class FollowReport:
 
 def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
                  joint: bool = True, strips: bool = True, as_strips: bool = True, hold: bool = False,
-                 pull: bool = False, spread=None) -> FollowReport:
+                 pull: bool = False, workers=None) -> FollowReport:
     """Form the shell's formed plates to meet their flat and strip neighbours, the flat plates'
     planes and the strips' places first chosen together (:mod:`.joint`; ``joint=False``: each
     stays as developed; ``strips=False``: only the planes). ``parts``: the run's parts; hull
@@ -153,16 +153,16 @@ def follow_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: f
     (:func:`_flats_as_strips`). After the joint programme, a pair of flat or strip plates
     that still steps over the limit is pulled together at erection (``pull``,
     :mod:`.pull`), and one that steps still has a plate held on the hull (``hold``,
-    :func:`_hold_stepping`). ``spread``: ``map(func, items)`` over the evaluator's workers,
-    for measuring the shell (:class:`.fitup.EdgeMeasures`), or None."""
+    :func:`_hold_stepping`). ``workers``: the evaluator's workers, for measuring the shell
+    (:class:`.fitup.EdgeMeasures`), or None."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     missing = [p for p in plates if p.hull.result is None]
     if missing:
         for part, result in zip(missing, evaluate_many(missing)):
             part.hull.result = result
     records = _records(plates)
-    # each step below moves few plates: their neighbours' edges are not measured again
-    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, spread)
+    # each step below moves few plates: the pairs of plates it leaves in place are not measured again
+    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, workers)
     pairs, _ = shared_edges(records, mm_per_unit, thickness_mm, measures)
     report = FollowReport(misfits=sum(q.misfit for q in pairs))
     if joint and as_strips:

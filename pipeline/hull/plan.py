@@ -95,13 +95,14 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             from .repair import repair_fitup
 
             repair = repair_fitup(parts, fitting.many_developed, config.mm_per_unit,
-                                  float(spec.steel.thickness), spread=fitting.map)
+                                  float(spec.steel.thickness), workers=fitting)
         elif spec.strake.fit_up == "follow" and evaluate is not None:
             from .follow import follow_fitup
 
             follow = follow_fitup(parts, fitting.many_developed, config.mm_per_unit,
                                   float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
-                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps, spread=fitting.map)
+                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps,
+                                  workers=fitting)
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
@@ -152,6 +153,11 @@ class _Judge:
         held = [p for p in parts if getattr(p, "hull", None) is not None and p.hull.result is not None]
         for part, result in zip(held, self.developed([p.hull.result for p in held])):
             part.hull.result = result
+
+    @property
+    def running(self) -> bool:
+        """Does the evaluator have workers running now (:meth:`map` spreads over them)?"""
+        return bool(getattr(self.evaluate, "running", False))
 
     def map(self, func, items: list) -> list:
         """``func`` over items, on the evaluator's workers when it has them."""

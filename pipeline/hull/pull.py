@@ -52,7 +52,7 @@ import numpy as np
 
 from pipeline.shop.rolling import E_STEEL, NU_STEEL, yield_stress
 
-from .fitup import _common, _dense, closest_on
+from .fitup import EdgeMeasures, _common, _dense, closest_on
 from .ownsurface import hull_distance, hull_points
 from .rigid import moved_edges, pending_transform, place_when_done
 
@@ -410,7 +410,7 @@ def pulled(result, steps: tuple, check: PullCheck):
 
 
 def pull_stepping(records: dict, pairs: list, mm_per_unit: float, thickness_mm: float,
-                  measures=None) -> tuple[dict, dict, dict]:
+                  measures: EdgeMeasures | None = None) -> tuple[dict, dict, dict]:
     """({plate: its result pulled}, {plate: its pull's figures}, {plate: why it was not
     pulled}) for the flat and strip plates of the ``pairs`` that step by more than their
     limit, their pulls chosen together (:func:`solve_pulls`) and each checked

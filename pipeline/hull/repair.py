@@ -73,19 +73,19 @@ class RepairReport:
 
 
 def repair_fitup(parts: list, evaluate_many, mm_per_unit: float, thickness_mm: float,
-                 spread=None) -> RepairReport:
+                 workers=None) -> RepairReport:
     """Hold plates on the hull until no shared edge misfits (or ROUNDS rounds). ``parts``:
     the run's parts; hull plates without an evaluated result are evaluated first
     (``evaluate_many(parts) -> results``, spread over the workers). Each held plate is
     evaluated again with ``part.hull.held`` set, and ``part.hull.result`` is its new result.
-    ``spread``: ``map(func, items)`` over the evaluator's workers, for measuring the shell
+    ``workers``: the evaluator's workers, for measuring the shell
     (:class:`.fitup.EdgeMeasures`), or None."""
     plates = [p for p in parts if getattr(p, "hull", None) is not None]
     _evaluate([p for p in plates if p.hull.result is None], evaluate_many)
     report = RepairReport()
     by_name = {p.name: p for p in plates}
     measured: dict = {}  # plate name -> (its result, its edges): only plates held since are measured again
-    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, spread)  # and only their shared edges
+    measures = EdgeMeasures(SAMPLE_MM / mm_per_unit, workers)  # and only their shared edges
     for round_no in range(1, ROUNDS + 1):
         records = {}
         for part in plates:
