@@ -429,12 +429,6 @@ def _common(a: _Dense, b: _Dense) -> tuple[float, float]:
     return float(s.min()), float(s.max())
 
 
-def measure(a: Edge, b: Edge, spacing: float) -> tuple | None:
-    """(steps (N,), worst point (3,), 3D lengths (2,), developed lengths (2,)) of the common
-    part of two edges, model units; None when they do not overlap along their length."""
-    return _measure(_dense(a, spacing), _dense(b, spacing))
-
-
 class EdgeMeasures:
     """Edges sampled and shared edges measured, kept across the measurements of one fit-up:
     a fit-up measures the whole shell again after each of its steps, which move a few of its
@@ -468,7 +462,7 @@ class EdgeMeasures:
         return self._sampled[key]
 
     def measure_all(self, edge_pairs: list) -> list:
-        """:func:`measure` of each pair of edges (a, b) in ``edge_pairs``."""
+        """:func:`_measure` of each pair of edges (a, b) in ``edge_pairs``."""
         keys = [(self._key(a), self._key(b)) for a, b in edge_pairs]
         todo: dict = {}
         for key, pair in zip(keys, edge_pairs):
@@ -488,13 +482,15 @@ class EdgeMeasures:
 
 
 def _measured_batch(task: tuple) -> list:
-    """:func:`measure` of each pair of edges in ``task`` (spacing, [(a, b), ...]), each edge
+    """:func:`_measure` of each pair of edges in ``task`` (spacing, [(a, b), ...]), each edge
     sampled once (a worker's share of :meth:`EdgeMeasures.measure_all`)."""
     spacing, edge_pairs = task
     return EdgeMeasures(spacing).measure_all(edge_pairs)
 
 
 def _measure(da: _Dense, db: _Dense) -> tuple | None:
+    """(steps (N,), worst point (3,), 3D lengths (2,), developed lengths (2,)) of the common
+    part of two sampled edges, model units; None when they do not overlap along their length."""
     lo_a, hi_a = _common(da, db)
     lo_b, hi_b = _common(db, da)
     shorter = min(da.s3[-1], db.s3[-1])
@@ -527,13 +523,14 @@ def shell_fitup(results, config) -> ShellFitup | None:
         else:
             records[r.name] = (rec, r.part)
     thickness = float(config.spec.steel.thickness)
-    pairs, apart = shared_edges(records, mm, thickness)
+    measures = EdgeMeasures(SAMPLE_MM / mm)  # a formed plate's strains read the edges its pairs sampled
+    pairs, apart = shared_edges(records, mm, thickness, measures)
     strains = []
     for rec, _ in records.values():
         if rec.klass != "formed":
             continue
         for e in rec.edges:
-            d = _dense(e, SAMPLE_MM / mm)
+            d = measures.dense(e)
             strains.append((rec.name, e.label, float((d.s2[-1] - d.s3[-1]) / d.s3[-1])))
     from .coverage import shell_coverage
 
