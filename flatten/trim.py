@@ -27,6 +27,9 @@ EDGE_STEPS = 12
 EDGE_SETTLED = 1e-8  # ruling spacings: an edge point's distance is first order in lam
 SEED_SPACING = 6.0  # the seed's samples along a ruling, in ruling spacings apart
 SEED_STRIDE = 3  # the seed samples every SEED_STRIDE-th ruling of the map
+# up to this many (point, seed ruling) pairs the nearest sample is found ruling by ruling;
+# beyond it a k-d tree of all samples (its build costs as much as ~5 x 10^4 pairs) is quicker
+SEED_SCAN_PAIRS = 20000
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,27 @@ class Mapped:
     rulings: np.ndarray
 
 
+def _nearest_sample_ruling(points: np.ndarray, a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Index (N,) of the ruling holding each point's nearest sample, the samples being
+    a + v_k (b - a) on the rulings a-b (R, 3) at the fractions v (K,) evenly from 0 to 1:
+    the squared distance is convex along a ruling, so only the samples around each
+    point's projection on it compete (two either side), computed as the k-d tree holds
+    them (the same floats; exact ties between rulings go to the first)."""
+    span = b - a  # (R, 3)
+    length2 = np.einsum("rk,rk->r", span, span)
+    offset = points[:, None, :] - a[None, :, :]  # (N, R, 3)
+    along = np.einsum("nrk,rk->nr", offset, span) / np.where(length2 > 0, length2, 1.0)
+    last = len(v) - 1
+    below = np.floor(np.clip(along, 0.0, 1.0) * last).astype(np.intp)
+    best = np.full(along.shape, np.inf)
+    for shift in (-1, 0, 1, 2):
+        k = np.clip(below + shift, 0, last)
+        sample = a[None, :, :] + v[k][..., None] * span[None, :, :]
+        gap = points[:, None, :] - sample
+        best = np.minimum(best, gap[..., 0] ** 2 + gap[..., 1] ** 2 + gap[..., 2] ** 2)
+    return np.argmin(best, axis=1)
+
+
 class StripMap:
     """Closest points on a solved strip and their exact developed positions.
 
@@ -70,7 +94,7 @@ class StripMap:
         # the search's rulings between the exact ones: monotone cubics in lam (t and T only
         # grow along a path, so they stay inside the curves' domains, fans and kinks too)
         self._between = PchipInterpolator(self.lam, self.rulings, axis=0)
-        self._developed = self._order = self._tree = None
+        self._developed = self._order = self._tree = self._seeding = None
 
     def ends(self, lam: np.ndarray):
         """Rulings (N, 2) at path fractions lam and their 3D ends on c and d."""
@@ -93,19 +117,21 @@ class StripMap:
         four spacings) takes it from there."""
         from scipy.spatial import cKDTree
 
-        if self._tree is None:
+        if self._seeding is None:
             mid = 0.5 * (self.a3 + self.b3)
             spacing = float(np.median(np.linalg.norm(np.diff(mid, axis=0), axis=1)))
             reach = float(np.linalg.norm(self.b3 - self.a3, axis=1).max())
             per_ruling = int(np.clip(np.ceil(reach / max(SEED_SPACING * spacing, 1e-300)) + 1, 3, 129))
             taken = np.unique(np.append(np.arange(0, len(self.lam), SEED_STRIDE), len(self.lam) - 1))
-            v = np.linspace(0.0, 1.0, per_ruling)
-            a, b = self.a3[taken], self.b3[taken]
+            self._seeding = (self.a3[taken], self.b3[taken], np.linspace(0.0, 1.0, per_ruling), self.lam[taken])
+        a, b, v, lam = self._seeding
+        if len(points) * len(a) <= SEED_SCAN_PAIRS and self._tree is None:
+            return lam[_nearest_sample_ruling(points, a, b, v)]
+        if self._tree is None:
             samples = a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]
-            self._tree = (cKDTree(samples.reshape(-1, 3)), per_ruling, self.lam[taken])
-        tree, per_ruling, lam = self._tree
-        _, index = tree.query(points)
-        return lam[index // per_ruling]
+            self._tree = cKDTree(samples.reshape(-1, 3))
+        _, index = self._tree.query(points)
+        return lam[index // len(v)]
 
     def locate(self, points: np.ndarray, edges: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip): see :meth:`_locate`; on_strip (N, 3) on the rulings'

@@ -103,3 +103,33 @@ def test_points_on_the_strips_edges_are_found_on_them(v):
     points = a + v * (d(rulings[:, 1]) - a)
     _, _, _, found = StripMap(solution, c, d, 801).locate(points)
     assert np.linalg.norm(points - found, axis=1).max() < 1e-6
+
+
+def test_a_small_probe_is_seeded_on_the_rulings_the_tree_would_pick(strip_and_points):
+    """A plate's probe (a few dozen points) is seeded ruling by ruling, without the k-d tree
+    whose build costs more than the whole probe; the nearest sample found that way is the
+    tree's (the same ruling), far off the strip and beyond its ends too, and a map that
+    probed first locates the points as a fresh one does, to the bit."""
+    from scipy.spatial import cKDTree
+
+    from flatten.trim import SEED_SCAN_PAIRS, _nearest_sample_ruling
+
+    c, d, solution, *_, points, _ = strip_and_points
+    smap = StripMap(solution, c, d, 801)
+    smap._seed(points[:3])  # builds the seed rulings, no tree
+    a, b, v, _ = smap._seeding
+    assert smap._tree is None and 3 * len(a) <= SEED_SCAN_PAIRS
+    rng = np.random.default_rng(11)
+    anywhere = np.vstack([points, points + rng.normal(0.0, 2.0, points.shape), a[[0, -1]] - [6.0, 0.0, 0.0]])
+    samples = (a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]).reshape(-1, 3)
+    _, index = cKDTree(samples).query(anywhere)
+    np.testing.assert_array_equal(_nearest_sample_ruling(anywhere, a, b, v), index // len(v))
+
+    probe = points[::9]  # 45 points: scanned
+    assert len(probe) * len(a) <= SEED_SCAN_PAIRS
+    probed = StripMap(solution, c, d, 801)
+    probed.locate(probe)
+    assert probed._tree is None
+    for got, want in zip(probed.locate(points), StripMap(solution, c, d, 801).locate(points)):
+        np.testing.assert_array_equal(got, want)
+    assert probed._tree is not None
