@@ -62,6 +62,8 @@ class PartResult:
     pinjig: object = None  # a pipeline.shop.pinjig.PinJig of a rolled or formed hull plate
     # a lean-evaluated hull plate's shop data still to compute (pipeline.hull.plateshop.ShopWork)
     shop_work: object = None
+    # the checked strip's size (model units) while its naive surface's figures are owed (naive_check)
+    naive_size: float | None = None
 
     @property
     def ok(self) -> bool:
@@ -107,8 +109,10 @@ def stage_strip(result: PartResult, config: RunConfig, extra_rulings=None, given
                                  "max_chord_error_d": float(result.strip.max_chord_error[1])}
 
 
-def stage_check(result: PartResult, config: RunConfig) -> bool:
-    """Analytic residual and libigl angle defects, beside the naive surface T = t."""
+def stage_check(result: PartResult, config: RunConfig, naive: bool = True) -> bool:
+    """Analytic residual and libigl angle defects, beside the naive surface T = t (a
+    reference figure that judges nothing: ``naive=False`` leaves it None, owed to
+    :func:`naive_check` where the strip is delivered)."""
     strip, part, check = result.strip, result.part, config.spec.check
     size = float(np.ptp(strip.vertices, axis=0).max())
     residual = ruling_residuals(part.c, part.d, strip.rulings)
@@ -120,7 +124,6 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
         part.c, part.d, choose_rulings(result.solution, part.c, part.d, n_rulings=n_check), len(strip.samples),
         chords=False)
     mesh = strip_angle_defects(dense)
-    naive = naive_reference(part.c, part.d, n_check, len(strip.samples))
     flat_plate = result.solution.kind == "coplanar"
     curvature = mesh.max_abs_K * size**2
     passed_residual = flat_plate or float(residual.max()) <= check.max_residual
@@ -129,13 +132,16 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
         "max_residual": 0.0 if flat_plate else float(residual.max()),
         "residual_limit": check.max_residual,
         "mesh": mesh.as_dict(),
-        "naive_T_equals_t": naive.as_dict(),
+        "naive_T_equals_t": None,
         "check_rulings": n_check,
         "max_abs_K_times_size_squared": curvature,
-        "naive_max_abs_K_times_size_squared": naive.max_abs_K * size**2,
+        "naive_max_abs_K_times_size_squared": None,
         "curvature_limit": check.max_curvature,
         "passed": bool(passed_residual and passed_curvature),
     }
+    result.naive_size = size
+    if naive:
+        naive_check(result)
     if not passed_residual:
         result.reason = (f"strip not developable: residual {residual.max():.3g} above the limit "
                          f"{check.max_residual:.3g} at t = {strip.rulings[np.argmax(residual), 0]:.6g}")
@@ -145,6 +151,20 @@ def stage_check(result: PartResult, config: RunConfig) -> bool:
                          f"{check.max_curvature:.3g}")
         return False
     return True
+
+
+def naive_check(result: PartResult) -> None:
+    """The naive surface T = t's angle defects beside a checked strip's (the mesh density and
+    size :func:`stage_check` used: a seam strip is trimmed by its butts in between), when
+    they are still owed."""
+    figures = result.figures.get("developability")
+    if figures is None or result.naive_size is None:
+        return
+    part, size = result.part, result.naive_size
+    naive = naive_reference(part.c, part.d, figures["check_rulings"], len(result.strip.samples))
+    figures["naive_T_equals_t"] = naive.as_dict()
+    figures["naive_max_abs_K_times_size_squared"] = naive.max_abs_K * size**2
+    result.naive_size = None
 
 
 def stage_unroll(result: PartResult) -> None:
@@ -181,10 +201,13 @@ def partial_percent(fraction: float) -> str:
     return ">99.99%" if text == "100.00%" and fraction < 1.0 else text
 
 
-def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None, screen=None) -> bool:
+def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None, screen=None,
+                 naive: bool = True) -> bool:
     """Solve, strip, check and unroll; False (with the reason in the result) on a geometric
     failure. ``screen(result) -> bool``: a cheaper verdict on the checked strip, run before it is
-    developed (False: rejected, the reason set by the screen)."""
+    developed (False: rejected, the reason set by the screen). ``naive=False``: the naive
+    surface's figures are left to :func:`naive_check` (a hull plate's strips are many
+    attempts, one delivered)."""
     part = result.part
     solution = solve(part.c, part.d, DEFAULT_TOLERANCES)
     result.solution = solution
@@ -202,7 +225,7 @@ def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_
         result.warnings.append(f"partial coverage: {partial_percent(cov.c_fraction)} of c, "
                                f"{partial_percent(cov.d_fraction)} of d")
     stage_strip(result, config, extra_rulings)
-    if not stage_check(result, config):
+    if not stage_check(result, config, naive):
         return False
     if screen is not None and not screen(result):
         return False

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from flatten.meshcheck import naive_reference
 from pipeline.export import export_part
 from pipeline.hull.fitup import plate_edges
 from pipeline.hull.hullplots import shell_area
@@ -106,6 +107,16 @@ def test_a_lean_plate_completed_writes_the_full_runs_files(hull160, evaluated, n
     # from shop.plate.stage_shop), a trimmed strip and a patch their region mesh
     assert (full.strip is not None) == (how == "seam")
     assert ("mapped onto the strip" in full.figures["plate_class"]["method"]) == (how == "trimmed")
+    if klass == "developable":  # the naive surface T = t beside it: computed for the delivered strip alone
+        check = full.figures["developability"]
+        assert check["naive_max_abs_K_times_size_squared"] > 0 and check["naive_T_equals_t"]["max_abs_gaussian_curvature"] > 0
+        if how == "seam":
+            naive = naive_reference(part.c, part.d, check["check_rulings"], len(full.strip.samples))
+            assert check["naive_T_equals_t"] == naive.as_dict()
+            # scaled by the size of the strip checked, which reached past the butts, as the
+            # strip's own figure is (not by the delivered strip's, trimmed at the butts)
+            trimmed_size = float(np.ptp(full.strip.vertices, axis=0).max())
+            assert check["naive_max_abs_K_times_size_squared"] / naive.max_abs_K > 1.01 * trimmed_size ** 2
     # the plan judged the lean result as it would have judged the full one
     assert honest_class(lean) == honest_class(full)
     assert shell_area(lean) == shell_area(full)

@@ -43,7 +43,7 @@ from .plateshop import (LeanRun, OwedPatch, PatchGeometry, complete, is_lean, ow
 from .leaststrip import LEAST_CURVATURE, LEAST_ROUNDS, least_curvature_family
 from .platestrip import BUTT_TO_BUTT, HOPELESS, SEAM_TO_SEAM, Trim, butt_family, seam_family_trimmed
 from .trimcut import cut_at_trim, outside_trim
-from ..stages import Pattern, PartResult, develop_part, finish_part, place_flat
+from ..stages import Pattern, PartResult, develop_part, finish_part, naive_check, place_flat
 from ..stages import run_part as run_curve_part
 
 # a principal strain beyond 1 mm/m marks an area to shrink or stretch when forming (the
@@ -461,7 +461,8 @@ def _seam_strip(part: Part, config: RunConfig, grid, tol: float, corner_tol: flo
     hull = part.hull
     attempt = PartResult(part.name, part)
     try:
-        ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0)
+        ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0,
+                          naive=False)
         ok = ok and stage_trim(attempt, 0.0)
         if attempt.strip is not None and attempt.strip.trim is not None:
             # the strip mesh's edges are chords of the seams: allow its chord error on the region
@@ -482,6 +483,7 @@ def _deliver_seam_strip(result: PartResult, config: RunConfig, attempt: PartResu
                         other: dict) -> None:
     """The plate as its seam strip (``attempt``, judged by :func:`_seam_strip`)."""
     region = result.figures["region"]
+    naive_check(attempt)
     result.__dict__.update({k: v for k, v in attempt.__dict__.items() if k not in ("name", "part")})
     result.figures["region"] = region
     result.figures["plate_class"] = {
@@ -588,6 +590,7 @@ def _deliver_trimmed(result, config, grid, trim, area3, other) -> None:
     result.mesh = (trim.grid_3d, grid.faces())
     result.pattern = Pattern(outline, np.zeros((0, 2, 2)), placed, (rot, shift))
     attempt = trim.attempt
+    naive_check(attempt)
     for key in ("coverage", "rulings", "developability", "unroll"):
         if key in attempt.figures:
             result.figures[key] = attempt.figures[key]

@@ -396,7 +396,7 @@ def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, fa
             return False
         return True
 
-    if not develop_part(attempt, config, None, 0.0, screen):
+    if not develop_part(attempt, config, None, 0.0, screen, naive=False):
         if probed.reason:
             probed.figures.update(figures or {})
             return probed
