@@ -59,7 +59,9 @@ def _nearest_sample_ruling(points: np.ndarray, a: np.ndarray, b: np.ndarray, v: 
     a + v_k (b - a) on the rulings a-b (R, 3) at the fractions v (K,) evenly from 0 to 1:
     the squared distance is convex along a ruling, so only the samples around each
     point's projection on it compete (two either side), computed as the k-d tree holds
-    them (the same floats; exact ties between rulings go to the first)."""
+    them (the same floats; exact ties between rulings go to the first). A ruling a few
+    ulps long is no line: its samples' computed distances need not be convex along it,
+    and one of them nearer than the window's by round-off is missed."""
     span = b - a  # (R, 3)
     length2 = np.einsum("rk,rk->r", span, span)
     offset = points[:, None, :] - a[None, :, :]  # (N, R, 3)
@@ -125,13 +127,22 @@ class StripMap:
             taken = np.unique(np.append(np.arange(0, len(self.lam), SEED_STRIDE), len(self.lam) - 1))
             self._seeding = (self.a3[taken], self.b3[taken], np.linspace(0.0, 1.0, per_ruling), self.lam[taken])
         a, b, v, lam = self._seeding
+        if not np.all(np.isfinite(points)):
+            raise ValueError("StripMap: points to locate must be finite")
         if len(points) * len(a) <= SEED_SCAN_PAIRS and self._tree is None:
             return lam[_nearest_sample_ruling(points, a, b, v)]
         if self._tree is None:
             samples = a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]
             self._tree = cKDTree(samples.reshape(-1, 3))
-        _, index = self._tree.query(points)
-        return lam[index // len(v)]
+        # a point's seed must not depend on how it was asked for (the plate's probe is
+        # judged as the whole region is): where samples tie for nearest (a fan's rulings
+        # share their apex), the first ruling holding one, as the scan picks
+        distance, index = self._tree.query(points, k=2)
+        ruling = index[:, 0] // len(v)
+        tied = np.flatnonzero(distance[:, 1] == distance[:, 0])
+        if len(tied):
+            ruling[tied] = _nearest_sample_ruling(points[tied], a, b, v)
+        return lam[ruling]
 
     def locate(self, points: np.ndarray, edges: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(lam, v, rulings, on_strip): see :meth:`_locate`; on_strip (N, 3) on the rulings'

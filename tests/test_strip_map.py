@@ -128,8 +128,34 @@ def test_a_small_probe_is_seeded_on_the_rulings_the_tree_would_pick(strip_and_po
     probe = points[::9]  # 45 points: scanned
     assert len(probe) * len(a) <= SEED_SCAN_PAIRS
     probed = StripMap(solution, c, d, 801)
-    probed.locate(probe)
+    alone = probed.locate(probe)
     assert probed._tree is None
-    for got, want in zip(probed.locate(points), StripMap(solution, c, d, 801).locate(points)):
-        np.testing.assert_array_equal(got, want)
+    whole = probed.locate(points)
     assert probed._tree is not None
+    for got, want, fresh in zip(alone, whole, StripMap(solution, c, d, 801).locate(points)):
+        np.testing.assert_array_equal(got, want[::9])  # the probe as the whole region locates it
+        np.testing.assert_array_equal(want, fresh)
+    with pytest.raises(ValueError, match="finite"):
+        probed.locate(np.array([[np.nan, 0.0, 0.0]]))
+
+
+def test_points_near_a_fans_apex_are_seeded_alike_by_the_scan_and_the_tree():
+    """A corner fan: a quarter of the seed rulings share their apex on c, so a point whose
+    nearest sample is the apex ties between all of them, and the seed (and with it the
+    local minimum Newton finds) would depend on which one the search reports. Both
+    searches report the first ruling: points located alone (scanned) are located as among
+    many (the tree), to the bit."""
+    from tests.families import corner_pair
+
+    c, d = corner_pair(tilt=0.1)
+    solution = solve(c, d)
+    apex = c(np.array([0.5]))[0]
+    rng = np.random.default_rng(1)
+    near = apex + rng.normal(size=(45, 3)) * 10.0 ** rng.uniform(-4, -1, (45, 1))
+    smap = StripMap(solution, c, d, 801)
+    alone = smap.locate(near)
+    assert smap._tree is None
+    among = smap.locate(np.vstack([near, near + 0.01]))
+    assert smap._tree is not None
+    for got, want in zip(alone, among):
+        np.testing.assert_array_equal(got, want[:45])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -138,3 +139,42 @@ def test_collapsed_triangles_give_no_nan_curvature():
     # the same strip without the collapsed end ruling: the same largest |K| (it lies inside)
     inner = build_strip(c, d, np.column_stack([t[1:], t[1:]]), 5)
     assert figures.max_abs_K >= 0.99 * angle_defects(inner.vertices, inner.faces).max_abs_K > 0
+
+
+def test_the_naive_surfaces_figures_owed_by_a_strip_attempt_are_those_of_the_checked_strip(tmp_path, monkeypatch):
+    """A hull plate's strip attempts leave the naive surface T = t's figures (a reference
+    that judges nothing) owed; where a strip is delivered they are filled in as the check
+    would have: the same figures, at the size of the strip it checked. A reference that
+    raises is recorded and fails nothing."""
+    import yaml
+
+    from pipeline import stages
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.strake import corner_rulings
+    from pipeline.stages import PartResult, develop_part, naive_check
+
+    strake = {"surface": {"iges": str(SHIP / "test_1_hull_exported.igs")}, "margin": 0.2,
+              "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 0.6337212004946158}}],
+              "butts": [13333.333333333334, 26666.666666666668]}
+    path = tmp_path / "keel.yaml"
+    path.write_text(yaml.safe_dump({"name": "keel", "units": "mm", "strake": strake}))
+    config = load_run(path)
+    part = config.parts[0]
+    corners = lambda sol: corner_rulings(sol, part.c, part.d, part.hull.butts)
+    at_once, owed = PartResult(part.name, part), PartResult(part.name, part)
+    assert develop_part(at_once, config, corners, 0.0) and develop_part(owed, config, corners, 0.0, naive=False)
+    assert owed.figures["developability"]["naive_T_equals_t"] is None and owed.naive_size is not None
+    owed.strip = dataclasses.replace(owed.strip, vertices=owed.strip.vertices[: len(owed.strip.vertices) // 2])
+    naive_check(owed)  # after the strip changed (a seam strip is trimmed by its butts)
+    assert list(owed.figures["developability"].items()) == list(at_once.figures["developability"].items())
+    assert owed.naive_size is None and at_once.naive_size is None
+
+    def broken(*args):
+        raise RuntimeError("no mesh")
+
+    monkeypatch.setattr(stages, "naive_reference", broken)
+    failing = PartResult(part.name, part)
+    assert develop_part(failing, config, corners, 0.0, naive=False)
+    naive_check(failing)
+    assert failing.figures["developability"]["naive_T_equals_t"] == {"error": "RuntimeError: no mesh"}
+    assert failing.figures["developability"]["passed"]
