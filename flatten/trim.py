@@ -30,6 +30,7 @@ SEED_STRIDE = 3  # the seed samples every SEED_STRIDE-th ruling of the map
 # up to this many (point, seed ruling) pairs the nearest sample is found ruling by ruling;
 # beyond it a k-d tree of all samples (its build costs as much as ~5 x 10^4 pairs) is quicker
 SEED_SCAN_PAIRS = 20000
+SHORT_RULING = 1e4  # a ruling shorter than this many ulps of its coordinates is searched whole
 
 
 @dataclass(frozen=True)
@@ -59,9 +60,9 @@ def _nearest_sample_ruling(points: np.ndarray, a: np.ndarray, b: np.ndarray, v: 
     a + v_k (b - a) on the rulings a-b (R, 3) at the fractions v (K,) evenly from 0 to 1:
     the squared distance is convex along a ruling, so only the samples around each
     point's projection on it compete (two either side), computed as the k-d tree holds
-    them (the same floats; exact ties between rulings go to the first). A ruling a few
-    ulps long is no line: its samples' computed distances need not be convex along it,
-    and one of them nearer than the window's by round-off is missed."""
+    them (the same floats; exact ties between rulings go to the first). A ruling within
+    SHORT_RULING ulps of its coordinates is no line (its samples' computed distances need
+    not be convex along it): all its samples compete."""
     span = b - a  # (R, 3)
     length2 = np.einsum("rk,rk->r", span, span)
     offset = points[:, None, :] - a[None, :, :]  # (N, R, 3)
@@ -74,6 +75,13 @@ def _nearest_sample_ruling(points: np.ndarray, a: np.ndarray, b: np.ndarray, v: 
         sample = a[None, :, :] + v[k][..., None] * span[None, :, :]
         gap = points[:, None, :] - sample
         best = np.minimum(best, gap[..., 0] ** 2 + gap[..., 1] ** 2 + gap[..., 2] ** 2)
+    # a ruling within round-off of a point (where seams meet) is no line: all its samples compete
+    scale = np.maximum(np.abs(a).max(axis=1), np.abs(b).max(axis=1))
+    short = np.flatnonzero(length2 <= (SHORT_RULING * np.finfo(np.float64).eps * scale) ** 2)
+    if len(short):
+        sample = a[short][:, None, :] + v[None, :, None] * span[short][:, None, :]  # (S, K, 3)
+        gap = points[:, None, None, :] - sample[None]
+        best[:, short] = (gap[..., 0] ** 2 + gap[..., 1] ** 2 + gap[..., 2] ** 2).min(axis=2)
     return np.argmin(best, axis=1)
 
 

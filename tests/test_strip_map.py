@@ -159,3 +159,27 @@ def test_points_near_a_fans_apex_are_seeded_alike_by_the_scan_and_the_tree():
     assert smap._tree is not None
     for got, want in zip(alone, among):
         np.testing.assert_array_equal(got, want[:45])
+
+
+def test_rulings_within_round_off_of_a_point_are_searched_whole():
+    """Where seams meet, a ruling may be a few ulps long: its computed samples are not in
+    line and their distances not convex along it, so the window around a point's projection
+    can miss the nearest. Such rulings are searched whole: the scan reports the tree's
+    ruling (or one holding a sample exactly as near)."""
+    from scipy.spatial import cKDTree
+
+    from flatten.trim import _nearest_sample_ruling
+
+    rng = np.random.default_rng(5)
+    tip, v = np.array([100.0, 3.0, 5.0]), np.linspace(0.0, 1.0, 129)
+    for _ in range(3000):
+        length = 10.0 ** rng.uniform(-15, -9)
+        a = np.array([tip + length * rng.normal(size=3), tip])  # a ruling ulps long beside one of no length
+        b = np.array([tip + length * rng.normal(size=3), tip])
+        point = tip + rng.normal(size=(1, 3)) * 10.0 ** rng.uniform(-12, -3)
+        samples = (a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]).reshape(-1, 3)
+        _, index = cKDTree(samples).query(point)
+        gap = point - samples
+        nearest = (gap[:, 0] ** 2 + gap[:, 1] ** 2 + gap[:, 2] ** 2).reshape(2, -1).min(axis=1)
+        found = _nearest_sample_ruling(point, a, b, v)[0]
+        assert found == index[0] // len(v) or nearest[0] == nearest[1]
