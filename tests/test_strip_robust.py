@@ -32,24 +32,31 @@ def test_rulings_by_chord_tolerance_on_a_seam_with_a_zero_speed_end_are_finite()
     assert max(strip.max_chord_error) <= 0.5
 
 
-def test_the_curvature_check_ignores_round_off_on_the_160m_hull_keel_plate(tmp_path):
-    """The keel plate S01_B02 of the 160 m hull (seams v = 0 and 0.6337, butts 13.3 m and
-    26.7 m): its strip between the seams is developable (residual 2e-15), but its angle
-    defects are round-off (5e-11 rad at vertices 13 to 27 m from the origin) and, divided by
-    the Voronoi areas of corner rulings a few mm apart, read as |K| size^2 = 2.4e-5, above
-    the 1e-6 limit. Only the defect above the round-off floor of the vertex positions counts."""
+def _keel_plate(tmp_path):
+    """The run of the 160 m hull's keel plate S01_B02 (seams v = 0 and 0.6337, butts 13.3 m
+    and 26.7 m), a hand-laid strake of one plate."""
     import yaml
 
     from pipeline.hull.plan import load_run
-    from pipeline.stages import PartResult, develop_part
-    from pipeline.hull.strake import corner_rulings
 
     strake = {"surface": {"iges": str(SHIP / "test_1_hull_exported.igs")}, "margin": 0.2,
               "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 0.6337212004946158}}],
               "butts": [13333.333333333334, 26666.666666666668]}
     path = tmp_path / "keel.yaml"
     path.write_text(yaml.safe_dump({"name": "keel", "units": "mm", "strake": strake}))
-    config = load_run(path)
+    return load_run(path)
+
+
+def test_the_curvature_check_ignores_round_off_on_the_160m_hull_keel_plate(tmp_path):
+    """The keel plate S01_B02 of the 160 m hull (seams v = 0 and 0.6337, butts 13.3 m and
+    26.7 m): its strip between the seams is developable (residual 2e-15), but its angle
+    defects are round-off (5e-11 rad at vertices 13 to 27 m from the origin) and, divided by
+    the Voronoi areas of corner rulings a few mm apart, read as |K| size^2 = 2.4e-5, above
+    the 1e-6 limit. Only the defect above the round-off floor of the vertex positions counts."""
+    from pipeline.stages import PartResult, develop_part
+    from pipeline.hull.strake import corner_rulings
+
+    config = _keel_plate(tmp_path)
     part = config.parts[0]
     result = PartResult(part.name, part)
     assert develop_part(result, config, lambda sol: corner_rulings(sol, part.c, part.d, part.hull.butts), 0.0), \
@@ -146,19 +153,11 @@ def test_the_naive_surfaces_figures_owed_by_a_strip_attempt_are_those_of_the_che
     that judges nothing) owed; where a strip is delivered they are filled in as the check
     would have: the same figures, at the size of the strip it checked. A reference that
     raises is recorded and fails nothing."""
-    import yaml
-
     from pipeline import stages
-    from pipeline.hull.plan import load_run
     from pipeline.hull.strake import corner_rulings
     from pipeline.stages import PartResult, develop_part, naive_check
 
-    strake = {"surface": {"iges": str(SHIP / "test_1_hull_exported.igs")}, "margin": 0.2,
-              "seams": [{"iso": {"v": 0.0}}, {"iso": {"v": 0.6337212004946158}}],
-              "butts": [13333.333333333334, 26666.666666666668]}
-    path = tmp_path / "keel.yaml"
-    path.write_text(yaml.safe_dump({"name": "keel", "units": "mm", "strake": strake}))
-    config = load_run(path)
+    config = _keel_plate(tmp_path)
     part = config.parts[0]
     corners = lambda sol: corner_rulings(sol, part.c, part.d, part.hull.butts)
     at_once, owed = PartResult(part.name, part), PartResult(part.name, part)
