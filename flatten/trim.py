@@ -141,7 +141,10 @@ class StripMap:
             return lam[_nearest_sample_ruling(points, a, b, v)]
         if self._tree is None:
             samples = a[:, None, :] + v[None, :, None] * (b - a)[:, None, :]
-            self._tree = cKDTree(samples.reshape(-1, 3))
+            # a tree built by the sliding midpoint rule, unbalanced and uncompacted, builds in
+            # half the time and answers as quickly; any exact tree finds the same nearest
+            # sample, and ties are settled below
+            self._tree = cKDTree(samples.reshape(-1, 3), balanced_tree=False, compact_nodes=False)
         # a point's seed must not depend on how it was asked for (the plate's probe is
         # judged as the whole region is): where samples tie for nearest (a fan's rulings
         # share their apex), the first ruling holding one, as the scan picks
