@@ -118,7 +118,8 @@ class StripMap:
         return self.c(r[:, 0]), self.d(r[:, 1])
 
     def _seed(self, points: np.ndarray) -> np.ndarray:
-        """Path fraction (N,) of each point's nearest sample of the strip, from a k-d tree of
+        """Path fraction (N,) of each point's nearest sample of the strip (scanned ruling by
+        ruling for a few points, else from a k-d tree; ties to the first ruling either way), the
         samples on every SEED_STRIDE-th of the map's rulings, SEED_SPACING ruling spacings
         apart along them: the nearest sample's lam is then within (SEED_SPACING +
         SEED_STRIDE) / 2 spacings of the closest point's however far the rulings lean over (a

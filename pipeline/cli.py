@@ -320,13 +320,12 @@ def spare_core(loadavg: str = "/proc/loadavg") -> bool:
     process pays for itself only on a free core: it costs 0.1-0.2 s CPU (pages the fork
     shares and either process then writes are copied; the images' arguments are pickled),
     and on a machine whose cores are all busy it measured slower in wall time too."""
-    from .cores import others_runnable, usable_cores
+    from .cores import free_cores, usable_cores
 
-    cores = usable_cores()
-    others = others_runnable(loadavg)
-    if others is None:
-        return os.getloadavg()[0] <= cores - 1
-    return others <= cores - 2
+    free = free_cores(loadavg)
+    if free is None:
+        return os.getloadavg()[0] <= usable_cores() - 1
+    return free >= 1
 
 
 def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:

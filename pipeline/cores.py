@@ -15,6 +15,14 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def free_cores(loadavg: str = "/proc/loadavg") -> int | None:
+    """Cores free beside this process now: those it may run on, less its own and those the
+    runnable tasks of other processes keep busy (may be negative); None where the counts
+    cannot be read (:func:`others_runnable`)."""
+    others = others_runnable(loadavg)
+    return None if others is None else usable_cores() - 1 - others
+
+
 def others_runnable(loadavg: str = "/proc/loadavg", readings: int = 3) -> int | None:
     """Tasks of other processes runnable now (the least of ``readings`` a millisecond
     apart); None where the counts cannot be read."""

@@ -162,9 +162,10 @@ def beside_all(works: list, fork: bool | None = None) -> BesideAll:
 def spare_cores() -> int:
     """Cores free beside this process now: those it may run on, less its own and those the
     tasks of other processes keep busy (at least 1)."""
-    from .cores import others_runnable, usable_cores
+    from .cores import free_cores, usable_cores
 
-    return max(1, usable_cores() - 1 - (others_runnable() or 0))
+    free = free_cores()
+    return max(1, usable_cores() - 1 if free is None else free)
 
 
 def _joined(works: list) -> list:

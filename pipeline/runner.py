@@ -375,7 +375,7 @@ class PlateEvaluator:
             for k in owing:
                 out[k] = develop(results[k], config)
             return out
-        done = self._spread(_develop_blob, [replace(results[k], part=None) for k in owing],
+        done = self._spread(_call_blob, [(_developed, replace(results[k], part=None)) for k in owing],
                             lambda j: develop(results[owing[j]], config))
         for k, result in zip(owing, done):
             result.part = results[k].part
@@ -443,14 +443,11 @@ def _evaluate_blob(blob: bytes) -> tuple[bytes, float]:
     return _dumps(result, _Evaluating.index), time.process_time() - cpu
 
 
-def _develop_blob(blob: bytes) -> tuple[bytes, float]:
-    import time
-
+def _developed(result):
+    """A result's owed development done in a worker, under the run's configuration."""
     from .hull.plateshop import develop
 
-    cpu = time.process_time()
-    result = develop(_loads(blob, _Evaluating.shared), _Evaluating.config)
-    return _dumps(result, _Evaluating.index), time.process_time() - cpu
+    return develop(result, _Evaluating.config)
 
 
 def _call_blob(blob: bytes) -> tuple[bytes, float]:

@@ -79,7 +79,7 @@ def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
     for (usable, busy), copies in (((1, 0), 1), ((2, 0), 1), ((3, 0), 2), ((16, 0), 3), ((16, 14), 1),
                                    ((16, 13), 2), ((4, None), 3)):
         monkeypatch.setattr(cores, "usable_cores", lambda usable=usable: usable)
-        monkeypatch.setattr(cores, "others_runnable", lambda busy=busy: busy)
+        monkeypatch.setattr(cores, "others_runnable", lambda *_, busy=busy: busy)
         with beside_all(works, fork=False) as drawn:  # in place: the split alone is tested
             assert len(drawn.parts) == copies and drawn.result() == [0, 1, 2]
     with beside_all([], fork=False) as drawn:
