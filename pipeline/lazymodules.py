@@ -17,12 +17,21 @@ code that does use it gets the real module at that moment).
   and the Fortran wrapper generator (which pulls in charset_normalizer): ~0.06 s of a
   0.33 s scipy import, for modules nothing in a run calls. Deferred, the star import binds
   the registered module objects without executing them.
+
+And one library's work that devflat's runs repeat needlessly:
+
+- a PDF core font's AFM file: matplotlib's PDF backend parses it whole (its kerning pairs,
+  ~2.6 ms for Helvetica) each time it writes a PDF that uses the font, only to read the
+  font's name (``PdfFile._write_afm_font``); a hull run writes a shop drawing per plate in
+  the core fonts (1.7 CPU s of the 160 m hull's run). :func:`pdf_backend` has the backend
+  parse each AFM file once per process (:class:`ParsedOnce`).
 """
 
 from __future__ import annotations
 
 import importlib
 import importlib.util
+import os
 import sys
 
 
@@ -50,7 +59,32 @@ def defer_unused() -> None:
 
 
 def pdf_backend():
-    """The ``matplotlib.backends.backend_pdf`` module, imported without ``fontTools.subset``."""
+    """The ``matplotlib.backends.backend_pdf`` module, imported without ``fontTools.subset``,
+    parsing each core font's AFM file once (:class:`ParsedOnce`)."""
     if "matplotlib.backends.backend_pdf" not in sys.modules:
         defer("fontTools.subset")
-    return importlib.import_module("matplotlib.backends.backend_pdf")
+    backend = importlib.import_module("matplotlib.backends.backend_pdf")
+    parse = getattr(backend, "AFM", None)
+    if parse is not None and not isinstance(parse, ParsedOnce):
+        backend.AFM = ParsedOnce(parse)
+    return backend
+
+
+class ParsedOnce:
+    """``parse(file)`` (an AFM font parser called on an open file) answered from the first
+    parse of a file of the same path. The PDF backend calls its ``AFM`` only to write a
+    core font's dictionary, and reads nothing from the parse but the font's name; an AFM
+    object is not changed by reading it. A file object without a path is parsed each time."""
+
+    def __init__(self, parse):
+        self.parse = parse
+        self.parsed: dict = {}
+
+    def __call__(self, file):
+        name = getattr(file, "name", None)
+        if not isinstance(name, (str, bytes, os.PathLike)):
+            return self.parse(file)
+        key = os.path.realpath(name)
+        if key not in self.parsed:
+            self.parsed[key] = self.parse(file)
+        return self.parsed[key]
