@@ -337,10 +337,9 @@ def preload(config: RunConfig, images: bool = True, dxf: bool = True) -> None:
     ``dxf``."""
     import importlib
 
-    from .lazymodules import defer
+    from .runner import preload_parts
 
-    defer("scipy.ndimage")  # imported by trimesh's voxels, which devflat does not use
-    import trimesh.grouping  # noqa: F401 - every part's mesh figures (pipeline.stages)
+    preload_parts()
 
     out = config.spec.output
     if config.spec.profile == "steel" and out.dxf and dxf:
