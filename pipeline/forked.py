@@ -21,7 +21,6 @@ OOM killer) is a ``RuntimeError`` in the run.
 from __future__ import annotations
 
 import functools
-import itertools
 import os
 import pickle
 import signal
@@ -119,26 +118,32 @@ class Beside:
 
 
 class BesideAll:
-    """Pieces of work, each returning a list, in ``copies`` forked copies (:class:`Beside`;
-    consecutive pieces share a copy), all started at once; :meth:`result` waits for them all
-    and returns their lists joined in order (raising the first error). A context manager, as
-    :class:`Beside`."""
+    """Pieces of work, each returning a list, shared by ``copies`` forked copies (:class:`Beside`),
+    all started at once: each copy takes the next piece no one has taken until none is left,
+    and so does the run when it asks for the result, rather than wait idle while a copy has
+    pieces still to start. :meth:`result` returns their lists joined in the pieces' order
+    (raising the first error it meets). A context manager, as :class:`Beside`."""
 
     def __init__(self, works: list, copies: int, fork: bool | None = None):
+        self.works = list(works)
         self.parts: list[Beside] = []
-        n = min(max(copies, 1), len(works))
-        # the first copies take the fewer works (the first work, a hull's expansion drawing,
-        # is the longest: alone beside the two others on 3 cores)
-        bounds = [len(works) - round((n - k) * len(works) / n) for k in range(n + 1)] if n else []
+        self._pieces = None
+        n = min(max(copies, 1), len(self.works))
+        if not n:
+            return
+        self._pieces = _Pieces(len(self.works))
         try:
-            for lo, hi in itertools.pairwise(bounds):
-                self.parts.append(Beside(functools.partial(_joined, works[lo:hi]), fork))
+            for _ in range(n):
+                self.parts.append(Beside(functools.partial(_take_all, self.works, self._pieces), fork))
         except BaseException:
             self.__exit__()
             raise
 
     def result(self) -> list:
-        return [item for part in self.parts for item in part.result()]
+        done = {} if self._pieces is None else _take_all(self.works, self._pieces)
+        for part in self.parts:
+            done.update(part.result())
+        return [item for k in range(len(self.works)) for item in done[k]]
 
     def __enter__(self) -> Self:
         return self
@@ -146,16 +151,56 @@ class BesideAll:
     def __exit__(self, *exc) -> None:
         for part in self.parts:
             part.__exit__()
+        if self._pieces is not None:
+            self._pieces.close()
+
+
+class _Pieces:
+    """The numbers of ``n`` pieces of work in a pipe, each read by whichever process takes
+    it first (a one-byte read from a pipe is atomic); the write end is closed at once, so
+    that a read finds the end of the pipe when every piece is taken."""
+
+    def __init__(self, n: int):
+        if not 0 < n <= 256:
+            raise ValueError(f"pieces of work beside the run: 1 to 256, not {n}")
+        self.fd, write = os.pipe()
+        try:
+            os.write(write, bytes(range(n)))
+        finally:
+            os.close(write)
+
+    def take(self) -> int | None:
+        """The next piece no one has taken, None when none is left."""
+        if self.fd is None:
+            return None
+        got = os.read(self.fd, 1)
+        return got[0] if got else None
+
+    def close(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+
+
+def _take_all(works: list, pieces: _Pieces) -> dict:
+    """{piece: its list} of the pieces this process takes, until none is left."""
+    done = {}
+    while (k := pieces.take()) is not None:
+        done[k] = works[k]()
+    return done
 
 
 def beside_all(works: list, fork: bool | None = None) -> BesideAll:
     """The ``works`` (each ``work() -> list``) in forked copies when :func:`can_fork`, else
     now: one copy per free core beside the run's own (:func:`spare_cores`), at most one per
-    work, none for no work (:class:`BesideAll`).
-    A hull run's summary drawings (expansion, plan DXF, images: 1.9, 1.5 and 1.0 s on the 160
+    work, none for no work (:class:`BesideAll`; the run takes the works left when it asks
+    for their result).
+    A hull run's summary drawings (expansion, plan DXF, images: 2.3, 1.5 and 1.2 s on the 160
     m hull) are independent: with cores to spare they take the longest one's time, not the
-    sum; on 2 cores one copy draws them all (three copies beside the fit-up made KCS's export
-    stage 1.25 times as long: the fit-up, which the summary waits for, lost its core)."""
+    sum; on 2 cores one copy draws them beside the fit-up (three copies made KCS's export
+    stage 1.25 times as long: the fit-up, which the summary waits for, lost its core) and the
+    run draws those the copy has not started once its fit-up and summary are done (the 160 m
+    hull's images: the copy had drawn the expansion and the plan DXF by then)."""
     return BesideAll(works, spare_cores(), fork)
 
 
@@ -166,10 +211,6 @@ def spare_cores() -> int:
 
     free = free_cores()
     return max(1, usable_cores() - 1 if free is None else free)
-
-
-def _joined(works: list) -> list:
-    return [item for work in works for item in work()]
 
 
 def beside(work, fork: bool | None = None) -> Beside:

@@ -5,6 +5,7 @@ place where forking is unsafe."""
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import signal
@@ -58,17 +59,50 @@ def test_the_copys_exceptions_are_raised_in_the_run_an_output_fault_stays_one():
 
 
 def test_works_beside_share_as_many_copies_as_asked_their_lists_joined_in_order():
-    works = [lambda k=k: [(k, os.getpid())] for k in range(5)]
+    def slow(k):
+        time.sleep(0.05)
+        return [(k, os.getpid())]
+
+    works = [functools.partial(slow, k) for k in range(5)]
     for copies, expected in ((1, 1), (2, 2), (3, 3), (9, 5)):
         with BesideAll(works, copies, fork=True) as drawn:
             assert len(drawn.parts) == expected and all(part.forked for part in drawn.parts)
             got = drawn.result()
-        assert [k for k, _ in got] == list(range(5))  # in the works' order
-        pids = [pid for _, pid in got]
-        assert os.getpid() not in pids and len(set(pids)) == expected
-        order = {pid: k for k, pid in enumerate(dict.fromkeys(pids))}
-        ranks = [order[pid] for pid in pids]
-        assert ranks == sorted(ranks)  # consecutive works share a copy
+        assert [k for k, _ in got] == list(range(5))  # each work once, in the works' order
+        copy_pids = {part.pid for part in drawn.parts}
+        assert {pid for _, pid in got} <= copy_pids | {os.getpid()}
+
+
+def test_the_run_takes_the_works_no_copy_has_started():
+    def first():
+        time.sleep(2.0)  # the copy's first work, long enough for the run to take the others
+        return [(0, os.getpid())]
+
+    works = [first] + [lambda k=k: [(k, os.getpid())] for k in (1, 2)]
+    with BesideAll(works, 1, fork=True) as drawn:
+        deadline = time.monotonic() + 10.0
+        while _pieces_left(drawn) == 3 and time.monotonic() < deadline:
+            time.sleep(0.01)  # until the copy has taken its first work
+        got = drawn.result()
+    assert [k for k, _ in got] == [0, 1, 2]
+    assert got[0][1] == drawn.parts[0].pid  # the copy drew the first work
+    assert [pid for _, pid in got[1:]] == [os.getpid()] * 2  # the run the two it had not started
+
+
+def _pieces_left(drawn) -> int:
+    import fcntl
+    import struct
+    import termios
+
+    return struct.unpack("i", fcntl.ioctl(drawn._pieces.fd, termios.FIONREAD, b"\0" * 4))[0]
+
+
+def test_every_work_is_taken_once_however_the_copies_race():
+    works = [lambda k=k: [(k, os.getpid())] for k in range(40)]
+    for _ in range(5):
+        with BesideAll(works, 3, fork=True) as drawn:
+            got = drawn.result()
+        assert [k for k, _ in got] == list(range(40))
 
 
 def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
@@ -80,12 +114,12 @@ def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
                                    ((16, 13), 2), ((4, None), 3)):
         monkeypatch.setattr(cores, "usable_cores", lambda usable=usable: usable)
         monkeypatch.setattr(cores, "others_runnable", lambda *_, busy=busy: busy)
-        with beside_all(works, fork=False) as drawn:  # in place: the split alone is tested
+        with beside_all(works, fork=False) as drawn:  # in place: the count alone is tested
             assert len(drawn.parts) == copies and drawn.result() == [0, 1, 2]
     with beside_all([], fork=False) as drawn:
         assert drawn.parts == [] and drawn.result() == []  # no drawing, no copy
-    # two copies: the first work (a hull's expansion, the longest) alone
-    assert [len(part.result()) for part in BesideAll(works, 2, fork=False).parts] == [1, 2]
+    # in place, the first part does every work at once (as the run did before it forked)
+    assert [len(part.result()) for part in BesideAll(works, 2, fork=False).parts] == [3, 0]
 
 
 def test_an_error_in_one_copy_is_raised_and_the_others_are_reaped():
