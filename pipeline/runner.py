@@ -358,9 +358,16 @@ class PlateEvaluator:
         the first batch of plates; the objects every plate shares travel as references, as
         plates do), else computed here in turn. ``func``: a module-level function. The
         workers' CPU seconds go into ``mapped_cpu_seconds``."""
+        return list(self.map_each(func, items))
+
+    def map_each(self, func, items: list):
+        """:meth:`map` as an iterator of the answers in order: on the workers the items are
+        handed out at once and each answer is given as soon as it and those before it are
+        in, so that the caller works on it while the workers compute the rest; here each is
+        computed as the iterator is read."""
         if self._pool is None or len(items) < 2:
-            return [func(item) for item in items]
-        return self._spread(_call_blob, [(func, item) for item in items], lambda k: func(items[k]))
+            return (func(item) for item in items)
+        return self._spread_each(_call_blob, [(func, item) for item in items], lambda k: func(items[k]))
 
     def develop(self, results: list, config) -> list:
         """The results with any development they owe done (:func:`pipeline.hull.plateshop.develop`:
@@ -384,22 +391,30 @@ class PlateEvaluator:
         return out
 
     def _spread(self, task, payloads: list, here) -> list:
-        """``task(blob)`` of each payload on the workers, their answers in order; the
-        workers' CPU seconds into ``mapped_cpu_seconds``; once a worker dies the pool is
-        closed and payload ``k``'s answer is ``here(k)``, computed in this process."""
+        """``task(blob)`` of each payload on the workers, their answers in order
+        (:meth:`_spread_each`)."""
+        return list(self._spread_each(task, payloads, here))
+
+    def _spread_each(self, task, payloads: list, here):
+        """``task(blob)`` of each payload handed to the workers now; an iterator of their
+        answers in order. The workers' CPU seconds go into ``mapped_cpu_seconds``; once a
+        worker dies the pool is closed and payload ``k``'s answer is ``here(k)``, computed
+        in this process."""
+        futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
+        return self._answers(futures, here)
+
+    def _answers(self, futures: list, here):
         from concurrent.futures.process import BrokenProcessPool
 
-        futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
-        out = []
         for k, future in enumerate(futures):
             try:
                 blob, cpu = future.result()
-                out.append(_loads(blob, self._shared))
+                answer = _loads(blob, self._shared)
                 self.mapped_cpu_seconds += cpu
             except BrokenProcessPool:
                 self.close()
-                out.append(here(k))
-        return out
+                answer = here(k)
+            yield answer
 
     def close(self) -> None:
         """Stop the workers (the cache stays for the next plan)."""

@@ -297,6 +297,55 @@ def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path,
         assert [g.g for g in a.hull.girths] == [g.g for g in b.hull.girths]
 
 
+def test_a_splits_halves_are_built_while_the_workers_choose_the_next_splits(tmp_path, monkeypatch):
+    """Without an objective a depth's split jobs are all handed to the workers at once and
+    each split's halves are built as soon as it comes back, before the depth's last split
+    is read (the workers no longer wait for the whole depth to be built here); the plan is
+    the one a single process makes."""
+    from pipeline.hull import planner
+    from pipeline.runner import PlateEvaluator, plate_evaluator
+    from pipeline.validate import validate
+
+    events = []
+    map_each, children = PlateEvaluator.map_each, planner._children
+
+    def counted_map_each(self, func, items):
+        answers = map_each(self, func, items)  # handed out now, as the plan asks
+        if func is not planner._region_split or self._pool is None or len(items) < 2:
+            return answers
+        events.append(("handed out", len(items)))
+
+        def read():
+            for answer in answers:
+                events.append(("answer", None))
+                yield answer
+
+        return read()
+
+    def counted_children(cell, split):
+        events.append(("halves", None))
+        return children(cell, split)
+
+    monkeypatch.setattr(PlateEvaluator, "map_each", counted_map_each)
+    monkeypatch.setattr(planner, "_children", counted_children)
+    config = _cs(tmp_path, "cs", "adaptive", None, max_splits=2)
+    with plate_evaluator(2) as two:
+        spread = validate(config, two)
+    rounds = [k for k, (what, _) in enumerate(events) if what == "handed out"]
+    assert len(rounds) >= 2  # two depths of splits on the workers
+    for start, end in zip(rounds, rounds[1:] + [len(events)]):
+        kinds = [what for what, _ in events[start + 1:end]]
+        assert kinds.count("answer") == events[start][1]
+        last_answer = len(kinds) - 1 - kinds[::-1].index("answer")
+        assert "halves" in kinds[:last_answer]  # halves built before the depth's last split came in
+    events.clear()
+    with plate_evaluator(1) as one:
+        alone = validate(config, one)
+    assert not any(what == "handed out" for what, _ in events)
+    assert [p.name for p in spread.parts] == [p.name for p in alone.parts]
+    assert [[g.g for g in p.hull.girths] for p in spread.parts] == [[g.g for g in p.hull.girths] for p in alone.parts]
+
+
 def test_the_butt_rule_is_the_stagger_from_the_butts_across_the_seams_or_a_block_joint():
     from pipeline.hull.yardrules import ButtRule
 

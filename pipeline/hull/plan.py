@@ -163,3 +163,9 @@ class _Judge:
         """``func`` over items, on the evaluator's workers when it has them."""
         spread = getattr(self.evaluate, "map", None)
         return spread(func, items) if spread is not None else [func(item) for item in items]
+
+    def map_each(self, func, items: list):
+        """:meth:`map` as an iterator of the answers in order, the items handed to the
+        evaluator's workers at once when it has them (else each computed as it is read)."""
+        spread = getattr(self.evaluate, "map_each", None)
+        return spread(func, items) if spread is not None else (func(item) for item in items)

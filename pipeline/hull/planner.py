@@ -252,7 +252,8 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     if plan.method == "uniform" or evaluate is None:
         return [c.part for c in cells if build(c) is not None]
     many = getattr(evaluate, "many", None) or (lambda parts: [evaluate(p) for p in parts])
-    spread = getattr(evaluate, "map", None) or (lambda func, items: [func(item) for item in items])
+    spread = (getattr(evaluate, "map_each", None) or getattr(evaluate, "map", None)
+              or (lambda func, items: (func(item) for item in items)))
     record = record if record is not None else PlanRecord()
     context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger, spread)
     if plan.objective is None:
@@ -286,7 +287,7 @@ class _Context:
     mm_per_unit: float
     yard: bool
     stagger: float
-    spread: object  # spread(func, items): func over items on the evaluator's workers
+    spread: object  # spread(func, items): func over items on the evaluator's workers, the answers in order
 
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
@@ -396,17 +397,32 @@ def _settle(cell: Cell, why: str, method: str) -> Cell:
 def _split_all(cells: list, build, ctx: _Context) -> list:
     """Without an objective: every plate that does not fit is split while it may, breadth
     first (each depth's plates evaluated as one batch, so the workers share them). The record
-    gets the plan after each depth: the plates kept so far and that depth's plates whole."""
+    gets the plan after each depth: the plates kept so far and that depth's plates whole.
+    A depth's splits are chosen on the workers, and each split's halves are built here as
+    soon as it is chosen, while the workers choose the next (they would wait for a whole
+    depth built here one plate after another)."""
     plan = ctx.plan
     kept, wave, round_, weld = [], cells, 0, None
+    prebuilt: dict = {}  # id(cell) -> build(cell), for halves built while splits were chosen
+
+    def built_once(cell):
+        return prebuilt.pop(id(cell)) if id(cell) in prebuilt else build(cell)
+
     while wave:
-        built = _evaluate(wave, build, ctx)
+        built = _evaluate(wave, built_once, ctx)
+        splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
+        chosen = ctx.spread(_region_split, [_split_job(c, ctx) for c in splitting])  # the workers start now
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
+        splits, halves = {}, {}
+        for cell, split in zip(splitting, chosen):
+            splits[id(cell)] = split
+            if split is not None:
+                halves[id(cell)] = _children(cell, split)
+                for half in halves[id(cell)]:
+                    prebuilt[id(half)] = build(half)
         nxt = []
-        splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
-        splits = _splits_under_rules(splitting, None, {}, ctx)
         for cell in built:
             fits = _fits(cell)
             if fits or cell.depth >= plan.max_splits:
@@ -418,7 +434,7 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
                 continue
             weld += split.weld * ctx.mm_per_unit / 1000.0
             ctx.record.splits_taken += 1
-            nxt += _children(cell, split)
+            nxt += halves[id(cell)]
         wave, round_ = nxt, round_ + 1
     last = ctx.record.points[-1]
     ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, True)
