@@ -6,7 +6,9 @@ one after the other in the run's process, on one core, after the parts' workers 
 (a quarter of a minute on the 160 m hull, most of a minute on KCS). :func:`beside` forks the
 process at that point: the copy has the results in memory already (nothing is pickled to
 it), does the work and sends back only its small return value or its exception, while the
-run goes on with the fit-up on the other core.
+run goes on with the fit-up on the other core. Several drawings are shared out one at a
+time (:func:`beside_all`): the run itself draws those no copy has started when its fit-up
+is done.
 
 It forks only when that is safe and useful: on Linux (fork without exec is unsafe on macOS,
 absent on Windows), with a single thread in the process (a Dask client's threads, say, would
