@@ -182,8 +182,8 @@ def _run(args, early) -> int:
                 from .hull.fitup import shell_fitup
 
                 # the drawings are drawn by copies of this process (when it may fork), one per
-                # free core (consecutive jobs share one), while this one computes the fit-up:
-                # none needs another
+                # free core, while this one computes the fit-up (none needs another); this one
+                # draws those no copy has started once its summary waits for them
                 edges = {r.name: sampled[r.name] for r in results if r.name in sampled}
                 with beside_all(summary_drawing_jobs(results, config, folder.run_folder, edges)) as drawn:
                     shell = shell_fitup(results, config)  # None unless the run has hull plates

@@ -26,6 +26,7 @@ import functools
 import os
 import pickle
 import signal
+import struct
 import sys
 import threading
 from typing import Self
@@ -124,12 +125,14 @@ class BesideAll:
     all started at once: each copy takes the next piece no one has taken until none is left,
     and so does the run when it asks for the result, rather than wait idle while a copy has
     pieces still to start. :meth:`result` returns their lists joined in the pieces' order
-    (raising the first error it meets). A context manager, as :class:`Beside`."""
+    (raising the first error it meets: the run's own, then each copy's in turn; a copy stops
+    at its first). At most :data:`MAX_PIECES` pieces. A context manager, as :class:`Beside`."""
 
     def __init__(self, works: list, copies: int, fork: bool | None = None):
         self.works = list(works)
         self.parts: list[Beside] = []
         self._pieces = None
+        self._mine: dict | None = None  # {piece: its list} of those the run took
         n = min(max(copies, 1), len(self.works))
         if not n:
             return
@@ -142,7 +145,13 @@ class BesideAll:
             raise
 
     def result(self) -> list:
-        done = {} if self._pieces is None else _take_all(self.works, self._pieces)
+        if self._mine is None:
+            try:
+                self._mine = {} if self._pieces is None else _take_all(self.works, self._pieces)
+            finally:
+                if self._pieces is not None:  # none left to take: the copies hold their own ends
+                    self._pieces.close()
+        done = dict(self._mine)
         for part in self.parts:
             done.update(part.result())
         return [item for k in range(len(self.works)) for item in done[k]]
@@ -157,17 +166,24 @@ class BesideAll:
             self._pieces.close()
 
 
+MAX_PIECES = 4096  # two bytes each: all of them fit in an empty pipe (64 KiB on Linux, 4 KiB at least)
+
+
 class _Pieces:
     """The numbers of ``n`` pieces of work in a pipe, each read by whichever process takes
-    it first (a one-byte read from a pipe is atomic); the write end is closed at once, so
-    that a read finds the end of the pipe when every piece is taken."""
+    it first (a two-byte read from a pipe is atomic). Every number is written before anyone
+    reads and the pipe is read without blocking, so an empty pipe means every piece is taken."""
 
     def __init__(self, n: int):
-        if not 0 < n <= 256:
-            raise ValueError(f"pieces of work beside the run: 1 to 256, not {n}")
+        if not 0 < n <= MAX_PIECES:
+            raise ValueError(f"pieces of work beside the run: 1 to {MAX_PIECES}, not {n}")
         self.fd, write = os.pipe()
         try:
-            os.write(write, bytes(range(n)))
+            os.write(write, struct.pack(f"<{n}H", *range(n)))
+            os.set_blocking(self.fd, False)
+        except BaseException:
+            os.close(self.fd)
+            raise
         finally:
             os.close(write)
 
@@ -175,8 +191,11 @@ class _Pieces:
         """The next piece no one has taken, None when none is left."""
         if self.fd is None:
             return None
-        got = os.read(self.fd, 1)
-        return got[0] if got else None
+        try:
+            got = os.read(self.fd, 2)
+        except BlockingIOError:
+            return None
+        return struct.unpack("<H", got)[0] if got else None
 
     def close(self) -> None:
         if self.fd is not None:

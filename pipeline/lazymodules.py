@@ -72,19 +72,21 @@ def pdf_backend():
 
 class ParsedOnce:
     """``parse(file)`` (an AFM font parser called on an open file) answered from the first
-    parse of a file of the same path. The PDF backend calls its ``AFM`` only to write a
-    core font's dictionary, and reads nothing from the parse but the font's name; an AFM
-    object is not changed by reading it. A file object without a path is parsed each time."""
+    parse of the same file: the same device, inode, size and modification time. The PDF
+    backend calls its ``AFM`` only to write a core font's dictionary, and reads nothing from
+    the parse but the font's name; an AFM object is not changed by reading it. A file object
+    without a descriptor (``BytesIO``) is parsed each time."""
 
     def __init__(self, parse):
         self.parse = parse
         self.parsed: dict = {}
 
     def __call__(self, file):
-        name = getattr(file, "name", None)
-        if not isinstance(name, (str, bytes, os.PathLike)):
+        try:
+            stat = os.fstat(file.fileno())
+        except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is both of the last two
             return self.parse(file)
-        key = os.path.realpath(name)
+        key = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
         if key not in self.parsed:
             self.parsed[key] = self.parse(file)
         return self.parsed[key]

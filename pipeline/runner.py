@@ -364,7 +364,9 @@ class PlateEvaluator:
         """:meth:`map` as an iterator of the answers in order: on the workers the items are
         handed out at once and each answer is given as soon as it and those before it are
         in, so that the caller works on it while the workers compute the rest; here each is
-        computed as the iterator is read."""
+        computed as the iterator is read. Read it to its end before handing the evaluator
+        more plates: plates on a surface the workers never saw fork them again, and what
+        they had not done is cancelled."""
         if self._pool is None or len(items) < 2:
             return (func(item) for item in items)
         return self._spread_each(_call_blob, [(func, item) for item in items], lambda k: func(items[k]))
@@ -401,15 +403,18 @@ class PlateEvaluator:
         worker dies the pool is closed and payload ``k``'s answer is ``here(k)``, computed
         in this process."""
         futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
-        return self._answers(futures, here)
+        return self._answers(futures, self._shared, here)
 
-    def _answers(self, futures: list, here):
+    def _answers(self, futures: list, shared: list, here):
+        """The answers of ``futures`` in order, their shared objects read from ``shared``
+        (the workers' list when the work was handed out: a pool forked again for another
+        surface before the last answer is read lists other objects)."""
         from concurrent.futures.process import BrokenProcessPool
 
         for k, future in enumerate(futures):
             try:
                 blob, cpu = future.result()
-                answer = _loads(blob, self._shared)
+                answer = _loads(blob, shared)
                 self.mapped_cpu_seconds += cpu
             except BrokenProcessPool:
                 self.close()

@@ -58,29 +58,57 @@ def test_the_copys_exceptions_are_raised_in_the_run_an_output_fault_stays_one():
         drawn.result()
 
 
-def test_works_beside_share_as_many_copies_as_asked_their_lists_joined_in_order():
+def _logged(log, k: int) -> list:
+    """Work ``k``: its number and process appended to ``log`` (O_APPEND: whole lines, from any
+    process), so that a work done twice is seen even where one answer overwrites another."""
+    fd = os.open(log, os.O_WRONLY | os.O_APPEND | os.O_CREAT)
+    try:
+        os.write(fd, f"{k} {os.getpid()}\n".encode())
+    finally:
+        os.close(fd)
+    return [(k, os.getpid())]
+
+
+def _done_once(log, n: int) -> None:
+    done = sorted(int(line.split()[0]) for line in log.read_text().splitlines())
+    assert done == list(range(n))  # each work exactly once, whoever took it
+    log.unlink()
+
+
+def test_works_beside_share_as_many_copies_as_asked_their_lists_joined_in_order(tmp_path):
+    log = tmp_path / "done"
+
     def slow(k):
         time.sleep(0.05)
-        return [(k, os.getpid())]
+        return _logged(log, k)
 
     works = [functools.partial(slow, k) for k in range(5)]
     for copies, expected in ((1, 1), (2, 2), (3, 3), (9, 5)):
         with BesideAll(works, copies, fork=True) as drawn:
             assert len(drawn.parts) == expected and all(part.forked for part in drawn.parts)
             got = drawn.result()
-        assert [k for k, _ in got] == list(range(5))  # each work once, in the works' order
+            assert drawn.result() == got  # asked again: the same answer
+        assert [k for k, _ in got] == list(range(5))  # in the works' order
         copy_pids = {part.pid for part in drawn.parts}
         assert {pid for _, pid in got} <= copy_pids | {os.getpid()}
+        _done_once(log, 5)
 
 
-def test_the_run_takes_the_works_no_copy_has_started():
+def test_the_run_takes_the_works_no_copy_has_started(tmp_path):
     def first():
-        time.sleep(2.0)  # the copy's first work, long enough for the run to take the others
+        # the copy's first work waits until the run has done the two others
+        deadline = time.monotonic() + 60.0
+        while not all((tmp_path / f"took{k}").exists() for k in (1, 2)) and time.monotonic() < deadline:
+            time.sleep(0.01)
         return [(0, os.getpid())]
 
-    works = [first] + [lambda k=k: [(k, os.getpid())] for k in (1, 2)]
+    def other(k):
+        (tmp_path / f"took{k}").touch()
+        return [(k, os.getpid())]
+
+    works = [first] + [functools.partial(other, k) for k in (1, 2)]
     with BesideAll(works, 1, fork=True) as drawn:
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + 60.0
         while _pieces_left(drawn) == 3 and time.monotonic() < deadline:
             time.sleep(0.01)  # until the copy has taken its first work
         got = drawn.result()
@@ -94,15 +122,17 @@ def _pieces_left(drawn) -> int:
     import struct
     import termios
 
-    return struct.unpack("i", fcntl.ioctl(drawn._pieces.fd, termios.FIONREAD, b"\0" * 4))[0]
+    return struct.unpack("i", fcntl.ioctl(drawn._pieces.fd, termios.FIONREAD, b"\0" * 4))[0] // 2
 
 
-def test_every_work_is_taken_once_however_the_copies_race():
-    works = [lambda k=k: [(k, os.getpid())] for k in range(40)]
-    for _ in range(5):
+def test_every_work_is_taken_once_however_the_copies_race(tmp_path):
+    log = tmp_path / "done"
+    works = [functools.partial(_logged, log, k) for k in range(300)]  # past a byte's 256 numbers
+    for _ in range(3):
         with BesideAll(works, 3, fork=True) as drawn:
             got = drawn.result()
-        assert [k for k, _ in got] == list(range(40))
+        assert [k for k, _ in got] == list(range(300))
+        _done_once(log, 300)
 
 
 def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
@@ -119,7 +149,8 @@ def test_one_copy_per_free_core_draws_beside_the_run(monkeypatch):
     with beside_all([], fork=False) as drawn:
         assert drawn.parts == [] and drawn.result() == []  # no drawing, no copy
     # in place, the first part does every work at once (as the run did before it forked)
-    assert [len(part.result()) for part in BesideAll(works, 2, fork=False).parts] == [3, 0]
+    with BesideAll(works, 2, fork=False) as drawn:
+        assert [len(part.result()) for part in drawn.parts] == [3, 0]
 
 
 def test_an_error_in_one_copy_is_raised_and_the_others_are_reaped():

@@ -69,3 +69,16 @@ def test_the_parse_read_back_names_its_font(name):
     with open(path, "rb") as file:
         assert backend.AFM(file) is first
     assert first.get_fontname() == name
+
+
+def test_a_file_rewritten_at_the_same_path_is_parsed_again(tmp_path):
+    path = tmp_path / "Font.afm"
+    once = ParsedOnce(lambda file: file.read())
+    path.write_bytes(b"StartFontMetrics 2.0\nFontName A\n")
+    with open(path, "rb") as file:
+        first = once(file)
+    with open(path, "rb") as file:
+        assert once(file) is first
+    path.write_bytes(b"StartFontMetrics 2.0\nFontName Another\n")  # another size: another file
+    with open(path, "rb") as file:
+        assert once(file) == b"StartFontMetrics 2.0\nFontName Another\n"

@@ -306,13 +306,21 @@ def test_a_splits_halves_are_built_while_the_workers_choose_the_next_splits(tmp_
     from pipeline.runner import PlateEvaluator, plate_evaluator
     from pipeline.validate import validate
 
-    events = []
-    map_each, children = PlateEvaluator.map_each, planner._children
+    from concurrent.futures import ProcessPoolExecutor
+
+    events, submitted = [], []
+    map_each, children, submit = PlateEvaluator.map_each, planner._children, ProcessPoolExecutor.submit
+
+    def counted_submit(self, *args, **kwargs):
+        submitted.append(1)
+        return submit(self, *args, **kwargs)
 
     def counted_map_each(self, func, items):
-        answers = map_each(self, func, items)  # handed out now, as the plan asks
+        before = len(submitted)
+        answers = map_each(self, func, items)
         if func is not planner._region_split or self._pool is None or len(items) < 2:
             return answers
+        assert len(submitted) - before == len(items)  # every job handed out before any answer is read
         events.append(("handed out", len(items)))
 
         def read():
@@ -326,6 +334,7 @@ def test_a_splits_halves_are_built_while_the_workers_choose_the_next_splits(tmp_
         events.append(("halves", None))
         return children(cell, split)
 
+    monkeypatch.setattr(ProcessPoolExecutor, "submit", counted_submit)
     monkeypatch.setattr(PlateEvaluator, "map_each", counted_map_each)
     monkeypatch.setattr(planner, "_children", counted_children)
     config = _cs(tmp_path, "cs", "adaptive", None, max_splits=2)

@@ -168,4 +168,6 @@ class _Judge:
         """:meth:`map` as an iterator of the answers in order, the items handed to the
         evaluator's workers at once when it has them (else each computed as it is read)."""
         spread = getattr(self.evaluate, "map_each", None)
-        return spread(func, items) if spread is not None else (func(item) for item in items)
+        if spread is not None:
+            return spread(func, items)
+        return iter(self.map(func, items)) if hasattr(self.evaluate, "map") else (func(item) for item in items)

@@ -362,7 +362,7 @@ def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
 def _region_split(job: tuple):
     """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
     length and width, butt rule or None, strict width, kinds of split); module-level, so that
-    the plan's workers can compute it (:func:`_splits_under_rules`)."""
+    the plan's workers can compute it (:func:`_splits_under_rules`, :func:`_split_all`)."""
     surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict, kinds = job
     if not kinds:
         return None
@@ -403,7 +403,7 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     depth built here one plate after another)."""
     plan = ctx.plan
     kept, wave, round_, weld = [], cells, 0, None
-    prebuilt: dict = {}  # id(cell) -> build(cell), for halves built while splits were chosen
+    prebuilt: dict = {}  # id(cell) -> build(cell): halves built while the next splits were chosen
 
     def built_once(cell):
         return prebuilt.pop(id(cell)) if id(cell) in prebuilt else build(cell)
@@ -411,7 +411,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     while wave:
         built = _evaluate(wave, built_once, ctx)
         splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
-        chosen = ctx.spread(_region_split, [_split_job(c, ctx) for c in splitting])  # the workers start now
+        # handed out before the weld and the record are computed, which the workers need not wait for
+        chosen = ctx.spread(_region_split, [_split_job(c, ctx) for c in splitting])
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
