@@ -302,11 +302,11 @@ def test_a_splits_halves_are_built_while_the_workers_choose_the_next_splits(tmp_
     each split's halves are built as soon as it comes back, before the depth's last split
     is read (the workers no longer wait for the whole depth to be built here); the plan is
     the one a single process makes."""
+    from concurrent.futures import ProcessPoolExecutor
+
     from pipeline.hull import planner
     from pipeline.runner import PlateEvaluator, plate_evaluator
     from pipeline.validate import validate
-
-    from concurrent.futures import ProcessPoolExecutor
 
     events, submitted = [], []
     map_each, children, submit = PlateEvaluator.map_each, planner._children, ProcessPoolExecutor.submit
