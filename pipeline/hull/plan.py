@@ -167,7 +167,5 @@ class _Judge:
     def map_each(self, func, items: list):
         """:meth:`map` as an iterator of the answers in order, the items handed to the
         evaluator's workers at once when it has them (else each computed as it is read)."""
-        spread = getattr(self.evaluate, "map_each", None)
-        if spread is not None:
-            return spread(func, items)
-        return iter(self.map(func, items)) if hasattr(self.evaluate, "map") else (func(item) for item in items)
+        spread = getattr(self.evaluate, "map_each", None) or getattr(self.evaluate, "map", None)
+        return spread(func, items) if spread is not None else (func(item) for item in items)

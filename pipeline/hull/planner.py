@@ -292,7 +292,11 @@ class _Context:
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
     """Build and evaluate the cells in one batch; the cells that are plates, in order."""
-    built = [c for c in cells if build(c) is not None]
+    return _evaluate_built([c for c in cells if build(c) is not None], ctx)
+
+
+def _evaluate_built(built: list, ctx: _Context) -> list:
+    """Evaluate built cells (their parts made) in one batch; the cells, in order."""
     results = ctx.many([c.part for c in built])
     ctx.record.evaluations += len(built)
     for cell, result in zip(built, results):
@@ -402,14 +406,10 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     soon as it is chosen, while the workers choose the next (they would wait for a whole
     depth built here one plate after another)."""
     plan = ctx.plan
-    kept, wave, round_, weld = [], cells, 0, None
-    prebuilt: dict = {}  # id(cell) -> build(cell): halves built while the next splits were chosen
-
-    def built_once(cell):
-        return prebuilt.pop(id(cell)) if id(cell) in prebuilt else build(cell)
-
+    kept, round_, weld = [], 0, None
+    wave = [c for c in cells if build(c) is not None]
     while wave:
-        built = _evaluate(wave, built_once, ctx)
+        built = _evaluate_built(wave, ctx)
         splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
         # handed out before the weld and the record are computed, which the workers need not wait for
         chosen = ctx.spread(_region_split, [_split_job(c, ctx) for c in splitting])
@@ -419,10 +419,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         splits, halves = {}, {}
         for cell, split in zip(splitting, chosen):
             splits[id(cell)] = split
-            if split is not None:
-                halves[id(cell)] = _children(cell, split)
-                for half in halves[id(cell)]:
-                    prebuilt[id(half)] = build(half)
+            if split is not None:  # built now, while the workers choose the next splits
+                halves[id(cell)] = [half for half in _children(cell, split) if build(half) is not None]
         nxt = []
         for cell in built:
             fits = _fits(cell)
