@@ -66,9 +66,9 @@ def _kept(trim, params: np.ndarray):
 def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
     """``values`` (N, k) given at the grid's points ``params`` (N, 2), interpolated linearly
     over the grid's own triangles ``faces`` at ``query`` (M, 2); a query just outside the
-    grid (round-off on its edge) takes its nearest point's value."""
+    grid (round-off on its edge: a corner where a trim meets the region's boundary) takes
+    the value at its closest point of the triangle it misses least (:func:`_nearest_triangle`)."""
     from matplotlib.tri import LinearTriInterpolator, Triangulation
-    from scipy.spatial import cKDTree
 
     a, b, c = (params[faces[:, k]] for k in range(3))
     doubled = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -77,5 +77,31 @@ def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: n
                            for k in range(values.shape[1])])
     missing = ~np.all(np.isfinite(out), axis=1)
     if missing.any():
-        out[missing] = values[cKDTree(params).query(query[missing])[1]]
+        good = np.abs(doubled) > 1e-300
+        out[missing] = _nearest_triangle(params, faces[good], values, query[missing])
     return out
+
+
+def _nearest_triangle(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray,
+                      candidates: int = 8) -> np.ndarray:
+    """``values`` (N, k) interpolated at queries (M, 2) outside the triangles ``faces`` (F, 3)
+    of the points ``params`` (N, 2): on the triangle, of the ``candidates`` whose centroids lie
+    nearest, whose barycentric coordinates go least negative, at those coordinates clipped
+    to it (a query a round-off outside an edge takes the edge's value there; a grid point's
+    value instead would be up to half a cell away)."""
+    from scipy.spatial import cKDTree
+
+    k = min(candidates, len(faces))
+    _, near = cKDTree(params[faces].mean(axis=1)).query(query, k=k)
+    tri = faces[np.asarray(near).reshape(len(query), k)]  # (M, k, 3)
+    a, b, c = (params[tri[..., j]] for j in range(3))
+    e1, e2, q = b - a, c - a, query[:, None, :] - a
+    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
+    s = (q[..., 0] * e2[..., 1] - q[..., 1] * e2[..., 0]) / det
+    t = (e1[..., 0] * q[..., 1] - e1[..., 1] * q[..., 0]) / det
+    bary = np.stack([1.0 - s - t, s, t], axis=-1)  # (M, k, 3)
+    pick = np.argmax(bary.min(axis=-1), axis=1)
+    rows = np.arange(len(query))
+    weights = np.clip(bary[rows, pick], 0.0, None)
+    weights /= weights.sum(axis=1, keepdims=True)
+    return np.einsum("mj,mjk->mk", weights, values[tri[rows, pick]])
