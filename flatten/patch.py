@@ -44,11 +44,7 @@ class PatchGrid:
 
     def faces(self) -> np.ndarray:
         """Triangles (2 (R-1) (C-1), 3) of the grid, vertices numbered row-major."""
-        r, c = self.shape
-        idx = np.arange(r * c).reshape(r, c)
-        a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
-        d, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
-        return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])]).astype(np.int64)
+        return grid_triangles(*self.shape)
 
     def corners(self) -> np.ndarray:
         """The four corners (4, 3): seam lo at butt lo, seam lo at butt hi, seam hi at butt hi,
@@ -59,6 +55,16 @@ class PatchGrid:
     def boundary(self) -> np.ndarray:
         """Closed boundary polyline (N, 3) around the grid (not repeated)."""
         return grid_ring(self.points)
+
+
+def grid_triangles(rows: int, cols: int) -> np.ndarray:
+    """Triangles (2 (R-1) (C-1), 3) of a grid of R x C points numbered row-major: every
+    cell's (top left, top right, bottom right) first, then every cell's (top left, bottom
+    right, bottom left)."""
+    idx = np.arange(rows * cols).reshape(rows, cols)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    d, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    return np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])]).astype(np.int64)
 
 
 def grid_ring(values: np.ndarray) -> np.ndarray:

@@ -10,7 +10,10 @@ first and last rows are the seams and the end columns the butts.
 
 Two plates share an edge where the plan says so: the same seam (equal girth curve on the same
 surface) on opposite sides, or the same butt plane on opposite sides, and their edges overlap
-along it. On each shared edge:
+along it. Where a face's trim ends the plates planned on it, the shell goes on across another
+face: a plate cut at its trim (:mod:`.trimcut`) has a TRIM edge, the stretch of its cut outline
+along the trim, and shares it with the plates of other surfaces whose edges run along it (found
+by geometry, kind "trim"). On each shared edge:
 
 - the step: the distance of each plate's edge from the other's, both ways (IACS Rec. 47
   allows butt and seam misalignment of about 0.15 t, at most 3 mm);
@@ -45,12 +48,15 @@ STEP_MAX_MM = 3.0  # ... and at most 3 mm
 LENGTH_LIMIT_MM = 1.0  # flat/strip neighbours: developed lengths of a shared edge agree within
 MIN_COMMON = 0.01  # a shared edge overlaps by at least this share of the shorter edge
 APART = 10.0  # edges whose median distance exceeds this many fit tolerances are not one edge
+TRIM_NEAR = 2.0  # a TRIM edge and an edge of another face run along each other within this many fit tolerances (median)
 NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
         f"plates (isometric developments) differ by more than {LENGTH_LIMIT_MM:g} mm in the developed length of "
         "their shared edge")
 SIDES = ("seam0", "seam1", "butt0", "butt1")
+TRIM = "trim"  # the side of a plate cut at its face's trim that runs along the trim line
+TRIM_LABEL = "TRIM"
 SPREAD_MIN = 64  # pairs not measured before that are worth the workers' round trip
 SPREAD_BATCH = 32  # pairs a worker measures per task
 
@@ -87,7 +93,7 @@ class SharedEdge:
 
     a: str
     b: str
-    kind: str  # "seam" or "butt"
+    kind: str  # "seam", "butt" or "trim" (a plate cut at its face's trim and a plate of another face)
     label: str
     step_max: float
     step_median: float
@@ -154,11 +160,12 @@ class ShellFitup:
         return {
             "rule": RULE, "thickness_mm": self.thickness_mm,
             "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates, "
-                      "or the plane where a plan cut two overlapping surfaces; plates on different surfaces are "
-                      "paired only there. Steps: distances between the two plates' 3D "
+                      "the plane where a plan cut two overlapping surfaces, or the trim line where a plate cut at "
+                      "its face's trim meets a plate of another surface (kind trim: edges within two fit "
+                      "tolerances' boxes whose median distance is within two tolerances). Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
-            "butts": sum(p.kind == "butt" for p in self.pairs),
+            "butts": sum(p.kind == "butt" for p in self.pairs), "trims": sum(p.kind == "trim" for p in self.pairs),
             "step_mm": _stats(steps, self.pairs),
             "steps_over_3mm": int((steps > STEP_MAX_MM).sum()),
             "steps_over_limit": int(sum(p.step_max > p.limit for p in self.pairs)),
@@ -225,6 +232,7 @@ def plate_edges(result) -> PlateEdges | None:
         # a corner lies on its butt plane: the butts hold their corners, the seams borrow
         # them (a neighbour on a plane, not a point of an end ruling short of it)
         borrow = {"seam0": (2, 3), "seam1": (2, 3)}
+        shape = None  # a strip is not cut at a face's trim (its outline is the trimmed strip's)
     elif result.mesh is not None:
         shape = tuple((result.figures.get("region") or {}).get("grid") or ())
         v3 = np.asarray(result.mesh[0], dtype=np.float64)
@@ -242,15 +250,64 @@ def plate_edges(result) -> PlateEdges | None:
     names = dict(zip(SIDES, tuple(hull.seam_names) + tuple(hull.butt_names)))
     edges = []
     size = float(np.ptp(v3[ring], axis=0).max())
+    cut = _TrimCut(v3, flat2, shape, result.pattern.outline) if shape and "trim_cut" in result.figures else None
     for code, side in enumerate(SIDES):
         run = _longest_run(labels, code, borrow.get(side, ()))
+        if run is not None and cut is not None:  # the steel the shop cuts: inside the face's trim
+            run = cut.kept_run(flat2[ring[run]], run)
         if run is None:
             continue
         p3, p2 = v3[ring[run]], flat2[ring[run]]
         keep = np.r_[True, np.linalg.norm(np.diff(p3, axis=0), axis=1) > 1e-6 * size]  # a collapsed seam end: one point
         if keep.sum() >= 2:
             edges.append(Edge(side, names[side], p3[keep], p2[keep]))
+    if cut is not None and cut.edge is not None:
+        edges.append(cut.edge)
     return PlateEdges(result.name, name, bool(isometric), tuple(edges), v3[ring])
+
+
+class _TrimCut:
+    """A grid plate cut at its face's trim line (:mod:`.trimcut`): which of its region's edge
+    points the shop cuts, and the part of its cut outline that runs along the trim, where the
+    shell goes on across another face (its TRIM edge). ``v3`` (R C, 3) the plate's 3D grid,
+    ``placed`` (R C, 2) its development, ``shape`` (R, C), ``outline`` (N, 2) the cut outline
+    developed; the outline's 3D points are interpolated over the grid's triangles in the
+    development (exact on a flat plate, within the grid's second-order error elsewhere)."""
+
+    def __init__(self, v3: np.ndarray, placed: np.ndarray, shape: tuple, outline: np.ndarray):
+        import shapely
+
+        from flatten.patch import grid_ring, grid_triangles
+
+        from .trimcut import grid_map
+
+        region = grid_ring(placed.reshape(*shape, 2))
+        self.eps = 1e-6 * float(np.ptp(region, axis=0).max())
+        outline = np.asarray(outline, dtype=np.float64)
+        self.polygon = shapely.Polygon(outline).buffer(self.eps)
+        on_region = shapely.distance(shapely.LinearRing(region), shapely.points(outline)) <= self.eps
+        run = _longest_run(np.where(on_region, 0, 5), 5, (0,))  # the trim's stretch and the corners it meets
+        self.edge = None
+        if run is not None and len(run) >= 2:
+            p2 = outline[run]
+            p3 = grid_map(placed, grid_triangles(*shape), v3, p2)
+            self.edge = Edge(TRIM, TRIM_LABEL, p3, p2)
+
+    def kept_run(self, developed: np.ndarray, run: np.ndarray) -> np.ndarray | None:
+        """The longest stretch of an edge's run (its developed points ``developed`` (n, 2))
+        inside the cut outline; None when less than two points are."""
+        import shapely
+
+        inside = shapely.contains_xy(self.polygon, developed[:, 0], developed[:, 1])
+        best, begin = (0, 0), None
+        for i, hit in enumerate(np.r_[inside, False]):
+            if hit and begin is None:
+                begin = i
+            elif not hit and begin is not None:
+                best = max(best, (i - begin, begin))
+                begin = None
+        length, first = best
+        return run[first:first + length] if length >= 2 else None
 
 
 def _on_plane(v3: np.ndarray, klass: dict) -> np.ndarray:
@@ -565,7 +622,12 @@ def shared_edges(records: dict, mm: float, thickness: float,
         (ra, pa), (rb, pb) = records[na], records[nb]
         steps, where, l3, l2 = got
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
-        far = np.median(steps) > APART * min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
+        tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
+        far = np.median(steps) > APART * tolerance
+        if kind == "trim" and np.median(steps) > TRIM_NEAR * tolerance:
+            # found by its box, not by the plan: edges that only touch (a butt rising from the
+            # trim line at its end) are no pair; two plates within the tolerance of one line are
+            continue
         (apart if far else pairs).append(SharedEdge(
             na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
@@ -608,6 +670,32 @@ def _neighbours(records: dict) -> list[tuple]:
             for other in butt_hi.get(_butt_key(hull, hull.butts[0]), []):
                 if other != name:
                     out.append((other, name, "butt1", "butt0", "butt"))
+    return out + _across_trims(records)
+
+
+def _across_trims(records: dict) -> list[tuple]:
+    """(plate a, plate b, a's side, b's side, "trim") for every TRIM edge of a plate cut at its
+    face's trim and each edge of a plate of another surface whose box comes within two fit
+    tolerances of it: where a trimmed face ends the shell goes on across another face, whose
+    plates are no neighbours by the plan's seams and butts. Candidates only: the measurement
+    keeps those whose edges run along each other."""
+    trims = [(name, rec.edge(TRIM), part) for name, (rec, part) in sorted(records.items()) if rec.edge(TRIM)]
+    if not trims:
+        return []
+    others = [(name, e, id(part.hull.surface)) for name, (rec, part) in sorted(records.items()) for e in rec.edges]
+    lo = np.array([e.points3.min(axis=0) for _, e, _ in others])
+    hi = np.array([e.points3.max(axis=0) for _, e, _ in others])
+    out, seen = [], set()
+    for name, trim, part in trims:
+        margin = 2.0 * part.hull.fit_tolerance
+        near = np.all(lo <= trim.points3.max(axis=0) + margin, axis=1) & np.all(hi >= trim.points3.min(axis=0) - margin,
+                                                                               axis=1)
+        for k in np.flatnonzero(near):
+            other, edge, surface = others[k]
+            key = frozenset(((name, TRIM), (other, edge.side)))
+            if other != name and surface != id(part.hull.surface) and key not in seen:
+                seen.add(key)
+                out.append((name, other, TRIM, edge.side, "trim"))
     return out
 
 

@@ -254,7 +254,9 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
         if q.step_max <= q.limit or FORMED in kinds:
             continue
         for name, other, kind in ((q.a, q.b, kinds[0]), (q.b, q.a, kinds[1])):
-            if kind == "flat":
+            # a plate cut at its face's trim stays flat: a strip is not cut at a trim (its
+            # outline is the trimmed strip's), so it would be delivered past the trim
+            if kind == "flat" and "trim_cut" not in (records[name][1].hull.result.figures or {}):
                 entry = wanted.setdefault(name, {"step_mm": 0.0, "neighbours": []})
                 entry["step_mm"] = max(entry["step_mm"], float(q.step_max))
                 entry["neighbours"] = sorted({*entry["neighbours"], other})
@@ -542,7 +544,9 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
         halfway = pair.a in grids and pair.b in grids and pair.step_max > pair.limit
         for me, mine, other, theirs in ((pair.a, pair.side_a, pair.b, pair.side_b),
                                         (pair.b, pair.side_b, pair.a, pair.side_a)):
-            if me not in grids:
+            if me not in grids or mine not in CODES:
+                # (a formed plate's TRIM edge cuts through its grid: no grid line to form onto
+                # the neighbour's edge; the plate stays on the hull there)
                 continue
             paired[me].add(mine)
             plate = grids[me]

@@ -280,8 +280,9 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                           f"orthogonal projection on the plane within the tolerance of the region that keeps its "
                           f"edges nearest the hull ({held.edge_max_distance:.3g} off, limit {edge_limit:.3g})")
             return
-    if edge_limit is not None and hull.developable and _edge_held_strip(result, config, grid, area3, corner_tol,
-                                                                        edge_limit):
+    # (not a plate that reaches past its face's trim: a strip is not cut at a trim)
+    if edge_limit is not None and hull.developable and (hull.trim is None or hull.inside_trim >= 1.0) and \
+            _edge_held_strip(result, config, grid, area3, corner_tol, edge_limit):
         return
     if patch_only:
         _deliver_hull_patch(result, config, grid, v3, f3, index, (length, width),

@@ -1,0 +1,125 @@
+"""Fit-up across a trim line: a plate cut at its face's trim meets the plates of the face that
+carries the shell on from there (KCS's flat bottom and its main hull meet so at the bilge's
+knuckle). The trimmed plate's TRIM edge is paired with the other face's plates along it and
+measured like any shared edge."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from flatten.surface import nurbs_surface
+from pipeline.cli import main
+from pipeline.hull.trimcut import grid_map
+
+RADIUS, LENGTH, KNUCKLE = 3000.0, 12000.0, 3000.0  # mm: the cylinder's radius, the faces' length, the trim's y
+
+
+def flat_bottom():
+    """The plane z = 0 over x 0-12 m, y 0-5 m (u along x, v along y)."""
+    poles = np.array([[[x, y, 0.0] for y in (0.0, 5000.0)] for x in (0.0, LENGTH)])
+    return nurbs_surface(1, 1, poles, [0, 0, 1, 1], [0, 0, 1, 1], np.ones((2, 2)), name="bottom")
+
+
+def bilge(lift: float = 0.0):
+    """A quarter cylinder of axis x that leaves the plane tangentially at y = KNUCKLE (its v = 0
+    edge), raised by ``lift`` mm: a gap at the knuckle that the fit-up must show."""
+    h = np.radians(45.0)
+    arc = np.array([[KNUCKLE, 0.0], [KNUCKLE + RADIUS, 0.0], [KNUCKLE + RADIUS, RADIUS]])
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[x, y, z + lift] for y, z in arc] for x in (0.0, LENGTH)])
+    return nurbs_surface(1, 2, poles, [0, 0, 1, 1], [0, 0, 0, 1, 1, 1], np.vstack([w, w]), name="bilge")
+
+
+def write_step(path: Path, faces: list) -> Path:
+    """One STEP file of faces, each (surface, (u0, u1, v0, v1)): the face bounded by that box
+    of its surface's parameters (a box short of the surface's own is a trim)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    from pipeline.io.hullmodel import ocp_surface
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for surface, (u0, u1, v0, v1) in faces:
+        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(surface), u0, u1, v0, v1, 1e-6).Face())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    assert int(writer.Write(str(path))) == 1
+    return path
+
+
+def run_knuckle(folder: Path, lift: float) -> dict:
+    """The flat bottom trimmed at y = 3 m and the bilge beside it, planned uniformly as two
+    surfaces and run; the summary's shell."""
+    model = write_step(folder / "knuckle.step", [(flat_bottom(), (0, 1, 0, KNUCKLE / 5000.0)),
+                                                (bilge(lift), (0, 1, 0, 1))])
+    data = {"name": "knuckle", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "steel": {"thickness": 12, "material": "S355"},
+            "strake": {"surface": {"model": str(model), "face": 0}, "fit_tolerance": 5.0,
+                       "plan": {"method": "uniform", "surfaces": [{"model": str(model), "face": 1}],
+                                "stock": {"max_length": 6000, "max_width": 2000, "min_length": 1000,
+                                          "min_width": 1000}}}}
+    config = folder / "knuckle.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = folder / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) in (0, 1)
+    return json.loads((out / "knuckle_summary.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def knuckles(tmp_path_factory):
+    return {lift: run_knuckle(tmp_path_factory.mktemp(f"lift{lift:g}"), lift) for lift in (0.0, 4.0)}
+
+
+def test_a_plate_cut_at_the_trim_is_paired_with_the_next_faces_plates_along_it(knuckles):
+    """The bottom's plates cut at y = 3 m (one per 6 m butt) meet the bilge's first strake
+    along the whole 12 m of the knuckle, each the plate over its own x range; the faces meet
+    exactly, so the steps are the plates' own round-off and the flat and strip plates'
+    developed lengths agree."""
+    summary = knuckles[0.0]
+    trims = [p for p in summary["shell"]["pairs"] if p["kind"] == "trim"]
+    assert summary["shell"]["trims"] == len(trims) == 2, trims
+    plates = {p["id"]: p for p in summary["parts"]}
+    for pair in trims:
+        bottom, side = pair["plates"]
+        assert "_P1_" in bottom and "_P2_S01_" in side
+        assert plates[bottom]["class"] == "flat"
+        assert pair["edge"] == "TRIM"
+        assert min(pair["length_3d_mm"]) == pytest.approx(6000.0, rel=1e-3)
+        assert pair["step_max_mm"] < 0.1 and pair["mismatch_mm"] < 0.1
+    assert sum(min(p["length_3d_mm"]) for p in trims) == pytest.approx(LENGTH, rel=1e-3)
+
+
+def test_a_gap_at_the_knuckle_is_a_misfit_at_the_trim(knuckles):
+    """The bilge raised 4 mm off the bottom: the same pairs, each stepping by the gap, over
+    the limit of 0.15 t = 1.8 mm."""
+    trims = [p for p in knuckles[4.0]["shell"]["pairs"] if p["kind"] == "trim"]
+    assert len(trims) == 2
+    for pair in trims:
+        assert pair["step_median_mm"] == pytest.approx(4.0, abs=0.1)
+        assert pair["misfit"] and pair["step_limit_mm"] == pytest.approx(1.8)
+    warnings = knuckles[4.0]["shell"]["warnings"]
+    assert sum(w.startswith("fit-up: trim TRIM between") for w in warnings) == 2
+
+
+def test_a_point_a_round_off_outside_the_grid_takes_the_value_on_its_edge():
+    """A corner where a trim meets a plate's boundary lies on the grid's edge, and round-off
+    can put it a hair outside: it takes the linear value there, not the nearest grid point's
+    (half a cell away: 80 mm on a KCS bottom plate)."""
+    u, v = np.meshgrid(np.linspace(0.0, 3.0, 4), np.linspace(0.0, 2.0, 3), indexing="ij")
+    params = np.column_stack([u.ravel(), v.ravel()])
+    idx = np.arange(12).reshape(4, 3)
+    a, b, d, e = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    faces = np.concatenate([np.column_stack([a, b, e]), np.column_stack([a, e, d])])
+    values = np.column_stack([2.0 * params[:, 0] + 3.0 * params[:, 1], params[:, 1] ** 2])
+    query = np.array([[3.0 + 1e-12, 0.7], [1.3, -1e-13], [1.5, 1.0]])
+    got = grid_map(params, faces, values, query)
+    assert got[:, 0] == pytest.approx(2.0 * query[:, 0] + 3.0 * query[:, 1], abs=1e-9)
+    assert got[0, 1] == pytest.approx(0.7, abs=1e-9)  # linear between v = 0 (0) and v = 1 (1)
