@@ -174,3 +174,24 @@ def helical_cylinder_iges(path: Path, radius=3000.0, length=20000.0, span=3.0, l
     both = make_interp_spline(v, along.c, k=3, axis=1)  # its coefficients come (v, u, 3)
     poles = both.c.transpose(1, 0, 2)
     return write_iges_surface(path, 3, 3, poles, np.ones(poles.shape[:2]), along.t, both.t)
+
+
+def write_step_faces(path: Path, faces: list) -> Path:
+    """One STEP file of faces, each (surface, (u0, u1, v0, v1)): the face bounded by that box
+    of its surface's parameters (a box short of the surface's own is a trim)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    from pipeline.io.hullmodel import ocp_surface
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for surface, (u0, u1, v0, v1) in faces:
+        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(surface), u0, u1, v0, v1, 1e-6).Face())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    if int(writer.Write(str(path))) != 1:
+        raise OSError(f"OpenCascade could not write {path}")
+    return path

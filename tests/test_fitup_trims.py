@@ -15,6 +15,7 @@ import yaml
 from flatten.surface import nurbs_surface
 from pipeline.cli import main
 from pipeline.hull.trimcut import grid_map
+from tests.hull_shapes import write_step_faces
 
 RADIUS, LENGTH, KNUCKLE = 3000.0, 12000.0, 3000.0  # mm: the cylinder's radius, the faces' length, the trim's y
 
@@ -35,30 +36,10 @@ def bilge(lift: float = 0.0):
     return nurbs_surface(1, 2, poles, [0, 0, 1, 1], [0, 0, 0, 1, 1, 1], np.vstack([w, w]), name="bilge")
 
 
-def write_step(path: Path, faces: list) -> Path:
-    """One STEP file of faces, each (surface, (u0, u1, v0, v1)): the face bounded by that box
-    of its surface's parameters (a box short of the surface's own is a trim)."""
-    from OCP.BRep import BRep_Builder
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-    from OCP.TopoDS import TopoDS_Compound
-
-    from pipeline.io.hullmodel import ocp_surface
-
-    builder, compound = BRep_Builder(), TopoDS_Compound()
-    builder.MakeCompound(compound)
-    for surface, (u0, u1, v0, v1) in faces:
-        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(surface), u0, u1, v0, v1, 1e-6).Face())
-    writer = STEPControl_Writer()
-    writer.Transfer(compound, STEPControl_AsIs)
-    assert int(writer.Write(str(path))) == 1
-    return path
-
-
 def run_knuckle(folder: Path, lift: float) -> dict:
     """The flat bottom trimmed at y = 3 m and the bilge beside it, planned uniformly as two
     surfaces and run; the summary's shell."""
-    model = write_step(folder / "knuckle.step", [(flat_bottom(), (0, 1, 0, KNUCKLE / 5000.0)),
+    model = write_step_faces(folder / "knuckle.step", [(flat_bottom(), (0, 1, 0, KNUCKLE / 5000.0)),
                                                 (bilge(lift), (0, 1, 0, 1))])
     data = {"name": "knuckle", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
             "steel": {"thickness": 12, "material": "S355"},

@@ -16,6 +16,7 @@ from flatten.surface import nurbs_surface
 from pipeline.cli import main
 from pipeline.hull.shell import chain_pieces, loft, resample
 from pipeline.io.hullmodel import ocp_surface, read_hull_model
+from tests.hull_shapes import write_step_faces
 
 DATA = Path(__file__).parent / "data" / "ship"
 RADIUS, LENGTH = 3000.0, 20000.0
@@ -34,20 +35,7 @@ def bilge_cylinder(x0: float = 0.0, x1: float = LENGTH, radius: float = RADIUS):
 def write_faces_step(path: Path, surface, boxes) -> Path:
     """One STEP file of faces on ``surface``, each bounded by a (u0, u1, v0, v1) box of its
     parameters: a trimmed face of the one underlying surface."""
-    from OCP.BRep import BRep_Builder
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-    from OCP.TopoDS import TopoDS_Compound
-
-    builder, compound = BRep_Builder(), TopoDS_Compound()
-    builder.MakeCompound(compound)
-    geom = ocp_surface(surface)
-    for u0, u1, v0, v1 in boxes:
-        builder.Add(compound, BRepBuilderAPI_MakeFace(geom, u0, u1, v0, v1, 1e-6).Face())
-    writer = STEPControl_Writer()
-    writer.Transfer(compound, STEPControl_AsIs)
-    assert int(writer.Write(str(path))) == 1
-    return path
+    return write_step_faces(path, [(surface, box) for box in boxes])
 
 
 def cylinder_config(folder: Path, source: dict, name: str) -> Path:

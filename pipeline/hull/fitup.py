@@ -298,15 +298,7 @@ class _TrimCut:
         inside the cut outline; None when less than two points are."""
         import shapely
 
-        inside = shapely.contains_xy(self.polygon, developed[:, 0], developed[:, 1])
-        best, begin = (0, 0), None
-        for i, hit in enumerate(np.r_[inside, False]):
-            if hit and begin is None:
-                begin = i
-            elif not hit and begin is not None:
-                best = max(best, (i - begin, begin))
-                begin = None
-        length, first = best
+        length, first = _longest_stretch(shapely.contains_xy(self.polygon, developed[:, 0], developed[:, 1]))
         return run[first:first + length] if length >= 2 else None
 
 
@@ -379,6 +371,19 @@ def _strip_ring(strip, hull) -> tuple[np.ndarray, np.ndarray]:
     return ring, codes
 
 
+def _longest_stretch(hit: np.ndarray) -> tuple[int, int]:
+    """(length, first index) of the longest stretch of True in ``hit`` (n,), the later of two
+    as long; (0, 0) when there is none. Not cyclic."""
+    best, begin = (0, 0), None
+    for i, h in enumerate(np.r_[hit, False]):
+        if h and begin is None:
+            begin = i
+        elif not h and begin is not None:
+            best = max(best, (i - begin, begin))
+            begin = None
+    return best
+
+
 def _longest_run(codes: np.ndarray, code: int, borrow: tuple) -> np.ndarray | None:
     """Ring positions of the longest cyclic run of ``code``, and its neighbour either side
     where that neighbour's code is in ``borrow`` (the corners it shares with the adjacent
@@ -390,15 +395,7 @@ def _longest_run(codes: np.ndarray, code: int, borrow: tuple) -> np.ndarray | No
     if hit.all():
         return np.arange(n)
     start = int(np.flatnonzero(~hit)[0])  # roll so that no run wraps around
-    rolled = np.roll(hit, -start)
-    best, begin = (0, 0), None
-    for i, h in enumerate(np.r_[rolled, False]):
-        if h and begin is None:
-            begin = i
-        elif not h and begin is not None:
-            best = max(best, (i - begin, begin))
-            begin = None
-    length, first = best
+    length, first = _longest_stretch(np.roll(hit, -start))
     lo, hi = (first - 1 + start) % n, (first + length + start) % n
     run = (np.arange(first, first + length) + start) % n
     return np.r_[[lo] if codes[lo] in borrow else [], run, [hi] if codes[hi] in borrow else []].astype(int)
