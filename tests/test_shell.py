@@ -268,24 +268,6 @@ def test_faces_beyond_the_loft_are_planned_on_their_own_and_the_shell_is_covered
 
 
 # ------------------------------------------------ the loft's end planes (issue 26: KVLCC2's 178 mm step)
-def write_step(path: Path, faces) -> Path:
-    """One STEP file of faces, each (surface, (u0, u1, v0, v1)): the surface trimmed to that
-    box of its parameters (the face keeps the whole surface underneath)."""
-    from OCP.BRep import BRep_Builder
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-    from OCP.TopoDS import TopoDS_Compound
-
-    builder, compound = BRep_Builder(), TopoDS_Compound()
-    builder.MakeCompound(compound)
-    for surface, (u0, u1, v0, v1) in faces:
-        builder.Add(compound, BRepBuilderAPI_MakeFace(ocp_surface(surface), u0, u1, v0, v1, 1e-6).Face())
-    writer = STEPControl_Writer()
-    writer.Transfer(compound, STEPControl_AsIs)
-    assert int(writer.Write(str(path))) == 1
-    return path
-
-
 FLAT_Y, PLANE_Y, BILGE_R = 2000.0, 5000.0, 3000.0
 
 
@@ -336,7 +318,7 @@ def flat_beyond_loft(tmp_path_factory):
     where the flat of bottom keeps 33 mm of its face's 26.6 m girth). Planned and run."""
     folder = tmp_path_factory.mktemp("endplane")
     flat, bilge = flat_and_bilge()
-    model = write_step(folder / "fb.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 0.7, 0, 1))])
+    model = write_step_faces(folder / "fb.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 0.7, 0, 1))])
     config = end_plane_config(folder, model, "fb")
     out = folder / "out"
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
@@ -404,7 +386,7 @@ def test_the_loft_ends_where_the_faces_part(tmp_path):
 
     factor = 0.1
     flat, bilge = flat_and_bilge(lift=15.0, factor=factor)
-    model = write_step(tmp_path / "p.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 1, 0, 1))])
+    model = write_step_faces(tmp_path / "p.step", [(flat, (0, 1, 0, FLAT_Y / PLANE_Y)), (bilge, (0, 1, 0, 1))])
     spec = type("Spec", (), {"model": str(model), "faces": [0, 1]})()
     surfaces = load_plan_surfaces([spec], tmp_path, 1.0, 1 / factor)
     loft = surfaces[0]
