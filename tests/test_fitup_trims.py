@@ -20,9 +20,9 @@ from tests.hull_shapes import write_step_faces
 RADIUS, LENGTH, KNUCKLE = 3000.0, 12000.0, 3000.0  # mm: the cylinder's radius, the faces' length, the trim's y
 
 
-def flat_bottom():
-    """The plane z = 0 over x 0-12 m, y 0-5 m (u along x, v along y)."""
-    poles = np.array([[[x, y, 0.0] for y in (0.0, 5000.0)] for x in (0.0, LENGTH)])
+def flat_bottom(width: float = 5000.0):
+    """The plane z = 0 over x 0-12 m, y 0 to ``width`` mm (u along x, v along y)."""
+    poles = np.array([[[x, y, 0.0] for y in (0.0, width)] for x in (0.0, LENGTH)])
     return nurbs_surface(1, 1, poles, [0, 0, 1, 1], [0, 0, 1, 1], np.ones((2, 2)), name="bottom")
 
 
@@ -36,11 +36,11 @@ def bilge(lift: float = 0.0):
     return nurbs_surface(1, 2, poles, [0, 0, 1, 1], [0, 0, 0, 1, 1, 1], np.vstack([w, w]), name="bilge")
 
 
-def run_knuckle(folder: Path, lift: float) -> dict:
-    """The flat bottom trimmed at y = 3 m and the bilge beside it, planned uniformly as two
-    surfaces and run; the summary's shell."""
-    model = write_step_faces(folder / "knuckle.step", [(flat_bottom(), (0, 1, 0, KNUCKLE / 5000.0)),
-                                                (bilge(lift), (0, 1, 0, 1))])
+def run_knuckle(folder: Path, lift: float, trimmed: bool = True) -> dict:
+    """The flat bottom trimmed at y = 3 m (or, ``trimmed`` False, a bottom face that ends there
+    untrimmed) and the bilge beside it, planned uniformly as two surfaces and run; the summary."""
+    bottom = (flat_bottom(), (0, 1, 0, KNUCKLE / 5000.0)) if trimmed else (flat_bottom(KNUCKLE), (0, 1, 0, 1))
+    model = write_step_faces(folder / "knuckle.step", [bottom, (bilge(lift), (0, 1, 0, 1))])
     data = {"name": "knuckle", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
             "steel": {"thickness": 12, "material": "S355"},
             "strake": {"surface": {"model": str(model), "face": 0}, "fit_tolerance": 5.0,
@@ -56,7 +56,9 @@ def run_knuckle(folder: Path, lift: float) -> dict:
 
 @pytest.fixture(scope="module")
 def knuckles(tmp_path_factory):
-    return {lift: run_knuckle(tmp_path_factory.mktemp(f"lift{lift:g}"), lift) for lift in (0.0, 4.0)}
+    runs = {lift: run_knuckle(tmp_path_factory.mktemp(f"lift{lift:g}"), lift) for lift in (0.0, 4.0)}
+    runs["untrimmed"] = run_knuckle(tmp_path_factory.mktemp("untrimmed"), 0.0, trimmed=False)
+    return runs
 
 
 def test_a_plate_cut_at_the_trim_is_paired_with_the_next_faces_plates_along_it(knuckles):
@@ -88,6 +90,20 @@ def test_a_gap_at_the_knuckle_is_a_misfit_at_the_trim(knuckles):
         assert pair["misfit"] and pair["step_limit_mm"] == pytest.approx(1.8)
     warnings = knuckles[4.0]["shell"]["warnings"]
     assert sum(w.startswith("fit-up: trim TRIM between") for w in warnings) == 2
+
+
+def test_two_faces_that_meet_along_their_own_edges_pair_their_plates_there(knuckles):
+    """A bottom face that ends at y = 3 m untrimmed: its outer strake's plates meet the bilge's
+    first strake along the knuckle (kind face, each edge named on both plates), exactly."""
+    shell = knuckles["untrimmed"]["shell"]
+    faces = [p for p in shell["pairs"] if p["kind"] == "face"]
+    assert shell["faces"] == len(faces) == 2 and shell["trims"] == 0, faces
+    for pair in faces:
+        assert "_P1_" in pair["plates"][0] and "_P2_S01_" in pair["plates"][1]
+        assert pair["edge"].startswith("SEAM") and " | SEAM" in pair["edge"]
+        assert min(pair["length_3d_mm"]) == pytest.approx(6000.0, rel=1e-3)
+        assert pair["step_max_mm"] < 0.1 and pair["mismatch_mm"] < 0.1
+    assert not any(p["kind"] == "face" for p in knuckles[0.0]["shell"]["pairs"])  # the trim names those
 
 
 def test_a_point_a_round_off_outside_the_grid_takes_the_value_on_its_edge():

@@ -13,7 +13,8 @@ surface) on opposite sides, or the same butt plane on opposite sides, and their 
 along it. Where a face's trim ends the plates planned on it, the shell goes on across another
 face: a plate cut at its trim (:mod:`.trimcut`) has a TRIM edge, the stretch of its cut outline
 along the trim, and shares it with the plates of other surfaces whose edges run along it (found
-by geometry, kind "trim"). On each shared edge:
+by geometry, kind "trim"); plates of two faces that meet along the faces' own edges share
+those (kind "face"). On each shared edge:
 
 - the step: the distance of each plate's edge from the other's, both ways (IACS Rec. 47
   allows butt and seam misalignment of about 0.15 t, at most 3 mm);
@@ -48,7 +49,7 @@ STEP_MAX_MM = 3.0  # ... and at most 3 mm
 LENGTH_LIMIT_MM = 1.0  # flat/strip neighbours: developed lengths of a shared edge agree within
 MIN_COMMON = 0.01  # a shared edge overlaps by at least this share of the shorter edge
 APART = 10.0  # edges whose median distance exceeds this many fit tolerances are not one edge
-TRIM_NEAR = 2.0  # a TRIM edge and an edge of another face run along each other within this many fit tolerances (median)
+ACROSS_NEAR = 2.0  # edges of two surfaces' plates run along each other within this many fit tolerances (median)
 NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
@@ -93,7 +94,7 @@ class SharedEdge:
 
     a: str
     b: str
-    kind: str  # "seam", "butt" or "trim" (a plate cut at its face's trim and a plate of another face)
+    kind: str  # "seam", "butt", "trim" (a plate cut at its face's trim and a plate of another face) or "face"
     label: str
     step_max: float
     step_median: float
@@ -160,12 +161,14 @@ class ShellFitup:
         return {
             "rule": RULE, "thickness_mm": self.thickness_mm,
             "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates, "
-                      "the plane where a plan cut two overlapping surfaces, or the trim line where a plate cut at "
-                      "its face's trim meets a plate of another surface (kind trim: edges within two fit "
-                      "tolerances' boxes whose median distance is within two tolerances). Steps: distances between the two plates' 3D "
+                      "the plane where a plan cut two overlapping surfaces, the trim line where a plate cut at "
+                      "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
+                      "(kind face): plates of two surfaces whose edges' boxes come within two fit tolerances and "
+                      "whose median distance is within two tolerances. Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs), "trims": sum(p.kind == "trim" for p in self.pairs),
+            "faces": sum(p.kind == "face" for p in self.pairs),
             "step_mm": _stats(steps, self.pairs),
             "steps_over_3mm": int((steps > STEP_MAX_MM).sum()),
             "steps_over_limit": int(sum(p.step_max > p.limit for p in self.pairs)),
@@ -621,12 +624,13 @@ def shared_edges(records: dict, mm: float, thickness: float,
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
         far = np.median(steps) > APART * tolerance
-        if kind == "trim" and np.median(steps) > TRIM_NEAR * tolerance:
+        if kind in ("trim", "face") and np.median(steps) > ACROSS_NEAR * tolerance:
             # found by its box, not by the plan: edges that only touch (a butt rising from the
             # trim line at its end) are no pair; two plates within the tolerance of one line are
             continue
+        label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
         (apart if far else pairs).append(SharedEdge(
-            na, nb, kind, ea.label, float(steps.max() * mm), float(np.median(steps) * mm),
+            na, nb, kind, label, float(steps.max() * mm), float(np.median(steps) * mm),
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
             ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM), side_a, side_b))
     return pairs, apart
@@ -667,32 +671,34 @@ def _neighbours(records: dict) -> list[tuple]:
             for other in butt_hi.get(_butt_key(hull, hull.butts[0]), []):
                 if other != name:
                     out.append((other, name, "butt1", "butt0", "butt"))
-    return out + _across_trims(records)
+    return out + _across_surfaces(records, {frozenset(pair[:2]) for pair in out})
 
 
-def _across_trims(records: dict) -> list[tuple]:
-    """(plate a, plate b, a's side, b's side, "trim") for every TRIM edge of a plate cut at its
-    face's trim and each edge of a plate of another surface whose box comes within two fit
-    tolerances of it: where a trimmed face ends the shell goes on across another face, whose
-    plates are no neighbours by the plan's seams and butts. Candidates only: the measurement
-    keeps those whose edges run along each other."""
-    trims = [(name, rec.edge(TRIM), part) for name, (rec, part) in sorted(records.items()) if rec.edge(TRIM)]
-    if not trims:
+def _across_surfaces(records: dict, planned: set) -> list[tuple]:
+    """(plate a, plate b, a's side, b's side, kind) for every two edges of plates on different
+    surfaces that the plan does not make neighbours (``planned``: frozensets of two plate
+    names) whose boxes come within two fit tolerances of each other: kind "trim" where one is
+    a TRIM edge (a face's trim ends the plates planned on it and another face carries the
+    shell on), "face" otherwise (two faces meeting along their own edges: KVLCC2's faces
+    beyond its loft). Candidates only: the measurement keeps those that run along each other."""
+    edges = [(name, e, id(part.hull.surface), part.hull.fit_tolerance)
+             for name, (rec, part) in sorted(records.items()) for e in rec.edges]
+    if len({surface for _, _, surface, _ in edges}) < 2:
         return []
-    others = [(name, e, id(part.hull.surface)) for name, (rec, part) in sorted(records.items()) for e in rec.edges]
-    lo = np.array([e.points3.min(axis=0) for _, e, _ in others])
-    hi = np.array([e.points3.max(axis=0) for _, e, _ in others])
-    out, seen = [], set()
-    for name, trim, part in trims:
-        margin = 2.0 * part.hull.fit_tolerance
-        near = np.all(lo <= trim.points3.max(axis=0) + margin, axis=1) & np.all(hi >= trim.points3.min(axis=0) - margin,
-                                                                               axis=1)
-        for k in np.flatnonzero(near):
-            other, edge, surface = others[k]
-            key = frozenset(((name, TRIM), (other, edge.side)))
-            if other != name and surface != id(part.hull.surface) and key not in seen:
-                seen.add(key)
-                out.append((name, other, TRIM, edge.side, "trim"))
+    lo = np.array([e.points3.min(axis=0) for _, e, _, _ in edges])
+    hi = np.array([e.points3.max(axis=0) for _, e, _, _ in edges])
+    out = []
+    for i, (name, edge, surface, tolerance) in enumerate(edges):
+        margin = 2.0 * tolerance
+        near = np.all(lo <= hi[i] + margin, axis=1) & np.all(hi >= lo[i] - margin, axis=1)
+        for k in np.flatnonzero(near[i + 1:]) + i + 1:  # each two edges once
+            other, theirs, their_surface, _ = edges[k]
+            if their_surface == surface or frozenset((name, other)) in planned:
+                continue
+            if theirs.side == TRIM and edge.side != TRIM:  # the TRIM edge first: it names the pair
+                out.append((other, name, TRIM, edge.side, "trim"))
+            else:
+                out.append((name, other, edge.side, theirs.side, "trim" if edge.side == TRIM else "face"))
     return out
 
 
