@@ -679,8 +679,9 @@ def _across_surfaces(records: dict, planned: set) -> list[tuple]:
     surfaces that the plan does not make neighbours (``planned``: frozensets of two plate
     names) whose boxes come within two fit tolerances of each other: kind "trim" where one is
     a TRIM edge (a face's trim ends the plates planned on it and another face carries the
-    shell on), "face" otherwise (two faces meeting along their own edges: KVLCC2's faces
-    beyond its loft). Candidates only: the measurement keeps those that run along each other."""
+    shell on), "face" otherwise (two faces meeting along their own edges: DTMB 5415's transom
+    and its hull's aft ends). Candidates only: the measurement keeps those that run along each
+    other."""
     edges = [(name, e, id(part.hull.surface), part.hull.fit_tolerance)
              for name, (rec, part) in sorted(records.items()) for e in rec.edges]
     if len({surface for _, _, surface, _ in edges}) < 2:
