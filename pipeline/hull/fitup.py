@@ -49,7 +49,10 @@ STEP_MAX_MM = 3.0  # ... and at most 3 mm
 LENGTH_LIMIT_MM = 1.0  # flat/strip neighbours: developed lengths of a shared edge agree within
 MIN_COMMON = 0.01  # a shared edge overlaps by at least this share of the shorter edge
 APART = 10.0  # edges whose median distance exceeds this many fit tolerances are not one edge
-ACROSS_NEAR = 2.0  # edges of two surfaces' plates run along each other within this many fit tolerances (median)
+# edges of two surfaces' plates run along each other within this many fit tolerances (median):
+# DTMB 5415's transom stands 10-18 mm off its hull's aft end; an edge that only touches
+# another at its end lies half its length away
+ACROSS_NEAR = 5.0
 NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
@@ -163,8 +166,8 @@ class ShellFitup:
             "scope": ("shared edges: the same seam (girth curve) or butt plane of one hull surface on both plates, "
                       "the plane where a plan cut two overlapping surfaces, the trim line where a plate cut at "
                       "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
-                      "(kind face): plates of two surfaces whose edges' boxes come within two fit tolerances and "
-                      "whose median distance is within two tolerances. Steps: distances between the two plates' 3D "
+                      "(kind face): plates of two surfaces whose edges run along each other, their median distance "
+                      "within five fit tolerances. Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs), "trims": sum(p.kind == "trim" for p in self.pairs),
@@ -626,7 +629,7 @@ def shared_edges(records: dict, mm: float, thickness: float,
         far = np.median(steps) > APART * tolerance
         if kind in ("trim", "face") and np.median(steps) > ACROSS_NEAR * tolerance:
             # found by its box, not by the plan: edges that only touch (a butt rising from the
-            # trim line at its end) are no pair; two plates within the tolerance of one line are
+            # trim line at its end, half its length away) are no pair
             continue
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
         (apart if far else pairs).append(SharedEdge(
@@ -677,7 +680,7 @@ def _neighbours(records: dict) -> list[tuple]:
 def _across_surfaces(records: dict, planned: set) -> list[tuple]:
     """(plate a, plate b, a's side, b's side, kind) for every two edges of plates on different
     surfaces that the plan does not make neighbours (``planned``: frozensets of two plate
-    names) whose boxes come within two fit tolerances of each other: kind "trim" where one is
+    names) whose boxes come within ACROSS_NEAR fit tolerances of each other: kind "trim" where one is
     a TRIM edge (a face's trim ends the plates planned on it and another face carries the
     shell on), "face" otherwise (two faces meeting along their own edges: DTMB 5415's transom
     and its hull's aft ends). Candidates only: the measurement keeps those that run along each
@@ -690,7 +693,7 @@ def _across_surfaces(records: dict, planned: set) -> list[tuple]:
     hi = np.array([e.points3.max(axis=0) for _, e, _, _ in edges])
     out = []
     for i, (name, edge, surface, tolerance) in enumerate(edges):
-        margin = 2.0 * tolerance
+        margin = ACROSS_NEAR * tolerance
         near = np.all(lo <= hi[i] + margin, axis=1) & np.all(hi >= lo[i] - margin, axis=1)
         for k in np.flatnonzero(near[i + 1:]) + i + 1:  # each two edges once
             other, theirs, their_surface, _ = edges[k]
@@ -700,7 +703,10 @@ def _across_surfaces(records: dict, planned: set) -> list[tuple]:
                 out.append((other, name, TRIM, edge.side, "trim"))
             else:
                 out.append((name, other, edge.side, theirs.side, "trim" if edge.side == TRIM else "face"))
-    return out
+    # two plates that meet at a trim meet there: the cut plate's other edges that run beside it
+    # (a seam clipped where the trim reaches the face's own edge) are the same stretch again
+    trimmed = {frozenset(pair[:2]) for pair in out if pair[4] == "trim"}
+    return [pair for pair in out if pair[4] == "trim" or frozenset(pair[:2]) not in trimmed]
 
 
 def _butt_key(hull, plane) -> tuple:
