@@ -53,6 +53,7 @@ APART = 10.0  # edges whose median distance exceeds this many fit tolerances are
 # DTMB 5415's transom stands 10-18 mm off its hull's aft end; an edge that only touches
 # another at its end lies half its length away
 ACROSS_NEAR = 5.0
+ACROSS_SLOPE = 0.1  # ... and within this share of their common length (a butt rising from a trim line at its end is no pair)
 NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
@@ -167,7 +168,7 @@ class ShellFitup:
                       "the plane where a plan cut two overlapping surfaces, the trim line where a plate cut at "
                       "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
                       "(kind face): plates of two surfaces whose edges run along each other, their median distance "
-                      "within five fit tolerances. Steps: distances between the two plates' 3D "
+                      "within five fit tolerances and a tenth of their common length. Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs), "trims": sum(p.kind == "trim" for p in self.pairs),
@@ -627,9 +628,9 @@ def shared_edges(records: dict, mm: float, thickness: float,
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
         far = np.median(steps) > APART * tolerance
-        if kind in ("trim", "face") and np.median(steps) > ACROSS_NEAR * tolerance:
+        if kind in ("trim", "face") and np.median(steps) > min(ACROSS_NEAR * tolerance, ACROSS_SLOPE * min(l3)):
             # found by its box, not by the plan: edges that only touch (a butt rising from the
-            # trim line at its end, half its length away) are no pair
+            # trim line at its end, at an angle: 15 mm median over a 40 mm common part) are no pair
             continue
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
         (apart if far else pairs).append(SharedEdge(
