@@ -120,3 +120,34 @@ def test_a_point_a_round_off_outside_the_grid_takes_the_value_on_its_edge():
     got = grid_map(params, faces, values, query)
     assert got[:, 0] == pytest.approx(2.0 * query[:, 0] + 3.0 * query[:, 1], abs=1e-9)
     assert got[0, 1] == pytest.approx(0.7, abs=1e-9)  # linear between v = 0 (0) and v = 1 (1)
+
+
+def _plate(name: str, surface: object, side: str, points3: np.ndarray):
+    """A fit-up record of a flat plate with one edge (its development: x, y of the points)."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.fitup import Edge, PlateEdges
+
+    edge = Edge(side, "TRIM" if side == "trim" else "BUTT X960", points3, points3[:, :2].copy())
+    hull = SimpleNamespace(surface=surface, fit_tolerance=5.0, girths=None, butts=(None, None))
+    return name, (PlateEdges(name, "flat", True, (edge,), points3), SimpleNamespace(hull=hull))
+
+
+@pytest.mark.parametrize(("end", "paired"), [((1000.0, 4.0, 0.0), True), ((960.0, 30.0, 0.0), False)])
+def test_an_edge_that_rises_from_a_trim_line_at_its_end_is_no_pair(end, paired):
+    """A TRIM edge along x from 0 to 1000 mm and an edge of another face's plate: one running
+    beside it 4 mm off over its whole length is its neighbour; one that rises from its end at
+    an angle (a butt of the next face: 15 mm median over a 40 mm common part, within five fit
+    tolerances) is not."""
+    from pipeline.hull.fitup import shared_edges
+
+    t = np.linspace(0.0, 1.0, 51)[:, None]
+    trim = np.hstack([1000.0 * t, np.zeros((51, 2))])
+    start = np.array([0.0, 4.0, 0.0]) if paired else np.array([1000.0, 0.0, 0.0])
+    other = start + t * (np.array(end) - start)
+    records = dict([_plate("bottom", object(), "trim", trim), _plate("side", object(), "butt0", other)])
+    pairs, apart = shared_edges(records, 1.0, 12.0)
+    assert not apart
+    assert [(p.a, p.b, p.kind) for p in pairs] == ([("bottom", "side", "trim")] if paired else [])
+    if paired:
+        assert pairs[0].step_max == pytest.approx(4.0, abs=1e-6)
