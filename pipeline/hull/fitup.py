@@ -54,6 +54,7 @@ APART = 10.0  # edges whose median distance exceeds this many fit tolerances are
 # another at its end lies half its length away
 ACROSS_NEAR = 5.0
 ACROSS_SLOPE = 0.1  # ... and within this share of their common length (a butt rising from a trim line at its end is no pair)
+ACROSS = ("trim", "face")  # the kinds of pairs found by geometry across two surfaces
 NEAR_MM = 1000.0  # candidates whose edges' boxes stay farther apart are not measured (nor reported apart)
 RULE = (f"misfit where the step between the two plates' 3D edges exceeds min({STEP_SHARE_OF_T:g} t, "
         f"{STEP_MAX_MM:g} mm) (t the thinner plate; IACS Rec. 47 butt/seam alignment), or where two flat or strip "
@@ -140,8 +141,9 @@ class ShellFitup:
     apart: tuple = field(default=())
 
     def warnings(self) -> list[str]:
-        out = [f"fit-up: {p.kind} {p.label} between {p.a} and {p.b}: the plan makes them neighbours but their edges "
-               f"lie {p.step_median:.0f} mm apart (median) near {np.round(p.worst_point, 1).tolist()}"
+        out = [f"fit-up: {p.kind} {p.label} between {p.a} and {p.b}: "
+               f"{'their faces run beside each other' if p.kind in ACROSS else 'the plan makes them neighbours'} "
+               f"but their edges lie {p.step_median:.0f} mm apart (median) near {np.round(p.worst_point, 1).tolist()}"
                for p in self.apart]
         for p in self.pairs:
             if not p.misfit:
@@ -168,7 +170,8 @@ class ShellFitup:
                       "the plane where a plan cut two overlapping surfaces, the trim line where a plate cut at "
                       "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
                       "(kind face): plates of two surfaces whose edges run along each other, their median distance "
-                      "within five fit tolerances and a tenth of their common length. Steps: distances between the two plates' 3D "
+                      f"within {ACROSS_SLOPE:g} of their common length (over {ACROSS_NEAR:g} fit tolerances: apart). "
+                      "Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
             "butts": sum(p.kind == "butt" for p in self.pairs), "trims": sum(p.kind == "trim" for p in self.pairs),
@@ -260,11 +263,14 @@ def plate_edges(result) -> PlateEdges | None:
     cut = _TrimCut(v3, flat2, shape, result.pattern.outline) if shape and "trim_cut" in result.figures else None
     for code, side in enumerate(SIDES):
         run = _longest_run(labels, code, borrow.get(side, ()))
-        if run is not None and cut is not None:  # the steel the shop cuts: inside the face's trim
-            run = cut.kept_run(flat2[ring[run]], run)
         if run is None:
             continue
         p3, p2 = v3[ring[run]], flat2[ring[run]]
+        if cut is not None:  # the steel the shop cuts: inside the face's trim
+            clipped = cut.clipped(p3, p2)
+            if clipped is None:
+                continue
+            p3, p2 = clipped
         keep = np.r_[True, np.linalg.norm(np.diff(p3, axis=0), axis=1) > 1e-6 * size]  # a collapsed seam end: one point
         if keep.sum() >= 2:
             edges.append(Edge(side, names[side], p3[keep], p2[keep]))
@@ -274,39 +280,54 @@ def plate_edges(result) -> PlateEdges | None:
 
 
 class _TrimCut:
-    """A grid plate cut at its face's trim line (:mod:`.trimcut`): which of its region's edge
-    points the shop cuts, and the part of its cut outline that runs along the trim, where the
-    shell goes on across another face (its TRIM edge). ``v3`` (R C, 3) the plate's 3D grid,
-    ``placed`` (R C, 2) its development, ``shape`` (R, C), ``outline`` (N, 2) the cut outline
-    developed; the outline's 3D points are interpolated over the grid's triangles in the
-    development (exact on a flat plate, within the grid's second-order error elsewhere)."""
+    """A grid plate cut at its face's trim line (:mod:`.trimcut`): its region's edges clipped
+    to the steel the shop cuts, and the part of its cut outline that runs along the trim,
+    where the shell goes on across another face (its TRIM edge). ``v3`` (R C, 3) the plate's
+    3D grid, ``placed`` (R C, 2) its development, ``shape`` (R, C), ``outline`` (N, 2) the cut
+    outline developed; the outline's 3D points are interpolated over the grid's triangles in
+    the development (exact on a flat plate, within the grid's second-order error elsewhere)."""
 
     def __init__(self, v3: np.ndarray, placed: np.ndarray, shape: tuple, outline: np.ndarray):
         import shapely
 
         from flatten.patch import grid_ring, grid_triangles
 
-        from .trimcut import grid_map
-
+        self.v3, self.placed, self.triangles = v3, placed, grid_triangles(*shape)
         region = grid_ring(placed.reshape(*shape, 2))
-        self.eps = 1e-6 * float(np.ptp(region, axis=0).max())
+        eps = 1e-6 * float(np.ptp(region, axis=0).max())
         outline = np.asarray(outline, dtype=np.float64)
-        self.polygon = shapely.Polygon(outline).buffer(self.eps)
-        on_region = shapely.distance(shapely.LinearRing(region), shapely.points(outline)) <= self.eps
+        self.polygon = shapely.Polygon(outline).buffer(eps)
+        # each outline segment with its midpoint: a trim cut straight across the region has no
+        # vertex of its own off the region's boundary, but its midpoint is off it
+        dense = np.empty((2 * len(outline), 2))
+        dense[0::2], dense[1::2] = outline, 0.5 * (outline + np.roll(outline, -1, axis=0))
+        on_region = shapely.distance(shapely.LinearRing(region), shapely.points(dense)) <= eps
         run = _longest_run(np.where(on_region, 0, 5), 5, (0,))  # the trim's stretch and the corners it meets
         self.edge = None
         if run is not None and len(run) >= 2:
-            p2 = outline[run]
-            p3 = grid_map(placed, grid_triangles(*shape), v3, p2)
-            self.edge = Edge(TRIM, TRIM_LABEL, p3, p2)
+            self.edge = Edge(TRIM, TRIM_LABEL, self.to_3d(dense[run]), dense[run])
 
-    def kept_run(self, developed: np.ndarray, run: np.ndarray) -> np.ndarray | None:
-        """The longest stretch of an edge's run (its developed points ``developed`` (n, 2))
-        inside the cut outline; None when less than two points are."""
+    def to_3d(self, developed: np.ndarray) -> np.ndarray:
+        """3D points (n, 3) of developed points (n, 2) of the plate."""
+        from .trimcut import grid_map
+
+        return grid_map(self.placed, self.triangles, self.v3, developed)
+
+    def clipped(self, points3: np.ndarray, points2: np.ndarray) -> tuple | None:
+        """An edge of the region (its 3D points (n, 3) and developed ones (n, 2)) clipped to
+        the cut outline: the longest piece inside it, ending where it crosses the trim (3D by
+        :meth:`to_3d`); the edge itself where it lies wholly inside; None where no piece is."""
         import shapely
 
-        length, first = _longest_stretch(shapely.contains_xy(self.polygon, developed[:, 0], developed[:, 1]))
-        return run[first:first + length] if length >= 2 else None
+        line = shapely.LineString(points2)
+        if shapely.covers(self.polygon, line):
+            return points3, points2
+        piece = line.intersection(self.polygon)
+        pieces = [g for g in getattr(piece, "geoms", [piece]) if g.geom_type == "LineString" and not g.is_empty]
+        if not pieces:
+            return None
+        kept = np.asarray(max(pieces, key=lambda g: g.length).coords)
+        return (self.to_3d(kept), kept) if len(kept) >= 2 else None
 
 
 def _on_plane(v3: np.ndarray, klass: dict) -> np.ndarray:
@@ -628,16 +649,29 @@ def shared_edges(records: dict, mm: float, thickness: float,
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
         far = np.median(steps) > APART * tolerance
-        if kind in ("trim", "face") and np.median(steps) > min(ACROSS_NEAR * tolerance, ACROSS_SLOPE * min(l3)):
-            # found by its box, not by the plan: edges that only touch (a butt rising from the
-            # trim line at its end, at an angle: 15 mm median over a 40 mm common part) are no pair
-            continue
+        if kind in ACROSS:
+            if np.median(steps) > ACROSS_SLOPE * min(l3):
+                # found by its box, not by the plan: an edge that only touches another (a butt
+                # rising from the trim line at its end, at an angle) is no pair
+                continue
+            far = np.median(steps) > ACROSS_NEAR * tolerance  # two faces that run beside each other apart
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
         (apart if far else pairs).append(SharedEdge(
             na, nb, kind, label, float(steps.max() * mm), float(np.median(steps) * mm),
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
             ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM), side_a, side_b))
-    return pairs, apart
+    return _once_across(pairs), apart
+
+
+def _once_across(pairs: list) -> list:
+    """The pairs, two plates of two surfaces that meet along a trim counted there once: their
+    TRIM edges against each other where both are cut, and no other edges of theirs beside it
+    (a seam clipped where the trim reaches the face's own edge runs along the same stretch)."""
+    both = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim" and p.side_a == TRIM == p.side_b}
+    trimmed = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim"}
+    return [p for p in pairs if p.kind not in ACROSS
+            or (p.kind == "trim" and (frozenset((p.a, p.b)) not in both or p.side_a == TRIM == p.side_b))
+            or (p.kind == "face" and frozenset((p.a, p.b)) not in trimmed)]
 
 
 def _near(a: Edge, b: Edge, margin: float) -> bool:
@@ -681,7 +715,7 @@ def _neighbours(records: dict) -> list[tuple]:
 def _across_surfaces(records: dict, planned: set) -> list[tuple]:
     """(plate a, plate b, a's side, b's side, kind) for every two edges of plates on different
     surfaces that the plan does not make neighbours (``planned``: frozensets of two plate
-    names) whose boxes come within ACROSS_NEAR fit tolerances of each other: kind "trim" where one is
+    names) whose boxes come within APART fit tolerances of each other: kind "trim" where one is
     a TRIM edge (a face's trim ends the plates planned on it and another face carries the
     shell on), "face" otherwise (two faces meeting along their own edges: DTMB 5415's transom
     and its hull's aft ends). Candidates only: the measurement keeps those that run along each
@@ -694,9 +728,10 @@ def _across_surfaces(records: dict, planned: set) -> list[tuple]:
     hi = np.array([e.points3.max(axis=0) for _, e, _, _ in edges])
     out = []
     for i, (name, edge, surface, tolerance) in enumerate(edges):
-        margin = ACROSS_NEAR * tolerance
-        near = np.all(lo <= hi[i] + margin, axis=1) & np.all(hi >= lo[i] - margin, axis=1)
-        for k in np.flatnonzero(near[i + 1:]) + i + 1:  # each two edges once
+        margin = APART * tolerance  # further apart than ACROSS_NEAR: measured, and listed apart
+        after = slice(i + 1, None)  # each two edges once
+        near = np.all(lo[after] <= hi[i] + margin, axis=1) & np.all(hi[after] >= lo[i] - margin, axis=1)
+        for k in np.flatnonzero(near) + i + 1:
             other, theirs, their_surface, _ = edges[k]
             if their_surface == surface or frozenset((name, other)) in planned:
                 continue
@@ -704,10 +739,7 @@ def _across_surfaces(records: dict, planned: set) -> list[tuple]:
                 out.append((other, name, TRIM, edge.side, "trim"))
             else:
                 out.append((name, other, edge.side, theirs.side, "trim" if edge.side == TRIM else "face"))
-    # two plates that meet at a trim meet there: the cut plate's other edges that run beside it
-    # (a seam clipped where the trim reaches the face's own edge) are the same stretch again
-    trimmed = {frozenset(pair[:2]) for pair in out if pair[4] == "trim"}
-    return [pair for pair in out if pair[4] == "trim" or frozenset(pair[:2]) not in trimmed]
+    return out
 
 
 def _butt_key(hull, plane) -> tuple:

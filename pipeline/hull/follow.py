@@ -256,7 +256,7 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
         for name, other, kind in ((q.a, q.b, kinds[0]), (q.b, q.a, kinds[1])):
             # a plate cut at its face's trim stays flat: a strip is not cut at a trim (its
             # outline is the trimmed strip's), so it would be delivered past the trim
-            if kind == "flat" and "trim_cut" not in (records[name][1].hull.result.figures or {}):
+            if kind == "flat" and "trim_cut" not in records[name][1].hull.result.figures:
                 entry = wanted.setdefault(name, {"step_mm": 0.0, "neighbours": []})
                 entry["step_mm"] = max(entry["step_mm"], float(q.step_max))
                 entry["neighbours"] = sorted({*entry["neighbours"], other})
@@ -536,7 +536,7 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
     best = np.full(total, np.inf)
     across = {}  # unknown -> its neighbour across a shared edge: ((another plate's unknown, weight), ...)
     paired = {name: set() for name in names}  # the sides each plate shares with a neighbour
-    halfways = []  # (plate, side, the formed neighbour's edge, offset, reach): two formed plates that step
+    halfways = []  # (plate, side, the formed neighbour's edge, offset, reach, share): two formed plates that step
     for pair in pairs:
         # two formed plates that step as developed (two faces that disagree where a plan cut
         # them; rows of one face that part at a trim or the grids' chords): each is formed to
@@ -554,15 +554,18 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
                 _anchor(plate, mine, records[other][0].edge(theirs), mm_per_unit, start[me], fixed, value, best)
             elif halfway:  # their corners too: the step may exceed twice the tolerance
                 reach = max(4.0 * plate.hull.fit_tolerance, 1.01 * pair.step_max / mm_per_unit)
-                halfways.append((plate, mine, records[other][0].edge(theirs), start[me], reach))
+                # all the way where the other cannot move: a formed plate's TRIM edge (no grid line)
+                share = 0.5 if theirs in CODES else 1.0
+                halfways.append((plate, mine, records[other][0].edge(theirs), start[me], reach, share))
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
     _junction_corners(grids, names, start, pairs, records, fixed, value, best)
     # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
     # meet those, and can meet its formed neighbour halfway only where nothing else holds it
     best = np.where(fixed, -np.inf, best)
-    for plate, mine, edge, offset, reach in halfways:
-        _anchor(plate, mine, edge, mm_per_unit, offset, fixed, value, best, share=0.5, reach=reach, corner_reach=reach)
+    for plate, mine, edge, offset, reach, share in halfways:
+        _anchor(plate, mine, edge, mm_per_unit, offset, fixed, value, best, share=share, reach=reach,
+                corner_reach=reach)
     # the ring's points that meet nobody (the shell's free edges) stay on the hull, and so do
     # the corners on a free edge that the plate's other side joins to a formed neighbour
     for name in names:

@@ -281,7 +281,7 @@ def _run_plate(result: PartResult, config: RunConfig, patch_only: str = "", edge
                           f"edges nearest the hull ({held.edge_max_distance:.3g} off, limit {edge_limit:.3g})")
             return
     # (not a plate that reaches past its face's trim: a strip is not cut at a trim)
-    if edge_limit is not None and hull.developable and (hull.trim is None or hull.inside_trim >= 1.0) and \
+    if edge_limit is not None and hull.developable and hull.trim is None and \
             _edge_held_strip(result, config, grid, area3, corner_tol, edge_limit):
         return
     if patch_only:

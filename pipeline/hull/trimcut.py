@@ -63,11 +63,15 @@ def _kept(trim, params: np.ndarray):
     return region, region.intersection(trim.polygon(u0 - pad, v0 - pad, u1 + pad, v1 + pad))
 
 
+ROUND_OFF = 1e-6  # barycentric: a query this far outside a grid triangle lies on its edge
+
+
 def grid_map(params: np.ndarray, faces: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
     """``values`` (N, k) given at the grid's points ``params`` (N, 2), interpolated linearly
     over the grid's own triangles ``faces`` at ``query`` (M, 2); a query just outside the
     grid (round-off on its edge: a corner where a trim meets the region's boundary) takes
-    the value at its closest point of the triangle it misses least (:func:`_nearest_triangle`)."""
+    the value on the triangle it misses least (:func:`_nearest_triangle`), one further out its
+    nearest grid point's."""
     from matplotlib.tri import LinearTriInterpolator, Triangulation
 
     a, b, c = (params[faces[:, k]] for k in range(3))
@@ -86,9 +90,11 @@ def _nearest_triangle(params: np.ndarray, faces: np.ndarray, values: np.ndarray,
                       candidates: int = 8) -> np.ndarray:
     """``values`` (N, k) interpolated at queries (M, 2) outside the triangles ``faces`` (F, 3)
     of the points ``params`` (N, 2): on the triangle, of the ``candidates`` whose centroids lie
-    nearest, whose barycentric coordinates go least negative, at those coordinates clipped
-    to it (a query a round-off outside an edge takes the edge's value there; a grid point's
-    value instead would be up to half a cell away)."""
+    nearest, whose barycentric coordinates go least negative, with those coordinates clipped
+    to zero and scaled to sum to one (a query a round-off outside an edge takes the edge's
+    value there; a grid point's value instead would be up to half a cell away). A query that
+    misses every candidate by more than ROUND_OFF in barycentric terms takes its nearest
+    grid point's value."""
     from scipy.spatial import cKDTree
 
     k = min(candidates, len(faces))
@@ -104,4 +110,8 @@ def _nearest_triangle(params: np.ndarray, faces: np.ndarray, values: np.ndarray,
     rows = np.arange(len(query))
     weights = np.clip(bary[rows, pick], 0.0, None)
     weights /= weights.sum(axis=1, keepdims=True)
-    return np.einsum("mj,mjk->mk", weights, values[tri[rows, pick]])
+    out = np.einsum("mj,mjk->mk", weights, values[tri[rows, pick]])
+    far = bary[rows, pick].min(axis=1) < -ROUND_OFF
+    if far.any():
+        out[far] = values[cKDTree(params).query(query[far])[1]]
+    return out
