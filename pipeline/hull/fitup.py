@@ -297,15 +297,15 @@ class _TrimCut:
         eps = 1e-6 * float(np.ptp(region, axis=0).max())
         outline = np.asarray(outline, dtype=np.float64)
         self.polygon = shapely.Polygon(outline).buffer(eps)
-        # each outline segment with its midpoint: a trim cut straight across the region has no
-        # vertex of its own off the region's boundary, but its midpoint is off it
-        dense = np.empty((2 * len(outline), 2))
-        dense[0::2], dense[1::2] = outline, 0.5 * (outline + np.roll(outline, -1, axis=0))
-        on_region = shapely.distance(shapely.LinearRing(region), shapely.points(dense)) <= eps
-        run = _longest_run(np.where(on_region, 0, 5), 5, (0,))  # the trim's stretch and the corners it meets
+        # an outline segment runs along the trim where its midpoint lies off the region's
+        # boundary (a trim cut straight across the region has no vertex of its own off it), and
+        # a vertex is the trim's where a segment of the trim ends there (its corners included)
+        midpoints = 0.5 * (outline + np.roll(outline, -1, axis=0))
+        along = shapely.distance(shapely.LinearRing(region), shapely.points(midpoints)) > eps
+        run = _longest_run(np.where(along | np.roll(along, 1), 5, 0), 5, ())
         self.edge = None
         if run is not None and len(run) >= 2:
-            self.edge = Edge(TRIM, TRIM_LABEL, self.to_3d(dense[run]), dense[run])
+            self.edge = Edge(TRIM, TRIM_LABEL, self.to_3d(outline[run]), outline[run])
 
     def to_3d(self, developed: np.ndarray) -> np.ndarray:
         """3D points (n, 3) of developed points (n, 2) of the plate."""
