@@ -170,7 +170,8 @@ class ShellFitup:
                       "the plane where a plan cut two overlapping surfaces, the trim line where a plate cut at "
                       "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
                       "(kind face): plates of two surfaces whose edges run along each other, their median distance "
-                      f"within {ACROSS_SLOPE:g} of their common length (over {ACROSS_NEAR:g} fit tolerances: apart). "
+                      f"within {ACROSS_SLOPE:g} of their common length (over {ACROSS_NEAR:g} fit tolerances: apart; "
+                      f"over {APART:g}: no pair). "
                       "Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
@@ -650,9 +651,9 @@ def shared_edges(records: dict, mm: float, thickness: float,
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
         far = np.median(steps) > APART * tolerance
         if kind in ACROSS:
-            if np.median(steps) > ACROSS_SLOPE * min(l3):
+            if far or np.median(steps) > ACROSS_SLOPE * min(l3):
                 # found by its box, not by the plan: an edge that only touches another (a butt
-                # rising from the trim line at its end, at an angle) is no pair
+                # rising from the trim line at its end, at an angle) or crosses it is no pair
                 continue
             far = np.median(steps) > ACROSS_NEAR * tolerance  # two faces that run beside each other apart
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
@@ -660,7 +661,9 @@ def shared_edges(records: dict, mm: float, thickness: float,
             na, nb, kind, label, float(steps.max() * mm), float(np.median(steps) * mm),
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
             ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM), side_a, side_b))
-    return _once_across(pairs), apart
+    pairs = _once_across(pairs)
+    met = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim"}
+    return pairs, [p for p in apart if p.kind not in ACROSS or frozenset((p.a, p.b)) not in met]
 
 
 def _once_across(pairs: list) -> list:
