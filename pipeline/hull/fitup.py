@@ -171,7 +171,7 @@ class ShellFitup:
                       "its face's trim meets a plate of another surface (kind trim), or two faces' own edges "
                       "(kind face): plates of two surfaces whose edges run along each other, their median distance "
                       f"within {ACROSS_SLOPE:g} of their common length (over {ACROSS_NEAR:g} fit tolerances: apart; "
-                      f"over {APART:g}: no pair). "
+                      f"over {APART:g}, or a common part under {ACROSS_NEAR:g} tolerances: no pair). "
                       "Steps: distances between the two plates' 3D "
                       "edges both ways along their common part; lengths: of that common part, in 3D and developed"),
             "shared_edges": len(self.pairs), "seams": sum(p.kind == "seam" for p in self.pairs),
@@ -651,9 +651,10 @@ def shared_edges(records: dict, mm: float, thickness: float,
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
         far = np.median(steps) > APART * tolerance
         if kind in ACROSS:
-            if far or np.median(steps) > ACROSS_SLOPE * min(l3):
+            if far or np.median(steps) > ACROSS_SLOPE * min(l3) or min(l3) < ACROSS_NEAR * tolerance:
                 # found by its box, not by the plan: an edge that only touches another (a butt
-                # rising from the trim line at its end, at an angle) or crosses it is no pair
+                # rising from the trim line at its end, at an angle), crosses it or shares a
+                # stub of it (a 33 mm leftover's end) is no pair
                 continue
             far = np.median(steps) > ACROSS_NEAR * tolerance  # two faces that run beside each other apart
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
