@@ -261,7 +261,9 @@ def plate_edges(result) -> PlateEdges | None:
     names = dict(zip(SIDES, tuple(hull.seam_names) + tuple(hull.butt_names)))
     edges = []
     size = float(np.ptp(v3[ring], axis=0).max())
-    cut = _TrimCut(v3, flat2, shape, result.pattern.outline) if shape and "trim_cut" in result.figures else None
+    # a plate that reaches past its face's trim (``hull.trim``: set only then) is cut there;
+    # an incomplete formed plate keeps no trim_cut figures but is cut all the same
+    cut = _TrimCut(v3, flat2, shape, result.pattern.outline) if shape and getattr(hull, "trim", None) else None
     for code, side in enumerate(SIDES):
         run = _longest_run(labels, code, borrow.get(side, ()))
         if run is None:

@@ -256,7 +256,7 @@ def _flats_as_strips(plates: list, records: dict, pairs: list, evaluate_many, mm
         for name, other, kind in ((q.a, q.b, kinds[0]), (q.b, q.a, kinds[1])):
             # a plate cut at its face's trim stays flat: a strip is not cut at a trim (its
             # outline is the trimmed strip's), so it would be delivered past the trim
-            if kind == "flat" and "trim_cut" not in records[name][1].hull.result.figures:
+            if kind == "flat" and records[name][1].hull.trim is None:
                 entry = wanted.setdefault(name, {"step_mm": 0.0, "neighbours": []})
                 entry["step_mm"] = max(entry["step_mm"], float(q.step_max))
                 entry["neighbours"] = sorted({*entry["neighbours"], other})
