@@ -402,19 +402,6 @@ def _strip_ring(strip, hull) -> tuple[np.ndarray, np.ndarray]:
     return ring, codes
 
 
-def _longest_stretch(hit: np.ndarray) -> tuple[int, int]:
-    """(length, first index) of the longest stretch of True in ``hit`` (n,), the later of two
-    as long; (0, 0) when there is none. Not cyclic."""
-    best, begin = (0, 0), None
-    for i, h in enumerate(np.r_[hit, False]):
-        if h and begin is None:
-            begin = i
-        elif not h and begin is not None:
-            best = max(best, (i - begin, begin))
-            begin = None
-    return best
-
-
 def _longest_run(codes: np.ndarray, code: int, borrow: tuple) -> np.ndarray | None:
     """Ring positions of the longest cyclic run of ``code``, and its neighbour either side
     where that neighbour's code is in ``borrow`` (the corners it shares with the adjacent
@@ -426,7 +413,15 @@ def _longest_run(codes: np.ndarray, code: int, borrow: tuple) -> np.ndarray | No
     if hit.all():
         return np.arange(n)
     start = int(np.flatnonzero(~hit)[0])  # roll so that no run wraps around
-    length, first = _longest_stretch(np.roll(hit, -start))
+    rolled = np.roll(hit, -start)
+    best, begin = (0, 0), None
+    for i, h in enumerate(np.r_[rolled, False]):
+        if h and begin is None:
+            begin = i
+        elif not h and begin is not None:
+            best = max(best, (i - begin, begin))
+            begin = None
+    length, first = best
     lo, hi = (first - 1 + start) % n, (first + length + start) % n
     run = (np.arange(first, first + length) + start) % n
     return np.r_[[lo] if codes[lo] in borrow else [], run, [hi] if codes[hi] in borrow else []].astype(int)
@@ -651,33 +646,34 @@ def shared_edges(records: dict, mm: float, thickness: float,
         steps, where, l3, l2 = got
         t = min(_thickness(pa, thickness), _thickness(pb, thickness))
         tolerance = min(pa.hull.fit_tolerance, pb.hull.fit_tolerance)
-        far = np.median(steps) > APART * tolerance
+        median = float(np.median(steps))
+        far = median > APART * tolerance
         if kind in ACROSS:
-            if far or np.median(steps) > ACROSS_SLOPE * min(l3) or min(l3) < ACROSS_NEAR * tolerance:
+            if far or median > ACROSS_SLOPE * min(l3) or min(l3) < ACROSS_NEAR * tolerance:
                 # found by its box, not by the plan: an edge that only touches another (a butt
                 # rising from the trim line at its end, at an angle), crosses it or shares a
                 # stub of it (a 33 mm leftover's end) is no pair
                 continue
-            far = np.median(steps) > ACROSS_NEAR * tolerance  # two faces that run beside each other apart
+            far = median > ACROSS_NEAR * tolerance  # two faces that run beside each other apart
         label = f"{ea.label} | {eb.label}" if kind == "face" else ea.label  # two faces' edges: both names
         (apart if far else pairs).append(SharedEdge(
-            na, nb, kind, label, float(steps.max() * mm), float(np.median(steps) * mm),
+            na, nb, kind, label, float(steps.max() * mm), median * mm,
             tuple(float(x) for x in where), (l3[0] * mm, l3[1] * mm), (l2[0] * mm, l2[1] * mm),
             ra.isometric and rb.isometric, min(STEP_SHARE_OF_T * t, STEP_MAX_MM), side_a, side_b))
-    pairs = _once_across(pairs)
-    met = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim"}
-    return pairs, [p for p in apart if p.kind not in ACROSS or frozenset((p.a, p.b)) not in met]
+    return _once_across(pairs, apart)
 
 
-def _once_across(pairs: list) -> list:
-    """The pairs, two plates of two surfaces that meet along a trim counted there once: their
-    TRIM edges against each other where both are cut, and no other edges of theirs beside it
-    (a seam clipped where the trim reaches the face's own edge runs along the same stretch)."""
+def _once_across(pairs: list, apart: list) -> tuple[list, list]:
+    """(pairs, apart), two plates of two surfaces that meet along a trim counted there once:
+    their TRIM edges against each other where both are cut, and no other edges of theirs
+    beside it, paired or apart (a seam clipped where the trim reaches the face's own edge, or
+    crossing the trim line, runs along the same stretch)."""
     both = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim" and p.side_a == TRIM == p.side_b}
-    trimmed = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim"}
-    return [p for p in pairs if p.kind not in ACROSS
-            or (p.kind == "trim" and (frozenset((p.a, p.b)) not in both or p.side_a == TRIM == p.side_b))
-            or (p.kind == "face" and frozenset((p.a, p.b)) not in trimmed)]
+    met = {frozenset((p.a, p.b)) for p in pairs if p.kind == "trim"}
+    return ([p for p in pairs if p.kind not in ACROSS
+             or (p.kind == "trim" and (frozenset((p.a, p.b)) not in both or p.side_a == TRIM == p.side_b))
+             or (p.kind == "face" and frozenset((p.a, p.b)) not in met)],
+            [p for p in apart if p.kind not in ACROSS or frozenset((p.a, p.b)) not in met])
 
 
 def _near(a: Edge, b: Edge, margin: float) -> bool:

@@ -97,15 +97,12 @@ def _nearest_triangle(params: np.ndarray, faces: np.ndarray, values: np.ndarray,
     grid point's value."""
     from scipy.spatial import cKDTree
 
+    from flatten.trim import barycentric
+
     k = min(candidates, len(faces))
     _, near = cKDTree(params[faces].mean(axis=1)).query(query, k=k)
     tri = faces[np.asarray(near).reshape(len(query), k)]  # (M, k, 3)
-    a, b, c = (params[tri[..., j]] for j in range(3))
-    e1, e2, q = b - a, c - a, query[:, None, :] - a
-    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
-    s = (q[..., 0] * e2[..., 1] - q[..., 1] * e2[..., 0]) / det
-    t = (e1[..., 0] * q[..., 1] - e1[..., 1] * q[..., 0]) / det
-    bary = np.stack([1.0 - s - t, s, t], axis=-1)  # (M, k, 3)
+    bary = barycentric(np.repeat(query, k, axis=0), params[tri].reshape(-1, 3, 2)).reshape(len(query), k, 3)
     pick = np.argmax(bary.min(axis=-1), axis=1)
     rows = np.arange(len(query))
     weights = np.clip(bary[rows, pick], 0.0, None)
