@@ -113,6 +113,33 @@ def test_a_trim_cut_straight_across_a_plate_is_its_trim_edge():
     assert sorted(edge.points3[[0, -1], 0]) == pytest.approx([0.0, 2000.0])
 
 
+def test_a_trim_loop_along_the_regions_side_keeps_the_sides_grid_points():
+    """A trim loop that runs along the region's side (a face's own edge), a round-off off it,
+    cuts a formed plate along its developed side through the side's grid points, not straight
+    across between the loop's corners (KVLCC2's 33 mm leftover, formed: its seam was cut as a
+    chord and taken for its TRIM edge)."""
+    from types import SimpleNamespace
+
+    from shapely.geometry import Polygon
+
+    from flatten.patch import grid_triangles
+    from pipeline.hull.fitup import _TrimCut
+    from pipeline.hull.trimcut import cut_at_trim
+
+    trim = SimpleNamespace(polygon=lambda *box: Polygon([(0.0, 1e-12), (4.0, 1e-12), (4.0, 1.0)]),
+                           inside=lambda u, v: v <= u / 4.0)
+    u, v = np.meshgrid(np.linspace(0.0, 4.0, 5), np.linspace(0.0, 1.0, 3), indexing="ij")
+    params = np.stack([u, v], axis=-1)
+    placed = np.column_stack([1000.0 * u.ravel(), 1000.0 * v.ravel() + 100.0 * u.ravel() ** 2])  # a curved side
+    cut = cut_at_trim(trim, params, placed, grid_triangles(5, 3))
+    side = placed.reshape(5, 3, 2)[:, 0]
+    assert all(np.linalg.norm(cut.outline - p, axis=1).min() < 1e-6 for p in side)
+    v3 = np.column_stack([placed, np.zeros(15)])
+    edge = _TrimCut(v3, placed, (5, 3), cut.outline).edge
+    assert len(edge.points2) == 2  # the diagonal, corner to corner: none of the side
+    assert sorted(map(tuple, np.round(edge.points2, 6))) == [(0.0, 0.0), (4000.0, 2600.0)]
+
+
 def test_a_gap_at_the_knuckle_is_a_misfit_at_the_trim(knuckles):
     """The bilge raised 4 mm off the bottom: the same pairs, each stepping by the gap, over
     the limit of 0.15 t = 1.8 mm."""

@@ -40,9 +40,26 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
         return TrimCut(np.zeros((0, 2)), np.zeros((0, 2)), inside)
     if kept.geom_type != "Polygon":  # the trim leaves pieces: the plate is the largest
         kept = max(getattr(kept, "geoms", [kept]), key=lambda g: g.area)
+    kept = _with_region_points(kept, region, params)
     uv = np.asarray(kept.exterior.coords)[:-1]
     flat = grid_map(flat_params, faces, placed, uv)
     return TrimCut(flat, uv, inside)
+
+
+SNAP = 1e-9  # of the region's smaller extent in (u, v): a grid point this near the cut outline lies on it
+
+
+def _with_region_points(kept, region, params: np.ndarray):
+    """The cut outline with the region's boundary grid points that lie on it put back: where
+    a trim loop runs along the region's side (a face's own edge: KVLCC2's centreline) the
+    intersection keeps the loop's vertices, and the outline mapped to a curved development
+    (a formed plate) would cut straight across its side between them."""
+    import shapely
+
+    from flatten.patch import grid_ring
+
+    u0, v0, u1, v1 = region.bounds
+    return shapely.snap(kept, shapely.MultiPoint(grid_ring(params)), SNAP * min(u1 - u0, v1 - v0))
 
 
 def outside_trim(trim, params: np.ndarray) -> bool:
