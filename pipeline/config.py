@@ -688,6 +688,10 @@ class PlanSpec(_Strict):
     overlaps: Literal["cut", "fair"] = Field("cut", description="faces that lie on each other: each keeps its "
                                              "side of a transverse cut (cut), or one is also faired into the "
                                              "other over the overlap so that the two meet at the cut (fair)")
+    junctions: Literal["keep", "fair"] = Field("keep", description="untrimmed faces that meet along a side of one "
+                                               "of them with a gap: kept as the file gives them (keep), or that "
+                                               "side faired onto the other face so that they meet (fair; "
+                                               "pipeline.hull.fairing.fair_junctions)")
 
 
 class StrakeSpec(_Strict):
@@ -870,7 +874,7 @@ class RunConfig:
         self.spec, self.parts, self.source = spec, parts, source
         self.lines = lines or {}  # key path -> line of the YAML source, for later messages
         self.plan_record = None  # what an adaptive plan evaluated (pipeline.hull.planner.PlanRecord)
-        self.plan_fairings = None  # what plan.overlaps: fair did, one dict per overlap (pipeline.hull.fairing)
+        self.plan_fairings = None  # what plan.overlaps / plan.junctions: fair did, one dict each (pipeline.hull.fairing)
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
         self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
 

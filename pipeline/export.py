@@ -360,8 +360,12 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
             extra["shell"]["repair"] = config.fitup_repair.as_dict()
         if getattr(config, "fitup_follow", None) is not None:
             extra["shell"]["follow"] = config.fitup_follow.as_dict()
-    if getattr(config, "plan_fairings", None):  # faces faired into the faces they overlap
-        extra["faired_overlaps"] = config.plan_fairings
+    for kind, key in (("overlap", "faired_overlaps"), ("junction", "faired_junctions")):
+        # faces faired into the faces they overlap, or onto the faces they meet
+        done = [{k: v for k, v in f.items() if k != "kind"} for f in getattr(config, "plan_fairings", None) or []
+                if f["kind"] == kind]
+        if done:
+            extra[key] = done
     models = model_sources(config)
     if models:  # a hull read as a model of faces: what its faces make as a shell
         from .hull.sewing import model_reports

@@ -13,7 +13,13 @@ import yaml
 
 from flatten.surface import nurbs_surface
 from pipeline.hull import fairing
-from pipeline.hull.fairing import fair_into, fair_overlaps, ramp
+from pipeline.hull.fairing import (
+    RAMP_PER_GAP,
+    fair_into,
+    fair_junctions,
+    fair_overlaps,
+    ramp,
+)
 from pipeline.hull.sewing import overlap_cuts
 
 SHIP = Path(__file__).parent / "data" / "ship"
@@ -165,3 +171,81 @@ def test_inspect_points_to_fairing_where_faces_overlap(capsys):
     out = capsys.readouterr().out
     overlap = next(line for line in out.splitlines() if line.startswith("overlap:"))
     assert "faces 0 and 1" in overlap and "overlaps: fair" in overlap
+
+
+def plane_face(x0: float, x1: float, z: float, width: float = 3000.0, spans: int = 4):
+    """The plane z = ``z`` over x0..x1, y 0..``width`` (mm), cubic along x on ``spans`` spans."""
+    xs, ys = np.linspace(x0, x1, spans + 3), np.linspace(0.0, width, 4)
+    poles = np.array([[[x, y, z] for y in ys] for x in xs])
+    knots_u = np.concatenate([[0.0] * 4, np.arange(1, spans) / spans, [1.0] * 4])
+    return nurbs_surface(3, 3, poles, knots_u, [0.0] * 4 + [1.0] * 4, name=f"z{z:g}")
+
+
+def test_a_face_whose_end_stands_off_the_next_face_is_faired_onto_it_in_closed_form():
+    """A bottom plane (x 0..10000 at z = 0) ends 12 mm below the next face (x 10000..12000 at
+    z = 12): the longer face's end moves onto the other face, behind it z = 12 ramp(x) over
+    RAMP_PER_GAP x 12 mm, and the rest of it stays where it was."""
+    gap, tolerance = 12.0, 5.0
+    faces = [plane_face(0.0, 10000.0, 0.0), plane_face(10000.0, 12000.0, gap)]
+    out, (made,) = fair_junctions(faces, [None, None], [(None, None)] * 2, tolerance)
+    assert made.taken and made.kind == "junction" and (made.face, made.onto) == (0, 1) and out[1] is faces[1]
+    start = 10000.0 - RAMP_PER_GAP * gap
+    assert made.ramp_x == pytest.approx((start, 10000.0), abs=1.0)
+    assert made.step_at_cut_before == pytest.approx(gap, rel=1e-6) and made.step_at_cut_after < 0.01 * gap
+    u, v = np.linspace(0.0, 1.0, 201), np.linspace(0.0, 1.0, 31)
+    before, after = faces[0].grid(u, v), out[0].grid(u, v)
+    expected = gap * ramp(before[..., 0], start, 10000.0)
+    assert np.abs(after[..., 2] - expected).max() <= 1.5 * made.refit_error + 1e-6 < 0.02 * gap
+    assert np.abs(after[..., :2] - before[..., :2]).max() < 1e-6  # the move runs along z only
+    assert np.abs(after - before)[before[..., 0] < 5000.0].max() < 1e-9 * 10000.0  # two spans off: untouched
+    assert "faired onto the junction with face 2" in made.note() and made.as_dict()["gap_after_mm"] < 0.12
+
+
+def test_faces_that_meet_within_half_the_tolerance_are_left_alone():
+    faces = [plane_face(0.0, 10000.0, 0.0), plane_face(10000.0, 12000.0, 2.0)]
+    out, done = fair_junctions(faces, [None, None], [(None, None)] * 2, 5.0)
+    assert done == [] and all(o is f for o, f in zip(out, faces))
+
+
+def test_a_trimmed_face_or_an_overlapping_pair_is_not_faired_at_its_sides():
+    faces = [plane_face(0.0, 10000.0, 0.0), plane_face(10000.0, 12000.0, 12.0)]
+    assert fair_junctions(faces, [object(), None], [(None, None)] * 2, 5.0)[1] == []
+    assert fair_junctions(faces, [None, None], [(None, None)] * 2, 5.0, frozenset([frozenset((0, 1))]))[1] == []
+    # sides outside the faces' kept x ranges (cuts before them) are on no junction
+    assert fair_junctions(faces, [None, None], [(None, 9000.0), (11000.0, None)], 5.0)[1] == []
+
+
+def test_dtmb5415s_hull_end_meets_its_stern_face_when_faired(tmp_path):
+    """The main hull's aft end stands up to 15 mm off the stern face at ship scale (where the
+    closest-point search from the stern's collapsed side would say 76 mm): faired onto it,
+    its side lies on the stern face within a tenth of a millimetre; the stern keeps the file's
+    surface."""
+    from flatten.closest import SurfaceDistance
+    from pipeline.hull.fairing import SIDES, feet, side_gaps
+    from pipeline.hull.plan import load_run
+
+    path = _dtmb_config(tmp_path, "fair")
+    data = yaml.safe_load(path.read_text())
+    data["strake"]["plan"]["surfaces"].append({"iges": str(SHIP / "ship_5415.igs"), "directory": 9})
+    runs = {}
+    for how in ("keep", "fair"):
+        data["strake"]["plan"]["junctions"] = how
+        path.write_text(yaml.safe_dump(data))
+        runs[how] = load_run(path)
+    junctions = [f for f in runs["fair"].plan_fairings if f["kind"] == "junction"]
+    assert [f["kind"] for f in runs["keep"].plan_fairings] == ["overlap"]
+    assert len(junctions) == 1 and junctions[0]["taken"] and (junctions[0]["face"], junctions[0]["onto"]) == (1, 3)
+    assert 10.0 < junctions[0]["gap_before_mm"] < 20.0 and junctions[0]["gap_after_mm"] < 0.1
+
+    def surface(run, tag):
+        return next(p.hull.surface for p in run.parts if tag in p.name)
+
+    stern = SurfaceDistance(surface(runs["fair"], "_P3_"), grid=60)
+    assert np.array_equal(surface(runs["keep"], "_P3_").poles, stern.surfaces[0].poles)
+    aft = SIDES[1]  # the main hull's aft end: u = u1
+    before = side_gaps(surface(runs["keep"], "_P1_"), aft, stern)
+    after = side_gaps(surface(runs["fair"], "_P1_"), aft, stern)
+    assert 10.0 < before.max() < 20.0 and after.max() < 0.1
+    # the search from the nearest seed alone stops on the stern's collapsed side
+    _, points = fairing._side_points(surface(runs["keep"], "_P1_"), aft, np.linspace(0.0, 0.15, 7))
+    assert stern.closest(points)[1].max() > 50.0 and feet(stern, points)[1].max() < 10.0

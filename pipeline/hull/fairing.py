@@ -34,6 +34,11 @@ SAMPLES_PER_SPAN = 4  # least-squares samples per refined knot span and directio
 REFINE = 8  # a knot span the ramp touches is cut into this many
 SECTION_LINES = 200  # points of the cut's section measured against the other face
 REFIT_SHARE = 0.25  # of the fit tolerance: a refit that strays further from the intended move is not taken
+JUNCTION_REACH = 10.0  # fit tolerances: a point of a face's side this near the other face lies on their junction
+JUNCTION_SIDE = 0.9  # of a face's side on the junction: the side runs along it
+JUNCTION_GAP = 0.5  # of the fit tolerance: faces that meet further apart than this are faired
+RAMP_PER_GAP = 200.0  # a junction's ramp runs this many times the widest gap it closes (a slope of 0.5 %)
+SIDE_SAMPLES = 61  # points of a face's side measured against the other face
 
 
 @dataclass(frozen=True)
@@ -51,6 +56,7 @@ class Fairing:
     poles: tuple[int, int]  # of the refitted face
     taken: bool = True  # False: the face was left as the file gives it (``reason``)
     reason: str = ""
+    kind: str = "overlap"  # "overlap": over the stretch two faces share, up to the cut; "junction": at a side
 
     def as_dict(self, mm_per_unit: float = 1.0) -> dict:
         """Lengths in mm; faces numbered from 1 as the plates' notes number them (1: the
@@ -60,17 +66,22 @@ class Fairing:
         for key in ("moved_max", "moved_median", "refit_error", "step_at_cut_before", "step_at_cut_after"):
             out[f"{key}_mm"] = round(out.pop(key) * mm_per_unit, 4)
         out["ramp_x_mm"] = [round(x * mm_per_unit, 3) for x in out.pop("ramp_x")]
+        if self.kind == "junction":  # the widest gap along the junction, not a step at a cut
+            for when in ("before", "after"):
+                out[f"gap_{when}_mm"] = out.pop(f"step_at_cut_{when}_mm")
         return out
 
     def note(self, mm_per_unit: float = 1.0) -> str:
         """One line for the plates of both faces."""
         mm = mm_per_unit
         where = f"over x {self.ramp_x[0] * mm:.0f}..{self.ramp_x[1] * mm:.0f} mm"
+        into = "into" if self.kind == "overlap" else "onto the junction with"
         if not self.taken:
-            return f"face {self.face + 1} not faired into face {self.onto + 1} {where}: {self.reason}"
-        return (f"face {self.face + 1} faired into face {self.onto + 1} {where}: moved up to "
+            return f"face {self.face + 1} not faired {into} face {self.onto + 1} {where}: {self.reason}"
+        at = "at the cut" if self.kind == "overlap" else "at the junction (widest)"
+        return (f"face {self.face + 1} faired {into} face {self.onto + 1} {where}: moved up to "
                 f"{self.moved_max * mm:.3g} mm ({self.moved_median * mm:.3g} median), refit within "
-                f"{self.refit_error * mm:.3g} mm, step at the cut {self.step_at_cut_before * mm:.3g} -> "
+                f"{self.refit_error * mm:.3g} mm, step {at} {self.step_at_cut_before * mm:.3g} -> "
                 f"{self.step_at_cut_after * mm:.3g} mm")
 
 
@@ -108,6 +119,165 @@ def fair_overlaps(surfaces: list, overlaps: list, limits: list, tolerance: float
     return out, done
 
 
+SIDES = ((0, 0), (0, 1), (1, 0), (1, 1))  # (parameter, end): the sides u = u0, u = u1, v = v0, v = v1
+
+
+def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
+                   skip: frozenset = frozenset()) -> tuple[list, list[Fairing]]:
+    """The surfaces with, of each two untrimmed faces that meet along a side of one of them
+    further apart than JUNCTION_GAP of the fit tolerance (DTMB 5415's hull ends 10-33 mm off
+    its stern face at ship scale), that side faired onto the other face
+    (:func:`fair_side_onto`, over RAMP_PER_GAP times the widest gap). Of two sides along one
+    junction the one on the face the ramp reaches least far into moves (the fairing stays
+    local). ``trims``: each face's trim (None: untrimmed); ``limits``: each face's kept x range
+    (None for its own end): a side point outside it is not on a junction; ``skip``: pairs of
+    faces (frozensets) that overlap, faired as such. Taken on the rules of
+    :func:`fair_overlaps`; the ones not taken are returned too, with the reason."""
+    out, done = list(surfaces), []
+    reach = JUNCTION_REACH * tolerance
+    for a in range(len(out)):
+        for b in range(a + 1, len(out)):
+            if trims[a] is not None or trims[b] is not None or frozenset((a, b)) in skip:
+                continue
+            sides = []
+            for k, other in ((a, b), (b, a)):
+                distance = SurfaceDistance(out[other], grid=60)
+                for side in SIDES:
+                    gaps = side_gaps(out[k], side, distance, limits[k])
+                    on = gaps <= reach
+                    if on.mean() >= JUNCTION_SIDE:
+                        sides.append((k, other, side, float(gaps[on].max())))
+            if not sides or max(widest for *_, widest in sides) <= JUNCTION_GAP * tolerance:
+                continue
+            k, other, side, widest = max(sides, key=lambda c: _depth(out[c[0]], c[2]))
+            faired, fairing = fair_side_onto(out[k], out[other], side, RAMP_PER_GAP * widest, reach, k, other)
+            if fairing.refit_error > REFIT_SHARE * tolerance:
+                fairing = replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the "
+                                  f"intended move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
+            elif not fairing.step_at_cut_after < fairing.step_at_cut_before:
+                fairing = replace(fairing, taken=False, reason=f"the faces would meet no closer "
+                                  f"({fairing.step_at_cut_before:.3g} -> {fairing.step_at_cut_after:.3g})")
+            else:
+                out[k] = faired
+            done.append(fairing)
+    return out, done
+
+
+def side_gaps(surface: NurbsSurface, side: tuple, distance: SurfaceDistance, limits=(None, None),
+              samples: int = SIDE_SAMPLES) -> np.ndarray:
+    """Distances (samples,) of points along a side of ``surface`` from the face ``distance``
+    measures (inf outside the kept x range ``limits``)."""
+    _, points = _side_points(surface, side, np.linspace(*_domains(surface)[1 - side[0]], samples))
+    _, dist = feet(distance, points)
+    lo, hi = limits
+    outside = np.zeros(len(points), dtype=bool) if lo is None else points[:, 0] < lo
+    if hi is not None:
+        outside |= points[:, 0] > hi
+    return np.where(outside, np.inf, dist)
+
+
+def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length: float, reach: float,
+                   face: int = 0, other: int = 1, name: str | None = None) -> tuple[NurbsSurface, Fairing]:
+    """``moved`` refitted so that its ``side`` ((parameter, end), :data:`SIDES`) meets
+    ``onto``: each point of the side goes to its closest point on ``onto`` (a point further
+    than ``reach`` from it stays), and the face behind the side follows by the C2 ramp in the
+    distance behind the side (arc length along the middle iso-line across it), to nothing at
+    ``length``."""
+    param, end = side
+    own, along = _domains(moved)[param], _domains(moved)[1 - param]
+    t_end = own[end]
+    t = np.linspace(own[end], own[1 - end], 401)
+    _, line = _side_points(moved, (param, end), np.full(1, 0.5 * sum(along)), t)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    t_start = float(np.interp(length, arc, t))
+    distance = SurfaceDistance(onto, grid=60)
+
+    def target(u, v):
+        points = moved.grid(u, v)
+        t_values, s_values = (u, v) if param == 0 else (v, u)
+        _, at_side = _side_points(moved, side, s_values)
+        params, dist = feet(distance, at_side)
+        offsets = np.where((dist <= reach)[:, None], onto(params[:, 0], params[:, 1]) - at_side, 0.0)
+        behind = np.interp(t_values, *((t, arc) if t[0] < t[-1] else (t[::-1], arc[::-1])))
+        move = ramp(behind, length, 0.0)[:, None, None] * offsets[None, :, :]  # (Nt, Ns, 3)
+        move = move if param == 0 else move.transpose(1, 0, 2)
+        return points, points + move, np.linalg.norm(move, axis=-1)
+
+    lo, hi = sorted((t_start, t_end))
+    coarse = np.linspace(*own, 41)
+    touched = np.append(coarse[(coarse >= lo) & (coarse <= hi)], [t_start, t_end])  # a ramp shorter than a step too
+    everywhere = np.linspace(*along, 41)
+    touched_u, touched_v = (touched, everywhere) if param == 0 else (everywhere, touched)
+    faired, refit_error, shift = refit(moved, touched_u, touched_v, target, name)
+    moving = shift > 1e-9 * max(1.0, float(np.ptp(line)))
+    before, after = (side_gaps(f, side, distance) for f in (moved, faired))
+    on = before <= reach
+    ramp_x = (float(np.interp(length, arc, line[:, 0])), float(line[0, 0]))
+    return faired, Fairing(face, other, ramp_x, float(shift.max(initial=0.0)),
+                           float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
+                           float(before[on].max(initial=0.0)), float(after[on].max(initial=0.0)),
+                           (faired.poles.shape[0], faired.poles.shape[1]), kind="junction")
+
+
+def feet(distance: SurfaceDistance, points: np.ndarray, samples: int = 2001) -> tuple[np.ndarray, np.ndarray]:
+    """Closest parameters (N, 2) on the face ``distance`` measures and the distances (N,),
+    the better of the search over the face and of one along its four sides: a search that
+    reaches a collapsed side (a pole row, where the face has no tangent plane) stays there,
+    up to 76 mm from the foot on DTMB 5415's stern face, whose foot lies on its side."""
+    from scipy.spatial import cKDTree
+
+    surface = distance.surfaces[0]
+    params, dist = distance.closest(points)
+    for side in SIDES:
+        lo, hi = _domains(surface)[1 - side[0]]
+        s = np.linspace(lo, hi, samples)
+        step = s[1] - s[0]
+        for _ in range(3):  # the nearest sample, then finer samples around it
+            _, at = _side_points(surface, side, s.ravel())
+            d, k = cKDTree(at).query(points) if s.ndim == 1 else _nearest_rows(at.reshape(*s.shape, 3), points)
+            best = s.ravel()[k] if s.ndim == 1 else s[np.arange(len(points)), k]
+            s = np.clip(best[:, None] + step * np.linspace(-1.0, 1.0, 41)[None, :], lo, hi)
+            step /= 20.0
+        p, _ = _side_points(surface, side, best)
+        better = d < dist
+        params[better], dist[better] = p[better], d[better]
+    return params, dist
+
+
+def _nearest_rows(candidates: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (N, 3), the distance to and index of its nearest of its own row of
+    ``candidates`` (N, M, 3)."""
+    d = np.linalg.norm(candidates - points[:, None, :], axis=-1)
+    k = np.argmin(d, axis=1)
+    return d[np.arange(len(points)), k], k
+
+
+def _domains(surface: NurbsSurface) -> tuple:
+    return (tuple(surface.domain_u), tuple(surface.domain_v))
+
+
+def _side_points(surface: NurbsSurface, side: tuple, along: np.ndarray, across: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters (N, 2) and points (N, 3) on the side ``(parameter, end)`` at the values
+    ``along`` of the other parameter; with ``across`` (the side's own parameter's values), the
+    iso-line at ``along[0]`` through them instead."""
+    param, end = side
+    if across is None:
+        across = np.full(len(along), _domains(surface)[param][end])
+    else:
+        along = np.full(len(across), along[0])
+    params = np.column_stack([across, along] if param == 0 else [along, across])
+    return params, surface(params[:, 0], params[:, 1])
+
+
+def _depth(surface: NurbsSurface, side: tuple) -> float:
+    """Arc length across the face from ``side`` to the opposite side, on the middle iso-line."""
+    param = side[0]
+    along = _domains(surface)[1 - param]
+    _, line = _side_points(surface, side, np.full(1, 0.5 * sum(along)), np.linspace(*_domains(surface)[param], 201))
+    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+
+
 def ramp(x: np.ndarray, start: float, end: float) -> np.ndarray:
     """0 at and beyond ``start``, 1 at and beyond ``end``, C2 between (either order of the two)."""
     s = np.clip((np.asarray(x, dtype=np.float64) - start) / (end - start), 0.0, 1.0)
@@ -123,10 +293,26 @@ def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float,
     coarse_u, coarse_v = np.linspace(*moved.domain_u, 41), np.linspace(*moved.domain_v, 41)
     coarse = moved.grid(coarse_u, coarse_v)
     touched = ramp(coarse[..., 0], start, cut) > 0.0
-    knots_u = _refined(moved.knots_u, moved.degree_u, coarse_u[touched.any(axis=1)])
-    knots_v = _refined(moved.knots_v, moved.degree_v, coarse_v[touched.any(axis=0)])
+    faired, refit_error, shift = refit(moved, coarse_u[touched.any(axis=1)], coarse_v[touched.any(axis=0)],
+                                       lambda u, v: _target(moved, distance, u, v, start, cut), name)
+    moving = shift > 1e-9 * max(1.0, float(np.ptp(coarse)))
+    return faired, Fairing(face, other, (float(start), float(cut)), float(shift.max(initial=0.0)),
+                           float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
+                           _step_at(moved, distance, cut), _step_at(faired, distance, cut),
+                           (faired.poles.shape[0], faired.poles.shape[1]))
+
+
+def refit(moved: NurbsSurface, touched_u: np.ndarray, touched_v: np.ndarray, target, name: str | None = None
+          ) -> tuple[NurbsSurface, float, np.ndarray]:
+    """``moved`` refitted to ``target(u, v) -> (points, intended, shift)`` (its points on the
+    grid (Nu, Nv, 3), where they go, how far (Nu, Nv)): its knot spans holding the parameters
+    ``touched_u`` / ``touched_v`` subdivided, the move fitted by least squares on the poles
+    that act where something moves. Returns the refitted face, the largest distance of it from
+    the intended move between the fit's samples, and the shifts at the samples."""
+    knots_u = _refined(moved.knots_u, moved.degree_u, touched_u)
+    knots_v = _refined(moved.knots_v, moved.degree_v, touched_v)
     su, sv = _samples(knots_u, moved.degree_u, 0.5), _samples(knots_v, moved.degree_v, 0.5)
-    points, target, shift = _target(moved, distance, su, sv, start, cut)
+    points, intended, shift = target(su, sv)
     bu = BSpline.design_matrix(su, knots_u, moved.degree_u).toarray()
     bv = BSpline.design_matrix(sv, knots_v, moved.degree_v).toarray()
     weights = _weights_at(moved, su, sv)
@@ -136,7 +322,7 @@ def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float,
     moving_u, moving_v = (shift > 0.0).any(axis=1), (shift > 0.0).any(axis=0)
     acting_u = (bu[moving_u] != 0.0).any(axis=0)
     acting_v = (bv[moving_v] != 0.0).any(axis=0)
-    move = np.concatenate([(target - points) * weights[..., None], np.zeros(weights.shape + (1,))], axis=-1)
+    move = np.concatenate([(intended - points) * weights[..., None], np.zeros(weights.shape + (1,))], axis=-1)
     net[np.ix_(acting_u, acting_v)] += _fit(bu[:, acting_u], move, bv[:, acting_v])
     rational = np.ptp(moved.weights) > 0
     w = net[..., 3] if rational else np.full(net.shape[:2], float(moved.weights.flat[0]))
@@ -144,13 +330,8 @@ def fair_into(moved: NurbsSurface, onto: NurbsSurface, start: float, cut: float,
     faired = nurbs_surface(moved.degree_u, moved.degree_v, poles, knots_u, knots_v, w, name=name or moved.name)
     # between the samples: where a refit would stray from the intended move
     cu, cv = _samples(knots_u, moved.degree_u, 0.0), _samples(knots_v, moved.degree_v, 0.0)
-    _, intended, _ = _target(moved, distance, cu, cv, start, cut)
-    refit_error = float(np.linalg.norm(faired.grid(cu, cv) - intended, axis=-1).max())
-    moving = shift > 1e-9 * max(1.0, float(np.ptp(coarse)))
-    return faired, Fairing(face, other, (float(start), float(cut)), float(shift.max(initial=0.0)),
-                           float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
-                           _step_at(moved, distance, cut), _step_at(faired, distance, cut),
-                           tuple(int(n) for n in poles.shape[:2]))
+    _, between, _ = target(cu, cv)
+    return faired, float(np.linalg.norm(faired.grid(cu, cv) - between, axis=-1).max()), shift
 
 
 def _fit(bu: np.ndarray, values: np.ndarray, bv: np.ndarray) -> np.ndarray:

@@ -191,6 +191,14 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         surfaces, faired = fair_overlaps(surfaces, overlaps, limits, tolerance)
         if fairings is not None:
             fairings.extend(f.as_dict(mm_per_unit) for f in faired)
+    if plan.junctions == "fair" and multi:
+        from .fairing import fair_junctions
+
+        overlapping = frozenset(frozenset(o.faces) for o in overlaps)
+        surfaces, joined = fair_junctions(surfaces, [trim for _, trim, _ in loaded], limits, tolerance, overlapping)
+        faired = faired + joined
+        if fairings is not None:
+            fairings.extend(f.as_dict(mm_per_unit) for f in joined)
     distance = SurfaceDistance(surfaces)  # after any fairing: the plates measure the faces they lie on
     faces, cells = [], []
     for k, surface in enumerate(surfaces):
