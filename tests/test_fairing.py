@@ -220,8 +220,8 @@ def test_dtmb5415s_hull_end_meets_its_stern_face_when_faired(tmp_path):
     closest-point search from the stern's collapsed side would say 76 mm): faired onto it,
     its side lies on the stern face within a tenth of a millimetre; the stern keeps the file's
     surface."""
-    from flatten.closest import SurfaceDistance
-    from pipeline.hull.fairing import SIDES, feet, side_gaps
+    from flatten.closest import SurfaceDistance, closest_with_sides
+    from pipeline.hull.fairing import SIDES, side_gaps
     from pipeline.hull.plan import load_run
 
     path = _dtmb_config(tmp_path, "fair")
@@ -248,4 +248,4 @@ def test_dtmb5415s_hull_end_meets_its_stern_face_when_faired(tmp_path):
     assert 10.0 < before.max() < 20.0 and after.max() < 0.1
     # the search from the nearest seed alone stops on the stern's collapsed side
     _, points = fairing._side_points(surface(runs["keep"], "_P1_"), aft, np.linspace(0.0, 0.15, 7))
-    assert stern.closest(points)[1].max() > 50.0 and feet(stern, points)[1].max() < 10.0
+    assert stern.closest(points)[1].max() > 50.0 and closest_with_sides(stern, points)[1].max() < 10.0

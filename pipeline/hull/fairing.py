@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from scipy.interpolate import BSpline
 
-from flatten.closest import SurfaceDistance
+from flatten.closest import SurfaceDistance, closest_with_sides
 from flatten.surface import NurbsSurface, nurbs_surface
 
 from .sewing import interior, section_distances
@@ -168,7 +168,7 @@ def side_gaps(surface: NurbsSurface, side: tuple, distance: SurfaceDistance, lim
     """Distances (samples,) of points along a side of ``surface`` from the face ``distance``
     measures (inf outside the kept x range ``limits``)."""
     _, points = _side_points(surface, side, np.linspace(*_domains(surface)[1 - side[0]], samples))
-    _, dist = feet(distance, points)
+    _, dist = closest_with_sides(distance, points)
     lo, hi = limits
     outside = np.zeros(len(points), dtype=bool) if lo is None else points[:, 0] < lo
     if hi is not None:
@@ -196,7 +196,7 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
         points = moved.grid(u, v)
         t_values, s_values = (u, v) if param == 0 else (v, u)
         _, at_side = _side_points(moved, side, s_values)
-        params, dist = feet(distance, at_side)
+        params, dist = closest_with_sides(distance, at_side)
         offsets = np.where((dist <= reach)[:, None], onto(params[:, 0], params[:, 1]) - at_side, 0.0)
         behind = np.interp(t_values, *((t, arc) if t[0] < t[-1] else (t[::-1], arc[::-1])))
         move = ramp(behind, length, 0.0)[:, None, None] * offsets[None, :, :]  # (Nt, Ns, 3)
@@ -217,39 +217,6 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
                            float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
                            float(before[on].max(initial=0.0)), float(after[on].max(initial=0.0)),
                            (faired.poles.shape[0], faired.poles.shape[1]), kind="junction")
-
-
-def feet(distance: SurfaceDistance, points: np.ndarray, samples: int = 2001) -> tuple[np.ndarray, np.ndarray]:
-    """Closest parameters (N, 2) on the face ``distance`` measures and the distances (N,),
-    the better of the search over the face and of one along its four sides: a search that
-    reaches a collapsed side (a pole row, where the face has no tangent plane) stays there,
-    up to 76 mm from the foot on DTMB 5415's stern face, whose foot lies on its side."""
-    from scipy.spatial import cKDTree
-
-    surface = distance.surfaces[0]
-    params, dist = distance.closest(points)
-    for side in SIDES:
-        lo, hi = _domains(surface)[1 - side[0]]
-        s = np.linspace(lo, hi, samples)
-        step = s[1] - s[0]
-        for _ in range(3):  # the nearest sample, then finer samples around it
-            _, at = _side_points(surface, side, s.ravel())
-            d, k = cKDTree(at).query(points) if s.ndim == 1 else _nearest_rows(at.reshape(*s.shape, 3), points)
-            best = s.ravel()[k] if s.ndim == 1 else s[np.arange(len(points)), k]
-            s = np.clip(best[:, None] + step * np.linspace(-1.0, 1.0, 41)[None, :], lo, hi)
-            step /= 20.0
-        p, _ = _side_points(surface, side, best)
-        better = d < dist
-        params[better], dist[better] = p[better], d[better]
-    return params, dist
-
-
-def _nearest_rows(candidates: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per point (N, 3), the distance to and index of its nearest of its own row of
-    ``candidates`` (N, M, 3)."""
-    d = np.linalg.norm(candidates - points[:, None, :], axis=-1)
-    k = np.argmin(d, axis=1)
-    return d[np.arange(len(points)), k], k
 
 
 def _domains(surface: NurbsSurface) -> tuple:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flatten.closest import SurfaceDistance
+from flatten.closest import SurfaceDistance, closest_with_sides
 
 from ..io.hullmodel import HullFace, HullModel, ocp_faces
 
@@ -97,8 +97,7 @@ class SewingReport:
         for j in self.junctions:
             out.append(f"junction: faces {j['faces'][0]} and {j['faces'][1]} meet along {j['length_mm']:.1f} mm, "
                        f"x {j['x_mm'][0]:.1f}..{j['x_mm'][1]:.1f}, normals {j['p95_angle_deg']:.3g} deg apart (p95; max "
-                       f"{j['max_angle_deg']:.3g}): "
-                       f"{j['kind']}")
+                       f"{j['max_angle_deg']:.3g}), up to {j['max_gap_mm']:.3g} mm apart: {j['kind']}")
         out.extend(f"note: {n}" for n in self.notes)
         return out
 
@@ -147,7 +146,7 @@ def junctions_of(model: HullModel, distances: list, tolerance: float, knuckle_de
             lo, hi = boxes[b][0] - tolerance, boxes[b][1] + tolerance
             if a == b or np.any(boxes[a][1] < lo) or np.any(hi < boxes[a][0]):
                 continue
-            params_b, dist = distances[b].closest(points)
+            params_b, dist = closest_with_sides(distances[b], points)  # a collapsed side of b stops the search
             on = (dist <= tolerance) & _inside(faces[b], params_b)
             if on.sum() < 3:
                 continue
@@ -164,6 +163,7 @@ def junctions_of(model: HullModel, distances: list, tolerance: float, knuckle_de
             found[pair] = {"faces": list(pair), "length_mm": length,
                            "x_mm": [float(points[on, 0].min()), float(points[on, 0].max())],
                            "max_angle_deg": float(angle.max()), "p95_angle_deg": typical,
+                           "max_gap_mm": float(dist[on].max()),
                            "kind": "knuckle: a seam or butt must lie on it" if typical > knuckle_deg
                            else "smooth: a plate may cross it"}
     return [found[pair] for pair in sorted(found)]
