@@ -181,12 +181,25 @@ def plane_face(x0: float, x1: float, z: float, width: float = 3000.0, spans: int
     return nurbs_surface(3, 3, poles, knots_u, [0.0] * 4 + [1.0] * 4, name=f"z{z:g}")
 
 
-def test_a_face_whose_end_stands_off_the_next_face_is_faired_onto_it_in_closed_form():
+def oriented(face, side: tuple):
+    """The plane face re-parametrised so that its end x = x1 is the side ``side`` ((parameter,
+    end)): u reversed for end 0, u and v swapped for parameter 1."""
+    poles, knots_u, knots_v = face.poles, face.knots_u, face.knots_v
+    if side[1] == 0:
+        poles, knots_u = poles[::-1], 1.0 - knots_u[::-1]
+    if side[0] == 1:
+        poles, knots_u, knots_v = poles.transpose(1, 0, 2), knots_v, knots_u
+    return nurbs_surface(3, 3, poles, knots_u, knots_v, name=face.name)
+
+
+@pytest.mark.parametrize("side", [(0, 1), (0, 0), (1, 1), (1, 0)])
+def test_a_face_whose_end_stands_off_the_next_face_is_faired_onto_it_in_closed_form(side):
     """A bottom plane (x 0..10000 at z = 0) ends 12 mm below the next face (x 10000..12000 at
-    z = 12): the longer face's end moves onto the other face, behind it z = 12 ramp(x) over
-    RAMP_PER_GAP x 12 mm, and the rest of it stays where it was."""
+    z = 12), its end any of its four parameter sides: the longer face's end moves onto the
+    other face, behind it z = 12 ramp(x) over RAMP_PER_GAP x 12 mm, and the rest of it stays
+    where it was."""
     gap, tolerance = 12.0, 5.0
-    faces = [plane_face(0.0, 10000.0, 0.0), plane_face(10000.0, 12000.0, gap)]
+    faces = [oriented(plane_face(0.0, 10000.0, 0.0), side), plane_face(10000.0, 12000.0, gap)]
     out, (made,) = fair_junctions(faces, [None, None], [(None, None)] * 2, tolerance)
     assert made.taken and made.kind == "junction" and (made.face, made.onto) == (0, 1) and out[1] is faces[1]
     start = 10000.0 - RAMP_PER_GAP * gap
@@ -199,6 +212,36 @@ def test_a_face_whose_end_stands_off_the_next_face_is_faired_onto_it_in_closed_f
     assert np.abs(after[..., :2] - before[..., :2]).max() < 1e-6  # the move runs along z only
     assert np.abs(after - before)[before[..., 0] < 5000.0].max() < 1e-9 * 10000.0  # two spans off: untouched
     assert "faired onto the junction with face 2" in made.note() and made.as_dict()["gap_after_mm"] < 0.12
+
+
+def test_the_side_that_stands_off_moves_where_the_other_face_ends_on_the_first():
+    """The bottom (z = 0, x 0..10000) ends on a transverse face (x = 10000, z -12..3000) whose
+    own lower side hangs 12 mm below the bottom: that side, not the bottom's end (which lies on
+    the transverse face), is faired up onto the bottom."""
+    bottom = plane_face(0.0, 10000.0, 0.0)
+    ys, zs = np.linspace(0.0, 3000.0, 4), np.linspace(-12.0, 3000.0, 7)
+    poles = np.array([[[10000.0, y, z] for y in ys] for z in zs])
+    knots = np.concatenate([[0.0] * 4, [0.25, 0.5, 0.75], [1.0] * 4])
+    transverse = nurbs_surface(3, 3, poles, knots, [0.0] * 4 + [1.0] * 4, name="transverse")
+    out, (made,) = fair_junctions([bottom, transverse], [None, None], [(None, None)] * 2, 5.0)
+    assert made.taken and (made.face, made.onto) == (1, 0) and out[0] is bottom
+    lowest = out[1](np.zeros(31), np.linspace(0.0, 1.0, 31))
+    assert np.abs(lowest[:, 2]).max() < 0.01 * 12.0 and made.step_at_cut_before == pytest.approx(12.0, rel=1e-6)
+
+
+def test_a_ramp_that_would_reach_the_faces_far_side_is_not_taken():
+    """Two 2 m faces 12 mm apart: the ramp (2.4 m) would move the whole face."""
+    faces = [plane_face(0.0, 2000.0, 0.0), plane_face(2000.0, 4000.0, 12.0)]
+    out, (made,) = fair_junctions(faces, [None, None], [(None, None)] * 2, 5.0)
+    assert not made.taken and "far side" in made.reason and all(o is f for o, f in zip(out, faces))
+
+
+def test_a_side_only_partly_along_the_other_face_is_not_faired():
+    """The bottom's end runs 150 mm past the next face's side: of the two, only the next face's
+    end lies wholly along the other, and it is the one faired."""
+    faces = [plane_face(0.0, 10000.0, 0.0), plane_face(10000.0, 14000.0, 12.0, width=2850.0)]
+    out, (made,) = fair_junctions(faces, [None, None], [(None, None)] * 2, 5.0)
+    assert made.taken and (made.face, made.onto) == (1, 0) and out[0] is faces[0]
 
 
 def test_faces_that_meet_within_half_the_tolerance_are_left_alone():

@@ -1,4 +1,5 @@
-"""A face faired into the face it overlaps, so that the two meet where a plan cuts them.
+"""A face faired into the face it overlaps, so that the two meet where a plan cuts them, or
+onto the face it meets edge to edge with a gap, so that the two meet along their junction.
 
 A hull file whose faces lie on each other over a stretch describes the shell twice there, and
 the two descriptions need not agree: DTMB 5415's bow and main-hull faces run 9 mm apart
@@ -16,6 +17,12 @@ is fitted by least squares on the poles that act where something moves: beyond t
 span past the ramp's start) the face is reproduced to round-off.
 The result says how far the face moved, how well the refit follows the intended move and how
 far the two faces still are apart at the cut.
+
+:func:`fair_junctions` does the same where two untrimmed faces meet along a whole side of one
+of them further apart than half the fit tolerance (DTMB 5415's main hull ends up to 15 mm off
+its stern face at ship scale): the side goes to its closest points on the other face, and the
+face behind it follows by the ramp in the distance behind the side (arc length along the
+side's middle cross line), over RAMP_PER_GAP times the widest gap.
 """
 
 from __future__ import annotations
@@ -35,10 +42,10 @@ REFINE = 8  # a knot span the ramp touches is cut into this many
 SECTION_LINES = 200  # points of the cut's section measured against the other face
 REFIT_SHARE = 0.25  # of the fit tolerance: a refit that strays further from the intended move is not taken
 JUNCTION_REACH = 10.0  # fit tolerances: a point of a face's side this near the other face lies on their junction
-JUNCTION_SIDE = 0.9  # of a face's side on the junction: the side runs along it
 JUNCTION_GAP = 0.5  # of the fit tolerance: faces that meet further apart than this are faired
 RAMP_PER_GAP = 200.0  # a junction's ramp runs this many times the widest gap it closes (a slope of 0.5 %)
 SIDE_SAMPLES = 61  # points of a face's side measured against the other face
+SIDES = ((0, 0), (0, 1), (1, 0), (1, 1))  # (parameter, end): the sides u = u0, u = u1, v = v0, v = v1
 
 
 @dataclass(frozen=True)
@@ -119,17 +126,15 @@ def fair_overlaps(surfaces: list, overlaps: list, limits: list, tolerance: float
     return out, done
 
 
-SIDES = ((0, 0), (0, 1), (1, 0), (1, 1))  # (parameter, end): the sides u = u0, u = u1, v = v0, v = v1
-
-
 def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
                    skip: frozenset = frozenset()) -> tuple[list, list[Fairing]]:
-    """The surfaces with, of each two untrimmed faces that meet along a side of one of them
-    further apart than JUNCTION_GAP of the fit tolerance (DTMB 5415's hull ends 10-33 mm off
-    its stern face at ship scale), that side faired onto the other face
-    (:func:`fair_side_onto`, over RAMP_PER_GAP times the widest gap). Of two sides along one
-    junction the one on the face the ramp reaches least far into moves (the fairing stays
-    local). ``trims``: each face's trim (None: untrimmed); ``limits``: each face's kept x range
+    """The surfaces with, of each two untrimmed faces that meet along a whole side of one of
+    them (every point of it within JUNCTION_REACH fit tolerances of the other face) further
+    apart than JUNCTION_GAP of the fit tolerance (DTMB 5415's hull ends up to 15 mm off its
+    stern face at ship scale), that side faired onto the other face (:func:`fair_side_onto`,
+    over RAMP_PER_GAP times its widest gap). Of two such sides along one junction the one on
+    the face the ramp reaches least far into moves (the fairing stays local); a ramp that
+    would reach the face's far side is not taken. ``trims``: each face's trim (None: untrimmed); ``limits``: each face's kept x range
     (None for its own end): a side point outside it is not on a junction; ``skip``: pairs of
     faces (frozensets) that overlap, faired as such. Taken on the rules of
     :func:`fair_overlaps`; the ones not taken are returned too, with the reason."""
@@ -137,21 +142,28 @@ def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
     reach = JUNCTION_REACH * tolerance
     for a in range(len(out)):
         for b in range(a + 1, len(out)):
-            if trims[a] is not None or trims[b] is not None or frozenset((a, b)) in skip:
+            if trims[a] is not None or trims[b] is not None or frozenset((a, b)) in skip or not _boxes_meet(
+                    out[a], out[b], reach):
                 continue
-            sides = []
+            sides = []  # (face, other face, side, widest gap) of the sides along the junction that stand off
             for k, other in ((a, b), (b, a)):
                 distance = SurfaceDistance(out[other], grid=60)
                 for side in SIDES:
+                    if _length(out[k], side) <= reach:  # a collapsed side (a pole row) runs along nothing
+                        continue
                     gaps = side_gaps(out[k], side, distance, limits[k])
-                    on = gaps <= reach
-                    if on.mean() >= JUNCTION_SIDE:
-                        sides.append((k, other, side, float(gaps[on].max())))
-            if not sides or max(widest for *_, widest in sides) <= JUNCTION_GAP * tolerance:
+                    if np.all(gaps <= reach) and gaps.max() > JUNCTION_GAP * tolerance:
+                        sides.append((k, other, side, float(gaps.max())))
+            if not sides:
                 continue
             k, other, side, widest = max(sides, key=lambda c: _depth(out[c[0]], c[2]))
-            faired, fairing = fair_side_onto(out[k], out[other], side, RAMP_PER_GAP * widest, reach, k, other)
-            if fairing.refit_error > REFIT_SHARE * tolerance:
+            length = RAMP_PER_GAP * widest
+            faired, fairing = fair_side_onto(out[k], out[other], side, length, reach, k, other)
+            depth = _depth(out[k], side)
+            if length >= depth:
+                fairing = replace(fairing, taken=False, reason=f"its ramp ({length:.4g}) would reach the face's far "
+                                  f"side ({depth:.4g} away)")
+            elif fairing.refit_error > REFIT_SHARE * tolerance:
                 fairing = replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the "
                                   f"intended move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
             elif not fairing.step_at_cut_after < fairing.step_at_cut_before:
@@ -183,6 +195,8 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
     than ``reach`` from it stays), and the face behind the side follows by the C2 ramp in the
     distance behind the side (arc length along the middle iso-line across it), to nothing at
     ``length``."""
+    if not length > 0.0:
+        raise ValueError(f"fair_side_onto: the ramp's length must be positive, got {length!r}")
     param, end = side
     own, along = _domains(moved)[param], _domains(moved)[1 - param]
     t_end = own[end]
@@ -217,6 +231,18 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
                            float(np.median(shift[moving])) if moving.any() else 0.0, refit_error,
                            float(before[on].max(initial=0.0)), float(after[on].max(initial=0.0)),
                            (faired.poles.shape[0], faired.poles.shape[1]), kind="junction")
+
+
+def _boxes_meet(a: NurbsSurface, b: NurbsSurface, margin: float) -> bool:
+    """Whether the boxes of the two faces' poles (which hold the faces) come within ``margin``."""
+    pa, pb = a.poles.reshape(-1, 3), b.poles.reshape(-1, 3)
+    return bool(np.all(pa.min(axis=0) <= pb.max(axis=0) + margin) and np.all(pb.min(axis=0) <= pa.max(axis=0) + margin))
+
+
+def _length(surface: NurbsSurface, side: tuple) -> float:
+    """Arc length of a side of the face."""
+    _, points = _side_points(surface, side, np.linspace(*_domains(surface)[1 - side[0]], SIDE_SAMPLES))
+    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
 
 
 def _domains(surface: NurbsSurface) -> tuple:

@@ -161,7 +161,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     """The plates of a planned hull. ``evaluate``: ``evaluate(part) -> result``, or an object
     whose ``many(parts)`` evaluates a batch (spread over workers, cached); ``record``: filled
     with what an adaptive plan evaluated; ``fairings``: filled with what ``plan.overlaps:
-    fair`` did (:class:`.fairing.Fairing`)."""
+    fair`` and ``plan.junctions: fair`` did (:class:`.fairing.Fairing`, as dicts)."""
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
