@@ -114,16 +114,23 @@ def fair_overlaps(surfaces: list, overlaps: list, limits: list, tolerance: float
         k = max(reach, key=lambda face: reach[face][0])
         other = overlap.faces[1] if k == overlap.faces[0] else overlap.faces[0]
         faired, fairing = fair_into(out[k], out[other], reach[k][1], cut, k, other)
-        if fairing.refit_error > REFIT_SHARE * tolerance:
-            fairing = replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the "
-                              f"intended move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
-        elif not fairing.step_at_cut_after < fairing.step_at_cut_before:
-            fairing = replace(fairing, taken=False, reason=f"the faces would meet no closer at the cut "
-                              f"({fairing.step_at_cut_before:.3g} -> {fairing.step_at_cut_after:.3g})")
-        else:
+        fairing = _judged(fairing, tolerance, " at the cut")
+        if fairing.taken:
             out[k] = faired
         done.append(fairing)
     return out, done
+
+
+def _judged(fairing: Fairing, tolerance: float, where: str = "") -> Fairing:
+    """The fairing, not taken (with the reason) where its refit strays from the intended move
+    by more than REFIT_SHARE of the fit tolerance or the faces would meet no closer."""
+    if fairing.refit_error > REFIT_SHARE * tolerance:
+        return replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the intended "
+                       f"move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
+    if not fairing.step_at_cut_after < fairing.step_at_cut_before:
+        return replace(fairing, taken=False, reason=f"the faces would meet no closer{where} "
+                       f"({fairing.step_at_cut_before:.3g} -> {fairing.step_at_cut_after:.3g})")
+    return fairing
 
 
 def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
@@ -163,13 +170,8 @@ def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
             if length >= depth:
                 fairing = replace(fairing, taken=False, reason=f"its ramp ({length:.4g}) would reach the face's far "
                                   f"side ({depth:.4g} away)")
-            elif fairing.refit_error > REFIT_SHARE * tolerance:
-                fairing = replace(fairing, taken=False, reason=f"its refit strays {fairing.refit_error:.3g} from the "
-                                  f"intended move, over {REFIT_SHARE} of the fit tolerance {tolerance:g}")
-            elif not fairing.step_at_cut_after < fairing.step_at_cut_before:
-                fairing = replace(fairing, taken=False, reason=f"the faces would meet no closer "
-                                  f"({fairing.step_at_cut_before:.3g} -> {fairing.step_at_cut_after:.3g})")
-            else:
+            fairing = _judged(fairing, tolerance) if fairing.taken else fairing
+            if fairing.taken:
                 out[k] = faired
             done.append(fairing)
     return out, done
