@@ -461,6 +461,27 @@ def test_a_formed_corner_with_only_formed_neighbours_at_a_junction_goes_where_th
     assert np.all(moves["R"][0, 1:] == 0.0)  # the rest of its free seam stays on the hull
 
 
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_plate_cut_at_its_trim_keeps_the_corner_where_its_trim_ends(monkeypatch, cut):
+    # the left plate's butt 0 meets a flat plate 4 mm above it: its corner on the free seam 0
+    # goes up with it (a corner of its edge), unless the plate is cut at its trim and its TRIM
+    # edge ends at that corner (0.02 mm off it, as a cut outline's vertex may be): moved, the
+    # corner would carry the cut off the trim line that the plate across the trim meets, so it
+    # stays on the hull, and the rest of the butt moves
+    from pipeline.hull.fitup import Edge
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records = _two_formed_plates(monkeypatch, 0.0, butt_lift=4.0)
+    left = grids["L"].points
+    if cut:
+        along = left[0, ::-1] + np.array([0.0, 0.02, 0.0])  # along seam 0, ending 0.02 mm off the corner
+        edges = {"butt1": records["L"][0].edge("butt1"), "trim": Edge("trim", "TRIM", along, along[:, :2].copy())}
+        records["L"] = (SimpleNamespace(klass="formed", edge=edges.get), records["L"][1])
+    moves = shell_moves(grids, pairs, records, 1.0)
+    assert np.allclose(moves["L"][1:-1, 0], [0.0, 0.0, 4.0], atol=1e-9)
+    assert np.allclose(moves["L"][0, 0], [0.0, 0.0, 0.0 if cut else 4.0], atol=1e-9)
+
+
 def test_two_formed_plates_within_the_limit_are_joined_as_they_lie(monkeypatch):
     # a 1 mm step (the limit is 2.1 mm) is nothing to form away: the plates stay joined at
     # their edge and move together; a flat neighbour 2 mm above the left plate's seam 0 moves
