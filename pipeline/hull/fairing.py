@@ -35,7 +35,7 @@ from scipy.interpolate import BSpline
 from flatten.closest import SurfaceDistance, closest_with_sides
 from flatten.surface import NurbsSurface, nurbs_surface
 
-from .sewing import interior, section_distances
+from .sewing import _box, interior, section_distances
 
 SAMPLES_PER_SPAN = 4  # least-squares samples per refined knot span and direction
 REFINE = 8  # a knot span the ramp touches is cut into this many
@@ -160,13 +160,12 @@ def fair_junctions(surfaces: list, trims: list, limits: list, tolerance: float,
                         continue
                     gaps = side_gaps(out[k], side, distance, limits[k])
                     if np.all(gaps <= reach) and gaps.max() > JUNCTION_GAP * tolerance:
-                        sides.append((k, other, side, float(gaps.max())))
+                        sides.append((k, other, side, float(gaps.max()), _depth(out[k], side)))
             if not sides:
                 continue
-            k, other, side, widest = max(sides, key=lambda c: _depth(out[c[0]], c[2]))
+            k, other, side, widest, depth = max(sides, key=lambda c: c[4])
             length = RAMP_PER_GAP * widest
             faired, fairing = fair_side_onto(out[k], out[other], side, length, reach, k, other)
-            depth = _depth(out[k], side)
             if length >= depth:
                 fairing = replace(fairing, taken=False, reason=f"its ramp ({length:.4g}) would reach the face's far "
                                   f"side ({depth:.4g} away)")
@@ -203,7 +202,7 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
     own, along = _domains(moved)[param], _domains(moved)[1 - param]
     t_end = own[end]
     t = np.linspace(own[end], own[1 - end], 401)
-    _, line = _side_points(moved, (param, end), np.full(1, 0.5 * sum(along)), t)
+    line = _middle_line(moved, param, t)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
     t_start = float(np.interp(length, arc, t))
     distance = SurfaceDistance(onto, grid=60)
@@ -236,9 +235,9 @@ def fair_side_onto(moved: NurbsSurface, onto: NurbsSurface, side: tuple, length:
 
 
 def _boxes_meet(a: NurbsSurface, b: NurbsSurface, margin: float) -> bool:
-    """Whether the boxes of the two faces' poles (which hold the faces) come within ``margin``."""
-    pa, pb = a.poles.reshape(-1, 3), b.poles.reshape(-1, 3)
-    return bool(np.all(pa.min(axis=0) <= pb.max(axis=0) + margin) and np.all(pb.min(axis=0) <= pa.max(axis=0) + margin))
+    """Whether the boxes of the two faces (:func:`.sewing._box`) come within ``margin``."""
+    (lo_a, hi_a), (lo_b, hi_b) = _box(a), _box(b)
+    return bool(np.all(lo_a <= hi_b + margin) and np.all(lo_b <= hi_a + margin))
 
 
 def _length(surface: NurbsSurface, side: tuple) -> float:
@@ -251,25 +250,31 @@ def _domains(surface: NurbsSurface) -> tuple:
     return (tuple(surface.domain_u), tuple(surface.domain_v))
 
 
-def _side_points(surface: NurbsSurface, side: tuple, along: np.ndarray, across: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def _side_points(surface: NurbsSurface, side: tuple, along: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameters (N, 2) and points (N, 3) on the side ``(parameter, end)`` at the values
-    ``along`` of the other parameter; with ``across`` (the side's own parameter's values), the
-    iso-line at ``along[0]`` through them instead."""
+    ``along`` (N,) of the other parameter."""
     param, end = side
-    if across is None:
-        across = np.full(len(along), _domains(surface)[param][end])
-    else:
-        along = np.full(len(across), along[0])
-    params = np.column_stack([across, along] if param == 0 else [along, across])
+    return _iso_points(surface, param, np.full(len(along), _domains(surface)[param][end]), along)
+
+
+def _middle_line(surface: NurbsSurface, param: int, values: np.ndarray) -> np.ndarray:
+    """Points (N, 3) of the iso-line across the sides of ``param`` through the middle of the
+    other parameter's domain, at ``param``'s values (N,)."""
+    middle = 0.5 * sum(_domains(surface)[1 - param])
+    return _iso_points(surface, param, values, np.full(len(values), middle))[1]
+
+
+def _iso_points(surface: NurbsSurface, param: int, own: np.ndarray, other: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters (N, 2) and points (N, 3) at ``param`` = ``own`` and the other parameter = ``other``."""
+    params = np.column_stack([own, other] if param == 0 else [other, own])
     return params, surface(params[:, 0], params[:, 1])
 
 
 def _depth(surface: NurbsSurface, side: tuple) -> float:
     """Arc length across the face from ``side`` to the opposite side, on the middle iso-line."""
     param = side[0]
-    along = _domains(surface)[1 - param]
-    _, line = _side_points(surface, side, np.full(1, 0.5 * sum(along)), np.linspace(*_domains(surface)[param], 201))
+    line = _middle_line(surface, param, np.linspace(*_domains(surface)[param], 201))
     return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
 
 

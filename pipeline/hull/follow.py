@@ -492,6 +492,7 @@ class _PlateGrid:
                 self.lines[SIDES_BY_CODE[int(np.bincount(on).argmax())]] = idx[:, column]
         self.inward = {"seam0": cols, "seam1": -cols, 0: 1, cols - 1: -1}
         self.flat = points.reshape(-1, 3)
+        self.corners = np.unique([0, cols - 1, (rows - 1) * cols, rows * cols - 1])  # flat indices
 
     def free_corners(self, paired: set) -> list:
         """Flat indices of the grid's corners on a side that meets no neighbour (``paired``:
@@ -594,8 +595,7 @@ def _trim_corners(plate: _PlateGrid, edges) -> np.ndarray:
     trim = None if edges is None else edges.edge(TRIM)
     if trim is None:
         return np.zeros(0, dtype=int)
-    rows, cols = plate.points.shape[:2]
-    corners = np.array([0, cols - 1, (rows - 1) * cols, rows * cols - 1])
+    corners = plate.corners
     gap = np.linalg.norm(plate.flat[corners][:, None, :] - trim.points3[[0, -1]][None], axis=2).min(axis=1)
     return corners[gap <= TRIM_CORNER * plate.hull.fit_tolerance]
 
@@ -625,8 +625,7 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     index, points, reach, tolerance, plates, neighbours = [], [], [], [], [], []
     for name in names:
         plate = grids[name]
-        rows, cols = plate.points.shape[:2]
-        for k in sorted({0, cols - 1, (rows - 1) * cols, rows * cols - 1}):
+        for k in plate.corners:
             index.append(start[name] + k)
             points.append(plate.flat[k])
             reach.append(2.0 * plate.hull.fit_tolerance)
@@ -678,10 +677,10 @@ def _anchor(plate: _PlateGrid, side: str, edge, mm_per_unit: float, offset: int,
     neighbours claim a point."""
     if edge is None:
         return
-    hull, rows, cols = plate.hull, *plate.points.shape[:2]
+    hull = plate.hull
     reach = 4.0 * hull.fit_tolerance if reach is None else reach
     corner_reach = 2.0 * hull.fit_tolerance if corner_reach is None else corner_reach
-    corner = np.isin(plate.ring, (0, cols - 1, rows * cols - 1, (rows - 1) * cols))
+    corner = np.isin(plate.ring, plate.corners)
     mine = np.flatnonzero((plate.codes == CODES[side]) | corner)
     dense = _dense(edge, SAMPLE_MM / mm_per_unit)
     points = plate.flat[plate.ring[mine]]
