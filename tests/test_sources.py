@@ -103,6 +103,32 @@ def test_point_list_fit_meets_its_tolerance():
     assert fit_points(pts, 0.01, "x")[1].control_points >= fit_points(pts, 1.0, "x")[1].control_points
 
 
+
+def test_a_point_fit_is_judged_by_its_own_check_not_fitpacks_warnings():
+    """Noisy offsets at a tight tolerance: FITPACK's smoothing iteration runs out (it warns
+    "the maximal number of iterations maxit ... reached" and returns its best spline); the
+    fit judges every spline by its points' distances, so nothing reaches the console and
+    the curve still meets the tolerance."""
+    import warnings
+
+    from scipy.interpolate import make_splprep
+
+    rng = np.random.default_rng(0)
+    s = np.linspace(0.0, 1.0, 161)
+    pts = np.column_stack([1000 * s, 50 * np.sin(3 * s) + rng.normal(0.0, 0.1, len(s)), rng.normal(0.0, 1e-4, len(s))])
+    with warnings.catch_warnings(record=True) as raw:  # the fit's smoothing factors, lowered in turn
+        warnings.simplefilter("always")
+        for k in range(60):
+            spline, u = make_splprep(pts.T, k=3, s=len(pts) * 1e-4**2 * 0.25**k)
+            if np.linalg.norm(spline(u).T - pts, axis=1).max() <= 1e-4:
+                break
+    assert any(issubclass(w.category, RuntimeWarning) for w in raw)  # FITPACK does warn on the way
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        curve, report = fit_points(pts, 1e-4, "offsets")
+    assert report.max_error <= 1e-4
+    assert np.abs(curve(np.linspace(*curve.domain, 5))).max() < 1e4
+
 BAD = [
     ({"iges": "missing.igs"}, ["missing.igs", "cannot read"]),
     ({"iges": str(SHIP / "ship_part4.igs"), "entity": 3}, ["entity-126 curve", "index 3"]),
