@@ -41,6 +41,13 @@ def _config(tmp_path: Path, name: str, iges: Path, plan: dict, **strake) -> Path
 TAPER_STOCK = {"max_length": 6000, "max_width": 3500, "min_length": 1000, "min_width": 1500}
 
 
+def _grid_area(points: np.ndarray) -> float:
+    """Area of a grid of points (R, C, 3) on the hull: each cell's half cross product of its diagonals."""
+    d1 = points[1:, 1:] - points[:-1, :-1]
+    d2 = points[1:, :-1] - points[:-1, 1:]
+    return float(0.5 * np.linalg.norm(np.cross(d1, d2), axis=2).sum())
+
+
 def _widest(part) -> float:
     """The plate's largest girth width on the hull (what stock width it needs), mm."""
     return float(plate_edges(part.name, part.hull).widths().max())
@@ -66,6 +73,46 @@ def test_stealers_keep_every_plate_at_least_the_stock_minimum_wide(tmp_path):
     # a merged plate spans two strakes: its seams are two apart in the layout
     assert {p.hull.seam_names for p in merged} == {("SEAM 1", "SEAM 3"), ("SEAM 3", "SEAM 5")}
 
+
+
+def test_drop_strakes_go_on_past_the_end_plates_while_the_girth_shrinks(tmp_path):
+    """A bilge tapering from 8 m to 0.4 m radius over 20 m, in plates of at most 4 m: the
+    plain layout's four strakes (3.1 m aft) are 0.75 m wide at the fore column's widest and
+    1.35 m at the next column's, both below the 1.5 m minimum. The yard merges all four in
+    the end plate (2.8 m), then two pairs in the next column (2.4 and 2.5 m): the seam
+    between the pairs stops at the end plate's butt, the seams inside the pairs at the pairs'
+    butts; every plate at least the minimum wide, none wider or longer than the stock, the
+    butts still staggered. Merging only the end plates (before) left the next column's four
+    plates 1.11 to 1.15 m wide at their widest."""
+    from pipeline.hull.plan import load_run
+
+    iges = tapered_iges(tmp_path / "taper.igs", r_fore=400.0)
+    stock = dict(TAPER_STOCK, max_length=4000)
+    plain = load_run(_config(tmp_path, "plain", iges, {"method": "uniform", "stock": stock})).parts
+    yard = load_run(_config(tmp_path, "yard", iges, {"method": "uniform", "stock": stock, "butt_stagger": 300})).parts
+    plain_widths = {p.name: _widest(p) for p in plain}
+    # the control: the plain layout's two fore columns are narrower than the stock's minimum
+    assert sorted(n for n, w in plain_widths.items() if w < 1500.0) == sorted(
+        f"plain_S{i:02d}_B{j:02d}" for i in range(1, 5) for j in (4, 5))
+    widths = {p.name: _widest(p) for p in yard}
+    assert min(widths.values()) >= 1500.0, widths
+    assert max(widths.values()) <= 3500.0 + 1.0
+    fore = {p.hull.seam_names: p for p in yard if p.hull.butts[1] is None or p.hull.butts[1].offset > 12000.0}
+    end = fore[("SEAM 1", "SEAM 5")]  # all four strakes in one end plate
+    assert end.hull.butts[1] is None
+    pairs = [fore[("SEAM 1", "SEAM 3")], fore[("SEAM 3", "SEAM 5")]]
+    for pair in pairs:  # the next column: two pairs, each ending on the end plate's butt
+        assert pair.hull.butts[1].offset == pytest.approx(end.hull.butts[0].offset)
+    # the pairs' own butts are staggered from each other across SEAM 3 (which runs on aft of
+    # them) and from the single strakes' butts aft of them
+    assert abs(pairs[0].hull.butts[0].offset - pairs[1].hull.butts[0].offset) >= 300.0 - 1e-6
+    assert butt_violations(yard, 300.0) == []
+    for p in yard:
+        assert plate_edges(p.name, p.hull).lengths().max() <= 4000.0 + 1.0, p.name
+    # the same shell, in 4 x 6 plates less the 3 and 2 that the merges save
+    area = sum(_grid_area(plate_edges(p.name, p.hull).points) for p in yard)
+    assert area == pytest.approx(sum(_grid_area(plate_edges(p.name, p.hull).points) for p in plain), rel=1e-3)
+    assert len(yard) == 4 * 6 - 3 - 2
 
 def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_path):
     """The rule on a plan: butts meeting a seam from either side are 300 mm apart or more, or

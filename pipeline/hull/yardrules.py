@@ -20,7 +20,12 @@ between them ends at a butt: a drop strake) while the merged plate stays within
 ``stock.max_width``; a merged end plate's butt is the strakes' first (last) butt moved aft by the
 stagger (two staggers inward when the merged plate beside it took that one), so that it is
 staggered from both neighbours (offsets 0 and +stagger); no plate is longer than the spacing
-plus two staggers.
+plus two staggers. The next column of plates from the end is merged the same way within each
+merged end plate's strakes (its butt on the end plate's), and so on while a column has plates
+to merge, up to half the strakes' plates: KVLCC2's flat of bottom, 27 mm wide at its loft's aft
+end and 29 m amidships, left six strakes' second and third plates 0.53 and 0.94 m wide when
+only end plates merged. A merged plate whose butts would lie further apart than
+``stock.max_length`` is not merged.
 """
 
 from __future__ import annotations
@@ -64,41 +69,22 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
     """The plates' (lo seam, hi seam, [plane x or None, plane x or None], B number) in strake
     order. ``ends``: (x or None, x or None) of the face's ends; ``width_of(lo, hi, a, b)``:
     the largest girth width of the plate between seams lo..hi and planes a, b (model units)."""
-    joint_set = {float(j) for j in joints}
     offsets = [stagger * (i % 2) for i in range(n_strakes)]
     butts = [strake_butts(x0, x1, stock.max_length, stagger, joints, offsets[i]) for i in range(n_strakes)]
     base = strake_butts(x0, x1, stock.max_length, stagger, joints, 0.0)
-    groups = {}
-    for end in (0, 1):
-        if not base:
-            break
-        x_base = base[0] if end == 0 else base[-1]
-        # the strakes beside a merged end plate butt at x_base or x_base + stagger: its butt
-        # goes one stagger aft of x_base; a second merged plate beside it two staggers
-        # inward (aft end: x_base + 2 staggers; fore end: x_base - 2 staggers)
-        shifted = x_base if x_base in joint_set else x_base - stagger
-        found = _stealers(n_strakes, butts, end, shifted, ends[end], stock, width_of)
-        groups[end], previous = {}, None
-        for lo, hi in sorted(found):
-            x_g = shifted
-            if previous is not None and previous[0][1] == lo and x_base not in joint_set and previous[1] == shifted:
-                x_g = x_base + (2.0 if end == 0 else -2.0) * stagger
-            groups[end][(lo, hi)] = x_g
-            previous = ((lo, hi), x_g)
+    # per end, per column of plates counted from it: {(lo, hi): the merged plate's inner butt}
+    columns = {end: _drop_strakes(end, butts, base, ends[end], stock, stagger, joints, width_of) if base else []
+               for end in (0, 1)}
     plates = []
     for i in range(n_strakes):
         planes = [ends[0]] + list(butts[i]) + [ends[1]]
-        for end, found in groups.items():
-            for lo, hi in found:
-                if lo <= i < hi:  # the group's end plate replaces this strake's end plate(s)
-                    x_g = found[(lo, hi)]
-                    # the strake's butt nearest the end moves to the merged plate's
-                    if end == 0:
-                        planes = [ends[0], x_g] + planes[2:]
-                    else:
-                        planes = planes[:-2] + [x_g, ends[1]]
+        for end, found in columns.items():
+            for c, groups in enumerate(found):
+                for (lo, hi), x_g in groups.items():
+                    if lo <= i < hi:  # the group's plate replaces this strake's plate c from the end
+                        planes[c + 1 if end == 0 else len(planes) - 2 - c] = x_g
         for j in range(len(planes) - 1):
-            group = _group_at(groups, i, j, len(planes) - 1)
+            group = _group_at(columns, i, j, len(planes) - 1)
             if group is None:
                 plates.append((i, i + 1, planes[j:j + 2], j + 1))
             elif group[0] == i:  # the merged plate once, in its lowest strake's place
@@ -106,40 +92,92 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
     return plates
 
 
-def _group_at(groups: dict, i: int, j: int, n_plates: int):
-    for end, found in groups.items():
-        if (end == 0 and j == 0) or (end == 1 and j == n_plates - 1):
-            for lo, hi in found:
+def _group_at(columns: dict, i: int, j: int, n_plates: int):
+    for end, found in columns.items():
+        c = j if end == 0 else n_plates - 1 - j
+        if c < len(found):
+            for lo, hi in found[c]:
                 if lo <= i < hi:
                     return lo, hi
     return None
 
 
-def _stealers(n: int, butts, end: int, x_group: float, plane_end, stock, width_of) -> dict:
-    """Seam ranges (lo, hi) of strakes whose end plates merge (drop strakes)."""
-    def end_plate(lo, hi, x_at):
-        return (plane_end, x_at) if end == 0 else (x_at, plane_end)
+def _drop_strakes(end: int, butts: list, base: list, plane_end, stock, stagger: float, joints,
+                  width_of) -> list[dict]:
+    """The merged plates of each column of plates counted from one end (0: aft, 1: fore),
+    [{(lo seam, hi seam): x of its inner butt}], while a column has any: the end plates
+    first (:func:`_stealers`), then each next column's plates within the strakes merged in
+    the column before (a seam that stops at a butt does not start again further from the
+    end), up to half the strakes' plates. A merged plate's inner butt lies one stagger from
+    the column's base butt, away from the middle (the strakes beside it butt at the base butt
+    or one stagger inward), or two staggers inward when the merged plate beside it across a
+    seam took that one, or on a block joint; one that would make it longer than the stock is
+    not merged."""
+    joint_set = {float(j) for j in joints}
+    plates = len(base) + 1
+    found, parents = [], {(0, len(butts)): plane_end}
+    for c in range(max(1, plates // 2)):
+        x_base = base[c] if end == 0 else base[-1 - c]
+        # a merged plate's inner butt: the strakes beside it butt at x_base or x_base + stagger
+        choices = [x_base] if x_base in joint_set else [
+            x_base - stagger, x_base + (2.0 if end == 0 else -2.0) * stagger]
+        groups = {}
+        for (p_lo, p_hi), x_parent in sorted(parents.items()):
+            own = [None if not butts[i] else _plate(end, x_parent, butts[i][c] if end == 0 else butts[i][-1 - c])
+                   for i in range(len(butts))]
+            merged = _plate(end, x_parent, choices[0])
+            for lo, hi in _stealers(range(p_lo, p_hi), own, merged, stock, width_of):
+                groups[(lo, hi)] = x_parent
+        if not groups:
+            break
+        chosen, previous = {}, None
+        for (lo, hi), x_parent in sorted(groups.items()):
+            for x_g in choices:
+                if previous is not None and previous[0][1] == lo and previous[1] == x_g and x_g not in joint_set:
+                    continue  # the two merged plates' butts would meet their common seam at one point
+                if x_parent is not None and abs(x_g - x_parent) > stock.max_length * (1.0 + 1e-9):
+                    continue
+                chosen[(lo, hi)] = x_g
+                previous = ((lo, hi), x_g)
+                break
+        if not chosen:
+            break
+        found.append(chosen)
+        parents = chosen
+    return found
 
-    def own_width(i):
-        x_at = (butts[i][0] if end == 0 else butts[i][-1]) if butts[i] else None
-        return width_of(i, i + 1, *end_plate(i, i + 1, x_at)) if x_at is not None else np.inf
 
-    widths = [own_width(i) for i in range(n)]
-    groups = [[i, i + 1] for i in range(n)]  # seam ranges
-    for _ in range(n):
+def _plate(end: int, x_outer, x_inner) -> tuple:
+    """A plate's planes (aft x, fore x) from its butt toward the end (x or None: the end) and its inner one."""
+    return (x_outer, x_inner) if end == 0 else (x_inner, x_outer)
+
+
+def _stealers(strakes: range, own_plates: list, merged_plate: tuple, stock, width_of) -> list:
+    """Seam ranges (lo, hi) of strakes among ``strakes`` whose plates merge (drop strakes):
+    ``own_plates[i]``: strake i's plate (x, x), or None (no butt: it is not merged);
+    ``merged_plate``: a merged plate's (x, x)."""
+    def width(lo, hi):
+        if hi - lo == 1:
+            plate = own_plates[lo]
+            return np.inf if plate is None else width_of(lo, hi, *plate)
+        return width_of(lo, hi, *merged_plate)
+
+    widths = {i: width(i, i + 1) for i in strakes}
+    groups = [[i, i + 1] for i in strakes]  # seam ranges
+    for _ in range(len(groups)):
         changed = False
         for g, (lo, hi) in enumerate(groups):
-            w = widths[lo] if hi - lo == 1 else width_of(lo, hi, *end_plate(lo, hi, x_group))
+            w = widths[lo] if hi - lo == 1 else width(lo, hi)
             if w >= stock.min_width or w <= 0.0:
-                continue  # wide enough, or the end plate misses the surface
+                continue  # wide enough, or the plate misses the surface
             sides = [k for k in (g - 1, g + 1) if 0 <= k < len(groups)]
             if not sides:
                 continue
-            narrow = {k: (widths[groups[k][0]] if groups[k][1] - groups[k][0] == 1 else
-                          width_of(groups[k][0], groups[k][1], *end_plate(*groups[k], x_group))) for k in sides}
+            narrow = {k: (widths[groups[k][0]] if groups[k][1] - groups[k][0] == 1 else width(*groups[k]))
+                      for k in sides}
             k = min(sides, key=lambda s: (narrow[s], s))
             a, b = min(lo, groups[k][0]), max(hi, groups[k][1])
-            if width_of(a, b, *end_plate(a, b, x_group)) > stock.max_width:
+            if width(a, b) > stock.max_width:
                 continue
             groups[min(g, k)] = [a, b]
             del groups[max(g, k)]
