@@ -114,6 +114,27 @@ def test_drop_strakes_go_on_past_the_end_plates_while_the_girth_shrinks(tmp_path
     assert area == pytest.approx(sum(_grid_area(plate_edges(p.name, p.hull).points) for p in plain), rel=1e-3)
     assert len(yard) == 4 * 6 - 3 - 2
 
+
+def test_drop_strakes_without_a_stagger_merge_side_by_side_at_one_butt():
+    """butt_stagger 0 (butts may align anywhere): six strakes whose fore end plates are 0.7 m
+    wide merge in two threes (2.1 m), side by side, both ending on the strakes' last butt; with
+    a 300 mm stagger the first three's butt lies one stagger aft of it and the second's two
+    (one point of their common seam otherwise: a cross joint)."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.yardrules import strake_butts, yard_layout
+
+    stock = SimpleNamespace(max_length=4000.0, max_width=3500.0, min_width=1500.0)
+
+    def width_of(lo, hi, a, b):
+        return (hi - lo) * (700.0 if b is None else 2000.0)  # only the fore end plates are narrow
+
+    for stagger in (0.0, 300.0):
+        last = strake_butts(0.0, 20000.0, 4000.0, stagger, [], 0.0)[-1]  # 16000 (0), 16667 (300)
+        plates = yard_layout(6, 0.0, 20000.0, (None, None), stock, stagger, [], width_of)
+        merged = {(lo, hi): xs for lo, hi, xs, _ in plates if hi - lo > 1}
+        assert merged == {(0, 3): [last - stagger, None], (3, 6): [last - 2 * stagger, None]}, merged
+
 def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_path):
     """The rule on a plan: butts meeting a seam from either side are 300 mm apart or more, or
     meet on a block joint. The plain layout breaks it (every strake butts at the same x: a

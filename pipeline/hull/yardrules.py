@@ -133,7 +133,8 @@ def _drop_strakes(end: int, butts: list, base: list, plane_end, stock, stagger: 
         chosen, previous = {}, None
         for (lo, hi), x_parent in sorted(groups.items()):
             for x_g in choices:
-                if previous is not None and previous[0][1] == lo and previous[1] == x_g and x_g not in joint_set:
+                if (previous is not None and previous[0][1] == lo and previous[1] == x_g and x_g not in joint_set
+                        and stagger > 0.0):
                     continue  # the two merged plates' butts would meet their common seam at one point
                 if x_parent is not None and abs(x_g - x_parent) > stock.max_length * (1.0 + 1e-9):
                     continue
