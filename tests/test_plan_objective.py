@@ -3,6 +3,7 @@ stealers where the girth shrinks (no plate narrower than the stock), the butt st
 the plate cache (a plate evaluated once, whatever plan asks) and --jobs 2 writing the bytes
 --jobs 1 writes."""
 
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -134,6 +135,54 @@ def test_drop_strakes_without_a_stagger_merge_side_by_side_at_one_butt():
         plates = yard_layout(6, 0.0, 20000.0, (None, None), stock, stagger, [], width_of)
         merged = {(lo, hi): xs for lo, hi, xs, _ in plates if hi - lo > 1}
         assert merged == {(0, 3): [last - stagger, None], (3, 6): [last - 2 * stagger, None]}, merged
+
+
+def _layout_faults(plates: list, n: int, x0: float, x1: float, stagger: float) -> list:
+    """What is wrong with a yard layout's plates [(lo, hi, [x or None, x or None], B)]: a strake
+    not covered once from x0 to x1, or two butts meeting a seam from either side less than the
+    stagger apart off the seam's ends (a cross joint when they coincide)."""
+    faults = []
+    for i in range(n):
+        spans = sorted(((x0 if a is None else a), (x1 if b is None else b)) for lo, hi, (a, b), _ in plates
+                       if lo <= i < hi)
+        if spans[0][0] != x0 or spans[-1][1] != x1 or any(s[1] != t[0] for s, t in pairwise(spans)):
+            faults.append(f"strake {i} covered by {spans}")
+    for seam in range(1, n):
+        below = [p for p in plates if p[1] == seam]
+        above = [p for p in plates if p[0] == seam]
+        ends = (max(min(x0 if p[2][0] is None else p[2][0] for p in side) for side in (below, above)),
+                min(max(x1 if p[2][1] is None else p[2][1] for p in side) for side in (below, above)))
+        butts = [{x for p in side for x in p[2] if x is not None and ends[0] < x < ends[1]} for side in (below, above)]
+        faults += [f"seam {seam}: butts {a} and {b}" for a in butts[0] for b in butts[1] if abs(a - b) < stagger]
+    return faults
+
+
+@pytest.mark.parametrize("narrow", ["middle", "crossed"])
+def test_drop_strakes_from_both_ends_meet_at_the_middle_butt_once(narrow):
+    """Four plates a strake (three butts), strakes narrow from both ends up to the middle butt:
+    each end merges its columns, and the middle butt is the aft end's to move (when both
+    moved it, each its own way, strake 3 was left uncovered from 8700 to 9600 mm, or two
+    merged plates met seam 2 at one point: a cross joint)."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.yardrules import yard_layout
+
+    x0, x1 = 0.0, 18000.0
+    stock = SimpleNamespace(max_length=6000.0, max_width=1300.0, min_width=1000.0)
+
+    def strake_width(i, x):
+        if narrow == "middle":  # strakes 1 and 2 narrow everywhere, 0 and 3 aft of x = 9300
+            return 600.0 if i in (1, 2) or x <= 9300.0 else 1200.0
+        # strakes 0 and 1 narrow aft of x = 9300, 2 and 3 fore of x = 8500
+        return 600.0 if (i < 2 and x <= 9300.0) or (i >= 2 and x >= 8500.0) else 1200.0
+
+    def width_of(lo, hi, a, b):
+        xs = np.linspace(x0 if a is None else a, x1 if b is None else b, 201)
+        return max(sum(strake_width(i, x) for i in range(lo, hi)) for x in xs)
+
+    plates = yard_layout(4, x0, x1, (None, None), stock, 300.0, [], width_of)
+    assert _layout_faults(plates, 4, x0, x1, 300.0) == []
+    assert any(hi - lo > 1 for lo, hi, _, _ in plates)
 
 def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_path):
     """The rule on a plan: butts meeting a seam from either side are 300 mm apart or more, or

@@ -72,9 +72,19 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
     offsets = [stagger * (i % 2) for i in range(n_strakes)]
     butts = [strake_butts(x0, x1, stock.max_length, stagger, joints, offsets[i]) for i in range(n_strakes)]
     base = strake_butts(x0, x1, stock.max_length, stagger, joints, 0.0)
-    # per end, per column of plates counted from it: {(lo, hi): the merged plate's inner butt}
-    columns = {end: _drop_strakes(end, butts, base, ends[end], stock, stagger, joints, width_of) if base else []
-               for end in (0, 1)}
+    # per end, per column of plates counted from it: {(lo, hi): the merged plate's inner butt};
+    # of an even number of plates the aft end takes the middle butt
+    aft = _drop_strakes(0, butts, base, ends[0], (x0, x1), stock, stagger, joints, width_of) if base else []
+    moved = [list(b) for b in butts]  # the butts the aft end's merges moved: the fore end's stay clear of them
+    for c, groups in enumerate(aft):
+        for (lo, hi), x_g in groups.items():
+            for i in range(lo, hi):
+                moved[i][c] = x_g
+    fore = _drop_strakes(1, butts if len(base) == 1 else moved, base, ends[1], (x0, x1), stock, stagger, joints,
+                         width_of) if base else []
+    if len(base) == 1 and aft and fore:  # two plates a strake: both ends' merged plates move its one butt
+        aft, fore = _one_butt(aft[0], fore[0], stagger, joints)
+    columns = {0: aft, 1: fore}
     plates = []
     for i in range(n_strakes):
         planes = [ends[0]] + list(butts[i]) + [ends[1]]
@@ -92,6 +102,22 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
     return plates
 
 
+def _one_butt(aft: dict, fore: dict, stagger: float, joints) -> tuple[list, list]:
+    """The columns ([aft], [fore]) of strakes of two plates whose merged end plates, {(lo, hi):
+    butt x} at each end, share the one butt: strakes merged at both ends only as the same group,
+    which then butts where the fore end put it, and merged plates side by side (across a seam)
+    at different x unless no stagger is asked for or on a block joint; else the aft end's alone."""
+    joint_set = {float(j) for j in joints}
+    if any(a_lo < f_hi and f_lo < a_hi and (a_lo, a_hi) != (f_lo, f_hi) for a_lo, a_hi in aft for f_lo, f_hi in fore):
+        return [aft], []
+    both = {**aft, **fore}  # a group merged at both ends butts where the fore end put it
+    for (lo, hi), x in both.items():
+        beside = both.get(next(((a, b) for a, b in both if a == hi), None))
+        if beside is not None and beside == x and stagger > 0.0 and x not in joint_set:
+            return [aft], []
+    return [{g: both[g] for g in aft}], [fore]
+
+
 def _group_at(columns: dict, i: int, j: int, n_plates: int):
     for end, found in columns.items():
         c = j if end == 0 else n_plates - 1 - j
@@ -102,21 +128,26 @@ def _group_at(columns: dict, i: int, j: int, n_plates: int):
     return None
 
 
-def _drop_strakes(end: int, butts: list, base: list, plane_end, stock, stagger: float, joints,
+def _drop_strakes(end: int, butts: list, base: list, plane_end, extent: tuple, stock, stagger: float, joints,
                   width_of) -> list[dict]:
     """The merged plates of each column of plates counted from one end (0: aft, 1: fore),
     [{(lo seam, hi seam): x of its inner butt}], while a column has any: the end plates
     first (:func:`_stealers`), then each next column's plates within the strakes merged in
     the column before (a seam that stops at a butt does not start again further from the
-    end), up to half the strakes' plates. A merged plate's inner butt lies one stagger from
-    the column's base butt, away from the middle (the strakes beside it butt at the base butt
-    or one stagger inward), or two staggers inward when the merged plate beside it across a
-    seam took that one, or on a block joint; one that would make it longer than the stock is
-    not merged."""
+    end), up to half the strakes' plates (the aft end the middle butt of an even number). A
+    merged plate's inner butt lies one stagger from the column's base butt, away from the
+    middle (the strakes beside it butt at the base butt or one stagger inward), or two
+    staggers inward when that one lies nearer than a stagger to a butt across one of its
+    seams (the merged plate beside it took it), or on a block joint; one with no such place,
+    or whose butts would lie further apart than the stock is long (an end plate's measured
+    from the strakes' ``extent`` (x0, x1), not from a face's cut), is not merged. ``butts``:
+    each strake's butts, those the other end's merges moved included."""
     joint_set = {float(j) for j in joints}
     plates = len(base) + 1
     found, parents = [], {(0, len(butts)): plane_end}
-    for c in range(max(1, plates // 2)):
+    x_end = extent[0] if end == 0 else extent[1]
+    butts = [list(b) for b in butts]  # each strake's butts as the merges move them
+    for c in range(max(1, plates // 2 if end == 0 else (plates - 1) // 2)):
         x_base = base[c] if end == 0 else base[-1 - c]
         # a merged plate's inner butt: the strakes beside it butt at x_base or x_base + stagger
         choices = [x_base] if x_base in joint_set else [
@@ -130,16 +161,20 @@ def _drop_strakes(end: int, butts: list, base: list, plane_end, stock, stagger: 
                 groups[(lo, hi)] = x_parent
         if not groups:
             break
-        chosen, previous = {}, None
+        chosen = {}
+        column = c if end == 0 else -1 - c
         for (lo, hi), x_parent in sorted(groups.items()):
+            # the butts across its two seams: its neighbours' own, or a merged plate's beside it
+            across = [x for k in (lo - 1, hi) if 0 <= k < len(butts) for x in butts[k]]
             for x_g in choices:
-                if (previous is not None and previous[0][1] == lo and previous[1] == x_g and x_g not in joint_set
-                        and stagger > 0.0):
-                    continue  # the two merged plates' butts would meet their common seam at one point
-                if x_parent is not None and abs(x_g - x_parent) > stock.max_length * (1.0 + 1e-9):
+                if stagger > 0.0 and any(abs(x_g - x) < stagger * (1.0 - 1e-9) and not (x == x_g and x in joint_set)
+                                         for x in across):
+                    continue  # a cross joint, or butts closer than the stagger, on one of its seams
+                if abs(x_g - (x_end if c == 0 else x_parent)) > stock.max_length * (1.0 + 1e-9):
                     continue
                 chosen[(lo, hi)] = x_g
-                previous = ((lo, hi), x_g)
+                for i in range(lo, hi):
+                    butts[i][column] = x_g
                 break
         if not chosen:
             break
