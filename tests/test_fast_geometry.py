@@ -155,3 +155,50 @@ def test_outline_and_bending_lines_from_the_stages_development_are_the_tracers_o
     apex = (ends_a + (ends_b - ends_a) * (rho1 / (rho1 - rho2))).mean(axis=0)
     np.testing.assert_allclose(np.hypot(*(ends_a - apex).T), rho1, rtol=1e-10)
     np.testing.assert_allclose(np.hypot(*(ends_b - apex).T), rho2, rtol=1e-10)
+
+
+@pytest.mark.parametrize("case", ["band", "sliver", "sheared", "whole"])
+def test_a_long_probe_sampled_sparsely_gives_the_whole_probes_grid(case, monkeypatch):
+    """A probe of 400 columns along the cylinder's height is first sampled at every tenth column
+    and then only around what those find: the grid is the whole probe's, bit for bit, for a
+    band of the height, a sliver between two sampled columns (found by the whole probe
+    only), rows whose runs shift along the height by more than their length (planes slanted
+    across the girth: some rows lie wholly between the sampled ones' runs), and no planes."""
+    from flatten import patch
+
+    surface = cylinder(height=100.0)
+    band = {"band": (10.0, 30.0), "sliver": (51.3, 51.5), "sheared": (40.0, 41.0), "whole": None}[case]
+    if band is None:
+        planes = [None, None]
+    elif case == "sheared":
+        normal = np.array([0.0, 0.999, 0.045])  # mostly across the girth: each row meets it at its own height
+        normal /= np.linalg.norm(normal)
+        planes = [(normal, band[0] * normal[2]), (normal, band[1] * normal[2])]
+    else:
+        planes = [(np.array([0.0, 0.0, 1.0]), band[0]), (np.array([0.0, 0.0, 1.0]), band[1])]
+    counted = _Counting(surface)
+    args = (counted, 1, lambda s: np.full(np.shape(s), 0.1), lambda s: np.full(np.shape(s), 0.9), planes, 9, 17)
+    sparse = region_grid(*args, probe=400, spacing="parameter")
+    sparse_points, counted.points = counted.points, 0
+    monkeypatch.setattr(patch, "COARSE_PROBE", 10**6)  # every column evaluated
+    whole = region_grid(*args, probe=400, spacing="parameter")
+    if case == "sheared":
+        assert whole is not None and np.ptp(whole.params[:, 0, 1]) > 1.0 / 100.0  # rows' runs at their own heights
+    if case == "band":
+        assert sparse_points < 0.5 * counted.points  # the probe's columns away from the band are skipped
+    for field in ("params", "points", "rows", "ends"):
+        assert np.array_equal(getattr(sparse, field), getattr(whole, field)), field
+
+
+class _Counting:
+    """A surface that counts the points it is evaluated at."""
+
+    def __init__(self, surface):
+        self.surface, self.points = surface, 0
+
+    def __call__(self, u, v):
+        self.points += len(np.atleast_1d(u))
+        return self.surface(u, v)
+
+    def __getattr__(self, name):
+        return getattr(self.surface, name)
