@@ -237,9 +237,11 @@ def _probe_margins(surface: NurbsSurface, long_axis: int, s: np.ndarray, gg: np.
     (R, P) at the columns s (P,). A probe of at least 4 COARSE_PROBE columns is first sampled
     at every (P // COARSE_PROBE)-th column; when some row lies inside there, only the columns
     from one such step before the first inside sample to one after the last are evaluated (the
-    others read as outside), provided that every row has a sample inside them and none at
-    their first or last column (a row reaching beyond). Else, and for a region too short for
-    the coarse columns to meet (a 33 mm leftover on a 281 m loft), every column is. The
+    others read as outside), provided that no row is inside at their first or last column (it
+    may reach beyond) and that every row's longest run inside them is at least a step long
+    (a run elsewhere lies between two sparse columns, shorter: the grid keeps each row's
+    longest). Else, and for a region too short for the coarse columns to meet (a 33 mm
+    leftover on a 281 m loft), every column is. The
     columns evaluated are the same points as the whole probe's: the margins, and so the
     grid, are the same. A plate's region is one band across the rows: the sparse columns
     skip the hull's length away from it (half a plate boundary sample's time on the 160 m
@@ -261,11 +263,25 @@ def _probe_margins(surface: NurbsSurface, long_axis: int, s: np.ndarray, gg: np.
             near = at(columns)
             inside = near >= 0
             bounded = (first == 0 or not inside[:, 0].any()) and (last == probe - 1 or not inside[:, -1].any())
-            if bounded and inside.any(axis=1).all():
+            # a row's run beyond these columns lies between two sparse ones (under a step long):
+            # it cannot be the row's longest, which the region's grid keeps, when the one here is longer
+            if bounded and (_longest_runs(inside) >= step).all():
                 out = np.full((rows, probe), -np.inf)
                 out[:, first:last + 1] = near
                 return out
     return at(np.arange(probe))
+
+
+def _longest_runs(mask: np.ndarray) -> np.ndarray:
+    """The length (R,) of each row's longest run of True in ``mask`` (R, P)."""
+    padded = np.zeros((mask.shape[0], mask.shape[1] + 2), dtype=np.int8)
+    padded[:, 1:-1] = mask
+    step = np.diff(padded, axis=1)
+    start_row, start = np.nonzero(step == 1)
+    _, stop = np.nonzero(step == -1)
+    longest = np.zeros(mask.shape[0], dtype=np.int64)
+    np.maximum.at(longest, start_row, stop - start)
+    return longest
 
 
 def _fractions(count_or_fractions, name: str, ends: bool) -> np.ndarray:

@@ -202,3 +202,25 @@ class _Counting:
 
     def __getattr__(self, name):
         return getattr(self.surface, name)
+
+
+def test_a_row_whose_longest_run_lies_between_sparse_columns_is_probed_whole(monkeypatch):
+    """A row that lies inside twice, briefly beside the other row's run and longer between two
+    sampled columns far from it (a review's case): the grid keeps each row's longest run, so
+    the sparse probe, which sees only the short one, gives way to the whole probe."""
+    from flatten import patch
+
+    plane = nurbs_surface(1, 1, [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]], [0, 0, 1, 1], [0, 0, 1, 1])
+
+    def g_hi(s):  # the upper row dips inside near the lower row's run, and for longer near u = 0.764
+        s = np.asarray(s, dtype=float)
+        return 0.9 - 0.45 * np.exp(-((s - 0.3775) / 0.002) ** 2) - 0.8 * np.exp(-((s - 0.7644) / 0.006) ** 2)
+
+    planes = [(np.array([1.0, 0.0, 0.0]), 0.25), (np.array([1.0, 1.0, 0.0]), 1.0)]  # x >= 0.25, x + y <= 1
+    args = (plane, 0, lambda s: np.full(np.shape(s), 0.5), g_hi, planes, 2, 5)
+    sparse = region_grid(*args)
+    monkeypatch.setattr(patch, "COARSE_PROBE", 10**6)
+    whole = region_grid(*args)
+    assert 0.76 < whole.params[1, 0, 0] < whole.params[1, -1, 0] < 0.77  # the upper row's longer run
+    for field in ("params", "points", "rows", "ends"):
+        assert np.array_equal(getattr(sparse, field), getattr(whole, field)), field
