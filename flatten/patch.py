@@ -150,17 +150,7 @@ def region_grid(surface: NurbsSurface, long_axis: int, g_lo, g_hi, planes, rows,
         w_probe = fractions(s, glo, ghi, np.broadcast_to(a, (probe, rows))).T  # (rows, probe)
     gg = glo[None, :] + w_probe * (ghi - glo)[None, :]
     probed = _probe_margins(surface, long_axis, s, gg, margin)
-    mask = probed >= 0
-    # each row's longest run of inside samples (the first of equal ones), all rows at once:
-    # run starts and ends in row-major order pair up
-    padded = np.zeros((rows, probe + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask
-    step = np.diff(padded, axis=1)
-    start_row, start = np.nonzero(step == 1)
-    _, stop = np.nonzero(step == -1)
-    order = np.lexsort((start, start - stop, start_row))
-    rows_in, first = np.unique(start_row[order], return_index=True)
-    run = np.column_stack([start[order][first], stop[order][first] - 1])  # (R, 2) first and last inside
+    rows_in, run = _longest_runs(probed >= 0)  # (R, 2) first and last inside
     bounds = s[run]
     ends_w = w_probe[rows_in[:, None], run]  # the girth fraction at each end (R, 2)
     flags = np.zeros(bounds.shape, dtype=bool)
@@ -265,23 +255,26 @@ def _probe_margins(surface: NurbsSurface, long_axis: int, s: np.ndarray, gg: np.
             bounded = (first == 0 or not inside[:, 0].any()) and (last == probe - 1 or not inside[:, -1].any())
             # a row's run beyond these columns lies between two sparse ones (under a step long):
             # it cannot be the row's longest, which the region's grid keeps, when the one here is longer
-            if bounded and (_longest_runs(inside) >= step).all():
+            rows_in, run = _longest_runs(inside)
+            if bounded and len(rows_in) == rows and (run[:, 1] - run[:, 0] + 1 >= step).all():
                 out = np.full((rows, probe), -np.inf)
                 out[:, first:last + 1] = near
                 return out
     return at(np.arange(probe))
 
 
-def _longest_runs(mask: np.ndarray) -> np.ndarray:
-    """The length (R,) of each row's longest run of True in ``mask`` (R, P)."""
+def _longest_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's longest run of True in ``mask`` (R, P), the first of equal ones, all rows at
+    once (run starts and ends in row-major order pair up): the rows that have one (R',) and
+    its first and last index (R', 2)."""
     padded = np.zeros((mask.shape[0], mask.shape[1] + 2), dtype=np.int8)
     padded[:, 1:-1] = mask
     step = np.diff(padded, axis=1)
     start_row, start = np.nonzero(step == 1)
     _, stop = np.nonzero(step == -1)
-    longest = np.zeros(mask.shape[0], dtype=np.int64)
-    np.maximum.at(longest, start_row, stop - start)
-    return longest
+    order = np.lexsort((start, start - stop, start_row))
+    rows_in, first = np.unique(start_row[order], return_index=True)
+    return rows_in, np.column_stack([start[order][first], stop[order][first] - 1])
 
 
 def _fractions(count_or_fractions, name: str, ends: bool) -> np.ndarray:

@@ -74,14 +74,11 @@ def yard_layout(n_strakes: int, x0: float, x1: float, ends: tuple, stock, stagge
     base = strake_butts(x0, x1, stock.max_length, stagger, joints, 0.0)
     # per end, per column of plates counted from it: {(lo, hi): the merged plate's inner butt};
     # of an even number of plates the aft end takes the middle butt
-    aft = _drop_strakes(0, butts, base, ends[0], (x0, x1), stock, stagger, joints, width_of) if base else []
-    moved = [list(b) for b in butts]  # the butts the aft end's merges moved: the fore end's stay clear of them
-    for c, groups in enumerate(aft):
-        for (lo, hi), x_g in groups.items():
-            for i in range(lo, hi):
-                moved[i][c] = x_g
-    fore = _drop_strakes(1, butts if len(base) == 1 else moved, base, ends[1], (x0, x1), stock, stagger, joints,
-                         width_of) if base else []
+    aft, moved = _drop_strakes(0, butts, base, ends[0], (x0, x1), stock, stagger, joints, width_of) if base else (
+        [], butts)
+    # the fore end's butts stay clear of those the aft end's merges moved
+    fore, _ = _drop_strakes(1, butts if len(base) == 1 else moved, base, ends[1], (x0, x1), stock, stagger, joints,
+                            width_of) if base else ([], butts)
     if len(base) == 1 and aft and fore:  # two plates a strake: both ends' merged plates move its one butt
         aft, fore = _one_butt(aft[0], fore[0], stagger, joints)
     columns = {0: aft, 1: fore}
@@ -129,9 +126,10 @@ def _group_at(columns: dict, i: int, j: int, n_plates: int):
 
 
 def _drop_strakes(end: int, butts: list, base: list, plane_end, extent: tuple, stock, stagger: float, joints,
-                  width_of) -> list[dict]:
+                  width_of) -> tuple[list[dict], list]:
     """The merged plates of each column of plates counted from one end (0: aft, 1: fore),
-    [{(lo seam, hi seam): x of its inner butt}], while a column has any: the end plates
+    [{(lo seam, hi seam): x of its inner butt}], and each strake's butts with the merged
+    plates' in place, while a column has any merged plates: the end plates
     first (:func:`_stealers`), then each next column's plates within the strakes merged in
     the column before (a seam that stops at a butt does not start again further from the
     end), up to half the strakes' plates (the aft end the middle butt of an even number). A
@@ -154,8 +152,8 @@ def _drop_strakes(end: int, butts: list, base: list, plane_end, extent: tuple, s
             x_base - stagger, x_base + (2.0 if end == 0 else -2.0) * stagger]
         groups = {}
         for (p_lo, p_hi), x_parent in sorted(parents.items()):
-            own = [None if not butts[i] else _plate(end, x_parent, butts[i][c] if end == 0 else butts[i][-1 - c])
-                   for i in range(len(butts))]
+            own = {i: None if not butts[i] else _plate(end, x_parent, butts[i][c] if end == 0 else butts[i][-1 - c])
+                   for i in range(p_lo, p_hi)}
             merged = _plate(end, x_parent, choices[0])
             for lo, hi in _stealers(range(p_lo, p_hi), own, merged, stock, width_of):
                 groups[(lo, hi)] = x_parent
@@ -180,7 +178,7 @@ def _drop_strakes(end: int, butts: list, base: list, plane_end, extent: tuple, s
             break
         found.append(chosen)
         parents = chosen
-    return found
+    return found, butts
 
 
 def _plate(end: int, x_outer, x_inner) -> tuple:
@@ -188,9 +186,9 @@ def _plate(end: int, x_outer, x_inner) -> tuple:
     return (x_outer, x_inner) if end == 0 else (x_inner, x_outer)
 
 
-def _stealers(strakes: range, own_plates: list, merged_plate: tuple, stock, width_of) -> list:
+def _stealers(strakes: range, own_plates: dict, merged_plate: tuple, stock, width_of) -> list:
     """Seam ranges (lo, hi) of strakes among ``strakes`` whose plates merge (drop strakes):
-    ``own_plates[i]``: strake i's plate (x, x), or None (no butt: it is not merged);
+    ``own_plates[i]``: strake i's plate (x, x), or None (no butt: it is not merged), for i in ``strakes``;
     ``merged_plate``: a merged plate's (x, x)."""
     def width(lo, hi):
         if hi - lo == 1:
