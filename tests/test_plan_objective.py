@@ -208,6 +208,38 @@ def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_pat
         assert lengths.max() <= 6000.0 + 1.0, (p.name, lengths.max())
 
 
+def test_an_adaptive_plan_without_an_objective_keeps_the_butt_stagger(tmp_path, monkeypatch):
+    """``butt_stagger`` without an objective: the plan splits every plate that does not fit,
+    a depth at a time. Both strakes of the cylinder-sphere split their end plates along the
+    length at the same depth; each chose its butt without the other's (and without any rule)
+    and the two met the seam between them 3 mm apart (3411 and 3408 mm): the control, with
+    the rule switched off. Now a butt split keeps the stagger from the butts across its seams,
+    those taken at the same depth too, and the shell is still covered once."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.yardrules import ButtRule
+    from pipeline.runner import plate_evaluator
+
+    iges = tmp_path / "cs.igs"
+    cylinder_sphere_iges(iges, 10000.0, 60.0, 1500.0, 3000.0, 0.3)
+    plan = {"method": "adaptive", "max_splits": 2, "butt_stagger": 300,
+            "stock": {"max_length": 4000, "max_width": 2500, "min_length": 1000, "min_width": 1000}}
+    with plate_evaluator(1) as evaluator:
+        yard = load_run(_config(tmp_path, "yard", iges, plan), evaluator).parts
+    with monkeypatch.context() as off, plate_evaluator(1) as evaluator:
+        off.setattr(planner, "butt_rule", lambda part, sides, stagger, joints: ButtRule((), stagger, ()))
+        off.setattr(planner, "_butt_clash", lambda *args: False, raising=False)
+        control = load_run(_config(tmp_path, "control", iges, plan), evaluator).parts
+    crossing = butt_violations(control, 300.0)
+    assert crossing and all(min(abs(xa), abs(xb)) > 3000.0 for *_, xa, xb in crossing)  # the end plates' splits
+    assert butt_violations(yard, 300.0) == []
+    uniform = {-1666.667, 1666.667, -1366.667, 1966.667}  # the two strakes' staggered butts, rounded
+    splits = {round(b.offset, 3) for p in yard for b in p.hull.butts if b is not None} - uniform
+    assert len(splits) >= 4  # the plan still splits along the length, staggered
+    area = sum(_grid_area(plate_edges(p.name, p.hull).points) for p in yard)
+    assert area == pytest.approx(sum(_grid_area(plate_edges(p.name, p.hull).points) for p in control), rel=1e-3)
+
+
 def _cs(tmp_path: Path, name: str, method: str, objective=None, max_splits: int = 1) -> Path:
     iges = tmp_path / "cs.igs"
     if not iges.exists():

@@ -412,20 +412,31 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     gets the plan after each depth: the plates kept so far and that depth's plates whole.
     A depth's splits are chosen on the workers, and each split's halves are built here as
     soon as it is chosen, while the workers choose the next (they would wait for a whole
-    depth built here one plate after another)."""
+    depth built here one plate after another). With the yard's rules (``butt_stagger``,
+    ``block_joints``) a butt split keeps the rule against the butts across its plate's seams,
+    and one that comes within the stagger of a butt another plate across them takes at the
+    same depth waits a depth, to be chosen again against it."""
     plan = ctx.plan
     kept, round_, weld = [], 0, None
-    wave = [c for c in cells if build(c) is not None]
-    while wave:
-        built = _evaluate_built(wave, ctx)
+    wave, waiting = [c for c in cells if build(c) is not None], []
+    while wave or waiting:
+        built = _evaluate_built(wave, ctx) + waiting
         splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
+        sides = seam_sides([c.part for c in kept + built]) if ctx.yard else None
+        rules = [None if sides is None else butt_rule(c.part, sides, ctx.stagger, plan.block_joints)
+                 for c in splitting]
         # handed out before the weld and the record are computed, which the workers need not wait for
-        chosen = ctx.spread(_region_split, [_split_job(c, ctx) for c in splitting])
+        chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule) for c, rule in zip(splitting, rules)])
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
-        splits, halves = {}, {}
-        for cell, split in zip(splitting, chosen):
+        splits, halves, new_butts, waiting = {}, {}, {}, []
+        for cell, split, rule in zip(splitting, chosen, rules):
+            if split is not None and rule is not None and split.kind == "length":
+                if _butt_clash(cell, split.at, sides, new_butts, rule):
+                    waiting.append(cell)
+                    continue
+                new_butts[id(cell.part)] = split.at
             splits[id(cell)] = split
             if split is not None:  # built now, while the workers choose the next splits
                 halves[id(cell)] = [half for half in _children(cell, split) if build(half) is not None]
@@ -435,9 +446,13 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
             if fits or cell.depth >= plan.max_splits:
                 kept.append(_settle(cell, "fits" if fits else f"max_splits = {plan.max_splits}", plan.method))
                 continue
+            if id(cell) not in splits:
+                continue  # waiting a depth
             split = splits[id(cell)]
             if split is None:
-                kept.append(_settle(cell, "no split keeps both halves within the minimum stock sizes", plan.method))
+                rule = " and the butt rule" if sides is not None else ""
+                kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{rule}",
+                                    plan.method))
                 continue
             weld += split.weld * ctx.mm_per_unit / 1000.0
             ctx.record.splits_taken += 1
@@ -446,6 +461,20 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     last = ctx.record.points[-1]
     ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, True)
     return kept
+
+
+def _butt_clash(cell: Cell, x: float, sides: dict, new_butts: dict, rule) -> bool:
+    """Whether a new butt of ``cell`` at ``x`` comes within the stagger of a new butt taken at
+    the same depth by a plate across its seams (``new_butts``: {id(part): x}), off a shared
+    block joint."""
+    for girth in cell.part.hull.girths:
+        _, below, above = sides.get(id(girth), (None, [], []))
+        for other in below + above:
+            if other is cell.part or id(other) not in new_butts:
+                continue
+            if not replace(rule, offsets=(new_butts[id(other)],))(x):
+                return True
+    return False
 
 
 def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False) -> tuple[list, float]:
