@@ -64,7 +64,8 @@ def test_the_plan_cost_of_a_cylinder_strake_is_its_closed_form(cylinder):
     between the strakes (10 m), the interior butt the whole quarter circle at x = 10 m
     (R pi / 2); the outer edge two generators and two quarter circles. The welds per m^2 are
     those over the 10 m x R pi / 2 shell; the narrowest plate is the lower strake, whose
-    girth is R times the angle of its upper seam from the edge (read off its corners)."""
+    girth is R times the angle of its upper seam from the edge (read off its corners). The
+    two strakes butt at one x: a cross joint, the only one."""
     summary = json.loads((cylinder / "cyl_summary.json").read_text())
     cost = summary["plan_cost"]
     arc = R * np.radians(ANGLE) / 1000.0  # m
@@ -83,6 +84,15 @@ def test_the_plan_cost_of_a_cylinder_strake_is_its_closed_form(cylinder):
     assert cost["narrowest"]["plate"].startswith("cyl_S1" if lower < arc - lower else "cyl_S2")
     assert cost["shares"]["strip"] == pytest.approx(1.0)  # a cylinder's plates are its strips
     assert sum(cost["shares"].values()) == pytest.approx(1.0)
+    # both strakes butt at x = 10 m: the one cross joint, where the seam meets that butt
+    (cross,) = cost["cross_joints"]
+    assert cross["at"][0] == pytest.approx(10000.0) and sorted(cross["plates"]) == [
+        f"cyl_S{i}_B{j}" for i in (1, 2) for j in (1, 2)]
+    # on the interior seam: a corner of the lower strake's plate that is not on the edges
+    assert np.linalg.norm(corners - cross["at"], axis=1).min() < 1e-6
+    upper = json.loads((cylinder / "cyl_S2_B2.json").read_text())["region"]["corners"]
+    span = theta_of(np.vstack([corners, upper]))
+    assert span.min() + 1e-6 < theta_of(np.array([cross["at"]]))[0] < span.max() - 1e-6
 
 
 def test_the_expansion_draws_each_cylinder_plate_once_at_its_closed_form_girth(cylinder):

@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from pipeline.hull.cost import plate_edges, weld_lengths
-from pipeline.hull.yardrules import butt_violations
+from pipeline.hull.yardrules import butt_violations, cross_joints
 from tests.hull_shapes import cylinder_sphere_iges, write_iges_surface
 
 SAME_BYTES = (".json", ".obj", ".csv")
@@ -210,14 +210,17 @@ def test_butts_of_neighbouring_strakes_are_staggered_or_on_a_block_joint(tmp_pat
 
 def test_an_adaptive_plan_without_an_objective_keeps_the_butt_stagger(tmp_path, monkeypatch):
     """``butt_stagger`` without an objective: the plan splits every plate that does not fit,
-    a depth at a time. Both strakes of the cylinder-sphere split their end plates along the
-    length at the same depth; each chose its butt without the other's (and without any rule)
-    and the two met the seam between them 3 mm apart (3411 and 3408 mm): the control, with
-    the rule switched off. Now a butt split keeps the stagger from the butts across its seams,
-    those taken at the same depth too, and the shell is still covered once."""
+    a depth at a time. The control is the plan as it was, without the yard's rules on its
+    splits: both strakes of the cylinder-sphere split their end plates along the length at
+    the same depth, each without the other's butt, and the two meet the seam between them
+    3 mm apart (3411 and 3408 mm); and plates on either side of a butt split along the girth
+    at one girth, so that their new seams join across the butt with the butts in line on
+    both sides (seven cross joints: four plates at a point). Now a butt split keeps the
+    stagger from the butts across its seams and a girth split's seam ends keep it from the
+    seam ends across its butts, those taken at the same depth too; the shell is still
+    covered once."""
     from pipeline.hull import planner
     from pipeline.hull.plan import load_run
-    from pipeline.hull.yardrules import ButtRule
     from pipeline.runner import plate_evaluator
 
     iges = tmp_path / "cs.igs"
@@ -227,12 +230,14 @@ def test_an_adaptive_plan_without_an_objective_keeps_the_butt_stagger(tmp_path, 
     with plate_evaluator(1) as evaluator:
         yard = load_run(_config(tmp_path, "yard", iges, plan), evaluator).parts
     with monkeypatch.context() as off, plate_evaluator(1) as evaluator:
-        off.setattr(planner, "butt_rule", lambda part, sides, stagger, joints: ButtRule((), stagger, ()))
-        off.setattr(planner, "_butt_clash", lambda *args: False, raising=False)
+        off.setattr(planner, "_yard_rules", lambda cells, *args: [None] * len(cells))  # as before
         control = load_run(_config(tmp_path, "control", iges, plan), evaluator).parts
     crossing = butt_violations(control, 300.0)
     assert crossing and all(min(abs(xa), abs(xb)) > 3000.0 for *_, xa, xb in crossing)  # the end plates' splits
     assert butt_violations(yard, 300.0) == []
+    # girth splits of two plates across a butt at one girth: their seams join there, a cross joint
+    assert cross_joints(control)
+    assert cross_joints(yard) == []
     uniform = {-1666.667, 1666.667, -1366.667, 1966.667}  # the two strakes' staggered butts, rounded
     splits = {round(b.offset, 3) for p in yard for b in p.hull.butts if b is not None} - uniform
     assert len(splits) >= 4  # the plan still splits along the length, staggered
@@ -368,9 +373,10 @@ def test_a_plate_whose_split_did_not_pay_is_offered_the_other_kind(tmp_path, mon
     estimated = load_run(_cs(tmp_path, "est", "adaptive", objective), _plain_evaluator())
     real = planner.choose_split
 
-    def butts_first(sample, tol, min_length, min_width, allow=None, strict_width=False, kinds=planner.SPLIT_KINDS):
+    def butts_first(sample, tol, min_length, min_width, allow=None, strict_width=False, kinds=planner.SPLIT_KINDS,
+                    allow_seam=None):
         kinds = ("length",) if "length" in kinds else kinds
-        return real(sample, tol, min_length, min_width, allow, strict_width, kinds)
+        return real(sample, tol, min_length, min_width, allow, strict_width, kinds, allow_seam)
 
     monkeypatch.setattr(planner, "choose_split", butts_first)
     steered = load_run(_cs(tmp_path, "steer", "adaptive", objective), _plain_evaluator())
@@ -542,8 +548,8 @@ def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path
 
     monkeypatch.setattr(planner, "_region_split", counted)
     kept, plates = plan("kept")
-    monkeypatch.setattr(planner, "_splits_under_rules", lambda cells, sides, chosen, ctx: under_rules(
-        cells, sides, {}, ctx))
+    monkeypatch.setattr(planner, "_splits_under_rules", lambda cells, sides, chosen, ctx, *rest: under_rules(
+        cells, sides, {}, ctx, *rest))
     forgotten, control = plan("forgot")
     assert len(set(kept)) == len(kept) == len(set(forgotten)) < len(forgotten)
     assert plates == control and len(plates) > 3
@@ -569,3 +575,33 @@ def test_the_plans_cost_names_the_plates_narrower_than_the_stock(tmp_path):
             assert p["width_m"] == pytest.approx(widths[p["plate"]] / 1000.0, rel=1e-9)
         assert [p["width_m"] for p in listed] == sorted(p["width_m"] for p in listed)
         assert (len(listed) > 0) == (name == "plain")
+
+
+def test_the_seam_rule_keeps_a_new_seams_ends_the_stagger_from_the_seams_across_its_butts():
+    """Three plates in a row along one strake (x 0-4000, 4000-8000, 8000-12000; girth y from
+    0 to 2000 at z = 0); the one aft of x = 4000 is split along its girth at y = 1000. The
+    middle plate's new seam may not end on its butts within 300 mm of that seam's end at
+    (4000, 1000, 0), and no other corner on its butts counts: its own corners (where the
+    strake's seams run on) and the fore plate's, which are its own too. A block joint at
+    x = 4000 lifts the rule there."""
+    from types import SimpleNamespace
+
+    from flatten.plane import Plane
+    from pipeline.hull.yardrules import plate_corners, seam_rule
+
+    def plate(name, x0, x1, rows):
+        corners = [[x, y, 0.0] for x in (x0, x1) for y in rows]
+        hull = SimpleNamespace(butts=(None if x0 == 0 else Plane((1.0, 0.0, 0.0), x0),
+                                      None if x1 == 12000 else Plane((1.0, 0.0, 0.0), x1)),
+                               result=SimpleNamespace(figures={"region": {"corners": corners}}))
+        return SimpleNamespace(name=name, hull=hull)
+
+    parts = [plate("aft_low", 0, 4000, (0.0, 1000.0)), plate("aft_high", 0, 4000, (1000.0, 2000.0)),
+             plate("mid", 4000, 8000, (0.0, 2000.0)), plate("fore", 8000, 12000, (0.0, 2000.0))]
+    rule = seam_rule(2, parts, plate_corners(parts), 300.0, ())
+    assert rule.ends == ((4000.0, 1000.0, 0.0),)
+    assert not rule([[4000.0, 1000.0, 0.0], [8000.0, 1000.0, 0.0]])  # joined across the butt: a cross joint
+    assert not rule([[4000.0, 1250.0, 0.0], [8000.0, 1250.0, 0.0]])
+    assert rule([[4000.0, 1300.0, 0.0], [8000.0, 1300.0, 0.0]]) and rule([[4000.0, 650.0, 0.0], [8000.0, 650.0, 0.0]])
+    assert seam_rule(2, parts, plate_corners(parts), 300.0, (4000.0,)).ends == ()  # a block joint
+    assert seam_rule(3, parts, plate_corners(parts), 300.0, ()).ends == ()  # the fore plate: nothing across its butt

@@ -31,6 +31,7 @@ from .hullplots import display_class, shell_area
 # tolerance, or formed but rolling only), formed, failed
 SHARE_NAMES = {"flat": "flat", "developable": "strip", "patch": "rolled", "formed": "formed", "failed": "failed"}
 EDGE_SAMPLES = (33, 129)  # points across the girth (butts) and along the length (seams)
+CROSS_REACH_MM = 1.0  # plates' corners this close meet at one point (each plate computes its own)
 SHARED = 0.05  # a segment is shared when its midpoint lies within this share of its length of another edge
 
 
@@ -137,7 +138,8 @@ class PlanCost:
     class (flat, strip, rolled, formed, failed) in m^2 and as fractions; ``narrower_than_stock``
     the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
     that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
-    first."""
+    first; ``cross_joints`` the points where four plates meet off the block joints (two
+    seams and two butts in line, :func:`.yardrules.cross_joints`), each with its plates."""
 
     plates: int
     shell_area_m2: float
@@ -150,6 +152,7 @@ class PlanCost:
     shares: dict
     share_area_m2: dict
     narrower_than_stock: list
+    cross_joints: list
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -161,9 +164,19 @@ def stock_min_width(spec) -> float | None:
     return None if stock is None else stock.min_width
 
 
-def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None) -> PlanCost:
+def block_joints(spec) -> tuple:
+    """The block joints (x, config units) of a run's plan, () when it names none."""
+    plan = getattr(spec.strake, "plan", None)
+    return tuple(getattr(plan, "block_joints", None) or ())
+
+
+def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None,
+              joints=()) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
-    from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any."""
+    from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any;
+    ``joints``: the plan's block joints (x, config units)."""
+    from .yardrules import cross_joints
+
     metre = mm_per_unit / 1000.0
     sampled = [edges[r.name] for r in results if edges.get(r.name) is not None]
     weld = weld_lengths(sampled)
@@ -185,4 +198,6 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_wid
         narrowest=None if narrow is None else {"plate": narrow[0], "width_m": narrow[1] * metre,
                                                 "least_width_m": narrow[2] * metre},
         shares={k: (v / total if total > 0 else 0.0) for k, v in area.items()}, share_area_m2=area,
-        narrower_than_stock=[{"plate": name, "width_m": width * metre} for width, name in sorted(below)])
+        narrower_than_stock=[{"plate": name, "width_m": width * metre} for width, name in sorted(below)],
+        cross_joints=[{"at": list(at), "plates": list(names)}
+                      for at, names in cross_joints(results, joints, CROSS_REACH_MM / mm_per_unit, lambda r: r)])

@@ -41,7 +41,8 @@ from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
 from .objective import PlanPoint, PlanRecord, split_priority, worth
 from .splitting import choose_split, sample_region
-from .yardrules import butt_rule, seam_sides, stagger_of, yard_layout, yard_rules_on
+from .yardrules import (SeamRule, YardRule, butt_rule, plate_corners, seam_rule, seam_sides, stagger_of, yard_layout,
+                        yard_rules_on)
 
 
 def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
@@ -337,17 +338,31 @@ def _uniform_weld_m(cells, ctx: _Context) -> float:
     return (w.seams + w.butts) * ctx.mm_per_unit / 1000.0
 
 
-def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context) -> dict:
-    """{id(cell): its best split} under each cell's butt rule in the current plan (``sides``;
-    None: no rule). A cell's split depends on nothing else, so ``chosen`` keeps it while its
-    rule stands (a plate not split this round asks again the next); the rest are chosen on
-    the evaluator's workers, which sit idle between two batches of plates."""
-    keys = [(id(c), None if sides is None else butt_rule(c.part, sides, ctx.stagger, ctx.plan.block_joints),
-             c.tried) for c in cells]
+def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context, leaves: list | None = None) -> dict:
+    """{id(cell): its best split} under each cell's yard rule in the current plan (``sides``;
+    None: no rule; ``leaves``: the plan's plates, the cells by default). A cell's split
+    depends on nothing else, so ``chosen`` keeps it while its rule stands (a plate not split
+    this round asks again the next); the rest are chosen on the evaluator's workers, which
+    sit idle between two batches of plates."""
+    rules = _yard_rules(cells, cells if leaves is None else leaves, sides, ctx)
+    keys = [(id(c), rule, c.tried) for c, rule in zip(cells, rules)]
     missing = [(cell, key) for cell, key in zip(cells, keys) if key not in chosen]
     for (cell, key), split in zip(missing, ctx.spread(_region_split, [_split_job(c, ctx, k[1]) for c, k in missing])):
         chosen[key] = (cell, split)  # the cell stays referenced: its id is not reused
     return {key[0]: chosen[key][1] for key in keys}
+
+
+def _yard_rules(cells: list, leaves: list, sides, ctx: _Context) -> list:
+    """Each cell's :class:`.yardrules.YardRule` in the plan of ``leaves`` (None without the
+    yard's rules: ``sides`` None)."""
+    if sides is None:
+        return [None] * len(cells)
+    parts = [c.part for c in leaves]
+    index = {id(part): k for k, part in enumerate(parts)}
+    corners = plate_corners(parts)
+    joints = ctx.plan.block_joints or ()
+    return [YardRule(butt_rule(c.part, sides, ctx.stagger, joints),
+                     seam_rule(index[id(c.part)], parts, corners, ctx.stagger, joints)) for c in cells]
 
 
 SPLIT_KINDS = ("length", "girth")
@@ -375,13 +390,15 @@ def _region_split(job: tuple):
     """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
     length and width, butt rule or None, strict width, kinds of split); module-level, so that
     the plan's workers can compute it (:func:`_splits_under_rules`, :func:`_split_all`)."""
-    surface, axis, girths, pair, tolerance, min_length, min_width, allow, strict, kinds = job
+    surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
     if not kinds:
         return None
     sample = sample_region(surface, axis, girths, pair)
     if sample is None:
         return None
-    return choose_split(sample, tolerance, min_length, min_width, allow, strict, kinds)
+    if rule is None:
+        return choose_split(sample, tolerance, min_length, min_width, None, strict, kinds)
+    return choose_split(sample, tolerance, min_length, min_width, rule.butts, strict, kinds, rule.seams)
 
 
 def _children(cell: Cell, split) -> list[Cell]:
@@ -413,9 +430,10 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     A depth's splits are chosen on the workers, and each split's halves are built here as
     soon as it is chosen, while the workers choose the next (they would wait for a whole
     depth built here one plate after another). With the yard's rules (``butt_stagger``,
-    ``block_joints``) a butt split keeps the rule against the butts across its plate's seams,
-    and one that comes within the stagger of a butt another plate across them takes at the
-    same depth waits a depth, to be chosen again against it."""
+    ``block_joints``) a butt split keeps the rule against the butts across its plate's seams
+    and a girth split against the seams ending on its butts (:mod:`.yardrules`), and one that
+    comes within the stagger of a butt or seam end another plate takes at the same depth
+    waits a depth, to be chosen again against it."""
     plan = ctx.plan
     kept, round_, weld = [], 0, None
     wave, waiting = [c for c in cells if build(c) is not None], []
@@ -423,20 +441,19 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         built = _evaluate_built(wave, ctx) + waiting
         splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
         sides = seam_sides([c.part for c in kept + built]) if ctx.yard else None
-        rules = [None if sides is None else butt_rule(c.part, sides, ctx.stagger, plan.block_joints)
-                 for c in splitting]
+        rules = _yard_rules(splitting, kept + built, sides, ctx)
         # handed out before the weld and the record are computed, which the workers need not wait for
         chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule) for c, rule in zip(splitting, rules)])
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
-        splits, halves, new_butts, waiting = {}, {}, {}, []
+        splits, halves, new_butts, new_ends, waiting = {}, {}, {}, [], []
         for cell, split, rule in zip(splitting, chosen, rules):
-            if split is not None and rule is not None and split.kind == "length":
-                if _butt_clash(cell, split.at, sides, new_butts, rule):
+            if split is not None and rule is not None:
+                if _clash(cell, split, sides, new_butts, new_ends, rule, ctx):
                     waiting.append(cell)
                     continue
-                new_butts[id(cell.part)] = split.at
+                _claim(cell, split, new_butts, new_ends, ctx)
             splits[id(cell)] = split
             if split is not None:  # built now, while the workers choose the next splits
                 halves[id(cell)] = [half for half in _children(cell, split) if build(half) is not None]
@@ -463,18 +480,31 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     return kept
 
 
-def _butt_clash(cell: Cell, x: float, sides: dict, new_butts: dict, rule) -> bool:
-    """Whether a new butt of ``cell`` at ``x`` comes within the stagger of a new butt taken at
-    the same depth by a plate across its seams (``new_butts``: {id(part): x}), off a shared
-    block joint."""
+def _clash(cell: Cell, split, sides: dict, new_butts: dict, new_ends: list, rule, ctx: _Context) -> bool:
+    """Whether ``split`` of ``cell`` comes within the stagger of what another plate's split
+    took at the same depth: a new butt of a plate across its seams (``new_butts``:
+    {id(part): x}) off a shared block joint, or a new seam's end (``new_ends``) off the block
+    joints."""
+    if split.kind == "girth":
+        return not SeamRule(tuple(new_ends), ctx.stagger)(split.ends)
     for girth in cell.part.hull.girths:
         _, below, above = sides.get(id(girth), (None, [], []))
         for other in below + above:
             if other is cell.part or id(other) not in new_butts:
                 continue
-            if not replace(rule, offsets=(new_butts[id(other)],))(x):
+            if not replace(rule.butts, offsets=(new_butts[id(other)],))(split.at):
                 return True
     return False
+
+
+def _claim(cell: Cell, split, new_butts: dict, new_ends: list, ctx: _Context) -> None:
+    """Record what a split takes, for :func:`_clash` of the splits after it."""
+    if split.kind == "length":
+        new_butts[id(cell.part)] = split.at
+        return
+    near = 1e-3 * ctx.stagger
+    new_ends.extend(end for end in split.ends
+                    if not any(abs(end[0] - j) <= near for j in (ctx.plan.block_joints or ())))
 
 
 def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False) -> tuple[list, float]:
@@ -508,16 +538,21 @@ def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False
             return leaves, refund
 
 
-def _take(options: list, weld: float, budget: float, sides, leaves: list) -> tuple[list, float]:
+def _take(options: list, weld: float, budget: float, sides, leaves: list, ctx: _Context) -> tuple[list, float]:
     """The splits of ``options`` (in order) taken this round within the weld budget, and the
     weld (m) they reserve. A butt split's new butt is not yet in ``sides`` (the yard's seam
-    sides): the plates across its seams wait a round."""
-    taken, reserved, blocked = [], 0.0, set()
+    sides): the plates across its seams wait a round. A girth split's new seam is not yet in
+    the others' seam rules: one ending within the stagger of a seam taken this round waits."""
+    taken, reserved, blocked, new_ends = [], 0.0, set(), []
     for _, _, cell, split, _, cost in options:
         if id(cell) in blocked or weld + reserved + cost > budget + 1e-9:
             continue
+        if sides is not None and split.kind == "girth" and not SeamRule(tuple(new_ends), ctx.stagger)(split.ends):
+            continue
         taken.append((cell, split, cost))
         reserved += cost
+        if sides is not None:
+            _claim(cell, split, {}, new_ends, ctx)
         if split.kind == "length" and sides is not None:
             for girth in cell.girths:
                 _, below, above = sides.get(id(girth), (None, [], []))
@@ -552,7 +587,7 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             elif cell.depth >= plan.max_splits:
                 _settle(cell, f"max_splits = {plan.max_splits}", plan.method)
                 done.add(id(cell))
-        splits = _splits_under_rules([c for c in leaves if id(c) not in done], sides, chosen, ctx)
+        splits = _splits_under_rules([c for c in leaves if id(c) not in done], sides, chosen, ctx, leaves)
         for cell in leaves:
             if id(cell) in done:
                 continue
@@ -567,14 +602,14 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             options.append((split_priority(objective, gain, cost), len(options), cell, split, gain, cost))
         options.sort(key=lambda o: (-o[0], o[1]))
         paying = [o for o in options if worth(objective, o[4], o[5]) > 0]
-        taken, reserved = _take(paying, weld, budget, sides, leaves)
+        taken, reserved = _take(paying, weld, budget, sides, leaves, ctx)
         if not taken and objective.weights is None:
             # no split expected to pay can be taken (none left, or none within the budget):
             # the budget left goes to splits expected to gain nothing, nearest to fitting
             # first; the estimate is coarse (a strip's verdict is the solve's) and a split
             # whose halves never pay is undone, its weld refunded
             hopeful = sorted(options, key=lambda o: (min(o[3].estimates), o[1]))
-            taken, reserved = _take(hopeful, weld, budget, sides, leaves)
+            taken, reserved = _take(hopeful, weld, budget, sides, leaves, ctx)
         if not taken:
             leaves, refund = _undo(leaves, objective, done, ctx, final=True)
             if refund <= 0:

@@ -101,6 +101,7 @@ class Split:
     estimates: tuple[float, float]
     fitting_share: float
     weld: float = 0.0  # length of the new butt (its girth width) or seam (its length), model units
+    ends: tuple = ()  # a girth split's new seam's two ends (on the plate's butts or the hull's ends), model units
 
 
 def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
@@ -114,13 +115,15 @@ def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
 
 
 def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float, allow=None,
-                 strict_width: bool = False, kinds: tuple = ("length", "girth")) -> Split | None:
+                 strict_width: bool = False, kinds: tuple = ("length", "girth"), allow_seam=None) -> Split | None:
     """The best split of the plate within the minimum sizes, or None when none is allowed.
     Candidates: a butt plane through each interior grid column (x = its mean x), a seam
     along each interior grid row; the halves share that column or row. ``allow(x)``: whether
     a butt at x keeps the yard's stagger rule (:mod:`.yardrules`); ``strict_width``: each half
     of a butt split keeps a girth width of at least ``min_width`` somewhere (a plate tapering
-    to the stem is not cut into a sliver); ``kinds``: the kinds of split considered."""
+    to the stem is not cut into a sliver); ``kinds``: the kinds of split considered;
+    ``allow_seam(ends)``: whether a new seam ending at those points (2, 3) keeps the yard's
+    rule against the seams across the plate's butts (no cross joints)."""
     candidates = []
     x = s.points[..., 0]
     row_len = s.along[:, -1]
@@ -148,12 +151,16 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         cut = s.across[i, :]
         if cut.min() < min_width or (col_w - cut).min() < min_width:
             continue
+        ends = s.points[i, [0, -1]]
+        if allow_seam is not None and not allow_seam(ends):
+            continue
         widths = (np.broadcast_to(cut[None, :], x.shape), np.broadcast_to((col_w - cut)[None, :], x.shape))
         lengths = (np.broadcast_to(s.along[:, -1:], x.shape),) * 2
         below = np.broadcast_to((np.arange(n_rows) <= i)[:, None], x.shape)
         above = np.broadcast_to((np.arange(n_rows) >= i)[:, None], x.shape)
         est, share = _half_scores(s, (below, above), lengths, widths, tol)
-        candidates.append(Split("girth", float(s.rows[i]), est, share, float(s.along[i, -1])))
+        candidates.append(Split("girth", float(s.rows[i]), est, share, float(s.along[i, -1]),
+                                tuple(tuple(float(v) for v in p) for p in ends)))
     if not candidates:
         return None
     x_mid = 0.5 * (float(np.mean(x[:, 0])) + float(np.mean(x[:, -1])))

@@ -313,3 +313,83 @@ def butt_rule(part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> B
                            if plane is not None and start + eps < plane.offset < stop - eps)
     return ButtRule(tuple(sorted(float(o) for o in offsets)), float(stagger),
                     tuple(float(j) for j in (() if joints is None else joints)), eps)
+
+
+@dataclass(frozen=True)
+class SeamRule:
+    """The seam rule for one plate as numbers: a new seam along it (a girth split) keeps it
+    when its ends on the plate's butts lie at least ``stagger`` from every seam end that the
+    plates across those butts bring there (``ends``, model units; the plate's own corners and
+    block joints left out). Two strakes' new seams that met at one butt would make a cross
+    joint there (four plates at a point), the butts on either side of the joined seam in line."""
+
+    ends: tuple
+    stagger: float
+    eps: float = 1e-6
+
+    def __call__(self, points) -> bool:
+        if not self.ends:
+            return True
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        gaps = np.linalg.norm(points[:, None, :] - np.asarray(self.ends)[None, :, :], axis=2)
+        return bool(gaps.min() >= self.stagger - self.eps)
+
+
+@dataclass(frozen=True)
+class YardRule:
+    """Both rules of one plate: where a butt split may cut it (``butts``, by x) and where a
+    girth split's seam may end (``seams``, by its end points)."""
+
+    butts: ButtRule
+    seams: SeamRule
+
+
+def plate_corners(parts, result_of=None) -> tuple[np.ndarray, np.ndarray]:
+    """The evaluated plates' region corners, stacked: (points (N, 3), owner index (N,) into
+    ``parts``); plates without a region give none. ``result_of(part)``: its evaluated result
+    (default ``part.hull.result``; the identity for a list of results)."""
+    points, owners = [], []
+    for k, part in enumerate(parts):
+        result = getattr(part.hull, "result", None) if result_of is None else result_of(part)
+        corners = ((getattr(result, "figures", None) or {}).get("region") or {}).get("corners")
+        if corners:
+            points.extend(corners)
+            owners.extend([k] * len(corners))
+    return np.asarray(points, dtype=np.float64).reshape(-1, 3), np.asarray(owners, dtype=np.int64)
+
+
+def seam_rule(index: int, parts, corners: tuple, stagger: float, joints) -> SeamRule:
+    """:class:`SeamRule` of ``parts[index]``: the corners (:func:`plate_corners` of ``parts``)
+    of the other plates that lie on its butt planes, off block joints and off its own corners
+    (its seams' ends, which plates across the butt share where a seam runs on)."""
+    points, owners = corners
+    part = parts[index]
+    own = points[owners == index]
+    near = 1e-3 * stagger
+    ends = []
+    for plane in part.hull.butts:
+        if plane is None or any(abs(plane.offset - j) <= near for j in (joints or ())):
+            continue
+        on = (owners != index) & (np.abs(plane.signed(points)) <= near)
+        for p in points[on]:
+            if not len(own) or np.linalg.norm(own - p, axis=1).min() > near:
+                ends.append(tuple(float(v) for v in p))
+    return SeamRule(tuple(sorted(set(ends))), float(stagger))
+
+
+def cross_joints(parts, joints=(), reach: float = 1.0, result_of=None) -> list[tuple[tuple, tuple]]:
+    """Points where four or more plates meet (a cross joint: two seams and two butts in line),
+    off the block joints: [(point (3,), plate names)], from the plates' region corners
+    within ``reach`` (model units) of each other; ``result_of`` as :func:`plate_corners`."""
+    from scipy.spatial import cKDTree
+
+    points, owners = plate_corners(parts, result_of)
+    if not len(points):
+        return []
+    found = {}
+    for hits in cKDTree(points).query_ball_point(points, r=reach):
+        names = tuple(sorted({parts[owners[h]].name for h in hits}))
+        where = points[min(hits)]
+        if len(names) >= 4 and not any(abs(where[0] - j) <= reach for j in (joints or ())):
+            found[min(hits)] = (tuple(float(v) for v in where), names)
+    return [found[k] for k in sorted(found)]
