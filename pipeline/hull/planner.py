@@ -16,8 +16,10 @@ adaptive : the uniform layout, then every plate that is neither flat nor devflat
 
 With ``plan.objective`` (:mod:`.objective`) the splits are chosen for it: best flat/strip area
 per weld metre first within a weld budget, or by a weighted cost; the layout then follows the
-yard's rules (:mod:`.yardrules`: staggered butts, stealers at the ends) and a butt split keeps
-both the stagger and the minimum width.
+yard's rules (:mod:`.yardrules`: staggered butts, stealers at the ends), as it does with
+``butt_stagger`` or ``block_joints`` alone: a butt split keeps both the stagger and the
+minimum width, and a girth split's seam keeps the stagger from the seams ending on its butts
+(no cross joints).
 
 The evaluator (``evaluate(part) -> result``, or an object with ``many(parts) -> results``) is
 given by the caller, so the plan knows no stage; each depth (or round) of candidate plates is
@@ -388,8 +390,9 @@ def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
 
 def _region_split(job: tuple):
     """The best split of a region: job (surface, axis, girths, butt planes, tolerance, minimum
-    length and width, butt rule or None, strict width, kinds of split); module-level, so that
-    the plan's workers can compute it (:func:`_splits_under_rules`, :func:`_split_all`)."""
+    length and width, :class:`.yardrules.YardRule` or None, strict width, kinds of split);
+    module-level, so that the plan's workers can compute it (:func:`_splits_under_rules`,
+    :func:`_split_all`)."""
     surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
     if not kinds:
         return None
@@ -467,7 +470,7 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
                 continue  # waiting a depth
             split = splits[id(cell)]
             if split is None:
-                rule = " and the butt rule" if sides is not None else ""
+                rule = " and the yard's rules" if sides is not None else ""
                 kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{rule}",
                                     plan.method))
                 continue
@@ -594,7 +597,7 @@ def _split_for(cells: list, build, ctx: _Context) -> list:
             split = splits[id(cell)]
             if split is None:
                 paid_not = f"{cell.tried[0]} split did not pay for its weld; no other " if cell.tried else "no "
-                _settle(cell, f"{paid_not}split keeps both halves within the minimum stock sizes and the butt rule",
+                _settle(cell, f"{paid_not}split keeps both halves within the minimum stock sizes and the yard's rules",
                         plan.method)
                 done.add(id(cell))
                 continue

@@ -26,6 +26,12 @@ to merge, up to half the strakes' plates: KVLCC2's flat of bottom, 27 mm wide at
 end and 29 m amidships, left six strakes' second and third plates 0.53 and 0.94 m wide when
 only end plates merged. A merged plate whose butts would lie further apart than
 ``stock.max_length`` is not merged.
+
+Splits (the adaptive plan) keep the rules too: a new butt the stagger from the butts across
+its plate's seams (:class:`ButtRule`), a new seam's ends the stagger from the seam ends that
+the plates across its plate's butts bring there (:class:`SeamRule`): two strakes' new seams
+joined across a butt, the butts on both sides in line, would make a cross joint.
+:func:`cross_joints` finds the points where four plates meet.
 """
 
 from __future__ import annotations
