@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from pipeline.hull.cost import plate_edges, weld_lengths
-from pipeline.hull.yardrules import butt_violations, cross_joints
+from pipeline.hull.yardrules import butt_violations, cross_joints, seam_end_violations
 from tests.hull_shapes import cylinder_sphere_iges, write_iges_surface
 
 SAME_BYTES = (".json", ".obj", ".csv")
@@ -238,11 +238,57 @@ def test_an_adaptive_plan_without_an_objective_keeps_the_butt_stagger(tmp_path, 
     # girth splits of two plates across a butt at one girth: their seams join there, a cross joint
     assert cross_joints(control)
     assert cross_joints(yard) == []
+    assert seam_end_violations(yard, 300.0) == []  # no seam end within the stagger of another across a butt
     uniform = {-1666.667, 1666.667, -1366.667, 1966.667}  # the two strakes' staggered butts, rounded
     splits = {round(b.offset, 3) for p in yard for b in p.hull.butts if b is not None} - uniform
     assert len(splits) >= 4  # the plan still splits along the length, staggered
     area = sum(_grid_area(plate_edges(p.name, p.hull).points) for p in yard)
     assert area == pytest.approx(sum(_grid_area(plate_edges(p.name, p.hull).points) for p in control), rel=1e-3)
+
+
+def _cs_plan(tmp_path: Path, name: str, plan: dict, monkeypatch=None, **patches) -> list:
+    """The cylinder-sphere planned with ``plan`` on one worker, with planner functions replaced
+    by ``patches`` for the plan (a control)."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    iges = tmp_path / "cs.igs"
+    if not iges.exists():
+        cylinder_sphere_iges(iges, 10000.0, 60.0, 1500.0, 3000.0, 0.3)
+    with monkeypatch.context() as patched, plate_evaluator(1) as evaluator:
+        for name_, value in patches.items():
+            patched.setattr(planner, name_, value)
+        return load_run(_config(tmp_path, name, iges, plan), evaluator).parts
+
+
+def test_a_butt_split_waits_for_a_butt_taken_across_its_seam_at_the_same_depth(tmp_path, monkeypatch):
+    """Strakes too narrow to split along the girth (1.2 m minimum): both strakes' end plates
+    split along the length at one depth, each under its rule from the plan before that depth.
+    Without the same-depth check (the control) the two new butts meet the seam between them
+    191 mm and 101 mm apart; with it the second waits a depth and is chosen against the
+    first: none within 300 mm."""
+    plan = {"method": "adaptive", "max_splits": 2, "butt_stagger": 300,
+            "stock": {"max_length": 4000, "max_width": 2500, "min_length": 1000, "min_width": 1200}}
+    control = _cs_plan(tmp_path, "control", plan, monkeypatch, _clash=lambda *args: False)
+    assert {round(abs(xa - xb)) for *_, xa, xb in butt_violations(control, 300.0)} == {101, 191}
+    yard = _cs_plan(tmp_path, "yard", plan, monkeypatch)
+    assert butt_violations(yard, 300.0) == [] and cross_joints(yard) == []
+    assert len(yard) > 6  # it still splits
+
+
+def test_an_objective_plan_takes_no_two_seams_that_would_meet_across_a_butt_in_one_round(tmp_path, monkeypatch):
+    """{maximise: flat_strip, weld_factor: 3}: a round takes several girth splits at once, each
+    chosen under its rule from the plan before the round. The control lets two of them end
+    on one butt together (cross joints); the plan takes the second only in a later round,
+    against the first."""
+    plan = {"method": "adaptive", "max_splits": 3, "objective": {"maximise": "flat_strip", "weld_factor": 3.0},
+            "stock": {"max_length": 4000, "max_width": 2500, "min_length": 1000, "min_width": 1000}}
+    control = _cs_plan(tmp_path, "control", plan, monkeypatch, SeamRule=lambda ends, stagger: (lambda points: True))
+    assert cross_joints(control)
+    yard = _cs_plan(tmp_path, "yard", plan, monkeypatch)
+    assert cross_joints(yard) == [] and seam_end_violations(yard, 300.0) == []
+    assert butt_violations(yard, 300.0) == []
 
 
 def _cs(tmp_path: Path, name: str, method: str, objective=None, max_splits: int = 1) -> Path:

@@ -436,7 +436,7 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     ``block_joints``) a butt split keeps the rule against the butts across its plate's seams
     and a girth split against the seams ending on its butts (:mod:`.yardrules`), and one that
     comes within the stagger of a butt or seam end another plate takes at the same depth
-    waits a depth, to be chosen again against it."""
+    waits (for the next pass, behind the new depth's plates), to be chosen again against it."""
     plan = ctx.plan
     kept, round_, weld = [], 0, None
     wave, waiting = [c for c in cells if build(c) is not None], []

@@ -383,6 +383,29 @@ def seam_rule(index: int, parts, corners: tuple, stagger: float, joints) -> Seam
     return SeamRule(tuple(sorted(set(ends))), float(stagger))
 
 
+def seam_end_violations(parts, stagger: float, joints=()) -> list[tuple[str, tuple, float]]:
+    """Seam ends that meet a butt within ``stagger`` of a seam end that a plate across the butt
+    brings there (:class:`SeamRule`, off block joints): (plate, its corner, the distance), the
+    distance below ``stagger`` and above a thousandth of it (seam ends that meet are the
+    plate's own corners to the rule: :func:`cross_joints` finds those). A plan that keeps the
+    rule has none."""
+    corners = plate_corners(parts)
+    points, owners = corners
+    bad = []
+    for k, part in enumerate(parts):
+        rule = seam_rule(k, parts, corners, stagger, joints)
+        if not rule.ends:
+            continue
+        ends = np.asarray(rule.ends)
+        for corner in points[owners == k]:
+            if not any(plane is not None and abs(plane.signed(corner)) <= 1e-3 * stagger for plane in part.hull.butts):
+                continue
+            gap = float(np.linalg.norm(ends - corner, axis=1).min())
+            if gap < stagger - rule.eps:
+                bad.append((part.name, tuple(float(v) for v in corner), gap))
+    return sorted(bad)
+
+
 def cross_joints(parts, joints=(), reach: float = 1.0, result_of=None) -> list[tuple[tuple, tuple]]:
     """Points where four or more plates meet (a cross joint: two seams and two butts in line),
     off the block joints: [(point (3,), plate names)], from the plates' region corners
