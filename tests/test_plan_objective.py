@@ -628,8 +628,9 @@ def test_the_seam_rule_keeps_a_new_seams_ends_the_stagger_from_the_seams_across_
     0 to 2000 at z = 0); the one aft of x = 4000 is split along its girth at y = 1000. The
     middle plate's new seam may not end on its butts within 300 mm of that seam's end at
     (4000, 1000, 0), and no other corner on its butts counts: its own corners (where the
-    strake's seams run on) and the fore plate's, which are its own too. A block joint at
-    x = 4000 lifts the rule there."""
+    strake's seams run on), the fore plate's, which are its own too, and those of another
+    strake's plates aft of x = 4000 (y 5000-7000), out of reach of its butt edge (2 m wide).
+    A block joint at x = 4000 lifts the rule there."""
     from types import SimpleNamespace
 
     from flatten.plane import Plane
@@ -637,13 +638,15 @@ def test_the_seam_rule_keeps_a_new_seams_ends_the_stagger_from_the_seams_across_
 
     def plate(name, x0, x1, rows):
         corners = [[x, y, 0.0] for x in (x0, x1) for y in rows]
+        region = {"corners": corners, "width": rows[-1] - rows[0]}
         hull = SimpleNamespace(butts=(None if x0 == 0 else Plane((1.0, 0.0, 0.0), x0),
                                       None if x1 == 12000 else Plane((1.0, 0.0, 0.0), x1)),
-                               result=SimpleNamespace(figures={"region": {"corners": corners}}))
+                               result=SimpleNamespace(figures={"region": region}))
         return SimpleNamespace(name=name, hull=hull)
 
     parts = [plate("aft_low", 0, 4000, (0.0, 1000.0)), plate("aft_high", 0, 4000, (1000.0, 2000.0)),
-             plate("mid", 4000, 8000, (0.0, 2000.0)), plate("fore", 8000, 12000, (0.0, 2000.0))]
+             plate("mid", 4000, 8000, (0.0, 2000.0)), plate("fore", 8000, 12000, (0.0, 2000.0)),
+             plate("far_low", 0, 4000, (5000.0, 6000.0)), plate("far_high", 0, 4000, (6000.0, 7000.0))]
     rule = seam_rule(2, parts, plate_corners(parts), 300.0, ())
     assert rule.ends == ((4000.0, 1000.0, 0.0),)
     assert not rule([[4000.0, 1000.0, 0.0], [8000.0, 1000.0, 0.0]])  # joined across the butt: a cross joint
@@ -651,3 +654,5 @@ def test_the_seam_rule_keeps_a_new_seams_ends_the_stagger_from_the_seams_across_
     assert rule([[4000.0, 1300.0, 0.0], [8000.0, 1300.0, 0.0]]) and rule([[4000.0, 650.0, 0.0], [8000.0, 650.0, 0.0]])
     assert seam_rule(2, parts, plate_corners(parts), 300.0, (4000.0,)).ends == ()  # a block joint
     assert seam_rule(3, parts, plate_corners(parts), 300.0, ()).ends == ()  # the fore plate: nothing across its butt
+    del parts[2].hull.result.figures["region"]["width"]  # the control: without its width every corner there counts
+    assert len(seam_rule(2, parts, plate_corners(parts), 300.0, ()).ends) == 4

@@ -367,19 +367,31 @@ def plate_corners(parts, result_of=None) -> tuple[np.ndarray, np.ndarray]:
 def seam_rule(index: int, parts, corners: tuple, stagger: float, joints) -> SeamRule:
     """:class:`SeamRule` of ``parts[index]``: the corners (:func:`plate_corners` of ``parts``)
     of the other plates that lie on its butt planes, off block joints and off its own corners
-    (its seams' ends, which plates across the butt share where a seam runs on)."""
+    (its seams' ends, which plates across the butt share where a seam runs on), and near
+    enough to its butt edge to matter: a point of that edge (an arc at most the plate's
+    largest girth width W long between its two corners c1, c2 there) lies within
+    ``stagger`` of an end e only if |e - c1| + |e - c2| <= W + 2 stagger. The rest (other
+    strakes' seams on the same plane) would change the rule, and the plan's choice of the
+    plate's split would be made again, whenever a plate far away split."""
     points, owners = corners
     part = parts[index]
     own = points[owners == index]
+    region = (getattr(getattr(part.hull, "result", None), "figures", None) or {}).get("region") or {}
+    width = region.get("width")
     near = 1e-3 * stagger
     ends = []
     for plane in part.hull.butts:
         if plane is None or any(abs(plane.offset - j) <= near for j in (joints or ())):
             continue
         on = (owners != index) & (np.abs(plane.signed(points)) <= near)
+        mine = own[np.abs(plane.signed(own)) <= near] if len(own) else own
         for p in points[on]:
-            if not len(own) or np.linalg.norm(own - p, axis=1).min() > near:
-                ends.append(tuple(float(v) for v in p))
+            if len(own) and np.linalg.norm(own - p, axis=1).min() <= near:
+                continue
+            if width is not None and len(mine) == 2 and \
+                    np.linalg.norm(mine - p, axis=1).sum() > float(width) + 2.0 * stagger:
+                continue
+            ends.append(tuple(float(v) for v in p))
     return SeamRule(tuple(sorted(set(ends))), float(stagger))
 
 
