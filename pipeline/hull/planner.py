@@ -340,13 +340,13 @@ def _uniform_weld_m(cells, ctx: _Context) -> float:
     return (w.seams + w.butts) * ctx.mm_per_unit / 1000.0
 
 
-def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context, leaves: list | None = None) -> dict:
-    """{id(cell): its best split} under each cell's yard rule in the current plan (``sides``;
-    None: no rule; ``leaves``: the plan's plates, the cells by default). A cell's split
+def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context, leaves: list) -> dict:
+    """{id(cell): its best split} under each cell's yard rule in the plan of ``leaves``
+    (``sides``: its seams' sides; None: no rule). A cell's split
     depends on nothing else, so ``chosen`` keeps it while its rule stands (a plate not split
     this round asks again the next); the rest are chosen on the evaluator's workers, which
     sit idle between two batches of plates."""
-    rules = _yard_rules(cells, cells if leaves is None else leaves, sides, ctx)
+    rules = _yard_rules(cells, leaves, sides, ctx)
     keys = [(id(c), rule, c.tried) for c, rule in zip(cells, rules)]
     missing = [(cell, key) for cell, key in zip(cells, keys) if key not in chosen]
     for (cell, key), split in zip(missing, ctx.spread(_region_split, [_split_job(c, ctx, k[1]) for c, k in missing])):
@@ -470,8 +470,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
                 continue  # waiting a depth
             split = splits[id(cell)]
             if split is None:
-                rule = " and the yard's rules" if sides is not None else ""
-                kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{rule}",
+                ruled = " and the yard's rules" if sides is not None else ""
+                kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{ruled}",
                                     plan.method))
                 continue
             weld += split.weld * ctx.mm_per_unit / 1000.0
@@ -486,8 +486,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
 def _clash(cell: Cell, split, sides: dict, new_butts: dict, new_ends: list, rule, ctx: _Context) -> bool:
     """Whether ``split`` of ``cell`` comes within the stagger of what another plate's split
     took at the same depth: a new butt of a plate across its seams (``new_butts``:
-    {id(part): x}) off a shared block joint, or a new seam's end (``new_ends``) off the block
-    joints."""
+    {id(part): x}; ``rule``: the cell's :class:`.yardrules.YardRule`) off a shared block
+    joint, or a new seam's end (``new_ends``) off the block joints."""
     if split.kind == "girth":
         return not SeamRule(tuple(new_ends), ctx.stagger)(split.ends)
     for girth in cell.part.hull.girths:
@@ -550,12 +550,12 @@ def _take(options: list, weld: float, budget: float, sides, leaves: list, ctx: _
     for _, _, cell, split, _, cost in options:
         if id(cell) in blocked or weld + reserved + cost > budget + 1e-9:
             continue
-        if sides is not None and split.kind == "girth" and not SeamRule(tuple(new_ends), ctx.stagger)(split.ends):
-            continue
+        if sides is not None and split.kind == "girth":
+            if _clash(cell, split, sides, {}, new_ends, None, ctx):
+                continue
+            _claim(cell, split, {}, new_ends, ctx)
         taken.append((cell, split, cost))
         reserved += cost
-        if sides is not None:
-            _claim(cell, split, {}, new_ends, ctx)
         if split.kind == "length" and sides is not None:
             for girth in cell.girths:
                 _, below, above = sides.get(id(girth), (None, [], []))
