@@ -42,14 +42,18 @@ def batch_folders(configs: list[Path], out: Path) -> list[tuple[Path, Path]]:
     return [(path, out / path.stem) for path in configs]
 
 
-def validate_all(configs: list[Path], out: Path) -> list[tuple[RunConfig, Path]]:
-    """Each configuration validated and its files planned (ConfigError names the file)."""
-    from .hull.plates import evaluate_plate
+def validate_all(configs: list[Path], out: Path, evaluator=None) -> list[tuple[RunConfig, Path]]:
+    """Each configuration validated and its files planned (ConfigError names the file).
+    ``evaluator``: the adaptive plans' plate evaluator, one for every configuration
+    (:func:`pipeline.runner.plate_evaluator`; None: each plate run in turn, uncached)."""
     from .outdir import check_plan
+
+    if evaluator is None:
+        from .hull.plates import evaluate_plate as evaluator
 
     checked = []
     for path, folder in batch_folders(configs, out):
-        config = validate(path, evaluate_plate)
+        config = validate(path, evaluator)
         check_plan(config, folder)
         checked.append((config, folder))
     return checked
@@ -72,7 +76,16 @@ def command_batch(args, wrote_line) -> int:
         if args.jobs != 1:
             raise ConfigError(f"--jobs {args.jobs} --scheduler {args.scheduler}: the scheduler's workers run the "
                               "parts; give one of the two")
-    checked = validate_all(args.configs, args.out)
+    from .runner import plate_evaluator
+
+    # the adaptive plans' candidates over --jobs processes (here, not on the scheduler), in
+    # one cache: variants of one hull (other plans, stock, names) share the plates they ask
+    # for alike, whatever configuration asks first
+    with plate_evaluator(args.jobs) as evaluator:
+        checked = validate_all(args.configs, args.out, evaluator)
+    if not args.quiet and evaluator.requested:
+        print(f"plans: evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached) "
+              f"{evaluator.seconds:.1f} s ({evaluator.cpu_seconds:.1f} CPU s)", file=sys.stderr)
     n_parts = sum(len(config.parts) for config, _ in checked)
     progress = None
     try:

@@ -498,6 +498,44 @@ def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path,
         assert [g.g for g in a.hull.girths] == [g.g for g in b.hull.girths]
 
 
+def test_a_batch_of_one_hulls_plans_evaluates_their_common_plates_once(tmp_path, monkeypatch):
+    """``devflat run A.yaml B.yaml --jobs 2``: two plans of the cylinder-sphere strake under
+    other names (no objective; flat + strip with 3 x the weld) are planned with one
+    evaluator on two workers. B's plan asks for plates A's evaluated (the uniform ones at
+    least): they are not run again, and each configuration's files are the bytes its run
+    alone writes, its own plate names throughout."""
+    from pipeline import runner
+    from pipeline.cli import main
+    from pipeline.validate import validate
+
+    one = _cs(tmp_path, "csa", "adaptive", None, max_splits=2)
+    two = _cs(tmp_path, "csb", "adaptive", {"maximise": "flat_strip", "weld_factor": 3.0}, max_splits=2)
+    alone = {}
+    for config in (one, two):
+        with runner.plate_evaluator(1) as evaluator:
+            validate(config, evaluator)
+        alone[config.stem] = evaluator.computed
+        assert main(["run", str(config), "--out", str(tmp_path / config.stem), "--quiet"]) == 0
+    used = []
+    make = runner.plate_evaluator
+    monkeypatch.setattr(runner, "plate_evaluator", lambda jobs=1: used.append(make(jobs)) or used[-1])
+    batch = tmp_path / "batch"
+    assert main(["run", str(one), str(two), "--out", str(batch), "--jobs", "2", "--quiet"]) == 0
+    (shared,) = used
+    assert shared.jobs == 2 and shared.mapped_cpu_seconds > 0.0  # the splits chosen on the workers
+    assert shared.requested > shared.computed
+    assert max(alone.values()) <= shared.computed < sum(alone.values())
+    for config in (one, two):
+        files = {p.relative_to(batch / config.stem): p for p in sorted((batch / config.stem).rglob("*")) if p.is_file()}
+        single = {p.relative_to(tmp_path / config.stem): p
+                  for p in sorted((tmp_path / config.stem).rglob("*")) if p.is_file()}
+        assert sorted(files) == sorted(single)
+        compared = [name for name in files if name.suffix in SAME_BYTES]
+        assert len(compared) > 10 and all(config.stem in name.name for name in compared)
+        for name in compared:
+            assert files[name].read_bytes() == single[name].read_bytes(), name
+
+
 def test_a_splits_halves_are_built_while_the_workers_choose_the_next_splits(tmp_path, monkeypatch):
     """Without an objective a depth's split jobs are all handed to the workers at once and
     each split's halves are built as soon as it comes back, before the depth's last split
