@@ -76,25 +76,16 @@ def command_batch(args, wrote_line) -> int:
         if args.jobs != 1:
             raise ConfigError(f"--jobs {args.jobs} --scheduler {args.scheduler}: the scheduler's workers run the "
                               "parts; give one of the two")
-    from .runner import plate_evaluator
-
-    # the adaptive plans' candidates over --jobs processes (here, not on the scheduler), in
-    # one cache: variants of one hull (other plans, stock, names) share the plates they ask
-    # for alike, whatever configuration asks first
-    with plate_evaluator(args.jobs) as evaluator:
-        checked = validate_all(args.configs, args.out, evaluator)
-    if not args.quiet and evaluator.requested:
-        print(f"plans: evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached) "
-              f"{evaluator.seconds:.1f} s ({evaluator.cpu_seconds:.1f} CPU s)", file=sys.stderr)
-    n_parts = sum(len(config.parts) for config, _ in checked)
     progress = None
     try:
         with ExitStack() as stack:
             client = None
-            if scheduler is not None:  # reached (or started) before anything is written
+            if scheduler is not None:  # reached (or started) before anything is planned or written
                 from .cluster import connect
 
-                client = stack.enter_context(connect(scheduler, args.scheduler_timeout, n_parts))
+                client = stack.enter_context(connect(scheduler, args.scheduler_timeout))
+            checked = _plans(args, client)
+            n_parts = sum(len(config.parts) for config, _ in checked)
             folders = [stack.enter_context(OutputFolder(out, config)) for config, out in checked]
             if n_parts > 1 and not args.quiet:
                 from tqdm import tqdm
@@ -124,6 +115,27 @@ def command_batch(args, wrote_line) -> int:
             print(summary_table(results))
             print(wrote_line(n_files, out, run_name(config)))
     return 0 if all(r.ok for results, _ in written for r in results) else 1
+
+
+def _plans(args, client) -> list[tuple[RunConfig, Path]]:
+    """Every configuration validated and planned (:func:`validate_all`) with one plate
+    evaluator: variants of one hull (other plans, stock, names) share the plates they ask for
+    alike, whatever configuration asks first. The adaptive plans' candidates run on the
+    cluster's workers (``client``), else on ``--jobs`` processes."""
+    if client is not None:
+        from .clusterplan import ClusterEvaluator
+
+        evaluator = ClusterEvaluator(client)
+    else:
+        from .runner import plate_evaluator
+
+        evaluator = plate_evaluator(args.jobs)
+    with evaluator:
+        checked = validate_all(args.configs, args.out, evaluator)
+    if not args.quiet and evaluator.requested:
+        print(f"plans: evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached) "
+              f"{evaluator.seconds:.1f} s ({evaluator.cpu_seconds:.1f} CPU s)", file=sys.stderr)
+    return checked
 
 
 def _keep_geometry(config: RunConfig) -> bool:

@@ -83,9 +83,9 @@ def check_timeout(seconds: float) -> None:
 
 
 @contextmanager
-def connect(scheduler: Scheduler, timeout: float, n_parts: int):
+def connect(scheduler: Scheduler, timeout: float, n_parts: int | None = None):
     """A ``distributed.Client`` to the scheduler (a LocalCluster started for the run: at most
-    one worker per part), closed on the way out whatever happened (a local cluster's
+    one worker per part, when ``n_parts`` is known), closed on the way out whatever happened (a local cluster's
     workers are stopped with it). Raises :class:`ClusterError` when no worker is there
     within ``timeout`` seconds."""
     import logging
@@ -100,7 +100,7 @@ def connect(scheduler: Scheduler, timeout: float, n_parts: int):
         try:
             if scheduler.local:
                 workers = scheduler.workers or worker_count(MAX_LOCAL_WORKERS, MAX_LOCAL_WORKERS)
-                cluster = local_cluster(max(1, min(workers, n_parts)))
+                cluster = local_cluster(max(1, workers if n_parts is None else min(workers, n_parts)))
                 client = distributed.Client(cluster, timeout=timeout, set_as_default=False)
             else:
                 client = distributed.Client(scheduler.address, timeout=timeout, set_as_default=False)

@@ -130,6 +130,33 @@ def test_a_batch_writes_each_config_into_its_own_folder(cluster, tmp_path, capsy
         assert_same_outputs(tmp_path / "alone", tmp_path / out)
 
 
+def test_a_batchs_adaptive_plans_are_evaluated_on_the_cluster(cluster, tmp_path, monkeypatch):
+    """Two adaptive plans of the cylinder-sphere strake under other names (no objective;
+    flat + strip with 3 x the weld) in one batch on the cluster: their candidate plates are
+    evaluated by the cluster's workers, not by this process, each plate once for both plans,
+    and each configuration's files are the bytes its run alone with --jobs 1 writes."""
+    from pipeline import clusterplan
+    from tests.test_plan_objective import _cs
+
+    address, client = cluster
+    configs = [_cs(tmp_path, "csa", "adaptive", None, max_splits=2),
+               _cs(tmp_path, "csb", "adaptive", {"maximise": "flat_strip", "weld_factor": 3.0}, max_splits=2)]
+    for config in configs:
+        assert main(["run", str(config), "--out", str(tmp_path / "alone" / config.stem), "--quiet"]) == 0
+    used = []
+    make = clusterplan.ClusterEvaluator
+    monkeypatch.setattr(clusterplan, "ClusterEvaluator", lambda c: used.append(make(c)) or used[-1])
+    before = executed(client)
+    assert main(["run", *map(str, configs), "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address]) == 0
+    (evaluator,) = used
+    assert evaluator.computed > 10 and evaluator.requested > evaluator.computed  # csb reuses csa's plates
+    assert evaluator.cpu_seconds > 0.0 and evaluator.local_cpu_seconds == 0.0  # none evaluated here
+    plates = sum(len(json.loads((tmp_path / "dask" / c.stem / f"{c.stem}_summary.json").read_text())["parts"])
+                 for c in configs)
+    assert executed(client) - before >= evaluator.computed + plates  # the candidates, then the plates
+    assert_same_outputs(tmp_path / "alone", tmp_path / "dask")
+
+
 def test_a_local_cluster_of_two_processes_is_started_and_stopped(tmp_path):
     psutil = pytest.importorskip("psutil")
     configs = [str(ROOT / "configs" / name) for name in ("frustum.yaml", "flat_plate.yaml", "plate.yaml")]

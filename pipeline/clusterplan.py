@@ -1,0 +1,99 @@
+"""An adaptive plan's candidate plates evaluated on Dask distributed workers (``--scheduler``).
+
+A batch is planned before any of its parts runs. With ``--jobs`` the plans' candidates run
+on forked worker processes (:class:`pipeline.runner.PlateEvaluator`); on a cluster they run
+on the cluster's workers, which a whole hull's plan otherwise leaves idle while this process
+(the coordinator) evaluates hundreds of plates in turn.
+
+The protocol is the forked workers' one: the objects every plate of a surface shares (the
+hull surface, its distance structure, its trim; a lofted KVLCC2 shell is 0.6 MB) and the run's
+configuration go to the cluster once each, as tasks that return them (a worker that needs
+them fetches them once and keeps them while the plan runs); each plate goes as a pickle in
+which they are references, and its result comes back the same way, without its part. So a
+plate costs its own bytes (about 150 KB back for a hull plate, not the 1 MB its surface
+would add), and the evaluations, the cache (a plate evaluated once, whatever configuration
+of the batch asks) and the plans are those of ``--jobs``: the files are the same bytes.
+
+What still runs in the coordinator: choosing a candidate's split (its own small sampling of
+the region) and a fit-up's developments; the split choice is about a tenth of a plan's CPU.
+A worker lost while it evaluates a plate: Dask runs the plate again elsewhere; should it give
+up (``KilledWorker``), the plate is evaluated here.
+"""
+
+from __future__ import annotations
+
+import time
+
+from .runner import PlateEvaluator, _dumps, _loads
+
+
+def _given(value):
+    return value
+
+
+def evaluate_on_worker(evaluate, config, blob: bytes, shared: list) -> tuple[bytes, float]:
+    """On a worker: the plate of ``blob`` (its shared objects numbered into ``shared``)
+    evaluated under ``config``; (its result as a blob of the same kind, CPU seconds)."""
+    cpu = time.process_time()
+    part = _loads(blob, shared)
+    result = evaluate(part, config)
+    result.part = None
+    return _dumps(result, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
+
+
+class ClusterEvaluator(PlateEvaluator):
+    """:class:`pipeline.runner.PlateEvaluator` whose batches of plates run on the workers
+    of ``client`` (a ``distributed.Client``); ``evaluate(part, config)``: a module-level
+    function (the workers import it). The figures count as the forked evaluator's do
+    (``cpu_seconds``: the workers' CPU in the evaluations)."""
+
+    def __init__(self, client, evaluate=None):
+        if evaluate is None:
+            from .hull.plates import evaluate_plate as evaluate
+        super().__init__(evaluate, jobs=1)
+        self.client = client
+        self._sent: dict = {}  # id(obj) -> (obj, future of it on the cluster)
+
+    def _on_cluster(self, obj):
+        """The future of ``obj`` on the cluster, sent once (the object is kept here with
+        it, so that its id names it while the plan runs)."""
+        if id(obj) not in self._sent:
+            self._sent[id(obj)] = (obj, self.client.submit(_given, obj, pure=False))
+        return self._sent[id(obj)][1]
+
+    def _compute(self, parts: list, config) -> list:
+        from distributed.scheduler import KilledWorker
+
+        if not parts:
+            return []
+        shared = list({id(obj): obj for part in parts
+                       for obj in (part.hull.surface, part.hull.distance, part.hull.trim) if obj is not None}.values())
+        index = {id(obj): k for k, obj in enumerate(shared)}
+        given = [self._on_cluster(obj) for obj in shared]
+        settings = self._on_cluster(config)
+        futures = [self.client.submit(evaluate_on_worker, self.evaluate, settings, _dumps(part, index), given,
+                                      pure=False) for part in parts]
+        results = []
+        try:
+            for part, future in zip(parts, futures):
+                try:
+                    blob, cpu = future.result()
+                    result = _loads(blob, shared)
+                    self.cpu_seconds += cpu
+                except KilledWorker:
+                    cpu = time.process_time()
+                    result = self.evaluate(part, config)
+                    self.cpu_seconds += time.process_time() - cpu
+                    self.local_cpu_seconds += time.process_time() - cpu
+                result.part = part
+                results.append(result)
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+        return results
+
+    def close(self) -> None:
+        """Let the cluster forget what the plan sent it (the cache stays)."""
+        futures = [future for _, future in self._sent.values()]
+        self._sent.clear()
+        if futures:
+            self.client.cancel(futures)
