@@ -14,10 +14,11 @@ plate costs its own bytes (about 150 KB back for a hull plate, not the 1 MB its 
 would add), and the evaluations, the cache (a plate evaluated once, whatever configuration
 of the batch asks) and the plans are those of ``--jobs``: the files are the same bytes.
 
-What still runs in the coordinator: choosing a candidate's split (its own small sampling of
-the region) and a fit-up's developments; the split choice is about a tenth of a plan's CPU.
-A worker lost while it evaluates a plate: Dask runs the plate again elsewhere; should it give
-up (``KilledWorker``), the plate is evaluated here.
+The planner's other work for the workers (choosing the splits of the plates that do not
+fit, measuring a fit-up's shared edges: :meth:`ClusterEvaluator.map_each`) goes the same way;
+a fit-up's developments of formed plates are done in the coordinator. A worker lost while it
+works: Dask runs the task again elsewhere; should it give up (``KilledWorker``), the work is
+done here.
 """
 
 from __future__ import annotations
@@ -39,6 +40,13 @@ def evaluate_on_worker(evaluate, config, blob: bytes, shared: list) -> tuple[byt
     result = evaluate(part, config)
     result.part = None
     return _dumps(result, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
+
+
+def call_on_worker(func, blob: bytes, shared: list) -> tuple[bytes, float]:
+    """On a worker: ``func(item)`` of the item in ``blob`` (as :func:`evaluate_on_worker`)."""
+    cpu = time.process_time()
+    answer = func(_loads(blob, shared))
+    return _dumps(answer, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
 
 
 class ClusterEvaluator(PlateEvaluator):
@@ -90,6 +98,41 @@ class ClusterEvaluator(PlateEvaluator):
         finally:
             self.client.cancel([f for f in futures if not f.done()])
         return results
+
+    @property
+    def running(self) -> bool:
+        """The cluster's workers are there for :meth:`map_each` whenever it is asked."""
+        return True
+
+    def map_each(self, func, items: list):
+        """``func(item)`` of each item on the workers, handed out at once; an iterator of the
+        answers in order (``func``: a module-level function). The objects sent for the
+        plates so far travel as references; the workers' CPU goes into
+        ``mapped_cpu_seconds``."""
+        if len(items) < 2:
+            return (func(item) for item in items)
+        shared = [obj for obj, _ in self._sent.values()]
+        given = [future for _, future in self._sent.values()]
+        index = {id(obj): k for k, obj in enumerate(shared)}
+        futures = [self.client.submit(call_on_worker, func, _dumps(item, index), given, pure=False) for item in items]
+        return self._answers_of(futures, items, func, shared)
+
+    def _answers_of(self, futures: list, items: list, func, shared: list):
+        from distributed.scheduler import KilledWorker
+
+        try:
+            for item, future in zip(items, futures):
+                try:
+                    blob, cpu = future.result()
+                    self.mapped_cpu_seconds += cpu
+                    yield _loads(blob, shared)
+                except KilledWorker:
+                    yield func(item)
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+
+    def map(self, func, items: list) -> list:
+        return list(self.map_each(func, items))
 
     def close(self) -> None:
         """Let the cluster forget what the plan sent it (the cache stays)."""

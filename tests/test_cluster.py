@@ -133,7 +133,8 @@ def test_a_batch_writes_each_config_into_its_own_folder(cluster, tmp_path, capsy
 def test_a_batchs_adaptive_plans_are_evaluated_on_the_cluster(cluster, tmp_path, monkeypatch):
     """Two adaptive plans of the cylinder-sphere strake under other names (no objective;
     flat + strip with 3 x the weld) in one batch on the cluster: their candidate plates are
-    evaluated by the cluster's workers, not by this process, each plate once for both plans,
+    evaluated by the cluster's workers, not by this process, each plate once for both plans
+    (and the splits of those that do not fit are chosen there),
     and each configuration's files are the bytes its run alone with --jobs 1 writes."""
     from pipeline import clusterplan
     from tests.test_plan_objective import _cs
@@ -151,6 +152,7 @@ def test_a_batchs_adaptive_plans_are_evaluated_on_the_cluster(cluster, tmp_path,
     (evaluator,) = used
     assert evaluator.computed > 10 and evaluator.requested > evaluator.computed  # csb reuses csa's plates
     assert evaluator.cpu_seconds > 0.0 and evaluator.local_cpu_seconds == 0.0  # none evaluated here
+    assert evaluator.mapped_cpu_seconds > 0.0  # csa's splits chosen there too
     plates = sum(len(json.loads((tmp_path / "dask" / c.stem / f"{c.stem}_summary.json").read_text())["parts"])
                  for c in configs)
     assert executed(client) - before >= evaluator.computed + plates  # the candidates, then the plates
