@@ -164,7 +164,7 @@ def test_inspect_finds_dtmb5415s_overlapping_bow_and_main_hull(capsys):
 def test_a_single_untrimmed_face_is_one_open_sheet(capsys):
     assert main(["hull", "inspect", str(HULLMOD)]) == 0
     out = capsys.readouterr().out
-    assert "1 faces" in out and "4 free" in out and "overlaps: none" in out and "gaps: none" in out
+    assert "1 face," in out and "4 free" in out and "overlaps: none" in out and "gaps: none" in out
 
 
 @pytest.mark.parametrize("args, needle", [
@@ -413,3 +413,31 @@ def test_plates_of_two_faces_meet_at_the_cut_and_are_paired_there(tmp_path):
     across = [p for p in shell["pairs"] if ("_P1_" in p["plates"][0]) != ("_P1_" in p["plates"][1])]
     assert len(across) >= 2  # every strake meets its continuation on the other face
     assert all(p["kind"] == "butt" and p["step_max_mm"] < 1.0 for p in across), across
+
+
+def test_a_transom_given_twice_is_reported_and_a_run_sews_only_its_own_faces(tmp_path, capsys):
+    """A STEP file of the 160 m hull's side and a transom square given twice in the plane
+    x = -5 m (as a modeller's export may hold a face twice): the plane that would cut the
+    two transoms apart holds them both, and the overlap's cut search raised ("internal
+    error", exit 1), in ``hull inspect`` and in every run that read any face of the file
+    (its summary sewed the whole file). Now the inspection reports the two as lying on each
+    other in that plane, and a run of the hull's side sews only the faces it uses."""
+    from flatten.surface import nurbs_surface
+    from tests.hull_shapes import write_step_faces
+
+    side = read_hull_model(HULLMOD).faces[0].surface
+    square = nurbs_surface(1, 1, [[[-5000.0, 0.0, 0.0], [-5000.0, 0.0, 3000.0]],
+                                  [[-5000.0, 4000.0, 0.0], [-5000.0, 4000.0, 3000.0]]], [0, 0, 1, 1], [0, 0, 1, 1])
+    whole = (*side.domain_u, *side.domain_v)
+    model = write_step_faces(tmp_path / "twice.step", [(side, whole), (square, (0, 1, 0, 1)), (square, (0, 1, 0, 1))])
+    assert main(["hull", "inspect", str(model)]) == 0
+    printed = capsys.readouterr().out
+    assert "overlap: faces 1 and 2 lie on each other in the plane x = -5000.0 mm over 12 m2" in printed
+    assert "a plan should use one of them" in printed
+
+    config = strake_config(tmp_path, {"model": str(model), "face": 0})
+    assert main(["run", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    (report,) = json.loads((tmp_path / "out" / "hm_summary.json").read_text())["hull_models"]
+    assert [f["index"] for f in report["faces"]] == [0] and report["file_faces"] == 3
+    assert report["overlaps"] == [] and report["free_edges"] == 4
+    assert report["faces"][0]["area_m2"] == pytest.approx(3816.4, rel=1e-3)

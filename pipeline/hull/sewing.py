@@ -17,7 +17,7 @@ shell (every point there lies on both faces within the stated distance).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +63,7 @@ class SewingReport:
     overlaps: list[Overlap] = field(default_factory=list)
     junctions: list[dict] = field(default_factory=list)  # where two faces meet: length, angle, smooth or knuckle
     notes: list[str] = field(default_factory=list)
+    file_faces: int | None = None  # faces in the file, when the report covers some of them (``faces``)
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -71,7 +72,8 @@ class SewingReport:
 
     def lines(self) -> list[str]:
         """The report as a console reads it."""
-        out = [f"{self.file} ({self.format.upper()}): {len(self.faces)} faces, "
+        of = "" if self.file_faces is None else f" of its {self.file_faces}"
+        out = [f"{self.file} ({self.format.upper()}): {_count(len(self.faces), 'face')}{of}, "
                f"{self.shell_area_m2:.4g} m2 inside their trims",
                f"sewn at {self.tolerance_mm:g} mm: {self.contiguous_edges} shared edges, {self.free_edges} free, "
                f"{self.multiple_edges} non-manifold, {self.degenerated} degenerated"]
@@ -81,11 +83,19 @@ class SewingReport:
                        f"{', trimmed' if face['trimmed'] else ''}")
         if self.gaps:
             worst = max(self.gaps, key=lambda g: g["gap_mm"])
-            out.append(f"gaps: {len(self.gaps)} free edges run beside another face, widest {worst['gap_mm']:.3g} mm "
+            runs = "runs" if len(self.gaps) == 1 else "run"
+            out.append(f"gaps: {_count(len(self.gaps), 'free edge')} {runs} beside another face, widest "
+                       f"{worst['gap_mm']:.3g} mm "
                        f"(face {worst['face']} to face {worst['other']})")
         else:
             out.append("gaps: none")
         for o in self.overlaps:
+            if o.x_range_mm[1] - o.x_range_mm[0] <= self.tolerance_mm:
+                out.append(f"overlap: faces {o.faces[0]} and {o.faces[1]} lie on each other in the plane x = "
+                           f"{o.x_range_mm[0]:.1f} mm over {o.area_m2:.4g} m2, {o.median_distance_mm:.3g} mm apart "
+                           f"(median; up to {o.max_distance_mm:.3g}): no transverse plane separates them (a face "
+                           f"given twice?); a plan should use one of them")
+                continue
             out.append(f"overlap: faces {o.faces[0]} and {o.faces[1]} lie on each other over {o.area_m2:.4g} m2, "
                        f"x {o.x_range_mm[0]:.1f}..{o.x_range_mm[1]:.1f} mm, {o.median_distance_mm:.3g} mm apart "
                        f"(median; up to {o.max_distance_mm:.3g}): nearly parallel, their intersection is no "
@@ -102,9 +112,15 @@ class SewingReport:
         return out
 
 
-def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0) -> SewingReport:
+def _count(n: int, thing: str) -> str:
+    return f"{n} {thing}" + ("" if n == 1 else "s")
+
+
+def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0,
+               only: set | None = None) -> SewingReport:
     """Sew the model's faces at ``tolerance`` (mm) and report the shell; free edges within
-    ``gap_limit`` (mm) of another face are gaps."""
+    ``gap_limit`` (mm) of another face are gaps. ``only``: the indices of the faces to sew
+    (a run's own faces, not the rest of the file; None: all), named by their file numbers."""
     if not tolerance > 0:
         raise ValueError(f"tolerance must be > 0 mm, got {tolerance}")
     if not gap_limit >= tolerance:
@@ -112,6 +128,12 @@ def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
 
     shapes = _shapes(model)
+    file_faces = None
+    if only is not None:
+        keep = [k for k, f in enumerate(model.faces) if f.index in only]
+        file_faces = len(model.faces)
+        shapes = [shapes[k] for k in keep]
+        model = HullModel(model.path, model.format, tuple(model.faces[k] for k in keep))
     sewing = BRepBuilderAPI_Sewing(tolerance)
     for face in shapes:
         sewing.Add(face)
@@ -124,9 +146,14 @@ def sew_report(model: HullModel, tolerance: float = 1.0, gap_limit: float = 50.0
     overlapping = {o.faces for o in overlaps}  # their meeting is an overlap, reported as such
     junctions = [j for j in junctions_of(model, distances, tolerance) if tuple(j["faces"]) not in overlapping]
     area = sum(f["area_m2"] for f in faces)
+    # the pairs above are positions in the faces sewn: named by the file's numbers
+    number = [f.index for f in model.faces]
+    gaps = [dict(g, face=number[g["face"]], other=number[g["other"]]) for g in gaps]
+    overlaps = [replace(o, faces=tuple(number[k] for k in o.faces)) for o in overlaps]
+    junctions = [dict(j, faces=[number[k] for k in j["faces"]]) for j in junctions]
     return SewingReport(str(model.path), model.format, float(tolerance), faces, float(area), sewing.NbFreeEdges(),
                         sewing.NbContigousEdges(), sewing.NbMultipleEdges(), sewing.NbDegeneratedShapes(), gaps,
-                        overlaps, junctions, notes)
+                        overlaps, junctions, notes, file_faces)
 
 
 def junctions_of(model: HullModel, distances: list, tolerance: float, knuckle_deg: float = KNUCKLE_DEG) -> list[dict]:
@@ -282,7 +309,8 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
             if area <= 10 * tolerance * max(float(np.ptp(points[on], axis=0).max()), 10 * tolerance):
                 continue  # a sliver: faces meeting at a shallow angle, not lying on each other
             x = points[on, 0]
-            cut, step = _cut_plane(faces[a].surface, distances[b], float(x.min()), float(x.max()))
+            cut, step = _cut_plane(faces[a].surface, distances[b], float(x.min()), float(x.max()),
+                                   apart=float(dist[on].max()))
             pair = (min(a, b), max(a, b))
             found = Overlap(pair, area * 1e-6, (float(x.min()), float(x.max())), float(dist[on].max()),
                             float(np.median(dist[on])), cut, step)
@@ -300,9 +328,12 @@ def interior(surface, params: np.ndarray, margin: float = 1e-6) -> np.ndarray:
     return (u > u0 + du) & (u < u1 - du) & (v > v0 + dv) & (v < v1 - dv)
 
 
-def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: int = 17) -> tuple[float, float]:
+def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: int = 17,
+               apart: float = np.inf) -> tuple[float, float]:
     """The transverse plane x = X in [x0, x1] where the face's section lies closest to the
-    other face (least largest distance): where cutting the two leaves the smallest step."""
+    other face (least largest distance): where cutting the two leaves the smallest step.
+    Where no plane gives a section (faces lying in one transverse plane), the middle, and
+    the step there is at most ``apart``, the faces' largest distance."""
     best = (0.5 * (x0 + x1), np.inf)
     for x in np.linspace(x0, x1, stations):
         dist = section_distances(surface, other, float(x), 60)
@@ -311,13 +342,16 @@ def _cut_plane(surface, other: SurfaceDistance, x0: float, x1: float, stations: 
         step = float(dist.max())
         if step < best[1]:
             best = (float(x), step)
-    return best
+    return best if np.isfinite(best[1]) else (best[0], apart)
 
 
 def section_distances(surface, other: SurfaceDistance, x: float, lines: int) -> np.ndarray:
     """Distances (N,) from the other face of the face's section by the plane x = ``x``
     (``lines`` iso-lines cut), over the section's points whose foot lies inside that face."""
-    section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), lines)
+    try:
+        section = surface.plane_section_points((x, 0.0, 0.0), (1.0, 0.0, 0.0), lines)
+    except ValueError:  # the plane holds the face (a transom given twice) or cuts no iso-curve once
+        return np.zeros(0)
     if len(section) == 0:
         return np.zeros(0)
     params, dist = other.closest(section)
@@ -362,8 +396,18 @@ def model_reports(sources, base: Path, tolerance: float = 1.0) -> list[dict]:
     from ..io.hullmodel import read_hull_model
     from ..io.sources import source_path
 
-    paths = dict.fromkeys(source_path(base, s.model) for s in sources)
-    return [sew_report(read_hull_model(path), tolerance).as_dict() for path in paths]
+    used: dict = {}
+    for source in sources:
+        faces = source.faces if getattr(source, "faces", None) else [source.face]
+        used.setdefault(source_path(base, source.model), set()).update(faces)
+    reports = []
+    for path, faces in used.items():
+        try:
+            reports.append(sew_report(read_hull_model(path), tolerance, only=faces).as_dict())
+        except Exception as exc:  # noqa: BLE001 - the plates are made; the report says what its sewing met
+            reports.append({"file": str(path), "schema": SCHEMA, "faces_used": sorted(faces),
+                            "error": f"the sewing report failed: {type(exc).__name__}: {exc}"})
+    return reports
 
 
 def overlap_cuts(surfaces: list, trims: list, tolerance: float) -> tuple[list[tuple], list[Overlap]]:
