@@ -441,3 +441,22 @@ def test_a_transom_given_twice_is_reported_and_a_run_sews_only_its_own_faces(tmp
     assert [f["index"] for f in report["faces"]] == [0] and report["file_faces"] == 3
     assert report["overlaps"] == [] and report["free_edges"] == 4
     assert report["faces"][0]["area_m2"] == pytest.approx(3816.4, rel=1e-3)
+
+
+def test_a_sewing_report_that_fails_is_reported_and_the_plates_are_written(hull_files, tmp_path, monkeypatch):
+    """The summary's sewing report is a finding about the model, not a stage the plates
+    depend on: when it raises, the run writes its plates and says why the report is missing."""
+    from pipeline.hull import sewing
+
+    def broken(*args, **kwargs):
+        raise ValueError("a plane misses the surface")
+
+    monkeypatch.setattr(sewing, "sew_report", broken)
+    folder, _ = hull_files
+    config = strake_config(tmp_path, {"model": str(folder / "hull.step")})
+    assert main(["run", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    summary = json.loads((tmp_path / "out" / "hm_summary.json").read_text())
+    (report,) = summary["hull_models"]
+    assert report["error"] == "the sewing report failed: ValueError: a plane misses the surface"
+    assert report["faces_used"] == [0] and len(summary["parts"]) == 2
+    assert len(list((tmp_path / "out").glob("hm_S1_B*.json"))) == 2
