@@ -447,7 +447,8 @@ def group_text(group: dict, delta: float) -> str:
     side = "THIS SIDE" if group["side"] == "drawn" else "OTHER SIDE"
     where = "INSIDE OF ROLL" if group["shape"] == "dome" else "OUTSIDE OF ROLL"
     passes = f", {group['passes']} PASSES" if group["passes"] > 1 else ""
-    return (f"HEAT G{group['group']} ({group['lines']} LINES): {side} ({where}), SHRINK "
+    lines = f"{group['lines']} LINE" + ("" if group["lines"] == 1 else "S")
+    return (f"HEAT G{group['group']} ({lines}): {side} ({where}), SHRINK "
             f"{1000 * group['max_required_strain']:.1f} MM/M, {delta:.2f} MM A LINE{passes}")
 
 
