@@ -148,17 +148,19 @@ def summary_rows(results: list[PartResult]) -> list[dict]:
 
 
 def summary_table(results: list[PartResult]) -> str:
-    header = (f"{'part':<22}{'status':<8}{'cover c/d %':>14}{'rulings':>9}{'area m2':>10}{'dist mm/m':>11}"
+    rows = summary_rows(results)
+    width = max([22] + [len(row["id"]) + 1 for row in rows])  # the names, at least one space after each
+    header = (f"{'part':<{width}}{'status':<8}{'cover c/d %':>14}{'rulings':>9}{'area m2':>10}{'dist mm/m':>11}"
               f"{'hull dev':>10}  reason (failed) / warnings (ok)")
     lines = [header, "-" * len(header)]
-    for row in summary_rows(results):
+    for row in rows:
         cover = (f"{100 * row['coverage_c']:.1f}/{100 * row['coverage_d']:.1f}"
                  if row["coverage_c"] is not None else "-")
         area = f"{row['area_m2']:.4f}" if row["area_m2"] is not None else "-"
         dist = f"{row['distortion_mm_per_m']:.3f}" if row["distortion_mm_per_m"] is not None else "-"
         dev = f"{row['max_hull_deviation']:.2f}" if row["max_hull_deviation"] is not None else "-"
         reason = row["reason"] if row["status"] != "ok" else row["warnings"]
-        lines.append(f"{row['id']:<22}{row['status']:<8}{cover:>14}{row['rulings'] or '-'!s:>9}{area:>10}{dist:>11}"
+        lines.append(f"{row['id']:<{width}}{row['status']:<8}{cover:>14}{row['rulings'] or '-'!s:>9}{area:>10}{dist:>11}"
                      f"{dev:>10}  {reason}")
     return "\n".join(lines)
 
