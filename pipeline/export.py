@@ -317,16 +317,34 @@ def _images(results, classed: list, config: RunConfig, out_dir: Path, style: str
         path = out_dir / f"{style}_classes.png"
         class_hull_png(path, classed, config.spec.units, config.mm_per_unit)
         written.append(path)
-    hull = [r for r in results if r.part.hull is not None and r.strip is not None and r.strip.trim is not None]
-    if hull:
+    plates = hull_image_plates(results)
+    if plates:
+        tolerance = next(r.part.hull.fit_tolerance for r in results if r.part is not None and r.part.hull is not None)
         path = out_dir / f"{style}_hull.png"
-        render("pipeline.plots:hull_png", path, [(r.name, r.strip.vertices, len(r.strip.samples),
-                                                  (r.figures.get("hull_fit") or {}).get("max_distance", 0.0))
-                                                 for r in hull],
-               hull[0].part.hull.fit_tolerance, config.spec.units)
+        render("pipeline.plots:hull_png", path, plates, tolerance, config.spec.units)
         written.append(path)
     wait_for_images()
     return written
+
+
+def hull_image_plates(results) -> list[tuple[str, np.ndarray, float]]:
+    """The plates of ``NAME_hull.png``: every hull plate delivered with a 3D shape (its strip,
+    or the mesh of a flat, trimmed-strip or formed plate; failed ones too when they have
+    one) as (name, its boundary on the hull (N, 3), its deviation): the largest distance of
+    its 3D shape from the hull, ``hull_fit`` ``max_distance`` (what the summary calls its
+    hull deviation), NaN (drawn grey) for a plate without that figure."""
+    from .hull.hullplots import plate_ring
+
+    plates = []
+    for r in results:
+        if r.part is None or r.part.hull is None or (r.strip is None and r.mesh is None):
+            continue
+        ring = plate_ring(r)
+        if ring is None:
+            continue
+        deviation = (r.figures.get("hull_fit") or {}).get("max_distance")
+        plates.append((r.name, ring, float("nan") if deviation is None else float(deviation)))
+    return plates
 
 
 def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, shell=None, edges: dict | None = None,

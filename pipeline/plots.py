@@ -171,29 +171,31 @@ def _round_length(length: float) -> float:
 
 
 def hull_png(target: str | Path, plates, tolerance: float, units: str) -> None:
-    """Side view (x, z) of the plates on the hull, coloured by their largest deviation."""
+    """Side view (x, z) of the plates on the hull, coloured by their largest deviation.
+    plates: [(name, boundary on the hull (N, 3), deviation or NaN (grey: no figure)), ...]."""
+    from matplotlib import colormaps
     from matplotlib.collections import PolyCollection
 
     polygons, values, names = [], [], []
-    for name, vertices, m, deviation in plates:
-        grid = vertices.reshape(-1, m, 3)
-        ring = np.vstack([grid[:, 0], grid[::-1, -1]])
-        polygons.append(ring[:, [0, 2]])
+    for name, ring, deviation in plates:
+        polygons.append(np.asarray(ring)[:, [0, 2]])
         values.append(deviation)
         names.append(name.split("_", 1)[-1])
     fig, ax = _fitted_axes(np.vstack(polygons), 10.0, (0.9, 1.5, 0.6, 0.3), 4.0)
     for name, ring in zip(names, polygons):
         centre = ring.mean(axis=0)
         ax.text(centre[0], centre[1], name, fontsize=6, ha="center", va="center")
-    collection = PolyCollection(polygons, array=np.array(values), cmap="viridis", edgecolor="black",
-                                linewidth=0.4, clim=(0.0, tolerance))
+    values = np.ma.masked_invalid(np.array(values, dtype=float))
+    collection = PolyCollection(polygons, array=values, cmap=colormaps["viridis"].with_extremes(bad="lightgrey"),
+                                edgecolor="black", linewidth=0.4, clim=(0.0, tolerance))
     ax.add_collection(collection)
     ax.autoscale_view()
     ax.set_xlabel(f"x ({units})")
     ax.set_ylabel(f"z ({units})")
     box = ax.get_position()
+    grey = ",\ngrey: no figure" if values.mask.any() else ""
     fig.colorbar(collection, cax=fig.add_axes((box.x1 + 0.02, box.y0, 0.015, box.height)),
-                 label=f"max deviation ({units}),\ntolerance {tolerance:g}")
+                 label=f"max deviation ({units}),\ntolerance {tolerance:g}{grey}")
     _save(fig, target)
 
 
