@@ -460,3 +460,34 @@ def test_a_sewing_report_that_fails_is_reported_and_the_plates_are_written(hull_
     assert report["error"] == "the sewing report failed: ValueError: a plane misses the surface"
     assert report["faces_used"] == [0] and len(summary["parts"]) == 2
     assert len(list((tmp_path / "out").glob("hm_S1_B*.json"))) == 2
+
+
+def _plane_face(k: int, origin, along, up) -> "HullFace":
+    from flatten.surface import nurbs_surface
+    from pipeline.io.hullmodel import HullFace
+
+    o, a, b = (np.asarray(x, dtype=float) for x in (origin, along, up))
+    surface = nurbs_surface(1, 1, [[o, o + b], [o + a, o + a + b]], [0, 0, 1, 1], [0, 0, 1, 1], name=f"face {k}")
+    return HullFace(k, surface, None, (), float("nan"))
+
+
+@pytest.mark.parametrize("angle_deg", [10.0, 20.0, 40.0])
+def test_the_two_sides_of_a_sharp_end_meet_and_do_not_overlap(angle_deg):
+    """Two plane faces 3 m x 2 m meeting along a stem line at a fine angle (a Wigley hull's
+    bows meet at 22 deg): the points of one within reach (50 mm: 10 tolerances of 5 mm) of
+    the other form a band reach / sin(angle) wide along the stem, 288 mm at 10 deg, wider
+    than a sliver, and the overlap search took it for two faces lying on each other: a plan
+    cut both at a transverse plane and dropped the stem's strip from each. Their tangent
+    planes part by the angle: they meet. A face lying 0.5 mm off the first, turned by 1 deg,
+    still overlaps it."""
+    from pipeline.hull.sewing import overlaps_of
+    from pipeline.io.hullmodel import HullModel
+
+    t = np.radians(angle_deg)
+    side = _plane_face(0, (0, 0, 0), (3000, 0, 0), (0, 0, 2000))
+    other = _plane_face(1, (0, 0, 0), (3000 * np.cos(t), 3000 * np.sin(t), 0), (0, 0, 2000))
+    assert overlaps_of(HullModel(Path("sharp"), "test", (side, other)), 5.0) == []
+    t = np.radians(1.0)
+    lying = _plane_face(1, (1000, 0.5, 0), (2000 * np.cos(t), 2000 * np.sin(t), 0), (0, 0, 2000))
+    (found,) = overlaps_of(HullModel(Path("lying"), "test", (side, lying)), 5.0)
+    assert found.faces == (0, 1) and found.area_m2 == pytest.approx(2.0 * 2.0, rel=0.1)

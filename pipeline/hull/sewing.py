@@ -30,6 +30,10 @@ SAMPLES = 48  # per parameter direction of each face, for overlaps
 EDGE_SAMPLES = 16  # points of a free edge measured against the faces
 DISTANCE_GRID = 64  # seeds per direction of the closest-point search
 KNUCKLE_DEG = 2.0  # faces meeting at a larger angle between their normals make a knuckle
+# faces whose tangent planes part by more (median over the points within reach of each other)
+# meet at an angle, however close they run: not lying on each other (DTMB 5415's bow on its
+# main hull: 0.8 deg; a Wigley hull's port and starboard bows at its stem: 13 deg)
+OVERLAP_ANGLE_DEG = 5.0
 SCHEMA = "hull-model/1"
 
 
@@ -292,7 +296,7 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
     faces = model.faces
     reach = 10.0 * tolerance if reach is None else reach
     distances = distances or [SurfaceDistance(f.surface, grid=DISTANCE_GRID) for f in faces]
-    samples = [_samples(f) for f in faces]
+    samples = [_samples(f) for f in faces]  # (points, cell areas, (u, v))
     boxes = [_box(f.surface) for f in faces]
     best: dict[tuple[int, int], Overlap] = {}
     for a in range(len(faces)):
@@ -300,7 +304,7 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
             lo, hi = boxes[b][0] - reach, boxes[b][1] + reach
             if a == b or np.any(boxes[a][1] < lo) or np.any(hi < boxes[a][0]):
                 continue
-            points, weights = samples[a]
+            points, weights, own = samples[a]
             params, dist = distances[b].closest(points)
             on = (dist <= reach) & interior(faces[b].surface, params) & _inside(faces[b], params)
             if on.sum() < 4:
@@ -308,6 +312,8 @@ def overlaps_of(model: HullModel, tolerance: float, distances: list | None = Non
             area = float(weights[on].sum())
             if area <= 10 * tolerance * max(float(np.ptp(points[on], axis=0).max()), 10 * tolerance):
                 continue  # a sliver: faces meeting at a shallow angle, not lying on each other
+            if _median_angle(faces[a].surface, own[on], faces[b].surface, params[on]) > OVERLAP_ANGLE_DEG:
+                continue  # a sharp end's two sides near their junction: they meet, they do not overlap
             x = points[on, 0]
             cut, step = _cut_plane(faces[a].surface, distances[b], float(x.min()), float(x.max()),
                                    apart=float(dist[on].max()))
@@ -359,8 +365,8 @@ def section_distances(surface, other: SurfaceDistance, x: float, lines: int) -> 
 
 
 def _samples(face: HullFace) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the face inside its trim on a SAMPLES x SAMPLES grid (cell centres) and
-    their cells' areas."""
+    """Points of the face inside its trim on a SAMPLES x SAMPLES grid (cell centres), their
+    cells' areas and their (u, v)."""
     s = face.surface
     u_edges = np.linspace(*s.domain_u, SAMPLES + 1)
     v_edges = np.linspace(*s.domain_v, SAMPLES + 1)
@@ -370,9 +376,16 @@ def _samples(face: HullFace) -> tuple[np.ndarray, np.ndarray]:
     uc = 0.5 * (u_edges[:-1] + u_edges[1:])
     vc = 0.5 * (v_edges[:-1] + v_edges[1:])
     uu, vv = np.meshgrid(uc, vc, indexing="ij")
-    keep = _inside(face, np.column_stack([uu.ravel(), vv.ravel()]))
+    params = np.column_stack([uu.ravel(), vv.ravel()])
+    keep = _inside(face, params)
     points = s.grid(uc, vc).reshape(-1, 3)
-    return points[keep], cell.ravel()[keep]
+    return points[keep], cell.ravel()[keep], params[keep]
+
+
+def _median_angle(surface_a, params_a: np.ndarray, surface_b, params_b: np.ndarray) -> float:
+    """Median angle (degrees) between the two surfaces' tangent planes at matching points."""
+    na, nb = _normals(surface_a, params_a), _normals(surface_b, params_b)
+    return float(np.median(np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", na, nb)), 0.0, 1.0)))))
 
 
 def _inside(face: HullFace, params: np.ndarray) -> np.ndarray:
