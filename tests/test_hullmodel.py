@@ -462,7 +462,7 @@ def test_a_sewing_report_that_fails_is_reported_and_the_plates_are_written(hull_
     assert len(list((tmp_path / "out").glob("hm_S1_B*.json"))) == 2
 
 
-def _plane_face(k: int, origin, along, up) -> "HullFace":
+def _plane_face(k: int, origin, along, up):
     from flatten.surface import nurbs_surface
     from pipeline.io.hullmodel import HullFace
 
