@@ -437,3 +437,68 @@ def test_coverage_areas_split_cells_at_a_surfaces_c0_knots():
     inside = surface_area(surface, shapely.box(1e-9, 1e-9, 1 - 1e-9, 1 - 1e-9))
     assert whole == pytest.approx(length * (a + b), rel=1e-9)
     assert inside == pytest.approx(length * (a + b), rel=1e-6)
+
+
+def test_a_lone_broken_section_is_found_and_the_ends_are_left_to_the_loft():
+    """broken_stations on misfits in closed form: a lone station missed by 1000 with its
+    neighbours ringing at a third of that, inside the loft, is broken; the same spike at an
+    end, a run of like misfits (a hull changing faster than the stations) and a spike
+    barely above its neighbours are not."""
+    from pipeline.hull.shell import OUTLIER, SPIKE, broken_stations
+
+    limit = 5.0
+    quiet = np.full(101, 0.1)
+    ringing = quiet.copy()
+    ringing[40:61] = 300.0 * np.exp(-np.abs(np.arange(-10, 11)) / 4.0)
+    ringing[50] = 1000.0
+    assert broken_stations(ringing, limit).tolist() == [50]
+    assert broken_stations(np.roll(ringing, -50), limit).tolist() == []  # the spike at the loft's first station
+    run = quiet.copy()
+    run[40:61] = 100.0
+    assert broken_stations(run, limit).tolist() == []
+    low = ringing.copy()
+    low[50] = 0.99 * SPIKE * ringing[49]  # the worst of the rest, beside it
+    assert broken_stations(low, limit).tolist() == []
+    modest = quiet.copy()
+    modest[50] = 0.99 * OUTLIER * limit
+    assert broken_stations(modest, limit).tolist() == []
+
+
+def test_two_blocks_of_faces_loft_across_the_station_where_they_meet(monkeypatch):
+    """ship_part3.igs (NAPA): a bottom and a side face in two blocks, 46 and 47 aft of x =
+    43476 mm, 60 and 61 fore of it, all four meeting smoothly. The station on the line where
+    the blocks meet has a broken section (its contour there missed half the bottom face:
+    girth 3.7 m among 5.1 m); the loft through it was 1007 mm off it and rang up to 0.3 m
+    over the stations around it, and the loft kept the 233 stations before it (x 28984 to
+    42491 mm), the rest of the faces planned face by face into 58 mm slivers. Left out alone,
+    the loft runs over the faces' whole length within 0.5 mm of their sections."""
+    from pipeline.hull import shell
+    from pipeline.hull.region import _model_shell
+
+    path = DATA / "ship_part3.igs"
+    model = read_hull_model(path)
+    surface, note, _ = _model_shell(model, path, [46, 47, 60, 61], 1.0, 1.0)
+    assert "x 28984.0..57968.0 mm" in note
+    assert surface.domain_u[0] == pytest.approx(28984.0, abs=1.0) and surface.domain_u[1] == pytest.approx(57968.0, abs=1.0)
+    deviation = float(note.split("it lies within ")[1].split(" mm")[0])
+    assert deviation <= 0.5
+    monkeypatch.setattr(shell, "broken_stations", lambda worst, limit: np.zeros(0, dtype=int))
+    _, before, _ = _model_shell(model, path, [46, 47, 60, 61], 1.0, 1.0)
+    assert "x 28984.0..42490.5 mm" in before
+
+
+def test_the_longest_run_of_stations_bridges_a_lone_station_that_did_not_chain():
+    """Stations 0..20; 10 did not chain (ship_part3's station on the line where two blocks
+    of 15 faces meet, in its 30-face shell: the loft took the 250 stations on one side of it
+    and the other block was planned face by face). One or two missing in a row are left out
+    alone; three end the run."""
+    from pipeline.hull.shell import JOINED, longest_run
+
+    x = np.arange(21.0)
+    one = np.delete(x, [10])
+    assert longest_run(x, one) == (0, 10)  # without a bridge: the first half
+    assert longest_run(x, one, JOINED) == (0, 20)
+    two = np.delete(x, [9, 10])
+    assert longest_run(x, two, JOINED) == (0, 19)
+    three = np.delete(x, [8, 9, 10])
+    assert longest_run(x, three, JOINED) == (8, 18)  # the longer side: stations 11..20

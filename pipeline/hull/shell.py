@@ -52,6 +52,8 @@ JOIN_MM = 2.0  # pieces of a station whose ends are nearer than this are joined
 MAX_POLES = 160  # per direction of the lofted surface
 REFITS = 3  # lofts again over the stations it fits, at most
 OUTLIER = 10.0  # a station missed by more than this many tolerances is outside the loft's range
+SPIKE = 2.0  # a station the loft misses by this many times more than any other near it is broken
+JOINED = 2  # stations missed (or not chained) this few in a row are left out alone, not an end
 
 
 class ShellError(ValueError):
@@ -304,12 +306,13 @@ def parted_ends(gaps: np.ndarray, max_gap: float | None) -> tuple[int, int]:
     return i, j
 
 
-def longest_run(x_values: np.ndarray, kept: np.ndarray) -> tuple[int, int]:
-    """Index range [i, j) of ``kept`` that is the longest run of consecutive ``x_values``."""
+def longest_run(x_values: np.ndarray, kept: np.ndarray, bridge: int = 0) -> tuple[int, int]:
+    """Index range [i, j) of ``kept`` that is the longest run of consecutive ``x_values``,
+    across up to ``bridge`` values missing in a row."""
     where = np.searchsorted(x_values, kept)
     best, start = (0, 0), 0
     for i in range(1, len(where) + 1):
-        if i == len(where) or where[i] != where[i - 1] + 1:
+        if i == len(where) or where[i] > where[i - 1] + 1 + bridge:
             if i - start > best[1] - best[0]:
                 best = (start, i)
             start = i
@@ -338,7 +341,9 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     counts = [len(starts) for _, starts in chains]
     common = max(set(counts), key=counts.count) if counts else 0
     same = np.array([c == common for c in counts], dtype=bool)
-    i, j = longest_run(x_values, kept[same]) if same.any() else (0, 0)
+    # a lone station whose sections do not chain (one on the line where two blocks of faces
+    # meet, where a face's contour is lost) is left out; more in a row end the run
+    i, j = longest_run(x_values, kept[same], JOINED) if same.any() else (0, 0)
     if j - i < 4:
         raise ShellError(f"{name}: faces {list(indices)} do not form one girth curve at 4 consecutive stations of "
                          f"{count} (x {lo:.1f}..{hi:.1f} mm): they are not one shell (a gap wider than {JOIN_MM} mm "
@@ -360,7 +365,15 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
         # keep the longest run of stations it fits and loft again
         # (a lone station whose section went wrong, a sliver of a cut face, is left out alone)
         worst = misfit.max(axis=1)
-        good = worst <= OUTLIER * max(tolerance, float(np.median(worst)))
+        limit = OUTLIER * max(tolerance, float(np.median(worst)))
+        good = worst <= limit
+        spikes = broken_stations(worst, limit) if round_ == 0 else []
+        if len(spikes):
+            # a lone broken section makes the loft ring over the stations around it: it is
+            # left out alone, and the loft through the others judged again
+            keep = np.setdiff1d(np.arange(len(stations)), spikes)
+            chains, stations, gaps = [chains[k] for k in keep], stations[keep], gaps[keep]
+            continue
         bridged = good | (np.convolve(good, [1, 0, 1], mode="same") == 2)  # a bad station between two good
         a, b = longest_run(np.arange(len(stations)), np.flatnonzero(bridged))
         if good.all() or b - a < 4 or round_ == REFITS:
@@ -369,6 +382,33 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
         chains, stations, gaps = [chains[k] for k in keep], stations[keep], gaps[keep]
     return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)),
                         float(gaps.max()), parted)
+
+
+
+
+def broken_stations(worst: np.ndarray, limit: float) -> np.ndarray:
+    """Stations whose own section is broken, not the hull's shape changing faster than the
+    stations follow. Of each run of stations the loft misses (``worst`` (K,) its misfit above
+    ``limit``; runs JOINED stations apart joined) that reaches neither end of the loft, its
+    worst station when the loft misses it by more than OUTLIER times the limit and SPIKE times
+    any other of the run. Such a section (ship_part3's station on the line where two blocks
+    of faces meet: its contour missed half the bottom face, girth 3.7 m among 5.1 m) drew the
+    loft 1 m off it and up to 0.3 m off the stations beside it, and the loft kept only the
+    stations before it. Runs at the ends are the ends' business (a stern whose sections
+    change faster than the stations follow: the loft ends before it)."""
+    bad = np.flatnonzero(worst > limit)
+    if not len(bad):
+        return bad
+    runs = np.split(bad, np.flatnonzero(np.diff(bad) > JOINED + 1) + 1)
+    out = []
+    for run in runs:
+        if run[0] <= JOINED or run[-1] >= len(worst) - 1 - JOINED:
+            continue
+        order = run[np.argsort(worst[run])[::-1]]
+        spike = worst[order[0]]
+        if spike > OUTLIER * limit and (len(order) == 1 or spike >= SPIKE * worst[order[1]]):
+            out.append(int(order[0]))
+    return np.array(out, dtype=int)
 
 
 def _loft_chains(stations: np.ndarray, chains: list, tolerance: float, name: str):
