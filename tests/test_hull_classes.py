@@ -233,3 +233,25 @@ def test_a_160m_hull_plate_off_its_least_squares_plane_is_flat_on_its_minimax_pl
         l3 = np.linalg.norm(projected[faces[:, a]] - projected[faces[:, b]], axis=1)
         l2 = np.linalg.norm(vt[faces[:, a]] - vt[faces[:, b]], axis=1)
         np.testing.assert_allclose(l2, l3, rtol=1e-9, atol=1e-9)
+
+
+def test_a_flat_plates_corners_are_measured_against_its_plane(tmp_path):
+    """A plate 2.4 m across the curve of a 200 m cylinder: its sagitta s = R - sqrt(R^2 -
+    1.2 m^2) = 3.6 mm is within the 5 mm tolerance, so it is flat on the minimax plane
+    halfway between its middle and its edges, and each corner lies s / 2 = 1.8 mm off that
+    plane. Measured against the region's own mesh (as a curved plate's is), the corners read
+    0 whatever the plate."""
+    radius, half = 200000.0, 1200.0
+    iges = cylinder_iges(tmp_path / "cyl.igs", radius=radius, angle_deg=2 * np.degrees(np.arcsin(1500.0 / radius)),
+                         width=4000.0)
+    code, out = run_strake(tmp_path, {"surface": {"iges": str(iges)}, "seams": [{"iso": {"v": 0.2}}, {"iso": {"v": 0.8}}],
+                                      "butts": [-half, half], "fit_tolerance": 5.0})
+    assert code == 0
+    rep = report(out, "t_S1_B1")
+    sagitta = radius - np.sqrt(radius**2 - half**2)
+    assert rep["plate_class"]["class"] == "flat"
+    fit = rep["plate_class"]["plane_max_distance"]  # the grid's middle column lies a little off the apex
+    assert fit == pytest.approx(sagitta / 2, rel=0.02)
+    check = rep["completeness"]
+    np.testing.assert_allclose(check["corner_gaps"], fit, rtol=1e-6)  # equioscillation: corners at the most
+    assert check["corner_tolerance"] == 5.0 and check["passed"] and check["max_region_gap"] == fit

@@ -664,10 +664,16 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
         outline, f_grid = cut.outline, f_grid[cut.inside_faces]
     # (a lean evaluation's, when it owed the development: the same figures)
     check = completeness(v3, f3, grid, tol, _patch_corner_tolerance(hull, size)) if check is None else dict(check)
-    if kind == "flat":  # the cut plate is planar: measure the region against the plane itself
+    if kind == "flat":
+        # the cut plate is planar: the region and its corners measured against the plane
+        # itself (measured against the region's own mesh, the corners were 0 off by construction)
+        normal, point = np.asarray(info["normal"], dtype=float), np.asarray(info["plane_point"], dtype=float)
+        corner_gaps = np.abs((grid.corners() - point) @ normal)
+        off = np.abs((v_grid - point) @ normal)
         fit = info["plane_max_distance"]
-        check["max_region_gap"] = fit
-        check["passed"] = bool(fit <= tol)
+        check.update(corner_gaps=corner_gaps.tolist(), corner_tolerance=tol, max_region_gap=fit,
+                     worst_region_point=v_grid[int(np.argmax(off))].tolist(),
+                     passed=bool(fit <= tol and corner_gaps.max() <= tol))
     result.strip = None
     result.mesh = (v_grid, f_grid)
     result.pattern = Pattern(outline, np.zeros((0, 2, 2)), placed, (rot, shift))
