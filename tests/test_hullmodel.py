@@ -434,6 +434,7 @@ def test_a_transom_given_twice_is_reported_and_a_run_sews_only_its_own_faces(tmp
     printed = capsys.readouterr().out
     assert "overlap: faces 1 and 2 lie on each other in the plane x = -5000.0 mm over 12 m2" in printed
     assert "a plan should use one of them" in printed
+    assert "face 1: 12 m2, 2x2 poles degree 1x1, x -5000.0..-5000.0, y 0.0..4000.0, z 0.0..3000.0" in printed
 
     config = strake_config(tmp_path, {"model": str(model), "face": 0})
     assert main(["run", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0

@@ -83,7 +83,8 @@ class SewingReport:
                f"{self.multiple_edges} non-manifold, {self.degenerated} degenerated"]
         for face in self.faces:
             out.append(f"  face {face['index']}: {face['area_m2']:.4g} m2, {face['poles'][0]}x{face['poles'][1]} poles "
-                       f"degree {face['degree'][0]}x{face['degree'][1]}, x {face['x_mm'][0]:.1f}..{face['x_mm'][1]:.1f}"
+                       f"degree {face['degree'][0]}x{face['degree'][1]}, x {face['x_mm'][0]:.1f}..{face['x_mm'][1]:.1f}, "
+                       f"y {face['y_mm'][0]:.1f}..{face['y_mm'][1]:.1f}, z {face['z_mm'][0]:.1f}..{face['z_mm'][1]:.1f}"
                        f"{', trimmed' if face['trimmed'] else ''}")
         if self.gaps:
             worst = max(self.gaps, key=lambda g: g["gap_mm"])
@@ -239,10 +240,13 @@ def _face_summary(face: HullFace) -> dict:
     s = face.surface
     u = np.linspace(*s.domain_u, 17)
     v = np.linspace(*s.domain_v, 17)
-    x = s.grid(u, v)[..., 0]
+    points = s.grid(u, v).reshape(-1, 3)
+    lo, hi = points.min(axis=0), points.max(axis=0)
     area = face.area_mm2 if np.isfinite(face.area_mm2) else _sampled_area(s)
+    # y and z too: picking a hull's faces among a model's decks, bulkheads and appendages
     return {"index": face.index, "area_m2": float(area) * 1e-6, "poles": list(s.poles.shape[:2]),
-            "degree": [s.degree_u, s.degree_v], "x_mm": [float(x.min()), float(x.max())], "trimmed": face.trimmed}
+            "degree": [s.degree_u, s.degree_v], "x_mm": [float(lo[0]), float(hi[0])],
+            "y_mm": [float(lo[1]), float(hi[1])], "z_mm": [float(lo[2]), float(hi[2])], "trimmed": face.trimmed}
 
 
 def _sampled_area(surface, n: int = 65) -> float:
