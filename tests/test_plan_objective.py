@@ -694,3 +694,43 @@ def test_the_seam_rule_keeps_a_new_seams_ends_the_stagger_from_the_seams_across_
     assert seam_rule(3, parts, plate_corners(parts), 300.0, ()).ends == ()  # the fore plate: nothing across its butt
     del parts[2].hull.result.figures["region"]["width"]  # the control: without its width every corner there counts
     assert len(seam_rule(2, parts, plate_corners(parts), 300.0, ()).ends) == 4
+
+
+def _skewed_plane(path: Path, x_end: float = 6000.0) -> Path:
+    """A plane z = 0, x in [0, x_end]: its sections x = const run in y from 0 to 6 m at x = 0
+    (evenly in v) and to 5 m at x_end, where v crowds towards y = 0 (quadratic in v, control
+    points y = 0, 0.2, 5 m): the seam at mid-girth of the widest section (y = 3 m at x = 0)
+    runs to y = 0.25 * 0 + 0.5 * 0.2 + 0.25 * 5 = 1.35 m at x_end, and the strake above it
+    widens to 5 - 1.35 = 3.65 m there."""
+    poles = [[[0.0, 0.0, 0.0], [0.0, 3000.0, 0.0], [0.0, 6000.0, 0.0]],
+             [[x_end, 0.0, 0.0], [x_end, 200.0, 0.0], [x_end, 5000.0, 0.0]]]
+    return write_iges_surface(path, 1, 2, poles, np.ones((2, 3)), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
+
+
+def test_a_plate_that_fits_but_is_wider_than_the_stock_is_split_across_its_girth(tmp_path, monkeypatch):
+    """A flat plane of two strakes laid at its widest section (6 m: 3 m each), the upper
+    strake 3.65 m wide at the other end (closed form above) against a 3.5 m stock: no sheet
+    holds it. The plan splits it along its girth into plates within the stock, however flat
+    it is; switched off, the flat plate is kept 3.65 m wide."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+
+    iges = _skewed_plane(tmp_path / "skewed.igs")
+    stock = {"max_length": 14000, "max_width": 3500, "min_length": 1000, "min_width": 1000}
+    config = _config(tmp_path, "sk", iges, {"method": "adaptive", "stock": stock, "max_splits": 2})
+
+    def plates():
+        from pipeline.hull.plates import evaluate_plate
+
+        run = load_run(config, evaluate_plate)
+        return {p.name: dict(p.hull.result.figures["region"], klass=p.hull.result.figures["plate_class"]["class"])
+                for p in run.parts}
+
+    split = plates()
+    assert max(r["width"] for r in split.values()) <= 3500.0
+    assert sorted(split) == ["sk_S01_B01", "sk_S02_B01-1", "sk_S02_B01-2"]
+    monkeypatch.setattr(planner, "_oversize", lambda cell, stock: ())
+    kept = plates()
+    assert sorted(kept) == ["sk_S01_B01", "sk_S02_B01"]
+    assert kept["sk_S02_B01"]["width"] == pytest.approx(3650.0, rel=1e-3) and kept["sk_S02_B01"]["klass"] == "flat"
+    assert {r["klass"] for r in split.values()} == {"flat"}

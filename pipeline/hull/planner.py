@@ -320,6 +320,18 @@ def _fits(cell: Cell) -> bool:
     return honest_class(cell.result) in ("flat", "developable")
 
 
+def _oversize(cell: Cell, stock) -> tuple:
+    """The kinds of split a plate larger than the stock asks for: girth when it is wider than
+    ``stock.max_width`` (its region's widest girth), length when longer than ``max_length``;
+    () when it fits the stock. A strake laid at the hull's widest section can be wider
+    elsewhere (iso-parameter seams: KVLCC2's stern plates 5.1 m wide of a 4 m stock)."""
+    region = (getattr(cell.result, "figures", None) or {}).get("region") or {}
+    slack = 1.0 + 1e-9
+    return tuple(kind for kind, size, limit in (("girth", region.get("width", 0.0), stock.max_width),
+                                                 ("length", region.get("length", 0.0), stock.max_length))
+                 if size > limit * slack)
+
+
 def _area(cell: Cell) -> float:
     from .hullplots import shell_area
 
@@ -381,9 +393,27 @@ def _retry(cell: Cell, kind: str, objective) -> bool:
     return objective.weights is None and any(k != kind for k in _untried(cell))
 
 
-def _split_job(cell: Cell, ctx: _Context, allow=None) -> tuple:
+STOCK_SPLITS = 3  # splits beyond plan.max_splits that a plate larger than the stock may take
+
+
+def _may_split(cell: Cell, oversize: tuple, max_splits: int) -> bool:
+    """A plate that does not fit is split up to ``max_splits`` deep; one larger than the stock
+    (``oversize``: :func:`_oversize`) also beyond that, by STOCK_SPLITS more (the stock is
+    not a choice: a plate no sheet holds cannot be cut)."""
+    if cell.depth < max_splits:
+        return not _fits(cell) or bool(oversize)
+    return bool(oversize) and cell.depth < max_splits + STOCK_SPLITS
+
+
+def _stock_kinds(cell: Cell, oversize: tuple, max_splits: int) -> tuple | None:
+    """The kinds of split a plate is offered: only across its excess when it is split for
+    the stock alone (it fits, or it is past ``max_splits``); None: any untried kind."""
+    return oversize if _fits(cell) or cell.depth >= max_splits else None
+
+
+def _split_job(cell: Cell, ctx: _Context, allow=None, kinds: tuple | None = None) -> tuple:
     face = ctx.faces[cell.k]
-    kinds = _untried(cell)
+    kinds = _untried(cell) if kinds is None else kinds
     return (face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
             ctx.stock.min_width, allow, ctx.yard, kinds)
 
@@ -427,7 +457,8 @@ def _settle(cell: Cell, why: str, method: str) -> Cell:
 
 
 def _split_all(cells: list, build, ctx: _Context) -> list:
-    """Without an objective: every plate that does not fit is split while it may, breadth
+    """Without an objective: every plate that does not fit (nor a plate larger than the stock:
+    :func:`_oversize`) is split while it may, breadth
     first (each depth's plates evaluated as one batch, so the workers share them). The record
     gets the plan after each depth: the plates kept so far and that depth's plates whole.
     A depth's splits are chosen on the workers, and each split's halves are built here as
@@ -442,11 +473,14 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     wave, waiting = [c for c in cells if build(c) is not None], []
     while wave or waiting:
         built = _evaluate_built(wave, ctx) + waiting
-        splitting = [c for c in built if not _fits(c) and c.depth < plan.max_splits]
+        # a plate that fits but is larger than the stock is split too, across its excess
+        oversize = {id(c): _oversize(c, ctx.stock) for c in built}
+        splitting = [c for c in built if _may_split(c, oversize[id(c)], plan.max_splits)]
         sides = seam_sides([c.part for c in kept + built]) if ctx.yard else None
         rules = _yard_rules(splitting, kept + built, sides, ctx)
         # handed out before the weld and the record are computed, which the workers need not wait for
-        chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule) for c, rule in zip(splitting, rules)])
+        chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule, _stock_kinds(c, oversize[id(c)], plan.max_splits))
+                                            for c, rule in zip(splitting, rules)])
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
@@ -462,8 +496,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
                 halves[id(cell)] = [half for half in _children(cell, split) if build(half) is not None]
         nxt = []
         for cell in built:
-            fits = _fits(cell)
-            if fits or cell.depth >= plan.max_splits:
+            fits = _fits(cell) and not oversize[id(cell)]
+            if fits or not _may_split(cell, oversize[id(cell)], plan.max_splits):
                 kept.append(_settle(cell, "fits" if fits else f"max_splits = {plan.max_splits}", plan.method))
                 continue
             if id(cell) not in splits:
@@ -471,7 +505,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
             split = splits[id(cell)]
             if split is None:
                 ruled = " and the yard's rules" if sides is not None else ""
-                kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{ruled}",
+                larger = f" (larger than the stock: {' and '.join(oversize[id(cell)])})" if oversize[id(cell)] else ""
+                kept.append(_settle(cell, f"no split keeps both halves within the minimum stock sizes{ruled}{larger}",
                                     plan.method))
                 continue
             weld += split.weld * ctx.mm_per_unit / 1000.0
