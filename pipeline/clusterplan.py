@@ -32,21 +32,19 @@ def _given(value):
     return value
 
 
-def evaluate_on_worker(evaluate, config, blob: bytes, shared: list) -> tuple[bytes, float]:
-    """On a worker: the plate of ``blob`` (its shared objects numbered into ``shared``)
-    evaluated under ``config``; (its result as a blob of the same kind, CPU seconds)."""
+def call_on_worker(func, blob: bytes, shared: list, *args) -> tuple[bytes, float]:
+    """On a worker: ``func(item, *args)`` of the item in ``blob`` (its shared objects numbered
+    into ``shared``); (the answer as a blob of the same kind, CPU seconds)."""
     cpu = time.process_time()
-    part = _loads(blob, shared)
+    answer = func(_loads(blob, shared), *args)
+    return _dumps(answer, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
+
+
+def _evaluated(part, evaluate, config):
+    """A plate's result without its part (the coordinator attaches its own)."""
     result = evaluate(part, config)
     result.part = None
-    return _dumps(result, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
-
-
-def call_on_worker(func, blob: bytes, shared: list) -> tuple[bytes, float]:
-    """On a worker: ``func(item)`` of the item in ``blob`` (as :func:`evaluate_on_worker`)."""
-    cpu = time.process_time()
-    answer = func(_loads(blob, shared))
-    return _dumps(answer, {id(obj): k for k, obj in enumerate(shared)}), time.process_time() - cpu
+    return result
 
 
 class ClusterEvaluator(PlateEvaluator):
@@ -70,8 +68,6 @@ class ClusterEvaluator(PlateEvaluator):
         return self._sent[id(obj)][1]
 
     def _compute(self, parts: list, config) -> list:
-        from distributed.scheduler import KilledWorker
-
         if not parts:
             return []
         shared = list({id(obj): obj for part in parts
@@ -79,24 +75,15 @@ class ClusterEvaluator(PlateEvaluator):
         index = {id(obj): k for k, obj in enumerate(shared)}
         given = [self._on_cluster(obj) for obj in shared]
         settings = self._on_cluster(config)
-        futures = [self.client.submit(evaluate_on_worker, self.evaluate, settings, _dumps(part, index), given,
+        futures = [self.client.submit(call_on_worker, _evaluated, _dumps(part, index), given, self.evaluate, settings,
                                       pure=False) for part in parts]
         results = []
-        try:
-            for part, future in zip(parts, futures):
-                try:
-                    blob, cpu = future.result()
-                    result = _loads(blob, shared)
-                    self.cpu_seconds += cpu
-                except KilledWorker:
-                    cpu = time.process_time()
-                    result = self.evaluate(part, config)
-                    self.cpu_seconds += time.process_time() - cpu
-                    self.local_cpu_seconds += time.process_time() - cpu
-                result.part = part
-                results.append(result)
-        finally:
-            self.client.cancel([f for f in futures if not f.done()])
+        for part, (result, cpu, here) in zip(parts, self._collect(futures, parts, shared,
+                                                                  lambda part: self.evaluate(part, config))):
+            self.cpu_seconds += cpu
+            self.local_cpu_seconds += cpu if here else 0.0
+            result.part = part
+            results.append(result)
         return results
 
     @property
@@ -115,19 +102,28 @@ class ClusterEvaluator(PlateEvaluator):
         given = [future for _, future in self._sent.values()]
         index = {id(obj): k for k, obj in enumerate(shared)}
         futures = [self.client.submit(call_on_worker, func, _dumps(item, index), given, pure=False) for item in items]
-        return self._answers_of(futures, items, func, shared)
+        return self._mapped(self._collect(futures, items, shared, func))
 
-    def _answers_of(self, futures: list, items: list, func, shared: list):
+    def _mapped(self, answers):
+        for answer, cpu, here in answers:
+            self.mapped_cpu_seconds += 0.0 if here else cpu
+            yield answer
+
+    def _collect(self, futures: list, items: list, shared: list, here):
+        """(answer, CPU seconds, computed here) of each future in order: ``here(item)`` in this
+        process when Dask gave up on the task (``KilledWorker``); what is not yet read when
+        the reader stops is cancelled."""
         from distributed.scheduler import KilledWorker
 
         try:
             for item, future in zip(items, futures):
                 try:
                     blob, cpu = future.result()
-                    self.mapped_cpu_seconds += cpu
-                    yield _loads(blob, shared)
+                    yield _loads(blob, shared), cpu, False
                 except KilledWorker:
-                    yield func(item)
+                    cpu = time.process_time()
+                    answer = here(item)
+                    yield answer, time.process_time() - cpu, True
         finally:
             self.client.cancel([f for f in futures if not f.done()])
 

@@ -419,6 +419,20 @@ def _developed_patch(result, config, patch: OwedPatch) -> None:
                    patch.verdict if patch.strips_tried else None, patch.check)
 
 
+def _flat_completeness(grid, v_grid: np.ndarray, info: dict, tolerance: float) -> dict:
+    """:func:`completeness` of a flat plate, against its plane (``info``: its normal, a point
+    and the region's largest distance from it): the cut plate is planar, so the region and its
+    corners are measured against the plane itself (against the region's own mesh the corners
+    would be 0 off by construction)."""
+    normal, point = np.asarray(info["normal"], dtype=float), np.asarray(info["plane_point"], dtype=float)
+    corner_gaps = np.abs((grid.corners() - point) @ normal)
+    off = np.abs((v_grid - point) @ normal)
+    fit = info["plane_max_distance"]
+    return {"corner_gaps": corner_gaps.tolist(), "corner_tolerance": tolerance, "max_region_gap": fit,
+            "worst_region_point": v_grid[int(np.argmax(off))].tolist(), "tolerance": tolerance,
+            "passed": bool(fit <= tolerance and corner_gaps.max() <= tolerance)}
+
+
 def _patch_corner_tolerance(hull, size) -> float:
     """A patch's corners lie on its own mesh: judged to round-off of the plate's size."""
     return min(hull.fit_tolerance, 1e-6 * max(size) + 1e-9)
@@ -663,17 +677,10 @@ def _deliver_patch(result, config, grid, uv_grid_flat, v3, f3, index, kind, info
             return
         outline, f_grid = cut.outline, f_grid[cut.inside_faces]
     # (a lean evaluation's, when it owed the development: the same figures)
-    check = completeness(v3, f3, grid, tol, _patch_corner_tolerance(hull, size)) if check is None else dict(check)
     if kind == "flat":
-        # the cut plate is planar: the region and its corners measured against the plane
-        # itself (measured against the region's own mesh, the corners were 0 off by construction)
-        normal, point = np.asarray(info["normal"], dtype=float), np.asarray(info["plane_point"], dtype=float)
-        corner_gaps = np.abs((grid.corners() - point) @ normal)
-        off = np.abs((v_grid - point) @ normal)
-        fit = info["plane_max_distance"]
-        check.update(corner_gaps=corner_gaps.tolist(), corner_tolerance=tol, max_region_gap=fit,
-                     worst_region_point=v_grid[int(np.argmax(off))].tolist(),
-                     passed=bool(fit <= tol and corner_gaps.max() <= tol))
+        check = _flat_completeness(grid, v_grid, info, tol)
+    else:
+        check = completeness(v3, f3, grid, tol, _patch_corner_tolerance(hull, size)) if check is None else dict(check)
     result.strip = None
     result.mesh = (v_grid, f_grid)
     result.pattern = Pattern(outline, np.zeros((0, 2, 2)), placed, (rot, shift))

@@ -384,8 +384,6 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                         float(gaps.max()), parted)
 
 
-
-
 def broken_stations(worst: np.ndarray, limit: float) -> np.ndarray:
     """Stations whose own section is broken, not the hull's shape changing faster than the
     stations follow. Of each run of stations the loft misses (``worst`` (K,) its misfit above
