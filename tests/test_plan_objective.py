@@ -291,6 +291,40 @@ def test_an_objective_plan_takes_no_two_seams_that_would_meet_across_a_butt_in_o
     assert butt_violations(yard, 300.0) == []
 
 
+def test_plates_larger_than_the_stock_are_split_before_they_are_evaluated_into_the_same_plan(tmp_path, monkeypatch):
+    """The cylinder-sphere (x over 10 m) in three butts of 3.33 m under a 3.4 m stock: the end
+    plates run 3.56 m along the hull (an arc of 20.4 deg at 10 m radius), longer than any
+    sheet, one strake on the cylinder and the sphere, the other on the sphere alone. Split as
+    soon as they are laid (across their excess where the estimate expects a fit, else where
+    the misfit is), the plan is the one the control makes by evaluating them first, with
+    fewer evaluations, and no plate is longer than the stock."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    iges = tmp_path / "cs.igs"
+    cylinder_sphere_iges(iges, 10000.0, 60.0, 1500.0, 3000.0, 0.3)
+    plan = {"method": "adaptive", "max_splits": 2,
+            "stock": {"max_length": 3400, "max_width": 2500, "min_length": 1000, "min_width": 1000}}
+
+    def planned(name, **patches):
+        with monkeypatch.context() as patched, plate_evaluator(1) as evaluator:
+            for key, value in patches.items():
+                patched.setattr(planner, key, value)
+            run = load_run(_config(tmp_path, name, iges, plan), evaluator)
+        plates = {p.name.split("_", 1)[1]: (tuple(float(g(0.5)) for g in p.hull.girths),
+                                            tuple(None if b is None else round(b.offset, 6) for b in p.hull.butts))
+                  for p in run.parts}
+        longest = max(p.hull.result.figures["region"]["length"] for p in run.parts)
+        return plates, run.plan_record.evaluations, longest
+
+    early, early_evaluations, early_longest = planned("early")
+    late, late_evaluations, late_longest = planned("late", _coarse_oversize=lambda cell, stock: ())
+    assert early == late
+    assert early_evaluations < late_evaluations
+    assert max(early_longest, late_longest) <= 3400.0
+
+
 def _cs(tmp_path: Path, name: str, method: str, objective=None, max_splits: int = 1) -> Path:
     iges = tmp_path / "cs.igs"
     if not iges.exists():
@@ -719,16 +753,27 @@ def test_a_plate_that_fits_but_is_wider_than_the_stock_is_split_across_its_girth
     stock = {"max_length": 14000, "max_width": 3500, "min_length": 1000, "min_width": 1000}
     config = _config(tmp_path, "sk", iges, {"method": "adaptive", "stock": stock, "max_splits": 2})
 
+    evaluated = []
+
     def plates():
         from pipeline.hull.plates import evaluate_plate
 
-        run = load_run(config, evaluate_plate)
+        def counted(part, config):
+            evaluated.append(part.name)
+            return evaluate_plate(part, config)
+
+        evaluated.clear()
+        run = load_run(config, counted)
         return {p.name: dict(p.hull.result.figures["region"], klass=p.hull.result.figures["plate_class"]["class"])
                 for p in run.parts}
 
     split = plates()
     assert max(r["width"] for r in split.values()) <= 3500.0
     assert sorted(split) == ["sk_S01_B01", "sk_S02_B01-1", "sk_S02_B01-2"]
+    # the plate too wide for any sheet is split before it is evaluated (found on its coarse grid)
+    assert sorted(evaluated) == sorted(split)
+    monkeypatch.setattr(planner, "_coarse_oversize", lambda cell, stock: ())
+    assert sorted(plates()) == sorted(split) and "sk_S02_B01" in evaluated  # found once evaluated, as before
     monkeypatch.setattr(planner, "_oversize", lambda cell, stock: ())
     kept = plates()
     assert sorted(kept) == ["sk_S01_B01", "sk_S02_B01"]

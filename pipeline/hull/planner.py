@@ -12,7 +12,9 @@ adaptive : the uniform layout, then every plate that is neither flat nor devflat
           ``stock.min_width``, up to ``max_splits`` times; a plate stops splitting as soon as
           it fits. Splits are local (staggered butts, drop strakes): a plate's neighbours keep
           their seams. A patch development within the tolerance does not stop the splitting:
-          only flat and strip plates count as fitting here.
+          only flat and strip plates count as fitting here. A plate larger than the stock is
+          split whatever its class, across its excess when it fits; before it is evaluated
+          when its coarse grid shows it (:func:`_within_stock`; not under the yard's rules).
 
 With ``plan.objective`` (:mod:`.objective`) the splits are chosen for it: best flat/strip area
 per weld metre first within a weld budget, or by a weighted cost; the layout then follows the
@@ -42,7 +44,7 @@ from .region import Girth, load_plan_surfaces, long_axis_of, plate_part, seam_cu
 from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
 from .objective import PlanPoint, PlanRecord, split_priority, worth
-from .splitting import choose_split, sample_region
+from .splitting import choose_split, estimate, sample_region
 from .yardrules import (SeamRule, YardRule, butt_rule, plate_corners, seam_rule, seam_sides, stagger_of, yard_layout,
                         yard_rules_on)
 
@@ -146,6 +148,8 @@ class Cell:
     weld_m: float = 0.0  # the weld its split from the parent added (m)
     split: object = None  # the split the plan took of it
     tried: tuple = ()  # the kinds of split taken of it and given up (an objective's plan)
+    size: tuple = (0.0, 0.0)  # (length, width) of its region on a coarse grid when built (model units)
+    order: tuple = ()  # its place in the layout: the cell's index there, then each split's half (0, 1)
 
 
 @dataclass
@@ -242,6 +246,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         """The cell's part, or None when its region misses the surface or its trim."""
         face = faces[cell.k]
         length, width, xa, xb = region_size(face.surface, face.axis, cell.girths, cell.pair)
+        cell.size = (length, width)
         if length <= 0:
             return None  # the region misses this surface (e.g. a butt beyond a short strake)
         butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in cell.pair)
@@ -330,6 +335,42 @@ def _oversize(cell: Cell, stock) -> tuple:
     return tuple(kind for kind, size, limit in (("girth", region.get("width", 0.0), stock.max_width),
                                                  ("length", region.get("length", 0.0), stock.max_length))
                  if size > limit * slack)
+
+
+def _coarse_oversize(cell: Cell, stock) -> tuple:
+    """:func:`_oversize` from the region's coarse size when built (before any evaluation):
+    its chords are no longer than the region's arcs, so a plate it finds larger than the stock
+    is larger (one it misses is found once evaluated)."""
+    slack = 1.0 + 1e-9
+    length, width = cell.size
+    return tuple(kind for kind, size, limit in (("girth", width, stock.max_width), ("length", length, stock.max_length))
+                 if size > limit * slack)
+
+
+def _within_stock(wave: list, build, ctx: _Context) -> tuple[list, float]:
+    """The cells of a wave, each one larger than the stock (:func:`_coarse_oversize`) split
+    before it is evaluated (:func:`_stock_split`), as often as it must within the depth a
+    plate larger than the stock may reach (:func:`_may_split`): no sheet holds it, whatever
+    its class, so its evaluation would be spent (KVLCC2: 457 of 1622 candidates, its strakes
+    laid at the widest section widening to 5.2 m toward the ends). Its halves take one depth
+    more, as when it is split once evaluated. Returns the cells and the metres of weld the
+    splits add."""
+    out, weld, limit = [], 0.0, ctx.plan.max_splits + STOCK_SPLITS
+    while wave:
+        kinds = [_coarse_oversize(c, ctx.stock) if c.depth < limit else () for c in wave]
+        out += [c for c, k in zip(wave, kinds) if not k]
+        over = [(c, k) for c, k in zip(wave, kinds) if k]
+        wave = []
+        jobs = [(_split_job(c, ctx), k, c.depth >= ctx.plan.max_splits) for c, k in over]
+        for (cell, _), split in zip(over, ctx.spread(_stock_split, jobs)):
+            halves = [] if split is None else [h for h in _children(cell, split) if build(h) is not None]
+            if not halves:
+                out.append(cell)  # no split keeps the minimum sizes: evaluated, and settled as before
+                continue
+            weld += split.weld * ctx.mm_per_unit / 1000.0
+            ctx.record.splits_taken += 1
+            wave += halves
+    return out, weld
 
 
 def _area(cell: Cell) -> float:
@@ -434,17 +475,36 @@ def _region_split(job: tuple):
     return choose_split(sample, tolerance, min_length, min_width, rule.butts, strict, kinds, rule.seams)
 
 
+def _stock_split(job: tuple):
+    """The split of a plate larger than the stock chosen before it is evaluated: job (a
+    :func:`_split_job`, the kinds of its excess, whether it is past ``max_splits``). As
+    :func:`_stock_kinds` does once a plate is evaluated, it is split across its excess when it
+    is expected to fit (the split estimate, :func:`.splitting.estimate`) or is past
+    ``max_splits``, else wherever its misfit is."""
+    (surface, axis, girths, pair, tolerance, min_length, min_width, _, strict, kinds), excess, past = job
+    sample = sample_region(surface, axis, girths, pair)
+    if sample is None:
+        return None
+    if past or estimate(sample, tolerance) <= tolerance:
+        kinds = excess
+    return choose_split(sample, tolerance, min_length, min_width, None, strict, kinds)
+
+
 def _children(cell: Cell, split) -> list[Cell]:
     if split.kind == "length":
         cut = Plane((1.0, 0.0, 0.0), split.at)
-        return [Cell(cell.k, f"{cell.name}-1", cell.girths, cell.seam_names, (cell.pair[0], cut), cell.depth + 1),
-                Cell(cell.k, f"{cell.name}-2", cell.girths, cell.seam_names, (cut, cell.pair[1]), cell.depth + 1)]
-    middle = cell.girths[0].between(cell.girths[1], split.at)
-    label = f"{cell.seam_names[0]}+{round(100 * split.at)}%"
-    return [Cell(cell.k, f"{cell.name}-1", (cell.girths[0], middle), (cell.seam_names[0], label), cell.pair,
-                 cell.depth + 1),
-            Cell(cell.k, f"{cell.name}-2", (middle, cell.girths[1]), (label, cell.seam_names[1]), cell.pair,
-                 cell.depth + 1)]
+        halves = [Cell(cell.k, f"{cell.name}-1", cell.girths, cell.seam_names, (cell.pair[0], cut), cell.depth + 1),
+                  Cell(cell.k, f"{cell.name}-2", cell.girths, cell.seam_names, (cut, cell.pair[1]), cell.depth + 1)]
+    else:
+        middle = cell.girths[0].between(cell.girths[1], split.at)
+        label = f"{cell.seam_names[0]}+{round(100 * split.at)}%"
+        halves = [Cell(cell.k, f"{cell.name}-1", (cell.girths[0], middle), (cell.seam_names[0], label), cell.pair,
+                       cell.depth + 1),
+                  Cell(cell.k, f"{cell.name}-2", (middle, cell.girths[1]), (label, cell.seam_names[1]), cell.pair,
+                       cell.depth + 1)]
+    for j, half in enumerate(halves):
+        half.order = cell.order + (j,)
+    return halves
 
 
 def _settle(cell: Cell, why: str, method: str) -> Cell:
@@ -469,9 +529,15 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
     comes within the stagger of a butt or seam end another plate takes at the same depth
     waits (for the next pass, behind the new depth's plates), to be chosen again against it."""
     plan = ctx.plan
-    kept, round_, weld = [], 0, None
+    kept, round_, weld, presplit = [], 0, None, 0.0
+    for i, cell in enumerate(cells):
+        cell.order = (i,)
     wave, waiting = [c for c in cells if build(c) is not None], []
+    layout = list(wave)
     while wave or waiting:
+        if not ctx.yard:  # (under the yard's rules a split waits for its neighbours': below)
+            wave, more = _within_stock(wave, build, ctx)
+            presplit += more
         built = _evaluate_built(wave, ctx) + waiting
         # a plate that fits but is larger than the stock is split too, across its excess
         oversize = {id(c): _oversize(c, ctx.stock) for c in built}
@@ -482,7 +548,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule, _stock_kinds(c, oversize[id(c)], plan.max_splits))
                                             for c, rule in zip(splitting, rules)])
         if weld is None:
-            weld = ctx.record.uniform_weld_m = _uniform_weld_m(built, ctx)
+            weld = ctx.record.uniform_weld_m = _uniform_weld_m(layout, ctx)
+        weld, presplit = weld + presplit, 0.0
         ctx.record.add(round_, len(kept) + len(built), weld, _share(kept + built), False)
         splits, halves, new_butts, new_ends, waiting = {}, {}, {}, [], []
         for cell, split, rule in zip(splitting, chosen, rules):
@@ -515,6 +582,8 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         wave, round_ = nxt, round_ + 1
     last = ctx.record.points[-1]
     ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, True)
+    if not ctx.yard:  # breadth first, as the depths were evaluated: a plate split before it was evaluated keeps its place
+        kept.sort(key=lambda c: (c.depth, c.order))
     return kept
 
 
