@@ -9,6 +9,7 @@ import pytest
 import yaml
 from scipy.interpolate import make_interp_spline
 
+from flatten.minimax import fits_a_plane
 from flatten.surface import nurbs_surface
 from pipeline.io.iges import iges_curve, read_iges, iges_surface
 from pipeline.hull.planner import honest_class
@@ -214,3 +215,48 @@ def test_a_butt_split_keeps_each_half_as_wide_as_the_stock_by_its_own_columns():
     strict = choose_split(sample, 5.0, 3000.0, 1000.0, strict_width=True, kinds=("length",))
     loose = choose_split(sample, 5.0, 3000.0, 1000.0, strict_width=False, kinds=("length",))
     assert loose.at == pytest.approx(4000.0) and strict.at == pytest.approx(5000.0)
+
+
+def test_the_split_chooser_asks_fewer_plane_fits_for_the_same_split(monkeypatch):
+    """On the 160 m hull's surface (real data), 40 regions drawn with a fixed seed: the
+    splits chosen with each answer of flatness reused for the halves it settles (a plane
+    fitting a half fits every smaller half; none fits a half holding one it does not) are the
+    splits of the control that fits a plane to every half, in fewer plane fits."""
+    from flatten.plane import Plane
+    from pipeline.config import load_config
+    from pipeline.hull import splitting
+    from pipeline.hull.region import Girth, load_plan_surfaces
+
+    config_path = Path(__file__).parents[1] / "configs" / "hull160_shell.yaml"
+    config = load_config(config_path)
+    surface = load_plan_surfaces([config.spec.strake.surface], config_path.parent, config.mm_per_unit)[0].surface
+    rng = np.random.default_rng(3)
+    samples = []
+    while len(samples) < 40:
+        g0, g1 = sorted(rng.uniform(*surface.domain_v, 2))
+        x0 = rng.uniform(-5000.0, 150000.0)
+        if g1 - g0 < 0.05 * np.ptp(surface.domain_v):
+            continue
+        sample = sample_region(surface, 0, (Girth.iso(g0), Girth.iso(g1)),
+                               (Plane((1.0, 0.0, 0.0), x0), Plane((1.0, 0.0, 0.0), x0 + rng.uniform(3000.0, 14000.0))))
+        if sample is not None:
+            samples.append(sample)
+    fits = []
+    monkeypatch.setattr(splitting, "fits_a_plane", lambda points, tol: fits.append(1) or fits_a_plane(points, tol))
+
+    def splits():
+        fits.clear()
+        return [choose_split(s, 5.0, 1000.0, 800.0, kinds=kinds) for s in samples
+                for kinds in (("length", "girth"), ("girth",))], len(fits)
+
+    reused, reused_fits = splits()
+
+    class EveryHalf(splitting._Flatness):
+        def __call__(self, mask):
+            return splitting._flat(self.s, mask, self.tol)
+
+    monkeypatch.setattr(splitting, "_Flatness", EveryHalf)
+    control, control_fits = splits()
+    assert reused == control
+    assert sum(s is not None and 0.0 < s.fitting_share < 1.0 for s in control) >= 10  # halves both flat and not
+    assert reused_fits < control_fits / 2

@@ -104,11 +104,44 @@ class Split:
     ends: tuple = ()  # a girth split's new seam's two ends (on the plate's butts or the hull's ends), model units
 
 
-def _half_scores(s: RegionSample, masks, lengths, widths, tol: float):
+class _Flatness:
+    """Whether the points of a mask lie within ``tol`` of some plane (:func:`_flat`), each
+    answer reused for the masks it settles: a plane that fits a set of points fits every
+    subset of it, and none fits a set holding one that no plane fits."""
+
+    def __init__(self, s: RegionSample, tol: float):
+        self.s, self.tol, self.flat, self.bent = s, tol, [], []
+
+    def __call__(self, mask: np.ndarray) -> bool:
+        if any(not (mask & ~m).any() for m in self.flat):
+            return True
+        if any(not (m & ~mask).any() for m in self.bent):
+            return False
+        answer = _flat(self.s, mask, self.tol)
+        if answer:
+            self.flat.append(mask)
+        elif np.count_nonzero(mask) >= 3:  # (fewer points are not flat by definition; a superset may be)
+            self.bent.append(mask)
+        return answer
+
+    def bisect(self, growing: list) -> None:
+        """Ask for the masks of a growing family (each holding the one before) in the order of
+        a bisection: its flat ones are a prefix, so about log2(n) plane fits settle all n."""
+        lo, hi = 0, len(growing)
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if self(growing[mid]):
+                lo = mid + 1
+            else:
+                hi = mid
+
+
+def _half_scores(s: RegionSample, masks, lengths, widths, tol: float, flat=None):
     est, good = [], 0.0
+    flat = flat or (lambda mask: _flat(s, mask, tol))
     total = sum(float(s.area[m].sum()) for m in masks) or 1.0  # a shared row or column counts twice
     for mask, length, width in zip(masks, lengths, widths):
-        e = 0.0 if _flat(s, mask, tol) else _misfit(s, mask, length, width)
+        e = 0.0 if flat(mask) else _misfit(s, mask, length, width)
         est.append(e)
         good += float(s.area[mask].sum()) if e <= tol else 0.0
     return tuple(est), good / total
@@ -124,7 +157,7 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
     to the stem is not cut into a sliver); ``kinds``: the kinds of split considered;
     ``allow_seam(ends)``: whether a new seam ending at those points (2, 3) keeps the yard's
     rule against the seams across the plate's butts (no cross joints)."""
-    candidates = []
+    laid = []  # (kind, at, masks, lengths, widths, weld, ends) of each split allowed
     x = s.points[..., 0]
     row_len = s.along[:, -1]
     n_rows, n_cols = x.shape
@@ -144,8 +177,7 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         sign = 1.0 if x[:, -1].mean() >= x[:, 0].mean() else -1.0
         lower = sign * (x - X) <= 1e-9 * np.ptp(x)
         upper = sign * (x - X) >= -1e-9 * np.ptp(x)
-        est, share = _half_scores(s, (lower, upper), lengths, widths, tol)
-        candidates.append(Split("length", X, est, share, float(s.across[-1, j])))
+        laid.append(("length", X, (lower, upper), lengths, widths, float(s.across[-1, j]), ()))
     col_w = s.across[-1, :]
     for i in range(1, n_rows - 1) if "girth" in kinds else ():
         cut = s.across[i, :]
@@ -158,9 +190,18 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         lengths = (np.broadcast_to(s.along[:, -1:], x.shape),) * 2
         below = np.broadcast_to((np.arange(n_rows) <= i)[:, None], x.shape)
         above = np.broadcast_to((np.arange(n_rows) >= i)[:, None], x.shape)
-        est, share = _half_scores(s, (below, above), lengths, widths, tol)
-        candidates.append(Split("girth", float(s.rows[i]), est, share, float(s.along[i, -1]),
-                                tuple(tuple(float(v) for v in p) for p in ends)))
+        laid.append(("girth", float(s.rows[i]), (below, above), lengths, widths, float(s.along[i, -1]),
+                     tuple(tuple(float(v) for v in p) for p in ends)))
+    # each kind's first halves grow with the split's place and its second halves shrink
+    flat = _Flatness(s, tol)
+    for kind in ("length", "girth"):
+        halves = [masks for k, _, masks, *_ in laid if k == kind]
+        flat.bisect([first for first, _ in halves])
+        flat.bisect([second for _, second in halves][::-1])
+    candidates = []
+    for kind, at, masks, lengths, widths, weld, ends in laid:
+        est, share = _half_scores(s, masks, lengths, widths, tol, flat)
+        candidates.append(Split(kind, at, est, share, weld, ends))
     if not candidates:
         return None
     x_mid = 0.5 * (float(np.mean(x[:, 0])) + float(np.mean(x[:, -1])))
