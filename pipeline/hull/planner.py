@@ -325,26 +325,27 @@ def _fits(cell: Cell) -> bool:
     return honest_class(cell.result) in ("flat", "developable")
 
 
-def _oversize(cell: Cell, stock) -> tuple:
-    """The kinds of split a plate larger than the stock asks for: girth when it is wider than
-    ``stock.max_width`` (its region's widest girth), length when longer than ``max_length``;
-    () when it fits the stock. A strake laid at the hull's widest section can be wider
-    elsewhere (iso-parameter seams: KVLCC2's stern plates 5.1 m wide of a 4 m stock)."""
-    region = (getattr(cell.result, "figures", None) or {}).get("region") or {}
+def _excess(length: float, width: float, stock) -> tuple:
+    """The kinds of split a plate of that size asks for: girth when it is wider than
+    ``stock.max_width``, length when longer than ``max_length``; () when it fits the stock."""
     slack = 1.0 + 1e-9
-    return tuple(kind for kind, size, limit in (("girth", region.get("width", 0.0), stock.max_width),
-                                                 ("length", region.get("length", 0.0), stock.max_length))
+    return tuple(kind for kind, size, limit in (("girth", width, stock.max_width), ("length", length, stock.max_length))
                  if size > limit * slack)
+
+
+def _oversize(cell: Cell, stock) -> tuple:
+    """:func:`_excess` of an evaluated plate (its region's widest girth and longest length). A
+    strake laid at the hull's widest section can be wider elsewhere (iso-parameter seams:
+    KVLCC2's stern plates 5.1 m wide of a 4 m stock)."""
+    region = (getattr(cell.result, "figures", None) or {}).get("region") or {}
+    return _excess(region.get("length", 0.0), region.get("width", 0.0), stock)
 
 
 def _coarse_oversize(cell: Cell, stock) -> tuple:
-    """:func:`_oversize` from the region's coarse size when built (before any evaluation):
-    its chords are no longer than the region's arcs, so a plate it finds larger than the stock
-    is larger (one it misses is found once evaluated)."""
-    slack = 1.0 + 1e-9
-    length, width = cell.size
-    return tuple(kind for kind, size, limit in (("girth", width, stock.max_width), ("length", length, stock.max_length))
-                 if size > limit * slack)
+    """:func:`_excess` from the region's coarse size when built (before any evaluation): its
+    chords are no longer than the region's arcs, so a plate it finds larger than the stock is
+    larger (one it misses is found once evaluated)."""
+    return _excess(*cell.size, stock)
 
 
 def _within_stock(wave: list, build, ctx: _Context) -> tuple[list, float]:

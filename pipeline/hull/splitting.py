@@ -136,9 +136,8 @@ class _Flatness:
                 hi = mid
 
 
-def _half_scores(s: RegionSample, masks, lengths, widths, tol: float, flat=None):
+def _half_scores(s: RegionSample, masks, lengths, widths, tol: float, flat: _Flatness):
     est, good = [], 0.0
-    flat = flat or (lambda mask: _flat(s, mask, tol))
     total = sum(float(s.area[m].sum()) for m in masks) or 1.0  # a shared row or column counts twice
     for mask, length, width in zip(masks, lengths, widths):
         e = 0.0 if flat(mask) else _misfit(s, mask, length, width)
