@@ -502,3 +502,74 @@ def test_the_longest_run_of_stations_bridges_a_lone_station_that_did_not_chain()
     assert longest_run(x, two, JOINED) == (0, 19)
     three = np.delete(x, [8, 9, 10])
     assert longest_run(x, three, JOINED) == (8, 18)  # the longer side: stations 11..20
+
+
+
+def vanishing_flat_and_bilge(start: float = 40.0, length: float = 20000.0, width: float = FLAT_Y):
+    """KVLCC2's stern in closed form: a flat of bottom (z = 0) that is a triangle, its width
+    0 at x = ``start`` growing to ``width`` at x = ``length`` (u along x, v across), and a
+    bilge of radius BILGE_R from x = 0 meeting it tangentially along its slanted edge y =
+    width (x - start) / (length - start), continued aft of ``start`` where the flat has none."""
+    corners = np.array([[[start, 0, 0], [start, 0, 0]], [[length, 0, 0], [length, width, 0]]])
+    flat = nurbs_surface(1, 1, corners, [0, 0, 1, 1], [0, 0, 1, 1], name="flat")
+    rows = []
+    for x in (0.0, length):
+        y0 = width * (x - start) / (length - start)
+        rows.append([[x, y0, 0.0], [x, y0 + BILGE_R, 0.0], [x, y0 + BILGE_R, BILGE_R]])
+    w = np.tile([1.0, np.sqrt(0.5), 1.0], (2, 1))
+    bilge = nurbs_surface(1, 2, np.array(rows), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1], w, name="bilge")
+    return flat, bilge
+
+
+def test_faces_beyond_the_loft_that_chain_are_lofted_together_not_planned_into_a_sliver(tmp_path, monkeypatch):
+    """The flat of bottom vanishes at x = 40 mm, the bilge runs on to x = 0; stations every 80
+    mm from x = 0. The first crosses the bilge alone, the rest both faces, so the loft (its
+    girth knot at their junction) starts at x = 80 mm. Beyond it the two faces chain: they are
+    lofted over x 0..80 mm as one surface of arc-length girth, and planned on it. Planned each
+    alone (the control), the flat's part beyond is a plate 8 mm wide at most, as KVLCC2's
+    stern left its flat of bottom's 33 mm x 1.19 m. The shell (the flat's triangle 19.96 m x
+    2 m / 2, the sheared bilge's 20 m of quarter circles) is covered once."""
+    from pipeline.hull import region
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.region import load_plan_surfaces
+
+    flat, bilge = vanishing_flat_and_bilge()
+    model = write_step_faces(tmp_path / "stern.step", [(flat, (0, 1, 0, 1)), (bilge, (0, 1, 0, 1))])
+    spec = type("Spec", (), {"model": str(model), "faces": [0, 1]})()
+    surfaces = load_plan_surfaces([spec], tmp_path, 1.0)
+    assert len(surfaces) == 2
+    loft, stern = surfaces
+    assert loft.surface.domain_u[0] == pytest.approx(80.0, abs=1.0)
+    assert "faces 0+1 beyond the shell's loft (x < 80)" in stern.note and stern.x_limits == (None, loft.surface.domain_u[0])
+    assert stern.surface.domain_u[0] == pytest.approx(0.0, abs=1.0)
+    assert stern.surface.domain_u[1] == pytest.approx(loft.surface.domain_u[0], abs=0.01)
+    # the stern's loft lies on the faces: their sections x = const are the flat's segment
+    # 0 <= y <= y0(x) and the bilge's quarter circle centred at (y0(x), R)
+    x, y, z = stern.surface.grid(np.linspace(*stern.surface.domain_u, 9), np.linspace(0, 1, 41)).reshape(-1, 3).T
+    y0 = FLAT_Y * (x - 40.0) / (20000.0 - 40.0)
+    on_flat = np.where((y <= y0) & (x >= 40.0), np.abs(z), np.inf)
+    on_bilge = np.where(y >= y0 - 0.5, np.abs(np.hypot(y - y0, z - BILGE_R) - BILGE_R), np.inf)
+    assert np.minimum(on_flat, on_bilge).max() <= 0.5
+    config = end_plane_config(tmp_path, model, "stern")
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "stern_summary.json").read_text())
+    coverage = summary["shell"]["coverage"]
+    # the bilge's sections are quarter circles sheared along x by the slope s = y0'(x):
+    # its area element is R sqrt(1 + s^2 sin^2 t) per unit x and angle t
+    theta = np.linspace(0.0, np.pi / 2, 20001)
+    slope = FLAT_Y / (20000.0 - 40.0)
+    element = np.sqrt(1.0 + (slope * np.sin(theta)) ** 2)
+    arc = BILGE_R * float(np.sum(0.5 * (element[1:] + element[:-1]) * np.diff(theta)))
+    area = (20000.0 - 40.0) * FLAT_Y / 2 + 20000.0 * arc
+    assert coverage["shell_m2"] == pytest.approx(area / 1e6, rel=2e-3)
+    assert coverage["covered"] >= 0.999 and coverage["overlap"] <= 1e-3
+    widths = [p.hull for p in load_run(config).parts if "_P2_" in p.name]
+    assert widths and all("beyond the shell's loft" in h.surface_note for h in widths)
+    # the control: each face planned alone beyond the loft, the flat's part a sliver
+    monkeypatch.setattr(region, "_beyond_shell", lambda *args, **kwargs: None)
+    alone = load_plan_surfaces([spec], tmp_path, 1.0)
+    assert len(alone) == 3
+    flat_part = next(s for s in alone[1:] if "face 0 beyond" in s.note)
+    pts = flat_part.surface.grid(np.linspace(*flat_part.surface.domain_u, 21), np.linspace(0, 1, 5))
+    assert pts[..., 1][pts[..., 0] <= 80.0].max() <= FLAT_Y * 80.0 / 19960.0 + 1e-6

@@ -191,6 +191,8 @@ SHELL_JUNCTION_MM = 1.0  # in the model's mm: a face's edge this near another fa
 # at ship scale: the loft ends where its end stations bridge a wider gap between faces (the
 # chord across a gap lies up to half of it off each face: 3 mm, the step a butt may have)
 SHELL_GAP_MM = 6.0
+BEYOND_STATIONS = 24  # stations of the faces beyond a loft's end, lofted together over that range
+BEYOND_REACH = 0.05  # of that range: faces that chain over less of it are planned alone
 
 
 def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
@@ -271,7 +273,8 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
     """Every surface of a plan, in order: each source's surface, and after a shell of several
     faces (``faces``) those faces' parts beyond the loft's x range (a bulb, a stern where the
     faces do not chain into one girth curve), each kept beyond the loft's end plane so that the
-    shell is covered once."""
+    shell is covered once. Several faces beyond the same end that chain there are lofted into
+    one surface of their own (:func:`_beyond_shell`), each face planned alone otherwise."""
     out = []
     for spec in sources:
         if not getattr(spec, "faces", None):
@@ -283,6 +286,7 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
         loft = len(out) - 1
         x0, x1 = surface.domain_u  # the loft's u is x
         faces = [_face_of(model, path, k, mm_per_unit, scale) for k in spec.faces]
+        beyond = []  # (face index, is_aft, keep, PlanSurface of the face alone)
         # faces the loft cut where they lie on each other keep their side of the cut here too
         for k, (face, face_trim, face_note), (cut_lo, cut_hi) in zip(spec.faces, faces, cut):
             lo, hi = _x_extent(face, face_trim)
@@ -290,18 +294,78 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
             gap = SHELL_REMAINDER * (x1 - x0)  # the loft's first station is this near the faces' end
             aft = (cut_lo, x0 if cut_hi is None else min(x0, cut_hi))
             fore = (x1 if cut_lo is None else max(x1, cut_lo), cut_hi)
-            for keep, beyond, is_aft in ((aft, lo < x0 - gap, True), (fore, hi > x1 + gap, False)):
-                if not beyond or (None not in keep and keep[0] >= keep[1]):
+            for keep, reaches, is_aft in ((aft, lo < x0 - gap, True), (fore, hi > x1 + gap, False)):
+                if not reaches or (None not in keep and keep[0] >= keep[1]):
                     continue
                 where = f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}"
                 part, part_note = _trimmed_part(face, face_trim, keep, f"{face.name} ({where})")
-                out.append(PlanSurface(part, face_trim, f"face {k} beyond the shell's loft ({where}): planned on "
-                                       f"the face" + part_note + (f"; {face_note}" if face_note else ""), keep, True))
+                beyond.append((k, is_aft, keep, PlanSurface(part, face_trim, f"face {k} beyond the shell's loft "
+                                                            f"({where}): planned on the face" + part_note +
+                                                            (f"; {face_note}" if face_note else ""), keep, True)))
                 # the loft ends at the same plane: a butt of both sides, not the hull's end
                 ends = list(out[loft].x_limits)
                 ends[0 if is_aft else 1] = x0 if is_aft else x1
                 out[loft] = replace(out[loft], x_limits=tuple(ends))
+        joined = {}
+        for is_aft in (True, False):
+            group = [b for b in beyond if b[1] == is_aft]
+            if len(group) > 1 and len({b[2] for b in group}) == 1:
+                joined[is_aft] = _beyond_shell(model, path, [b[0] for b in group], group[0][2], mm_per_unit, scale,
+                                               f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}")
+        for k, is_aft, keep, alone in beyond:
+            lofted = joined.get(is_aft)
+            if lofted is None:
+                out.append(alone)
+            elif k == next(b[0] for b in beyond if b[1] == is_aft):  # in the place of the group's first face
+                out.append(PlanSurface(lofted[0], None, lofted[1], keep, True))
     return out
+
+
+def _beyond_shell(model, path: Path, indices, keep: tuple, mm_per_unit: float, scale: float, where: str):
+    """(surface, note) of faces ``indices`` beyond a loft's end lofted into one surface over
+    ``keep`` (x range in config units times ``scale``, one end None), or None when their
+    sections do not chain there (the faces part: each is planned alone). The girth is arc
+    length, without the main loft's knot where faces meet: beyond KVLCC2's stern end plane the
+    flat of bottom shrinks from 33 mm of girth to nothing; planned alone it was a plate 33 mm x
+    1190 mm that stepped 5.5 mm (fit_up: report) to 5.98 mm (follow, pulls and holds) from face
+    10's plate beside it."""
+    from flatten.surface import nurbs_surface
+
+    from .coverage import x_range_region
+    from .shell import ShellError, shell_surface
+    from .trims import Trim
+
+    factor = scale / mm_per_unit
+    faces = [model.faces[k] for k in indices]
+    extents = [_x_extent(f.surface, Trim(f.index, f.outer, f.inner, 0) if f.trimmed else None) for f in faces]
+    lo = min(e[0] for e in extents) if keep[0] is None else keep[0] / factor
+    hi = max(e[1] for e in extents) if keep[1] is None else keep[1] / factor
+    regions = []
+    for f in faces:
+        s = f.surface
+        kept = x_range_region(s, long_axis_of(s), (lo, hi))
+        if f.trimmed:
+            (u0, u1), (v0, v1) = s.domain_u, s.domain_v
+            kept = Trim(f.index, f.outer, f.inner, 0).polygon(u0, v0, u1, v1).intersection(kept)
+        regions.append(kept)
+    try:
+        shell = shell_surface([f.surface for f in faces], regions, indices, (hi - lo) / BEYOND_STATIONS,
+                              SHELL_TOLERANCE_MM / scale, f"hull {path.name} beyond the shell's loft ({where})",
+                              SHELL_GAP_MM / scale, x_range=(lo, hi), junction_knots=False)
+    except ShellError:
+        return None
+    x = shell.stations
+    if x[-1] - x[0] < (1.0 - BEYOND_REACH) * (hi - lo):
+        return None  # the faces chain over part of the range only: each is planned alone
+    s = shell.surface
+    surface = nurbs_surface(s.degree_u, s.degree_v, s.poles * factor, s.knots_u * factor, s.knots_v, s.weights,
+                            name=s.name)
+    faces_text = "+".join(str(k) for k in indices)
+    note = (f"faces {faces_text} beyond the shell's loft ({where}): lofted as one surface through {len(x)} stations, "
+            f"x {x[0] * scale:.1f}..{x[-1] * scale:.1f} mm, within {shell.deviation_max * scale:.3f} mm of the faces' "
+            f"sections (p95 {shell.deviation_p95 * scale:.3f} mm); its girth is arc length, with no knot where the "
+            f"faces meet (a face's girth there shrinks to nothing)")
+    return surface, note
 
 
 TRIMMED_PART_PAD = 0.01  # of a face's parameter range along the hull: its part beyond a loft reaches past the end plane

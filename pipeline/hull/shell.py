@@ -54,6 +54,7 @@ REFITS = 3  # lofts again over the stations it fits, at most
 OUTLIER = 10.0  # a station missed by more than this many tolerances is outside the loft's range
 SPIKE = 2.0  # a station the loft misses by this many times more than any other near it is broken
 JOINED = 2  # stations missed (or not chained) this few in a row are left out alone, not an end
+END_STEPS = 12  # halvings of a station spacing that locate where the faces stop chaining at a loft's end
 
 
 class ShellError(ValueError):
@@ -274,23 +275,47 @@ def loft(stations: np.ndarray, v: np.ndarray, grid: np.ndarray, tolerance: float
     return nurbs_surface(3, 3, poles, ku, kv, name=name), misfit
 
 
-def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM) -> tuple[np.ndarray, list, np.ndarray]:
+def shell_sections(faces, x_values: np.ndarray, regions, join: float = JOIN_MM,
+                   grids: list | None = None) -> tuple[np.ndarray, list, np.ndarray]:
     """The stations of ``x_values`` (K,) whose sections through all ``faces`` (NurbsSurface)
     chain into one girth curve, those chains ((points, starts) of :func:`chain_pieces`) and
     the widest gap each bridges between faces (K,); ``regions``: each face's trimmed region
-    in (u, v) (shapely) or None."""
-    grids = [_face_grid(f, SECTION_GRID) for f in faces]
+    in (u, v) (shapely) or None; ``grids``: the faces' grids of :func:`_face_grid`, if made."""
+    grids = grids if grids is not None else [_face_grid(f, SECTION_GRID) for f in faces]
     kept, chains, gaps = [], [], []
     for x in x_values:
-        pieces = []
-        for k, (face, region, grid) in enumerate(zip(faces, regions, grids)):
-            pieces.extend((k, p) for p in face_section(face, float(x), region, grid))
-        chain = chain_pieces(pieces, join)
+        chain = station_chain(faces, regions, grids, float(x), join)
         if chain is not None:
             kept.append(float(x))
             chains.append(chain[:2])
             gaps.append(chain[2])
     return np.array(kept), chains, np.array(gaps)
+
+
+def station_chain(faces, regions, grids, x: float, join: float = JOIN_MM):
+    """The girth curve of the station x (:func:`chain_pieces` of every face's section), or None."""
+    pieces = []
+    for k, (face, region, grid) in enumerate(zip(faces, regions, grids)):
+        pieces.extend((k, p) for p in face_section(face, x, region, grid))
+    return chain_pieces(pieces, join)
+
+
+def farthest_station(faces, regions, grids, inside: float, outside: float, junctions: int | None,
+                     steps: int = END_STEPS):
+    """(x, chain) of the station nearest ``outside`` found between ``inside`` (a station whose
+    sections chain) and ``outside`` (one whose do not) whose sections chain into one girth curve
+    crossing ``junctions`` face junctions (None: any), by bisection over ``steps`` halvings;
+    None when no station past ``inside`` does. The stations lie a fixed spacing apart, and
+    the faces' end falls anywhere between two of them."""
+    found = None
+    for _ in range(steps):
+        middle = 0.5 * (inside + outside)
+        chain = station_chain(faces, regions, grids, middle)
+        if chain is not None and junctions in (None, len(chain[1])):
+            inside, found = middle, (middle, chain)
+        else:
+            outside = middle
+    return found
 
 
 def parted_ends(gaps: np.ndarray, max_gap: float | None) -> tuple[int, int]:
@@ -320,7 +345,8 @@ def longest_run(x_values: np.ndarray, kept: np.ndarray, bridge: int = 0) -> tupl
 
 
 def shell_surface(faces, regions, indices, spacing: float, tolerance: float, name: str,
-                  max_gap: float | None = None) -> ShellSurface:
+                  max_gap: float | None = None, x_range: tuple | None = None,
+                  junction_knots: bool = True) -> ShellSurface:
     """Faces (NurbsSurface, mm) with their trimmed regions lofted into one :class:`ShellSurface`
     over the longest x range where every station's sections form one girth curve crossing as
     many face junctions as most stations do; stations every ``spacing`` mm (at least 12), fitted within
@@ -328,19 +354,31 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     knot of full multiplicity at the junction's median girth fraction, so that the change of
     curvature there (a flat of bottom meeting the bilge) is not smoothed over. The run ends
     where the faces part (:func:`parted_ends`: a gap wider than ``max_gap`` mm at its end
-    stations; None: wherever the sections chain)."""
-    xs = np.concatenate([f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].ravel()
-                         for f in faces])
-    lo, hi = float(xs.min()), float(xs.max())
+    stations; None: wherever the sections chain).
+
+    x_range : (lo, hi) the stations span (default: the faces' own extent); its ends are
+        reached where the faces stop chaining (:func:`farthest_station`), not left at the
+        station before
+    junction_knots : False: the girth is arc length alone, no knot where faces meet (a face
+        whose girth shrinks to nothing at the run's end would pull the whole girth range
+        below its knot into that point)"""
+    if x_range is None:
+        xs = np.concatenate([f.grid(np.linspace(*f.domain_u, 17), np.linspace(*f.domain_v, 17))[..., 0].ravel()
+                             for f in faces])
+        lo, hi = float(xs.min()), float(xs.max())
+    else:
+        lo, hi = (float(x) for x in x_range)
     count = max(12, int(np.ceil((hi - lo) / spacing)) + 1)
     pad = 1e-6 * (hi - lo)
     x_values = np.linspace(lo + pad, hi - pad, count)
-    kept, chains, gaps = shell_sections(faces, x_values, regions)
+    grids = [_face_grid(f, SECTION_GRID) for f in faces]
+    kept, chains, gaps = shell_sections(faces, x_values, regions, grids=grids)
     # stations whose girth curves cross as many face junctions as most do (a face split at a
     # station changes the faces, not the junctions)
     counts = [len(starts) for _, starts in chains]
     common = max(set(counts), key=counts.count) if counts else 0
-    same = np.array([c == common for c in counts], dtype=bool)
+    # (without junction knots a station may cross any: a face ending within the range)
+    same = np.array([c == common or not junction_knots for c in counts], dtype=bool)
     # a lone station whose sections do not chain (one on the line where two blocks of faces
     # meet, where a face's contour is lost) is left out; more in a row end the run
     i, j = longest_run(x_values, kept[same], JOINED) if same.any() else (0, 0)
@@ -350,6 +388,9 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"between them, or sections of several pieces)")
     chains = [c for c, ok in zip(chains, same) if ok][i:j]
     stations, gaps = kept[same][i:j], gaps[same][i:j]
+    if x_range is not None:
+        stations, chains, gaps = _reach_ends(faces, regions, grids, x_values, stations, chains, gaps,
+                                             common if junction_knots else None)
     a, b = parted_ends(gaps, max_gap)
     if b - a < 4:
         raise ShellError(f"{name}: faces {list(indices)} leave gaps wider than {max_gap:.3g} mm between their sections "
@@ -359,7 +400,7 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     parted = tuple(None if k is None else (float(stations[k]), float(gaps[k])) for k in widest)
     chains, stations, gaps = chains[a:b], stations[a:b], gaps[a:b]
     for round_ in range(REFITS + 1):
-        surface, misfit = _loft_chains(stations, chains, tolerance, name)
+        surface, misfit = _loft_chains(stations, chains, tolerance, name, junction_knots)
         # where a section changes its shape faster than stations can follow (a stern whose
         # sections start on the skeg, then on the flat of bottom's edge), the loft misses it:
         # keep the longest run of stations it fits and loft again
@@ -382,6 +423,32 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
         chains, stations, gaps = [chains[k] for k in keep], stations[keep], gaps[keep]
     return ShellSurface(surface, tuple(indices), stations, float(misfit.max()), float(np.percentile(misfit, 95)),
                         float(gaps.max()), parted)
+
+
+def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctions: int | None):
+    """The run of stations reaching, at each end that is not the faces' own, the station
+    nearest the first one left out whose sections still chain (:func:`farthest_station`):
+    added to the run, or in place of its end station when within a quarter of a spacing of it
+    (two stations closer than that add nothing to the loft but its conditioning)."""
+    stations, chains, gaps = list(stations), list(chains), list(gaps)
+    spacing = float(x_values[1] - x_values[0])
+    for end in (0, -1):
+        k = int(np.searchsorted(x_values, stations[end]))
+        beyond = k - 1 if end == 0 else k + 1
+        if not 0 <= beyond < len(x_values):
+            continue
+        found = farthest_station(faces, regions, grids, stations[end], float(x_values[beyond]), junctions)
+        if found is None:
+            continue
+        x, chain = found
+        at = 0 if end == 0 else len(stations)
+        if abs(x - stations[end]) < 0.25 * spacing:
+            del stations[end], chains[end], gaps[end]
+            at = 0 if end == 0 else len(stations)
+        stations.insert(at, x)
+        chains.insert(at, chain[:2])
+        gaps.insert(at, chain[2])
+    return np.array(stations), chains, np.array(gaps)
 
 
 def broken_stations(worst: np.ndarray, limit: float) -> np.ndarray:
@@ -409,10 +476,11 @@ def broken_stations(worst: np.ndarray, limit: float) -> np.ndarray:
     return np.array(out, dtype=int)
 
 
-def _loft_chains(stations: np.ndarray, chains: list, tolerance: float, name: str):
+def _loft_chains(stations: np.ndarray, chains: list, tolerance: float, name: str, junction_knots: bool = True):
     """The loft (surface, misfit) through the stations' girth curves, a girth knot at the
-    median arc fraction of each face junction."""
-    at = np.array([arc_fractions(points, starts) for points, starts in chains])
+    median arc fraction of each face junction (``junction_knots``)."""
+    at = np.array([arc_fractions(points, starts) for points, starts in chains]) if junction_knots \
+        else np.zeros((len(chains), 0))
     breaks = np.median(at, axis=0) if at.size else np.array([])
     v = np.union1d(np.linspace(0.0, 1.0, GIRTH_SAMPLES), breaks)
     grid = np.stack([resample(points, v, a, breaks) for (points, _), a in zip(chains, at)])
