@@ -573,3 +573,27 @@ def test_faces_beyond_the_loft_that_chain_are_lofted_together_not_planned_into_a
     flat_part = next(s for s in alone[1:] if "face 0 beyond" in s.note)
     pts = flat_part.surface.grid(np.linspace(*flat_part.surface.domain_u, 21), np.linspace(0, 1, 5))
     assert pts[..., 1][pts[..., 0] <= 80.0].max() <= FLAT_Y * 80.0 / 19960.0 + 1e-6
+
+
+def test_the_loft_reaches_where_the_faces_start_and_a_trimmed_face_is_read_along_its_trim(tmp_path):
+    """The flat of bottom trimmed to x >= 40 mm, the bilge to x >= 30 mm; stations every 80 mm
+    from x = 0. The first crosses neither face, the second both, and the loft started there,
+    80 mm: the faces' parts aft of it reach more than the remainder a face is planned for (20
+    mm), but the flat's x range was read from a 65 x 65 grid of the face, whose first column
+    inside the trim is at x = 312 mm, so its 40 mm x 2 m there was neither lofted nor planned,
+    and no figure said so. Read along the trim too, the flat starts at 40 mm; and the loft now
+    reaches where the two faces start to chain (bisection: 40 mm, both faces keeping their
+    girth), leaving the bilge's 10 mm, under the remainder."""
+    from pipeline.hull.region import _x_extent, load_plan_surfaces
+    from pipeline.hull.trims import Trim
+
+    flat, bilge = flat_and_bilge()
+    model = write_step_faces(tmp_path / "end.step", [(flat, (0.002, 1, 0, FLAT_Y / PLANE_Y)),
+                                                      (bilge, (0.0015, 1, 0, 1))])
+    face = read_hull_model(model).faces[0]
+    trim = Trim(face.index, face.outer, face.inner, 0)
+    assert _x_extent(face.surface, trim)[0] == pytest.approx(40.0, abs=0.5)
+    spec = type("Spec", (), {"model": str(model), "faces": [0, 1]})()
+    surfaces = load_plan_surfaces([spec], tmp_path, 1.0)
+    assert len(surfaces) == 1
+    assert surfaces[0].surface.domain_u[0] == pytest.approx(40.0, abs=80.0 / 4096 + 1e-6)

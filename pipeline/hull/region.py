@@ -403,15 +403,33 @@ def _trimmed_part(face: NurbsSurface, trim, keep: tuple, name: str) -> tuple[Nur
         f"{100 * share:.3g} % of its rectangle)")
 
 
-def _x_extent(surface: NurbsSurface, trim, n: int = 65) -> tuple[float, float]:
-    """The x range of a surface inside its trim (an n x n grid of it)."""
+def _x_extent(surface: NurbsSurface, trim, n: int = 65, boundary: int = 2048) -> tuple[float, float]:
+    """The x range of a surface inside its trim: an n x n grid of it, and for a trimmed face
+    its trim's boundary at ``boundary`` points along each loop's length. The grid alone placed
+    a trim's end up to a 64th of the face's length off (a flat of bottom trimmed from x = 40 mm
+    of a 20 m face read from x = 312 mm, and its part aft of a loft starting at 80 mm was
+    neither lofted nor planned)."""
     u, v = np.linspace(*surface.domain_u, n), np.linspace(*surface.domain_v, n)
     x = surface.grid(u, v)[..., 0]
-    if trim is not None:
-        uu, vv = np.meshgrid(u, v, indexing="ij")
-        inside = trim.inside(uu, vv)
-        x = x[inside] if inside.any() else x
-    return float(x.min()), float(x.max())
+    if trim is None:
+        return float(x.min()), float(x.max())
+    import shapely
+
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    inside = trim.inside(uu, vv)
+    x = x[inside] if inside.any() else x
+    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+    region = trim.polygon(u0, v0, u1, v1)
+    if region.is_empty:
+        return float(x.min()), float(x.max())
+    rim = region.boundary
+    points = shapely.line_interpolate_point(rim, np.linspace(0.0, 1.0, boundary), normalized=True) \
+        if rim.geom_type == "LineString" else \
+        [p for line in rim.geoms for p in shapely.line_interpolate_point(line, np.linspace(0.0, 1.0, boundary),
+                                                                           normalized=True)]
+    uv = shapely.get_coordinates(np.asarray(points, dtype=object))
+    edge = surface(uv[:, 0], uv[:, 1])[:, 0]
+    return float(min(x.min(), edge.min())), float(max(x.max(), edge.max()))
 
 
 def long_axis_of(surface: NurbsSurface) -> int:

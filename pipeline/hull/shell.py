@@ -55,6 +55,7 @@ OUTLIER = 10.0  # a station missed by more than this many tolerances is outside 
 SPIKE = 2.0  # a station the loft misses by this many times more than any other near it is broken
 JOINED = 2  # stations missed (or not chained) this few in a row are left out alone, not an end
 END_STEPS = 12  # halvings of a station spacing that locate where the faces stop chaining at a loft's end
+KEPT_GIRTH = 0.5  # a loft reaches past its end station only where every face keeps this share of its girth
 
 
 class ShellError(ValueError):
@@ -354,11 +355,11 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     knot of full multiplicity at the junction's median girth fraction, so that the change of
     curvature there (a flat of bottom meeting the bilge) is not smoothed over. The run ends
     where the faces part (:func:`parted_ends`: a gap wider than ``max_gap`` mm at its end
-    stations; None: wherever the sections chain).
+    stations; None: wherever the sections chain). An end where the faces stop chaining (not
+    where they part) is reached where they do (:func:`_reach_ends`), not left at the station
+    before it.
 
-    x_range : (lo, hi) the stations span (default: the faces' own extent); its ends are
-        reached where the faces stop chaining (:func:`farthest_station`), not left at the
-        station before
+    x_range : (lo, hi) the stations span (default: the faces' own extent)
     junction_knots : False: the girth is arc length alone, no knot where faces meet (a face
         whose girth shrinks to nothing at the run's end would pull the whole girth range
         below its knot into that point)"""
@@ -388,9 +389,6 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"between them, or sections of several pieces)")
     chains = [c for c, ok in zip(chains, same) if ok][i:j]
     stations, gaps = kept[same][i:j], gaps[same][i:j]
-    if x_range is not None:
-        stations, chains, gaps = _reach_ends(faces, regions, grids, x_values, stations, chains, gaps,
-                                             common if junction_knots else None)
     a, b = parted_ends(gaps, max_gap)
     if b - a < 4:
         raise ShellError(f"{name}: faces {list(indices)} leave gaps wider than {max_gap:.3g} mm between their sections "
@@ -398,7 +396,10 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                          f"they are not one shell")
     widest = [None if not len(k) else int(k[np.argmax(gaps[k])]) for k in (np.arange(a), np.arange(b, len(gaps)))]
     parted = tuple(None if k is None else (float(stations[k]), float(gaps[k])) for k in widest)
+    ends = (a == 0, b == len(stations))
     chains, stations, gaps = chains[a:b], stations[a:b], gaps[a:b]
+    stations, chains, gaps = _reach_ends(faces, regions, grids, x_values, stations, chains, gaps,
+                                         common if junction_knots else None, ends, max_gap, junction_knots)
     for round_ in range(REFITS + 1):
         surface, misfit = _loft_chains(stations, chains, tolerance, name, junction_knots)
         # where a section changes its shape faster than stations can follow (a stern whose
@@ -425,22 +426,33 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
                         float(gaps.max()), parted)
 
 
-def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctions: int | None):
-    """The run of stations reaching, at each end that is not the faces' own, the station
-    nearest the first one left out whose sections still chain (:func:`farthest_station`):
-    added to the run, or in place of its end station when within a quarter of a spacing of it
-    (two stations closer than that add nothing to the loft but its conditioning)."""
+def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctions: int | None, ends: tuple,
+                max_gap: float | None, keep_faces: bool):
+    """The run of stations reaching, at each end of ``ends`` (aft, fore: True where the faces
+    did not part there), the station nearest the first one left out whose sections still
+    chain (:func:`farthest_station`) within ``max_gap``: added to the run, or in place of its
+    end station when within a quarter of a spacing of it (two stations closer than that add
+    nothing to the loft but its conditioning). With ``keep_faces`` (a loft with knots at the
+    faces' junctions) not where a face's girth there is under KEPT_GIRTH of its girth at the
+    run's end: the girth range of that face's knots would meet in a point (KVLCC2's flat of
+    bottom, 33 mm of girth at the loft's first station and none at the hull's end 1.19 m
+    aft: its six strakes met there, the surface folded at the knot and closest points on it
+    strayed 2.7 m)."""
     stations, chains, gaps = list(stations), list(chains), list(gaps)
     spacing = float(x_values[1] - x_values[0])
-    for end in (0, -1):
+    for end, reach in zip((0, -1), ends):
         k = int(np.searchsorted(x_values, stations[end]))
         beyond = k - 1 if end == 0 else k + 1
-        if not 0 <= beyond < len(x_values):
+        if not reach or not 0 <= beyond < len(x_values):
             continue
         found = farthest_station(faces, regions, grids, stations[end], float(x_values[beyond]), junctions)
-        if found is None:
+        if found is None or (max_gap is not None and found[1][2] > max_gap):
             continue
         x, chain = found
+        if keep_faces:
+            now, before = _face_girths(*chain[:2]), _face_girths(*chains[end])
+            if any(now.get(face, 0.0) < KEPT_GIRTH * girth for face, girth in before.items()):
+                continue
         at = 0 if end == 0 else len(stations)
         if abs(x - stations[end]) < 0.25 * spacing:
             del stations[end], chains[end], gaps[end]
@@ -449,6 +461,16 @@ def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctio
         chains.insert(at, chain[:2])
         gaps.insert(at, chain[2])
     return np.array(stations), chains, np.array(gaps)
+
+
+def _face_girths(points: np.ndarray, starts: list) -> dict:
+    """Each face's girth (mm) along a station's chain (points (N, 3), starts of :func:`chain_pieces`)."""
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    bounds = [i for i, _ in starts] + [len(points) - 1]
+    out = {}
+    for (i, face), stop in zip(starts, bounds[1:]):
+        out[face] = out.get(face, 0.0) + float(s[stop] - s[i])
+    return out
 
 
 def broken_stations(worst: np.ndarray, limit: float) -> np.ndarray:
