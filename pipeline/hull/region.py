@@ -340,10 +340,14 @@ def _beyond_shell(model, path: Path, indices, keep: tuple, mm_per_unit: float, s
     extents = [_x_extent(f.surface, Trim(f.index, f.outer, f.inner, 0) if f.trimmed else None) for f in faces]
     lo = min(e[0] for e in extents) if keep[0] is None else keep[0] / factor
     hi = max(e[1] for e in extents) if keep[1] is None else keep[1] / factor
+    # the faces' regions reach a spacing past the loft's end plane: cut at it, the station
+    # there (on a sampled cut) lost pieces, and the surface ended 0.04 mm short of KVLCC2's
+    pad = (hi - lo) / BEYOND_STATIONS
+    reach = (lo, hi + pad) if keep[0] is None else (lo - pad, hi)
     regions = []
     for f in faces:
         s = f.surface
-        kept = x_range_region(s, long_axis_of(s), (lo, hi))
+        kept = x_range_region(s, long_axis_of(s), reach)
         if f.trimmed:
             (u0, u1), (v0, v1) = s.domain_u, s.domain_v
             kept = Trim(f.index, f.outer, f.inner, 0).polygon(u0, v0, u1, v1).intersection(kept)
