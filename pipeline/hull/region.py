@@ -286,10 +286,12 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
         loft = len(out) - 1
         x0, x1 = surface.domain_u  # the loft's u is x
         faces = [_face_of(model, path, k, mm_per_unit, scale) for k in spec.faces]
-        beyond = []  # (face index, is_aft, keep, PlanSurface of the face alone)
+        factor = scale / mm_per_unit
+        beyond = []  # (is_aft, keep, PlanSurface of the face alone, (index, model face, trim, x extent))
         # faces the loft cut where they lie on each other keep their side of the cut here too
         for k, (face, face_trim, face_note), (cut_lo, cut_hi) in zip(spec.faces, faces, cut):
-            lo, hi = _x_extent(face, face_trim)
+            extent = _x_extent(model.faces[k].surface, face_trim)  # model units, as the faces are lofted
+            lo, hi = (x * factor for x in extent)
             lo, hi = max(lo, cut_lo if cut_lo is not None else lo), min(hi, cut_hi if cut_hi is not None else hi)
             gap = SHELL_REMAINDER * (x1 - x0)  # the loft's first station is this near the faces' end
             aft = (cut_lo, x0 if cut_hi is None else min(x0, cut_hi))
@@ -299,31 +301,35 @@ def load_plan_surfaces(sources, base: Path, mm_per_unit: float, scale: float = 1
                     continue
                 where = f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}"
                 part, part_note = _trimmed_part(face, face_trim, keep, f"{face.name} ({where})")
-                beyond.append((k, is_aft, keep, PlanSurface(part, face_trim, f"face {k} beyond the shell's loft "
-                                                            f"({where}): planned on the face" + part_note +
-                                                            (f"; {face_note}" if face_note else ""), keep, True)))
+                beyond.append((is_aft, keep, PlanSurface(part, face_trim, f"face {k} beyond the shell's loft "
+                                                         f"({where}): planned on the face" + part_note +
+                                                         (f"; {face_note}" if face_note else ""), keep, True),
+                               (k, model.faces[k].surface, face_trim, extent)))
                 # the loft ends at the same plane: a butt of both sides, not the hull's end
                 ends = list(out[loft].x_limits)
                 ends[0 if is_aft else 1] = x0 if is_aft else x1
                 out[loft] = replace(out[loft], x_limits=tuple(ends))
         joined = {}
         for is_aft in (True, False):
-            group = [b for b in beyond if b[1] == is_aft]
-            if len(group) > 1 and len({b[2] for b in group}) == 1:
-                joined[is_aft] = _beyond_shell(model, path, [b[0] for b in group], group[0][2], mm_per_unit, scale,
+            group = [b for b in beyond if b[0] == is_aft]
+            if len(group) > 1 and len({b[1] for b in group}) == 1:
+                joined[is_aft] = _beyond_shell(path, [b[3] for b in group], group[0][1], mm_per_unit, scale,
                                                f"x < {x0:.0f}" if is_aft else f"x > {x1:.0f}")
-        for k, is_aft, keep, alone in beyond:
+        placed = set()  # ends whose lofted faces are listed (in the place of their first face)
+        for is_aft, keep, alone, _ in beyond:
             lofted = joined.get(is_aft)
             if lofted is None:
                 out.append(alone)
-            elif k == next(b[0] for b in beyond if b[1] == is_aft):  # in the place of the group's first face
+            elif is_aft not in placed:
+                placed.add(is_aft)
                 out.append(PlanSurface(lofted[0], None, lofted[1], keep, True))
     return out
 
 
-def _beyond_shell(model, path: Path, indices, keep: tuple, mm_per_unit: float, scale: float, where: str):
-    """(surface, note) of faces ``indices`` beyond a loft's end lofted into one surface over
-    ``keep`` (x range in config units times ``scale``, one end None), or None when their
+def _beyond_shell(path: Path, members: list, keep: tuple, mm_per_unit: float, scale: float, where: str):
+    """(surface, note) of faces beyond a loft's end (``members``: index, surface in model
+    units, trim, x extent of each) lofted into one surface over ``keep`` (x range in config
+    units times ``scale``, one end None), or None when their
     sections do not chain there (the faces part: each is planned alone). The girth is arc
     length, without the main loft's knot where faces meet: beyond KVLCC2's stern end plane the
     flat of bottom shrinks from 33 mm of girth to nothing; planned alone it was a plate 33 mm x
@@ -333,11 +339,9 @@ def _beyond_shell(model, path: Path, indices, keep: tuple, mm_per_unit: float, s
 
     from .coverage import x_range_region
     from .shell import ShellError, shell_surface
-    from .trims import Trim
 
     factor = scale / mm_per_unit
-    faces = [model.faces[k] for k in indices]
-    extents = [_x_extent(f.surface, Trim(f.index, f.outer, f.inner, 0) if f.trimmed else None) for f in faces]
+    indices, faces, trims, extents = zip(*members)
     lo = min(e[0] for e in extents) if keep[0] is None else keep[0] / factor
     hi = max(e[1] for e in extents) if keep[1] is None else keep[1] / factor
     # the faces' regions reach a spacing past the loft's end plane: cut at it, the station
@@ -345,15 +349,14 @@ def _beyond_shell(model, path: Path, indices, keep: tuple, mm_per_unit: float, s
     pad = (hi - lo) / BEYOND_STATIONS
     reach = (lo, hi + pad) if keep[0] is None else (lo - pad, hi)
     regions = []
-    for f in faces:
-        s = f.surface
+    for s, trim in zip(faces, trims):
         kept = x_range_region(s, long_axis_of(s), reach)
-        if f.trimmed:
+        if trim is not None:
             (u0, u1), (v0, v1) = s.domain_u, s.domain_v
-            kept = Trim(f.index, f.outer, f.inner, 0).polygon(u0, v0, u1, v1).intersection(kept)
+            kept = trim.polygon(u0, v0, u1, v1).intersection(kept)
         regions.append(kept)
     try:
-        shell = shell_surface([f.surface for f in faces], regions, indices, (hi - lo) / BEYOND_STATIONS,
+        shell = shell_surface(list(faces), regions, indices, (hi - lo) / BEYOND_STATIONS,
                               SHELL_TOLERANCE_MM / scale, f"hull {path.name} beyond the shell's loft ({where})",
                               SHELL_GAP_MM / scale, x_range=(lo, hi), junction_knots=False)
     except ShellError:
@@ -426,12 +429,9 @@ def _x_extent(surface: NurbsSurface, trim, n: int = 65, boundary: int = 2048) ->
     region = trim.polygon(u0, v0, u1, v1)
     if region.is_empty:
         return float(x.min()), float(x.max())
-    rim = region.boundary
-    points = shapely.line_interpolate_point(rim, np.linspace(0.0, 1.0, boundary), normalized=True) \
-        if rim.geom_type == "LineString" else \
-        [p for line in rim.geoms for p in shapely.line_interpolate_point(line, np.linspace(0.0, 1.0, boundary),
-                                                                           normalized=True)]
-    uv = shapely.get_coordinates(np.asarray(points, dtype=object))
+    loops = shapely.get_parts(region.boundary)[:, None]  # every loop of the trimmed region
+    uv = shapely.get_coordinates(shapely.line_interpolate_point(loops, np.linspace(0.0, 1.0, boundary),
+                                                               normalized=True))
     edge = surface(uv[:, 0], uv[:, 1])[:, 0]
     return float(min(x.min(), edge.min())), float(max(x.max(), edge.max()))
 

@@ -453,10 +453,9 @@ def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctio
             now, before = _face_girths(*chain[:2]), _face_girths(*chains[end])
             if any(now.get(face, 0.0) < KEPT_GIRTH * girth for face, girth in before.items()):
                 continue
-        at = 0 if end == 0 else len(stations)
         if abs(x - stations[end]) < 0.25 * spacing:
             del stations[end], chains[end], gaps[end]
-            at = 0 if end == 0 else len(stations)
+        at = 0 if end == 0 else len(stations)
         stations.insert(at, x)
         chains.insert(at, chain[:2])
         gaps.insert(at, chain[2])
