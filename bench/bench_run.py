@@ -29,7 +29,7 @@ from pathlib import Path
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-STAGE = re.compile(r"([a-z +]+?)(?: \d+ plates \(\d+ cached\))? ([\d.]+) s \(([\d.]+) CPU s\)")
+STAGE = re.compile(r"([a-z +-]+?)(?: \d+ plates \(\d+ cached\))? ([\d.]+) s \(([\d.]+) CPU s\)")
 
 
 def baseline_checkout(rev: str, folder: Path) -> Path:

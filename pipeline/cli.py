@@ -209,7 +209,7 @@ def _run(args, early) -> int:
         for done in (config.fitup_repair, config.fitup_follow):
             if done is not None:
                 print(done.one_line())
-        print(stage_line(_stages(evaluator, clock, planned, ran, exported, results)))
+        print(stage_line(_stages(evaluator, clock, planned, ran, exported, results, config)))
         print(wrote_line(n_files, args.out, run_name(config)))
     return EXIT_OK if all(r.ok for r in results) else EXIT_GEOMETRY
 
@@ -220,15 +220,20 @@ def _children_cpu() -> float:
     return times.children_user + times.children_system
 
 
-def _stages(evaluator, clock, planned, ran, exported, results) -> dict:
-    """{stage: (wall s, CPU s)}: the plan's own geometry, its candidates' evaluation (workers'
-    CPU included), the final plates (their run and, in the same workers, their shop files)
-    and the run's export (fit-up, plan cost, expansion drawing, summary, commit)."""
+def _stages(evaluator, clock, planned, ran, exported, results, config=None) -> dict:
+    """{stage: (wall s, CPU s)}: the plan's own geometry, the fit-up that moves its plates to
+    meet (``strake.fit_up`` follow or repair; the plates it has evaluated again count under
+    the evaluation), its candidates' evaluation (workers' CPU included), the final plates
+    (their run and, in the same workers, their shop files) and the run's export (the shell's
+    fit-up measures, plan cost, expansion drawing, summary, commit)."""
     per_part = [r.figures.get("stage_seconds") or {} for r in results]
     cpu_plates = sum(p.get("plates_cpu", 0.0) + p.get("shop_cpu", 0.0) for p in per_part)
     wall_plan = planned[0] - clock[0] - evaluator.seconds
-    stages = {"plan": (wall_plan, planned[1] - clock[1] - evaluator.local_cpu_seconds
-                       + evaluator.mapped_cpu_seconds)}
+    cpu_plan = planned[1] - clock[1] - evaluator.local_cpu_seconds + evaluator.mapped_cpu_seconds
+    fitup = getattr(config, "fitup_seconds", None)
+    stages = {"plan": (wall_plan - fitup[0], cpu_plan - fitup[1]) if fitup else (wall_plan, cpu_plan)}
+    if fitup:
+        stages["fit-up"] = fitup
     if evaluator.requested:
         stages[f"evaluate {evaluator.computed} plates ({evaluator.requested - evaluator.computed} cached)"] = \
             (evaluator.seconds, evaluator.cpu_seconds)

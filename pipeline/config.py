@@ -877,6 +877,7 @@ class RunConfig:
         self.plan_fairings = None  # what plan.overlaps / plan.junctions: fair did, one dict each (pipeline.hull.fairing)
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
         self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
+        self.fitup_seconds = None  # (wall, CPU) s of that fit-up, its plates' evaluations aside
 
     @property
     def mm_per_unit(self) -> float:

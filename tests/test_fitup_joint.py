@@ -9,6 +9,7 @@ no worse than they began. Asked for as strips (strake.flats_as_strips), the cyli
 plates become the strips through their seams, the cylinder itself, and meet to round-off;
 the shoulder's, which no strip fits, stay flat and say why."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -384,3 +385,32 @@ def test_a_strips_points_held_in_the_programme_spread_along_it(strips):
         assert len(points) == STRIP_GRID[0] * STRIP_GRID[1] and len(xs) >= STRIP_GRID[1] - 1
         assert xs.min() < -2900.0 and xs.max() > 2900.0  # from butt to butt (x = -3000, 3000)
         assert np.diff(np.sort(xs)).max() < 1500.0  # none of the plate's length left out
+
+
+def test_the_fit_up_is_a_stage_of_its_own_on_the_console(tmp_path, capsys, monkeypatch):
+    """`time:` gives the fit-up its own seconds, apart from the plan's: a fit-up made to take
+    two seconds longer shows them there and not in the plan; a run in `report` has none."""
+    import time
+
+    from pipeline.cli import main
+    from pipeline.hull import follow
+
+    slow = follow.follow_fitup
+
+    def slower(*args, **kwargs):
+        time.sleep(2.0)
+        return slow(*args, **kwargs)
+
+    monkeypatch.setattr(follow, "follow_fitup", slower)
+    stages = {}
+    for fit_up in ("report", "follow"):
+        path = cylinder_strake(tmp_path, (-1200.0, 0.0, 400.0), fit_up)
+        assert main(["run", str(path), "--out", str(tmp_path / fit_up)]) == 0
+        line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("time:"))
+        stages[fit_up] = {name.strip(): (float(wall), float(cpu)) for name, wall, cpu in
+                          re.findall(r"([a-z +-]+?)(?: \d+ plates \(\d+ cached\))? ([\d.]+) s \(([\d.]+) CPU s\)",
+                                     line[len("time:"):])}
+    assert "fit-up" not in stages["report"]
+    assert list(stages["follow"])[:2] == ["plan", "fit-up"]
+    assert stages["follow"]["fit-up"][0] >= 2.0 > stages["follow"]["plan"][0]
+    assert stages["follow"]["fit-up"][1] < 2.0  # asleep: the CPU seconds are its own work's

@@ -75,7 +75,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
-    record = repair = follow = fairings = None
+    record = repair = follow = fairings = fit_started = fit_seconds = None
     try:
         if spec.strake.plan is not None:
             from .objective import PlanRecord
@@ -88,6 +88,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
         if spec.strake.fit_up in ("repair", "follow") and evaluate is not None:
+            fit_started = _own_clock(evaluate)
             # the fit-up reads the plates' developments, which a plan's evaluation may owe
             fitting = _Judge(evaluate, config)
             fitting.develop_plates(parts)
@@ -103,6 +104,8 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
                                   float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
                                   hold=spec.strake.hold_steps, pull=spec.strake.pull_steps,
                                   workers=fitting)
+        if fit_started is not None:
+            fit_seconds = tuple(now - then for now, then in zip(_own_clock(evaluate), fit_started))
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
@@ -115,7 +118,19 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     run.plan_fairings = fairings
     run.fitup_repair = repair
     run.fitup_follow = follow
+    run.fitup_seconds = fit_seconds
     return run
+
+
+def _own_clock(evaluator) -> tuple[float, float]:
+    """(wall, CPU) seconds so far of this process's own work: less the time in the
+    evaluator's batches of plates (a stage of their own), plus the CPU its workers spent on
+    what was mapped over them (as the plan's stage counts it, ``pipeline.cli``)."""
+    import time
+
+    return (time.perf_counter() - getattr(evaluator, "seconds", 0.0),
+            time.process_time() - getattr(evaluator, "local_cpu_seconds", 0.0)
+            + getattr(evaluator, "mapped_cpu_seconds", 0.0))
 
 
 class _Judge:
