@@ -220,7 +220,7 @@ def _children_cpu() -> float:
     return times.children_user + times.children_system
 
 
-def _stages(evaluator, clock, planned, ran, exported, results, config=None) -> dict:
+def _stages(evaluator, clock, planned, ran, exported, results, config: RunConfig) -> dict:
     """{stage: (wall s, CPU s)}: the plan's own geometry, the fit-up that moves its plates to
     meet (``strake.fit_up`` follow or repair; the plates it has evaluated again count under
     the evaluation), its candidates' evaluation (workers' CPU included), the final plates
@@ -230,7 +230,7 @@ def _stages(evaluator, clock, planned, ran, exported, results, config=None) -> d
     cpu_plates = sum(p.get("plates_cpu", 0.0) + p.get("shop_cpu", 0.0) for p in per_part)
     wall_plan = planned[0] - clock[0] - evaluator.seconds
     cpu_plan = planned[1] - clock[1] - evaluator.local_cpu_seconds + evaluator.mapped_cpu_seconds
-    fitup = getattr(config, "fitup_seconds", None)
+    fitup = config.fitup_seconds
     stages = {"plan": (wall_plan - fitup[0], cpu_plan - fitup[1]) if fitup else (wall_plan, cpu_plan)}
     if fitup:
         stages["fit-up"] = fitup

@@ -12,6 +12,7 @@ developable strip is computed on.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -126,8 +127,6 @@ def _own_clock(evaluator) -> tuple[float, float]:
     """(wall, CPU) seconds so far of this process's own work: less the time in the
     evaluator's batches of plates (a stage of their own), plus the CPU its workers spent on
     what was mapped over them (as the plan's stage counts it, ``pipeline.cli``)."""
-    import time
-
     return (time.perf_counter() - getattr(evaluator, "seconds", 0.0),
             time.process_time() - getattr(evaluator, "local_cpu_seconds", 0.0)
             + getattr(evaluator, "mapped_cpu_seconds", 0.0))
