@@ -95,8 +95,10 @@ def planned_region(hull):
 def _trim_region(surface, trim):
     import shapely
 
+    if trim is not None:
+        return trim.face_region(surface)
     (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
-    return shapely.box(u0, v0, u1, v1) if trim is None else trim.polygon(u0, v0, u1, v1)
+    return shapely.box(u0, v0, u1, v1)
 
 
 def _shell_references(parts) -> dict:

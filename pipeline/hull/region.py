@@ -216,8 +216,7 @@ def _model_shell(model, path: Path, indices, mm_per_unit: float, scale: float):
     faces = [model.faces[k] for k in indices]
     sub = HullModel(path, model.format, tuple(faces))
     trims = [Trim(f.index, f.outer, f.inner, 0) if f.trimmed else None for f in faces]
-    regions = [None if t is None else t.polygon(f.surface.domain_u[0], f.surface.domain_v[0], f.surface.domain_u[1],
-                                                f.surface.domain_v[1]) for f, t in zip(faces, trims)]
+    regions = [None if t is None else t.face_region(f.surface) for f, t in zip(faces, trims)]
     # faces lying on each other (DTMB 5415's bow and main hull) are cut where their sections
     # come closest, each keeping its side, before they are lofted: every station then crosses one
     limits, overlaps = overlap_cuts([f.surface for f in faces], trims, SHELL_JUNCTION_MM)
@@ -344,19 +343,16 @@ def _beyond_shell(path: Path, members: list, keep: tuple, mm_per_unit: float, sc
     indices, faces, trims, extents = zip(*members)
     lo = min(e[0] for e in extents) if keep[0] is None else keep[0] / factor
     hi = max(e[1] for e in extents) if keep[1] is None else keep[1] / factor
+    spacing = (hi - lo) / BEYOND_STATIONS
     # the faces' regions reach a spacing past the loft's end plane: cut at it, the station
     # there (on a sampled cut) lost pieces, and the surface ended 0.04 mm short of KVLCC2's
-    pad = (hi - lo) / BEYOND_STATIONS
-    reach = (lo, hi + pad) if keep[0] is None else (lo - pad, hi)
+    reach = (lo, hi + spacing) if keep[0] is None else (lo - spacing, hi)
     regions = []
     for s, trim in zip(faces, trims):
         kept = x_range_region(s, long_axis_of(s), reach)
-        if trim is not None:
-            (u0, u1), (v0, v1) = s.domain_u, s.domain_v
-            kept = trim.polygon(u0, v0, u1, v1).intersection(kept)
-        regions.append(kept)
+        regions.append(kept if trim is None else trim.face_region(s).intersection(kept))
     try:
-        shell = shell_surface(list(faces), regions, indices, (hi - lo) / BEYOND_STATIONS,
+        shell = shell_surface(list(faces), regions, indices, spacing,
                               SHELL_TOLERANCE_MM / scale, f"hull {path.name} beyond the shell's loft ({where})",
                               SHELL_GAP_MM / scale, x_range=(lo, hi), junction_knots=False)
     except ShellError:
@@ -395,7 +391,7 @@ def _trimmed_part(face: NurbsSurface, trim, keep: tuple, name: str) -> tuple[Nur
         return face, ""
     (u0, u1), (v0, v1) = face.domain_u, face.domain_v
     axis = long_axis_of(face)
-    region = trim.polygon(u0, v0, u1, v1).intersection(x_range_region(face, axis, keep))
+    region = trim.face_region(face).intersection(x_range_region(face, axis, keep))
     if region.is_empty:
         return face, ""
     bu0, bv0, bu1, bv1 = region.bounds
@@ -425,8 +421,7 @@ def _x_extent(surface: NurbsSurface, trim, n: int = 65, boundary: int = 2048) ->
     uu, vv = np.meshgrid(u, v, indexing="ij")
     inside = trim.inside(uu, vv)
     x = x[inside] if inside.any() else x
-    (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
-    region = trim.polygon(u0, v0, u1, v1)
+    region = trim.face_region(surface)
     if region.is_empty:
         return float(x.min()), float(x.max())
     loops = shapely.get_parts(region.boundary)[:, None]  # every loop of the trimmed region

@@ -399,7 +399,7 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
     ends = (a == 0, b == len(stations))
     chains, stations, gaps = chains[a:b], stations[a:b], gaps[a:b]
     stations, chains, gaps = _reach_ends(faces, regions, grids, x_values, stations, chains, gaps,
-                                         common if junction_knots else None, ends, max_gap, junction_knots)
+                                         common if junction_knots else None, ends, max_gap)
     for round_ in range(REFITS + 1):
         surface, misfit = _loft_chains(stations, chains, tolerance, name, junction_knots)
         # where a section changes its shape faster than stations can follow (a stern whose
@@ -427,13 +427,13 @@ def shell_surface(faces, regions, indices, spacing: float, tolerance: float, nam
 
 
 def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctions: int | None, ends: tuple,
-                max_gap: float | None, keep_faces: bool):
+                max_gap: float | None):
     """The run of stations reaching, at each end of ``ends`` (aft, fore: True where the faces
     did not part there), the station nearest the first one left out whose sections still
     chain (:func:`farthest_station`) within ``max_gap``: added to the run, or in place of its
     end station when within a quarter of a spacing of it (two stations closer than that add
-    nothing to the loft but its conditioning). With ``keep_faces`` (a loft with knots at the
-    faces' junctions) not where a face's girth there is under KEPT_GIRTH of its girth at the
+    nothing to the loft but its conditioning). With ``junctions`` (a loft with knots at that
+    many faces' junctions; None: no knots, any count) not where a face's girth there is under KEPT_GIRTH of its girth at the
     run's end: the girth range of that face's knots would meet in a point (KVLCC2's flat of
     bottom, 33 mm of girth at the loft's first station and none at the hull's end 1.19 m
     aft: its six strakes met there, the surface folded at the knot and closest points on it
@@ -449,7 +449,7 @@ def _reach_ends(faces, regions, grids, x_values, stations, chains, gaps, junctio
         if found is None or (max_gap is not None and found[1][2] > max_gap):
             continue
         x, chain = found
-        if keep_faces:
+        if junctions is not None:
             now, before = _face_girths(*chain[:2]), _face_girths(*chains[end])
             if any(now.get(face, 0.0) < KEPT_GIRTH * girth for face, girth in before.items()):
                 continue

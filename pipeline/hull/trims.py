@@ -56,6 +56,11 @@ class Trim:
             region = region.difference(valid_polygon(loop))
         return region
 
+    def face_region(self, surface):
+        """The trimmed region of ``surface`` within its parameter rectangle (:meth:`polygon`)."""
+        (u0, u1), (v0, v1) = surface.domain_u, surface.domain_v
+        return self.polygon(u0, v0, u1, v1)
+
     def covers_rectangle(self, domain_u, domain_v, tol: float = 1e-6) -> bool:
         """The outer loop is the parameter rectangle itself and there is no hole."""
         if self.inner:
