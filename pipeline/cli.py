@@ -204,6 +204,11 @@ def _run(args, early) -> int:
         print(summary_table(results))
         if textile and printout_line(printed, run_name(config)):
             print(printout_line(printed, run_name(config)))
+        if config.plan_cost is not None:
+            from .hull.cost import plan_line, stock_min_width
+
+            least = stock_min_width(config.spec)
+            print(plan_line(config.plan_cost, None if least is None else least * config.mm_per_unit / 1000.0))
         if shell is not None:
             print(shell.one_line())
         for done in (config.fitup_repair, config.fitup_follow):

@@ -878,6 +878,7 @@ class RunConfig:
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
         self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
         self.fitup_seconds = None  # (wall, CPU) s of that fit-up, its plates' evaluations aside
+        self.plan_cost = None  # what the plan costs a yard, as its summary says (pipeline.hull.cost.PlanCost.as_dict)
 
     @property
     def mm_per_unit(self) -> float:

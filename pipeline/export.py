@@ -372,6 +372,7 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
                          stock_min_width(config.spec), block_joints(config.spec)).as_dict()
     write_text(written[0], summary_csv(results))
     extra = {} if cost is None else {"plan_cost": cost}
+    config.plan_cost = cost  # the console's plan line reads it
     if shell is not None:  # a hull run's fit-up and coverage (pipeline.hull.fitup)
         extra["shell"] = shell.as_dict()
         if getattr(config, "fitup_repair", None) is not None:

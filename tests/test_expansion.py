@@ -5,6 +5,7 @@ layout of flat plates for the shared-edge rule, and the 160 m hull's strake, who
 measured again along its sections by root finding on each iso-curve."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -22,13 +23,13 @@ SEAMS = (0.0, 0.37, 1.0)
 BUTTS = (5000.0, 10000.0, 15000.0)
 
 
-def run(tmp_path, name, strake, png=True) -> Path:
+def run(tmp_path, name, strake, png=True, quiet=True) -> Path:
     config = tmp_path / f"{name}.yaml"
     config.write_text(yaml.safe_dump({"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0},
                                       "output": {"png": png, "obj": False},
                                       "strake": dict({"margin": 0.2, "fit_tolerance": 5.0}, **strake)}))
     out = tmp_path / "out"
-    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    assert main(["run", str(config), "--out", str(out)] + (["--quiet"] if quiet else [])) == 0
     return out
 
 
@@ -93,6 +94,34 @@ def test_the_plan_cost_of_a_cylinder_strake_is_its_closed_form(cylinder):
     upper = json.loads((cylinder / "cyl_S2_B2.json").read_text())["region"]["corners"]
     span = theta_of(np.vstack([corners, upper]))
     assert span.min() + 1e-6 < theta_of(np.array([cross["at"]]))[0] < span.max() - 1e-6
+
+
+def test_the_console_says_the_plans_cost_as_the_closed_form_gives_it(tmp_path, capsys):
+    """The run's `plan:` line for the cylinder strake: 4 plates, 10 m of seam and a quarter
+    circle of butt over the 10 m x R pi / 2 shell, the lower strake the narrowest (R times its
+    upper seam's angle), every plate a strip, one cross joint; no stock planned, so nothing
+    is said of plates narrower than it."""
+    iges = cylinder_along_iges(tmp_path / "c.igs", radius=R, angle_deg=ANGLE, length=LENGTH)
+    run(tmp_path, "cyl", {"surface": {"iges": str(iges)}, "seams": [{"iso": {"v": v}} for v in SEAMS],
+                          "butts": list(BUTTS)}, png=False, quiet=False)
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("plan:"))
+    said = re.fullmatch(r"plan: (\d+) plates, (\d+) m of weld \(([\d.]+) m per m2 of shell\), narrowest ([\d.]+) m "
+                        r"\((\S+)\), (\d+) cross joints?; strip ([\d.]+) %", line)
+    assert said, line
+    arc = R * np.radians(ANGLE) / 1000.0  # m
+    # the lower strake's girth: R times the arc angle to the seam v = 0.37 of the rational
+    # quadratic arc (weights 1, cos h, 1), which does not run evenly along the arc
+    h, v = np.radians(ANGLE) / 2, SEAMS[1]
+    basis = np.array([(1 - v) ** 2, 2 * v * (1 - v) * np.cos(h), v ** 2])
+    y, z = basis @ [[-R * np.sin(h), R * (1 - np.cos(h))], [0.0, R - R / np.cos(h)],
+                    [R * np.sin(h), R * (1 - np.cos(h))]] / basis.sum()
+    girth = R * (np.arctan2(y, R - z) + h) / 1000.0
+    lower = min(girth, arc - girth)
+    assert int(said[1]) == 4
+    assert abs(int(said[2]) - (10.0 + arc)) <= 0.5 + 1e-3
+    assert abs(float(said[3]) - (10.0 + arc) / (10.0 * arc)) <= 5e-4 + 1e-3
+    assert abs(float(said[4]) - lower) <= 5e-3 + 1e-3 and said[5].startswith("cyl_S1")
+    assert int(said[6]) == 1 and float(said[7]) == 100.0
 
 
 def test_the_expansion_draws_each_cylinder_plate_once_at_its_closed_form_girth(cylinder):

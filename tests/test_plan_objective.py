@@ -673,10 +673,11 @@ def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path
     assert plates == control and len(plates) > 3
 
 
-def test_the_plans_cost_names_the_plates_narrower_than_the_stock(tmp_path):
+def test_the_plans_cost_names_the_plates_narrower_than_the_stock(tmp_path, capsys):
     """The plain layout of the tapering bilge leaves fore plates narrower than the 1.5 m stock
-    minimum: the summary's plan cost names exactly those (their largest girth width, m); the
-    yard's layout merges them (stealers) and names none."""
+    minimum: the summary's plan cost names exactly those (their largest girth width, m), and
+    the console's plan line counts them; the yard's layout merges them (stealers) and names
+    none."""
     import json
 
     from pipeline.cli import main
@@ -685,8 +686,10 @@ def test_the_plans_cost_names_the_plates_narrower_than_the_stock(tmp_path):
     iges = tapered_iges(tmp_path / "taper.igs")
     for name, extra in (("plain", {}), ("yard", {"butt_stagger": 300})):
         config = _config(tmp_path, name, iges, {"method": "uniform", "stock": TAPER_STOCK, **extra})
-        assert main(["run", str(config), "--out", str(tmp_path / name), "--quiet"]) == 0
+        assert main(["run", str(config), "--out", str(tmp_path / name)]) == 0
+        line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("plan:"))
         listed = json.loads((tmp_path / name / f"{name}_summary.json").read_text())["plan_cost"]["narrower_than_stock"]
+        assert f", {len(listed) or 'none'} narrower than the stock's 1.5 m, " in line
         widths = {p.name: _widest(p) for p in load_run(config).parts}
         assert {p["plate"] for p in listed} == {n for n, w in widths.items() if w < TAPER_STOCK["min_width"]}
         for p in listed:
