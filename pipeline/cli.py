@@ -207,8 +207,7 @@ def _run(args, early) -> int:
         if config.plan_cost is not None:
             from .hull.cost import plan_line, stock_min_width
 
-            least = stock_min_width(config.spec)
-            print(plan_line(config.plan_cost, None if least is None else least * config.mm_per_unit / 1000.0))
+            print(plan_line(config.plan_cost, stock_min_width(config.spec), config.mm_per_unit))
         if shell is not None:
             print(shell.one_line())
         for done in (config.fitup_repair, config.fitup_follow):

@@ -158,19 +158,19 @@ class PlanCost:
         return asdict(self)
 
 
-def plan_line(cost: dict, stock_min_width_m: float | None = None) -> str:
+def plan_line(cost: dict, min_width: float | None = None, mm_per_unit: float = 1.0) -> str:
     """The plan's cost (:meth:`PlanCost.as_dict`) on one console line: its plates, weld (m,
     and m per m^2 of shell), narrowest plate, the plates narrower than the stock's least width
-    (``stock_min_width_m``, m; said only when the plan has stock), the cross joints and the
-    class shares (a class without area left out)."""
+    (``min_width``, config units, as :func:`plan_cost` takes it; said only when the plan has
+    stock), the cross joints and the class shares (a class without area left out)."""
     plates = cost["plates"]
     said = [f"{plates} plate{'' if plates == 1 else 's'}",
             f"{cost['weld_m']:.0f} m of weld ({cost['weld_per_m2']:.3f} m per m2 of shell)"]
     if cost["narrowest"] is not None:
         said.append(f"narrowest {cost['narrowest']['width_m']:.2f} m ({cost['narrowest']['plate']})")
-    if stock_min_width_m is not None:
+    if min_width is not None:
         narrow = len(cost["narrower_than_stock"])
-        said.append(f"{narrow or 'none'} narrower than the stock's {stock_min_width_m:g} m")
+        said.append(f"{narrow or 'none'} narrower than the stock's {min_width * mm_per_unit / 1000.0:g} m")
     crosses = len(cost["cross_joints"])
     said.append(f"{crosses or 'no'} cross joint{'' if crosses == 1 else 's'}")
     shares = ", ".join(f"{name} {100.0 * share:.1f} %" for name, share in cost["shares"].items()
