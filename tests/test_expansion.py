@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from pipeline.cli import main
-from pipeline.hull.cost import PlateEdges, weld_lengths
+from pipeline.hull.cost import PlateEdges, plan_line, weld_lengths
 from tests.hull_shapes import cylinder_along_iges
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,7 +105,7 @@ def test_the_console_says_the_plans_cost_as_the_closed_form_gives_it(tmp_path, c
     run(tmp_path, "cyl", {"surface": {"iges": str(iges)}, "seams": [{"iso": {"v": v}} for v in SEAMS],
                           "butts": list(BUTTS)}, png=False, quiet=False)
     line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("plan:"))
-    said = re.fullmatch(r"plan: (\d+) plates, (\d+) m of weld \(([\d.]+) m per m2 of shell\), narrowest ([\d.]+) m "
+    said = re.fullmatch(r"plan: (\d+) plates, ([\d.]+) m of weld \(([\d.]+) m per m2 of shell\), narrowest ([\d.]+) m "
                         r"\((\S+)\), (\d+) cross joints?; strip ([\d.]+) %", line)
     assert said, line
     arc = R * np.radians(ANGLE) / 1000.0  # m
@@ -118,10 +118,21 @@ def test_the_console_says_the_plans_cost_as_the_closed_form_gives_it(tmp_path, c
     girth = R * (np.arctan2(y, R - z) + h) / 1000.0
     lower = min(girth, arc - girth)
     assert int(said[1]) == 4
-    assert abs(int(said[2]) - (10.0 + arc)) <= 0.5 + 1e-3
+    assert abs(float(said[2]) - (10.0 + arc)) <= 0.05 + 1e-3  # three significant figures
     assert abs(float(said[3]) - (10.0 + arc) / (10.0 * arc)) <= 5e-4 + 1e-3
     assert abs(float(said[4]) - lower) <= 5e-3 + 1e-3 and said[5].startswith("cyl_S1")
     assert int(said[6]) == 1 and float(said[7]) == 100.0
+
+
+def test_the_plan_line_keeps_three_figures_of_a_model_scale_plan():
+    """A model's plan (DTMB 5415's strake at model scale: 39 mm of weld, plates 20 mm wide)
+    is not said to have 0 m of weld; a ship's keeps whole metres."""
+    cost = {"plates": 3, "weld_m": 0.03934, "weld_per_m2": 0.674, "narrowest": {"plate": "S1_B1", "width_m": 0.01962},
+            "narrower_than_stock": [], "cross_joints": [], "shares": {"strip": 1.0}, "share_area_m2": {"strip": 0.058}}
+    assert plan_line(cost).startswith("plan: 3 plates, 0.0393 m of weld (0.674 m per m2 of shell), narrowest 0.0196 m")
+    ship = dict(cost, weld_m=2340.94, narrowest={"plate": "S1_B2", "width_m": 0.7559})
+    assert plan_line(ship, 1000.0, 1.0).startswith("plan: 3 plates, 2341 m of weld (0.674 m per m2 of shell), "
+                                                   "narrowest 0.756 m (S1_B2), none narrower than the stock's 1 m")
 
 
 def test_the_expansion_draws_each_cylinder_plate_once_at_its_closed_form_girth(cylinder):

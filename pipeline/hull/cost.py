@@ -165,9 +165,9 @@ def plan_line(cost: dict, min_width: float | None = None, mm_per_unit: float = 1
     stock), the cross joints and the class shares (a class without area left out)."""
     plates = cost["plates"]
     said = [f"{plates} plate{'' if plates == 1 else 's'}",
-            f"{cost['weld_m']:.0f} m of weld ({cost['weld_per_m2']:.3f} m per m2 of shell)"]
+            f"{_metres(cost['weld_m'])} m of weld ({cost['weld_per_m2']:.3f} m per m2 of shell)"]
     if cost["narrowest"] is not None:
-        said.append(f"narrowest {cost['narrowest']['width_m']:.2f} m ({cost['narrowest']['plate']})")
+        said.append(f"narrowest {_metres(cost['narrowest']['width_m'])} m ({cost['narrowest']['plate']})")
     if min_width is not None:
         narrow = len(cost["narrower_than_stock"])
         said.append(f"{narrow or 'none'} narrower than the stock's {min_width * mm_per_unit / 1000.0:g} m")
@@ -176,6 +176,12 @@ def plan_line(cost: dict, min_width: float | None = None, mm_per_unit: float = 1
     shares = ", ".join(f"{name} {100.0 * share:.1f} %" for name, share in cost["shares"].items()
                        if cost["share_area_m2"][name] > 0.0)
     return f"plan: {', '.join(said)}; {shares}"
+
+
+def _metres(value: float) -> str:
+    """A length in metres to three significant figures at least (a model-scale plan's weld is
+    under a metre, its plates a few centimetres wide)."""
+    return f"{value:.0f}" if abs(value) >= 100.0 else f"{value:.3g}"
 
 
 def stock_min_width(spec) -> float | None:
