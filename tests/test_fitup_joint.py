@@ -414,3 +414,70 @@ def test_the_fit_up_is_a_stage_of_its_own_on_the_console(tmp_path, capsys, monke
     assert list(stages["follow"])[:2] == ["plan", "fit-up"]
     assert stages["follow"]["fit-up"][0] >= 2.0 > stages["follow"]["plan"][0]
     assert stages["follow"]["fit-up"][1] < 2.0  # asleep: the CPU seconds are its own work's
+
+
+def _plate_on_plane(name: str, klass: str, x: tuple, y: tuple, surface, distance):
+    """The edges record and part of a plate of the plane z = 0 over the rectangle x (x0, x1),
+    y (y0, y1) (mm), as the joint programme reads them: a strip (a rigid body) or a flat plate
+    (a plane body, moved along its normal only)."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.fitup import Edge, PlateEdges
+
+    rows, cols = 5, 9
+    xx, yy = np.meshgrid(np.linspace(*x, cols), np.linspace(*y, rows))
+    grid = np.stack([xx, yy, np.zeros_like(xx)], axis=-1)  # (rows along y, cols along x, 3)
+    figures = {"plate_class": {"class": klass, "normal": [0.0, 0.0, 1.0], "plane_point": grid[0, 0].tolist()},
+               "region": {"grid": [rows, cols]}}
+    result = SimpleNamespace(mesh=(grid.reshape(-1, 3), np.zeros((0, 3), dtype=np.int64)), figures=figures,
+                             strip=None)
+    part = SimpleNamespace(hull=SimpleNamespace(result=result, surface=surface, distance=distance,
+                                                fit_tolerance=TOLERANCE))
+    sides = {"seam0": grid[0], "seam1": grid[-1], "butt0": grid[:, 0], "butt1": grid[:, -1]}
+    edges = tuple(Edge(side, side, points, points[:, :2]) for side, points in sides.items())
+    return PlateEdges(name, klass, True, edges, grid[0]), part
+
+
+def test_two_strips_that_slide_along_their_butt_keep_their_corners_together():
+    # KVLCC2's yard plan: two strips of strake 10 whose seam neighbours were formed slid
+    # along their shared butt in opposite directions, each within the tolerance, and ended
+    # 10 mm apart on seam 11; the formed plate above, formed to meet both, stepped 9.56 mm
+    # there. Here strip A's neighbour above, flat plate C, lies 3 mm further up the plane
+    # than A's seam (a flat plate moves along its normal only): A slides up to meet it, and
+    # strip B, beside A across their butt, with no neighbour of its own to meet, must slide
+    # with A, or their corners on the seam part by the slide
+    from types import SimpleNamespace
+
+    from flatten.closest import SurfaceDistance
+    from flatten.surface import nurbs_surface
+    from pipeline.hull.joint import TIERS, joint_moves
+
+    surface = nurbs_surface(1, 1, [[[-3000.0, 0.0, 0.0], [-3000.0, 3000.0, 0.0]],
+                                   [[3000.0, 0.0, 0.0], [3000.0, 3000.0, 0.0]]], [0, 0, 1, 1], [0, 0, 1, 1])
+    distance = SurfaceDistance(surface)
+    shift, limit = 3.0, 2.1
+    records = {"A": _plate_on_plane("A", "developable", (-2000.0, 0.0), (1000.0, 2000.0), surface, distance),
+               "B": _plate_on_plane("B", "developable", (0.0, 2000.0), (1000.0, 2000.0), surface, distance),
+               "C": _plate_on_plane("C", "flat", (-2000.0, 0.0), (2000.0 + shift, 3000.0 + shift), surface, distance)}
+    pairs = [SimpleNamespace(a="A", b="B", side_a="butt1", side_b="butt0", limit=limit),
+             SimpleNamespace(a="A", b="C", side_a="seam1", side_b="seam0", limit=limit)]
+    moves = joint_moves(records, pairs, 1.0)
+
+    def moved(name: str, points: np.ndarray) -> np.ndarray:
+        move = moves.get(name)
+        if move is None:
+            return points
+        centre = np.asarray(move["centre"])
+        return centre + (points - centre) @ np.asarray(move["rotation"]).T + np.asarray(move["translation"])
+
+    corner = np.array([[0.0, 2000.0, 0.0], [0.0, 1000.0, 0.0]])  # where A's and B's butt edges end
+    a_corner, b_corner = moved("A", corner), moved("B", corner)
+    # A slid up to C (within the limit of its seam, which it could not meet staying put) ...
+    a_seam = moved("A", records["A"][0].edge("seam1").points3)
+    assert np.abs(a_seam[:, 1] - (2000.0 + shift)).max() <= TIERS[0][0] * limit + 1e-6
+    assert a_corner[0, 1] - corner[0, 1] >= shift - TIERS[0][0] * limit - 1e-6
+    # ... and B with it: their corners meet at both ends of the butt, along it too
+    assert np.linalg.norm(a_corner - b_corner, axis=1).max() <= TIERS[0][0] * limit + 1e-6
+    # every plate stays within the tolerance of the plane
+    for name in ("A", "B"):
+        assert np.abs(moved(name, records[name][1].hull.result.mesh[0])[:, 2]).max() <= TOLERANCE

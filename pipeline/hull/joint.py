@@ -24,7 +24,10 @@ does not slide along the shell). At points every 300 mm of every shared edge of 
 plates (on one of them, over the common part as :mod:`.fitup` measures it) the gap vector
 between the edges, taken across the edge (the part along it is no step), is held inside an
 octagon (which reaches 1.08 times its sides' distance at its corners) whose sides stand at
-the sum of two slacks of the edge: up to 0.45 of the limit, and beyond. The programme
+the sum of two slacks of the edge: up to 0.45 of the limit, and beyond. Where both edges end
+together (a corner at a junction of three or four plates), the part along the edge of the
+gap between their ends is held within the same slacks: it is a gap across the edge of the
+plate beyond the junction. The programme
 minimises the sum over the edges of the second slacks (mm: how far each edge's largest step
 exceeds 0.45 of the limit: the pairs that misfit are those past the limit), at a hundredth of
 the weight the first ones (no step made larger for nothing), and, far below both, how far the
@@ -54,6 +57,7 @@ STRIP = "developable"
 TIERS = ((0.45, 0.001), (np.inf, 0.1))
 MOVE_WEIGHT = 1e-4  # how far the plates move (model units), against mm of an edge's step
 POINT_MM = 300.0  # edge points this far apart carry the step constraints
+JUNCTION_REACH = 2.0  # two edges' ends this many fit tolerances apart end together (a corner at a junction)
 STRIP_GRID = (5, 8)  # a strip's points held within the tolerance: 5 across its girth, 8 along its length
 STRIP_SHARE = 0.95  # of the tolerance, for a strip's points (its mesh between them, the turns' second order)
 # of the tolerance, for a flat plate's region points: the hull between them bulges past a
@@ -125,9 +129,12 @@ def joint_moves(records: dict, pairs: list, mm_per_unit: float, strips: bool = T
         ea, eb = records[pair.a][0].edge(pair.side_a), records[pair.b][0].edge(pair.side_b)
         if ea is None or eb is None:
             continue
-        got = _gaps(ea, eb, mm_per_unit)  # one way: the common part is the same edge seen from either side
+        reach = JUNCTION_REACH * max(records[pair.a][1].hull.fit_tolerance, records[pair.b][1].hull.fit_tolerance)
+        got = _gaps(ea, eb, mm_per_unit, reach)  # one way: the common part is the same edge seen from either side
         if got is not None:
-            _edge_rows(bodies.get(pair.a), bodies.get(pair.b), *got, len(limits), triplets, rhs)
+            for points, feet, directions in got:
+                _edge_rows(bodies.get(pair.a), bodies.get(pair.b), points, feet, directions, len(limits), triplets,
+                           rhs)
             limits.append(pair.limit / mm_per_unit)
     if not limits:
         return {}
@@ -250,10 +257,16 @@ def _edge_rows(here: _Body | None, there: _Body | None, points, feet, across, ed
         start += count
 
 
-def _gaps(mine, theirs, mm_per_unit: float):
-    """(points (N, 3) of ``mine`` along the common part, their closest points on ``theirs``
-    (N, 3), the four directions across the edge at each (N, 4, 3)); None when the edges do
-    not overlap."""
+def _gaps(mine, theirs, mm_per_unit: float, reach: float):
+    """The gaps an edge's octagons hold, as (points (N, 3) of ``mine``, their closest points on
+    ``theirs`` (N, 3), directions (N, K, 3)): along the common part, its points and the four
+    directions across the edge at each; at each end where both edges end together (within
+    ``reach``, model units: a corner at a junction), the two ends and the direction along
+    the edge. Two strips whose seam neighbours are formed slide along their shared butt
+    unheld otherwise, and there the part of the gap along the butt is a gap across the third
+    plate's edge: KVLCC2's strips of strake 10, each within the tolerance, ended 10 mm apart
+    on seam 11, and the formed plate above them, formed to meet both, stepped 9.56 mm.
+    None when the edges do not overlap."""
     spacing = SAMPLE_MM / mm_per_unit
     dm, dt = _dense(mine, spacing), _dense(theirs, spacing)
     lo, hi = _common(dm, dt)
@@ -269,7 +282,26 @@ def _gaps(mine, theirs, mm_per_unit: float):
     first, second = perpendicular_pair(tangent)
     angles = np.pi / 4.0 * np.arange(4)
     across = np.cos(angles)[None, :, None] * first[:, None, :] + np.sin(angles)[None, :, None] * second[:, None, :]
-    return points, feet, across
+    out = [(points, feet, across)]
+    ends = _junction_ends(dm.p3, dt.p3, reach)
+    if ends is not None:
+        out.append(ends)
+    return out
+
+
+def _junction_ends(mine: np.ndarray, theirs: np.ndarray, reach: float):
+    """(ends of ``mine`` (M, 3), the ends of ``theirs`` they meet (M, 3), the direction along
+    ``mine`` there (M, 1, 3)) for the ends of two edges' points (N, 3) that lie within
+    ``reach`` of each other; None where no end meets one."""
+    ends, tangents = mine[[0, -1]], mine[[1, -1]] - mine[[0, -2]]
+    other = theirs[[0, -1]]
+    distance = np.linalg.norm(ends[:, None, :] - other[None, :, :], axis=2)
+    nearest = distance.argmin(axis=1)
+    meet = distance[np.arange(2), nearest] <= reach
+    if not meet.any() or np.allclose(ends[0], ends[1]):
+        return None
+    along = tangents[meet] / np.maximum(np.linalg.norm(tangents[meet], axis=1, keepdims=True), 1e-300)
+    return ends[meet], other[nearest[meet]], along[:, None, :]
 
 
 def _solve(bodies: dict, size: int, triplets: list, rhs: list, limits: np.ndarray, mm_per_unit: float) -> dict:
