@@ -316,6 +316,14 @@ def test_the_joined_blend_stays_between_its_given_values(values):
     assert solved[~fixed].max() <= ring.max() + 1e-12 and solved[~fixed].min() >= ring.min() - 1e-12
 
 
+def _rectangle_ring(points, hull, tolerance):
+    """A rectangular grid's ring and side codes: the seams its rows, the butts its end columns."""
+    r, c = points.shape[:2]
+    idx = np.arange(r * c).reshape(r, c)
+    pieces = [(idx[0, :], 0), (idx[1:-1, -1], 3), (idx[-1, ::-1], 1), (idx[-2:0:-1, 0], 2)]
+    return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
+
+
 def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=None, butt_lift=None):
     """Two formed plates' region grids side by side in the plane z = 0 (5 x 6 points, 500 mm
     apart; model units of ``unit`` mm), sharing the edge x = 2500 mm (butt 1 of the left,
@@ -326,13 +334,7 @@ def _two_formed_plates(monkeypatch, gap: float, unit: float = 1.0, flat_lift=Non
     from pipeline.hull import follow
     from pipeline.hull.fitup import Edge
 
-    def ring_of(points, hull, tolerance):  # the rectangle's ring: seams the rows, butts the end columns
-        r, c = points.shape[:2]
-        idx = np.arange(r * c).reshape(r, c)
-        pieces = [(idx[0, :], 0), (idx[1:-1, -1], 3), (idx[-1, ::-1], 1), (idx[-2:0:-1, 0], 2)]
-        return np.concatenate([i for i, _ in pieces]), np.concatenate([np.full(len(i), k) for i, k in pieces])
-
-    monkeypatch.setattr(follow, "_grid_ring", ring_of)
+    monkeypatch.setattr(follow, "_grid_ring", _rectangle_ring)
     def plane_at(z_mm):  # each plate's hull is its own plane (the faces that disagree)
         return lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2] - z_mm / unit)
 
@@ -459,6 +461,52 @@ def test_a_formed_corner_with_only_formed_neighbours_at_a_junction_goes_where_th
     assert np.allclose(moves["L"][0], [0.0, 0.0, 3.0], atol=1e-9)
     assert np.allclose(right[0, 0], left[0, -1], atol=1e-9)
     assert np.all(moves["R"][0, 1:] == 0.0)  # the rest of its free seam stays on the hull
+
+
+@pytest.mark.parametrize("lift", [4.0, -3.0])
+def test_a_formed_plate_runs_through_a_junction_on_its_edge(monkeypatch, lift):
+    # KCS: below a formed plate's seam, a formed plate and a strip end together at their
+    # butt (a T). The lower formed plate's corner goes to the strip's corner, 4 mm off the
+    # hull; the upper plate's seam meets the strip beyond the junction, but its grid has no
+    # point at the junction: its nearest point, short of it on the formed plate's side, was
+    # a mean of its neighbours, and the seam's chord passed beside the two corners (KCS: 4.39
+    # mm, its point 12.7 mm short; here 0.89 and 0.67 mm, its point 100 mm short). The plane z = 0, the lower
+    # formed plate L (x 0-2500 mm, y 0-2000) and flat plate F (x 2500-5000) lifted by `lift`,
+    # the upper formed plate U (y 2000-4000) with points every 600 mm along x
+    from pipeline.hull import follow
+    from pipeline.hull.fitup import Edge
+
+    monkeypatch.setattr(follow, "_grid_ring", _rectangle_ring)
+    hull = SimpleNamespace(fit_tolerance=5.0, distance=lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2]))
+
+    def grid(x0, x1, cols, y0, y1, rows, z=0.0):
+        y, x = np.meshgrid(np.linspace(y0, y1, rows), np.linspace(x0, x1, cols), indexing="ij")
+        return np.stack([x, y, np.full_like(x, z)], axis=-1)
+
+    lower, flat, upper = grid(0.0, 2500.0, 6, 0.0, 2000.0, 5), grid(2500.0, 5000.0, 6, 0.0, 2000.0, 5, lift), \
+        grid(0.0, 4800.0, 9, 2000.0, 4000.0, 5)
+    grids = {"L": follow._PlateGrid("L", lower, hull), "U": follow._PlateGrid("U", upper, hull)}
+
+    def record(klass, sides):
+        edges = {side: Edge(side, side.upper(), points, points[:, :2]) for side, points in sides.items()}
+        return SimpleNamespace(klass=klass, edge=edges.get), SimpleNamespace(hull=hull)
+
+    records = {"L": record("formed", {"seam1": lower[-1], "butt1": lower[:, -1]}),
+               "F": record("flat", {"seam1": flat[-1], "butt0": flat[:, 0]}),
+               "U": record("formed", {"seam0": upper[0]})}
+    pairs = [SimpleNamespace(a="L", b="F", side_a="butt1", side_b="butt0", step_max=abs(lift), limit=2.1),
+             SimpleNamespace(a="L", b="U", side_a="seam1", side_b="seam0", step_max=0.0, limit=2.1),
+             SimpleNamespace(a="F", b="U", side_a="seam1", side_b="seam0", step_max=abs(lift), limit=2.1)]
+    moves = follow.shell_moves(grids, pairs, records, 1.0)
+    junction = np.array([2500.0, 2000.0, lift])  # the flat plate's corner
+    assert np.allclose(lower[-1, -1] + moves["L"][-1, -1], junction, atol=1e-9)  # the junction rule's
+    seam = upper[0] + moves["U"][0]
+    # beyond the junction the seam lies on the flat plate's edge ...
+    assert np.allclose(seam[5:, 2], lift, atol=1e-9)
+    # ... and its chord from 2400 to 3000 mm passes through the junction
+    at = seam[4] + (2500.0 - 2400.0) / 600.0 * (seam[5] - seam[4])
+    assert np.linalg.norm(at - junction) <= 1e-9
+    assert np.abs(seam[:, 2]).max() <= 5.0 + 1e-9
 
 
 @pytest.mark.parametrize("cut", [False, True])
