@@ -100,6 +100,8 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     data = copy.deepcopy(data)
     data["strake"]["plan"]["method"] = method
     data["strake"]["plan"]["seams"] = seams
+    # "none" plans without one, whatever the config ships
+    data["strake"]["plan"].pop("objective", None)
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
     data["strake"].update(fit_up_of(fit_up))

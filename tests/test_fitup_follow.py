@@ -463,6 +463,42 @@ def test_a_formed_corner_with_only_formed_neighbours_at_a_junction_goes_where_th
     assert np.all(moves["R"][0, 1:] == 0.0)  # the rest of its free seam stays on the hull
 
 
+def _t_junction(monkeypatch, left: tuple, right: tuple, upper_step: float, left_from: float = 0.0):
+    """Three plates of the plane z = 0 (mm) meeting at a T: below, the left (x ``left_from``-2500, y
+    0-2000) and the right (x 2500-5000), each (class, lift: its edges that far above the
+    plane); above them the formed plate U (y 2000-4000) with points every ``upper_step``
+    along x. (grids, pairs, records, the three grids' points by name)."""
+    from pipeline.hull import follow
+    from pipeline.hull.fitup import Edge
+
+    monkeypatch.setattr(follow, "_grid_ring", _rectangle_ring)
+    hull = SimpleNamespace(fit_tolerance=5.0, distance=lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2]))
+
+    def grid(x0, x1, step, y0, z=0.0):
+        cols = int(round((x1 - x0) / step)) + 1
+        y, x = np.meshgrid(np.linspace(y0, y0 + 2000.0, 5), np.linspace(x0, x1, cols), indexing="ij")
+        return np.stack([x, y, np.full_like(x, z)], axis=-1)
+
+    points = {"L": grid(left_from, 2500.0, 500.0, 0.0, left[1]), "R": grid(2500.0, 5000.0, 500.0, 0.0, right[1]),
+              "U": grid(0.0, 5000.0 - 5000.0 % upper_step, upper_step, 2000.0)}
+    # a formed plate's region grid lies on the hull
+    grids = {name: follow._PlateGrid(name, points[name] * np.array([1.0, 1.0, 0.0]), hull)
+             for name, kind in (("L", left[0]), ("R", right[0]), ("U", "formed")) if kind == "formed"}
+
+    def record(klass, sides):
+        edges = {side: Edge(side, side.upper(), q, q[:, :2]) for side, q in sides.items()}
+        return SimpleNamespace(klass=klass, edge=edges.get), SimpleNamespace(hull=hull)
+
+    records = {"L": record(left[0], {"seam1": points["L"][-1], "butt1": points["L"][:, -1]}),
+               "R": record(right[0], {"seam1": points["R"][-1], "butt0": points["R"][:, 0]}),
+               "U": record("formed", {"seam0": points["U"][0]})}
+    step = abs(left[1] - right[1])
+    pairs = [SimpleNamespace(a="L", b="R", side_a="butt1", side_b="butt0", step_max=step, limit=2.1),
+             SimpleNamespace(a="L", b="U", side_a="seam1", side_b="seam0", step_max=abs(left[1]), limit=2.1),
+             SimpleNamespace(a="R", b="U", side_a="seam1", side_b="seam0", step_max=abs(right[1]), limit=2.1)]
+    return grids, pairs, records, points
+
+
 @pytest.mark.parametrize("lift", [4.0, -3.0])
 def test_a_formed_plate_runs_through_a_junction_on_its_edge(monkeypatch, lift):
     # KCS: below a formed plate's seam, a formed plate and a strip end together at their
@@ -470,43 +506,38 @@ def test_a_formed_plate_runs_through_a_junction_on_its_edge(monkeypatch, lift):
     # hull; the upper plate's seam meets the strip beyond the junction, but its grid has no
     # point at the junction: its nearest point, short of it on the formed plate's side, was
     # a mean of its neighbours, and the seam's chord passed beside the two corners (KCS: 4.39
-    # mm, its point 12.7 mm short; here 0.89 and 0.67 mm, its point 100 mm short). The plane z = 0, the lower
-    # formed plate L (x 0-2500 mm, y 0-2000) and flat plate F (x 2500-5000) lifted by `lift`,
-    # the upper formed plate U (y 2000-4000) with points every 600 mm along x
-    from pipeline.hull import follow
-    from pipeline.hull.fitup import Edge
+    # mm, its point 12.7 mm short; here 0.89 and 0.67 mm, its point 100 mm short). Here the
+    # lower formed plate L, the flat plate R lifted by `lift`, U's points 600 mm apart
+    from pipeline.hull.follow import shell_moves
 
-    monkeypatch.setattr(follow, "_grid_ring", _rectangle_ring)
-    hull = SimpleNamespace(fit_tolerance=5.0, distance=lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2]))
-
-    def grid(x0, x1, cols, y0, y1, rows, z=0.0):
-        y, x = np.meshgrid(np.linspace(y0, y1, rows), np.linspace(x0, x1, cols), indexing="ij")
-        return np.stack([x, y, np.full_like(x, z)], axis=-1)
-
-    lower, flat, upper = grid(0.0, 2500.0, 6, 0.0, 2000.0, 5), grid(2500.0, 5000.0, 6, 0.0, 2000.0, 5, lift), \
-        grid(0.0, 4800.0, 9, 2000.0, 4000.0, 5)
-    grids = {"L": follow._PlateGrid("L", lower, hull), "U": follow._PlateGrid("U", upper, hull)}
-
-    def record(klass, sides):
-        edges = {side: Edge(side, side.upper(), points, points[:, :2]) for side, points in sides.items()}
-        return SimpleNamespace(klass=klass, edge=edges.get), SimpleNamespace(hull=hull)
-
-    records = {"L": record("formed", {"seam1": lower[-1], "butt1": lower[:, -1]}),
-               "F": record("flat", {"seam1": flat[-1], "butt0": flat[:, 0]}),
-               "U": record("formed", {"seam0": upper[0]})}
-    pairs = [SimpleNamespace(a="L", b="F", side_a="butt1", side_b="butt0", step_max=abs(lift), limit=2.1),
-             SimpleNamespace(a="L", b="U", side_a="seam1", side_b="seam0", step_max=0.0, limit=2.1),
-             SimpleNamespace(a="F", b="U", side_a="seam1", side_b="seam0", step_max=abs(lift), limit=2.1)]
-    moves = follow.shell_moves(grids, pairs, records, 1.0)
+    grids, pairs, records, points = _t_junction(monkeypatch, ("formed", 0.0), ("flat", lift), 600.0)
+    moves = shell_moves(grids, pairs, records, 1.0)
     junction = np.array([2500.0, 2000.0, lift])  # the flat plate's corner
-    assert np.allclose(lower[-1, -1] + moves["L"][-1, -1], junction, atol=1e-9)  # the junction rule's
-    seam = upper[0] + moves["U"][0]
+    assert np.allclose(points["L"][-1, -1] + moves["L"][-1, -1], junction, atol=1e-9)  # the junction rule's
+    seam = points["U"][0] + moves["U"][0]
     # beyond the junction the seam lies on the flat plate's edge ...
     assert np.allclose(seam[5:, 2], lift, atol=1e-9)
     # ... and its chord from 2400 to 3000 mm passes through the junction
     at = seam[4] + (2500.0 - 2400.0) / 600.0 * (seam[5] - seam[4])
     assert np.linalg.norm(at - junction) <= 1e-9
     assert np.abs(seam[:, 2]).max() <= 5.0 + 1e-9
+
+
+def test_a_formed_plate_runs_through_two_strips_ends_on_its_edge(monkeypatch):
+    # KCS's yard plan: two strips that end together on a formed plate's butt, their corners
+    # 2.3 mm apart; the formed plate's point 0.7 mm from them found its closest point at
+    # their edges' ends (another neighbour's), so neither claimed it, and left to the
+    # Laplace equation it stood 5.6 mm from them (5.43 mm steps). Here two flat plates 1 and
+    # 3 mm above the plane end at U's point x = 2500 mm (the left one from x = 1000 mm: U's
+    # seam short of it is a free edge, on the hull): it goes to the centre of their ends, 1 mm
+    # from each
+    from pipeline.hull.follow import shell_moves
+
+    grids, pairs, records, points = _t_junction(monkeypatch, ("flat", 1.0), ("flat", 3.0), 500.0, 1000.0)
+    moves = shell_moves(grids, pairs, records, 1.0)
+    seam = points["U"][0] + moves["U"][0]
+    assert np.allclose(seam[5], [2500.0, 2000.0, 2.0], atol=1e-9)
+    assert np.allclose(seam[3:5, 2], 1.0, atol=1e-9) and np.allclose(seam[6:, 2], 3.0, atol=1e-9)
 
 
 @pytest.mark.parametrize("cut", [False, True])

@@ -58,7 +58,13 @@ from .fitup import (
 )
 from .joint import RULE as JOINT_RULE
 from .joint import joint_moves
-from .junction import JUNCTION_RULE, JunctionStep, junction_moves, junction_steps
+from .junction import (
+    JUNCTION_RULE,
+    JunctionStep,
+    junction_moves,
+    junction_steps,
+    smallest_ball,
+)
 from .ownsurface import hull_distance
 from .plateshop import formed_verdict
 from .pull import RULE as PULL_RULE
@@ -608,8 +614,10 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     for them (:func:`_anchor`): two flat or strip corners a few millimetres apart at one
     junction would otherwise leave a formed plate stepping by the whole spread from one of
     them, or two formed plates from each other. Each move ends within the tolerance of the
-    hull (:func:`_held`). Returns the junctions: (plate, corner on the hull (3,), its move (3,))
-    of each corner moved."""
+    hull (:func:`_held`). Returns the junctions a formed plate's edge may run past, each as
+    (the formed plate whose corner went there or None, the point (3,)): each corner moved, at
+    its target, and each meeting of flat or strip plates' edge ends, at the centre of the
+    smallest ball holding them."""
     ends, owners = [], []
     for name, (edges, _) in records.items():
         if edges.klass in MOVABLE_NEIGHBOURS:
@@ -634,8 +642,8 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
             tolerance.append(plate.hull.fit_tolerance)
             plates.append(name)
             neighbours.append(welded[name])
-    points, tolerance, index = np.array(points), np.array(tolerance), np.array(index)
-    found, targets = junction_moves(points, np.array(reach), plates, neighbours, np.array(ends), owners)
+    points, tolerance, index, reach = np.array(points), np.array(tolerance), np.array(index), np.array(reach)
+    found, targets = junction_moves(points, reach, plates, neighbours, np.array(ends), owners)
     move = targets[found] - points[found]
     size = np.linalg.norm(move, axis=1)
     owner = np.array(plates)[found]
@@ -647,38 +655,58 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     fixed[where] = True
     value[where] = move
     best[where] = np.minimum(size, tolerance[found])
-    return list(zip(owner, points[found], move))
+    return [*zip(owner, points[found] + move), *_end_junctions(np.array(ends), owners, float(reach.max()))]
+
+
+def _end_junctions(ends: np.ndarray, owners: list, reach: float) -> list:
+    """(None, the centre of the smallest ball holding them (3,)) of each group of flat or strip
+    plates' edge ends (E, 3) of two plates or more within ``reach`` of one another (model
+    units), a ball of radius at most half of it (as :func:`.junction.junction_moves`)."""
+    from scipy.spatial import cKDTree
+
+    out, seen = [], set()
+    for hits in cKDTree(ends).query_ball_point(ends, r=reach):
+        group = tuple(sorted(hits))
+        if group in seen or len({owners[k] for k in group}) < 2:
+            continue
+        seen.add(group)
+        centre, radius = smallest_ball(ends[list(group)])
+        if radius <= 0.5 * reach:
+            out.append((None, centre))
+    return out
 
 
 def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: list, fixed, value, best) -> None:
-    """A formed plate's edge that runs past a junction where another formed plate's corner
-    went (a T: the corner and a flat or strip neighbour's edge end meet on this plate's
-    edge) passes through the corner's target: its edge point nearer the junction is moved so
+    """A formed plate's edge that runs past a junction (:func:`_junction_corners`: where a
+    formed plate's corner went, or where flat or strip plates' edge ends meet, on this
+    plate's edge: a T) passes through it: its edge point nearer the junction is moved so
     that the chord to the next point meets it, where no flat or strip neighbour claims that
-    point. Left to the Laplace equation, the point is a mean of its neighbours while the
-    corner beside it is held: KCS's formed plate above a formed plate and a strip that end
-    together on its seam stepped 4.39 mm from both at the junction, its point 12.7 mm away.
-    ``junctions``: (plate, corner on the hull (3,), its move (3,)), from
-    :func:`_junction_corners`."""
+    point (the point nearest the junction finds its closest point at their edges' ends, which
+    are another neighbour's). Left to the Laplace equation, the point is a mean of its
+    neighbours while the corners beside it are held: KCS's formed plate above a formed plate
+    and a strip that end together on its seam stepped 4.39 mm from both at the junction, its
+    point 12.7 mm short of it; in KCS's yard plan a formed plate across a butt from two strips
+    that end together there, 5.43 mm. ``junctions``: (the formed plate whose corner went
+    there or None, the point (3,))."""
     if not junctions:
         return
-    reach = np.array([grids[n].hull.fit_tolerance for n in names])[:, None]
+    reach = np.array([2.0 * grids[n].hull.fit_tolerance for n in names])[:, None]
     low = np.array([grids[n].flat[grids[n].ring].min(axis=0) for n in names]) - reach
     high = np.array([grids[n].flat[grids[n].ring].max(axis=0) for n in names]) + reach
-    for owner, point, move in junctions:
-        for k in np.flatnonzero(np.all((low <= point) & (point <= high), axis=1)):
+    for owner, target in junctions:
+        for k in np.flatnonzero(np.all((low <= target) & (target <= high), axis=1)):
             name = names[k]
             plate = grids[name]
-            tolerance = plate.hull.fit_tolerance
             if name == owner:
                 continue
             a, b = plate.flat[plate.ring], plate.flat[np.roll(plate.ring, -1)]
             ab = b - a
-            f = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300),
+            f = np.clip(np.einsum("ij,ij->i", target - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300),
                         0.0, 1.0)
-            gap = np.linalg.norm(a + f[:, None] * ab - point, axis=1)
+            feet = a + f[:, None] * ab
+            gap = np.linalg.norm(feet - target, axis=1)
             segment = int(np.argmin(gap))
-            if gap[segment] > tolerance:
+            if gap[segment] > reach[k, 0]:
                 continue  # the junction is not on this plate's edge
             near, far, w = plate.ring[segment], plate.ring[(segment + 1) % len(plate.ring)], float(f[segment])
             if w > 0.5:
@@ -686,13 +714,12 @@ def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: l
             at, beyond = start[name] + near, start[name] + far
             if near in plate.corners or fixed[at]:
                 continue  # a corner is the junction rule's; a flat or strip neighbour's claim stands
-            far_moved = plate.flat[far] + (value[beyond] if fixed[beyond] else move)
-            target = point + move
+            far_moved = plate.flat[far] + (value[beyond] if fixed[beyond] else target - feet[segment])
             mine = (target - w * far_moved) / (1.0 - w) - plate.flat[near]
-            mine = _held(plate.flat[near][None], mine[None], tolerance, plate.distance)[0]
+            mine = _held(plate.flat[near][None], mine[None], plate.hull.fit_tolerance, plate.distance)[0]
             fixed[at] = True
             value[at] = mine
-            best[at] = min(float(np.linalg.norm(mine)), tolerance)
+            best[at] = min(float(np.linalg.norm(mine)), plate.hull.fit_tolerance)
 
 
 def _held(points: np.ndarray, move: np.ndarray, tolerance: float, distance) -> np.ndarray:
