@@ -568,7 +568,7 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
     junctions = _junction_corners(grids, names, start, pairs, records, fixed, value, best)
-    _edges_through_junctions(grids, names, start, junctions, fixed, value, best)
+    _edges_through_junctions(grids, names, start, junctions, paired, records, fixed, value, best)
     # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
     # meet those, and can meet its formed neighbour halfway only where nothing else holds it
     best = np.where(fixed, -np.inf, best)
@@ -615,9 +615,9 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
     junction would otherwise leave a formed plate stepping by the whole spread from one of
     them, or two formed plates from each other. Each move ends within the tolerance of the
     hull (:func:`_held`). Returns the junctions a formed plate's edge may run past, each as
-    (the formed plate whose corner went there or None, the point (3,)): each corner moved, at
-    its target, and each meeting of flat or strip plates' edge ends, at the centre of the
-    smallest ball holding them."""
+    (the formed plate whose corner went there or None, the point (3,)): each corner moved,
+    where it now lies, and each meeting of flat or strip plates' edge ends, at the centre of
+    the smallest ball holding them."""
     ends, owners = [], []
     for name, (edges, _) in records.items():
         if edges.klass in MOVABLE_NEIGHBOURS:
@@ -660,8 +660,8 @@ def _junction_corners(grids: dict, names: list, start: dict, pairs: list, record
 
 def _end_junctions(ends: np.ndarray, owners: list, reach: float) -> list:
     """(None, the centre of the smallest ball holding them (3,)) of each group of flat or strip
-    plates' edge ends (E, 3) of two plates or more within ``reach`` of one another (model
-    units), a ball of radius at most half of it (as :func:`.junction.junction_moves`)."""
+    plates' edge ends (E, 3): the ends within ``reach`` (model units) of one end, of two
+    plates or more, in a ball of radius at most half of it (as :func:`.junction.junction_moves`)."""
     from scipy.spatial import cKDTree
 
     out, seen = [], set()
@@ -676,18 +676,22 @@ def _end_junctions(ends: np.ndarray, owners: list, reach: float) -> list:
     return out
 
 
-def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: list, fixed, value, best) -> None:
+def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: list, paired: dict, records: dict,
+                             fixed, value, best) -> None:
     """A formed plate's edge that runs past a junction (:func:`_junction_corners`: where a
     formed plate's corner went, or where flat or strip plates' edge ends meet, on this
     plate's edge: a T) passes through it: its edge point nearer the junction is moved so
-    that the chord to the next point meets it, where no flat or strip neighbour claims that
-    point (the point nearest the junction finds its closest point at their edges' ends, which
-    are another neighbour's). Left to the Laplace equation, the point is a mean of its
+    that the chord to the next point meets it (the move's part along the chord left out: it
+    would only slide the point), where no flat or strip neighbour claims that point (the
+    point nearest the junction finds its closest point at their edges' ends, which are
+    another neighbour's). Left to the Laplace equation, the point is a mean of its
     neighbours while the corners beside it are held: KCS's formed plate above a formed plate
     and a strip that end together on its seam stepped 4.39 mm from both at the junction, its
     point 12.7 mm short of it; in KCS's yard plan a formed plate across a butt from two strips
-    that end together there, 5.43 mm. ``junctions``: (the formed plate whose corner went
-    there or None, the point (3,))."""
+    that end together there, 5.43 mm. Only a side the plate shares with a neighbour
+    (``paired``) runs past a junction: the shell's free edges stay on the hull, and so do the
+    corners where a plate's TRIM edge ends. ``junctions``: (the formed plate whose corner
+    went there or None, the point (3,))."""
     if not junctions:
         return
     reach = np.array([2.0 * grids[n].hull.fit_tolerance for n in names])[:, None]
@@ -699,23 +703,33 @@ def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: l
             plate = grids[name]
             if name == owner:
                 continue
-            a, b = plate.flat[plate.ring], plate.flat[np.roll(plate.ring, -1)]
+            ring = plate.ring
+            a, b = plate.flat[ring], plate.flat[np.roll(ring, -1)]
             ab = b - a
-            f = np.clip(np.einsum("ij,ij->i", target - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300),
-                        0.0, 1.0)
+            length = np.linalg.norm(ab, axis=1)
+            f = np.clip(np.einsum("ij,ij->i", target - a, ab) / np.maximum(length**2, 1e-300), 0.0, 1.0)
             feet = a + f[:, None] * ab
             gap = np.linalg.norm(feet - target, axis=1)
+            sides = [CODES[side] for side in paired[name] if side in CODES]
+            size = float(np.ptp(plate.flat[ring], axis=0).max())
+            # on a shared side (both ends), not a collapsed seam end's run of one point
+            usable = np.isin(plate.codes, sides) & np.isin(np.roll(plate.codes, -1), sides) & (length > 1e-9 * size)
+            gap = np.where(usable, gap, np.inf)
             segment = int(np.argmin(gap))
             if gap[segment] > reach[k, 0]:
                 continue  # the junction is not on this plate's edge
-            near, far, w = plate.ring[segment], plate.ring[(segment + 1) % len(plate.ring)], float(f[segment])
+            near, far, w = ring[segment], ring[(segment + 1) % len(ring)], float(f[segment])
             if w > 0.5:
                 near, far, w = far, near, 1.0 - w
             at, beyond = start[name] + near, start[name] + far
-            if near in plate.corners or fixed[at]:
-                continue  # a corner is the junction rule's; a flat or strip neighbour's claim stands
+            pinned = _trim_corners(plate, records[name][0] if name in records else None)
+            at_corner = np.linalg.norm(plate.flat[plate.corners] - plate.flat[near], axis=1).min() <= 1e-9 * size
+            if at_corner or fixed[at] or np.isin([near, far], pinned).any():
+                continue  # a corner is the junction rule's, a claim made stands, a trim's corner stays
             far_moved = plate.flat[far] + (value[beyond] if fixed[beyond] else target - feet[segment])
             mine = (target - w * far_moved) / (1.0 - w) - plate.flat[near]
+            along = ab[segment] / length[segment]
+            mine = mine - (mine @ along) * along
             mine = _held(plate.flat[near][None], mine[None], plate.hull.fit_tolerance, plate.distance)[0]
             fixed[at] = True
             value[at] = mine

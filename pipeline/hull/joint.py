@@ -26,8 +26,8 @@ between the edges, taken across the edge (the part along it is no step), is held
 octagon (which reaches 1.08 times its sides' distance at its corners) whose sides stand at
 the sum of two slacks of the edge: up to 0.45 of the limit, and beyond. Where both edges end
 together (a corner at a junction of three or four plates), the part along the edge of the
-gap between their ends is held within the same slacks: it is a gap across the edge of the
-plate beyond the junction. The programme
+gap between their ends is held likewise, with slacks of its own: it is a gap across the
+edge of the plate beyond the junction. The programme
 minimises the sum over the edges of the second slacks (mm: how far each edge's largest step
 exceeds 0.45 of the limit: the pairs that misfit are those past the limit), at a hundredth of
 the weight the first ones (no step made larger for nothing), and, far below both, how far the
@@ -131,10 +131,10 @@ def joint_moves(records: dict, pairs: list, mm_per_unit: float, strips: bool = T
             continue
         reach = JUNCTION_REACH * max(records[pair.a][1].hull.fit_tolerance, records[pair.b][1].hull.fit_tolerance)
         got = _gaps(ea, eb, mm_per_unit, reach)  # one way: the common part is the same edge seen from either side
-        if got is not None:
-            for points, feet, directions in got:
-                _edge_rows(bodies.get(pair.a), bodies.get(pair.b), points, feet, directions, len(limits), triplets,
-                           rhs)
+        # the ends' gap along the edge has slacks of its own: two flat plates' ends part along
+        # the edge however their planes turn, and that must not excuse their steps across it
+        for points, feet, directions in got or ():
+            _edge_rows(bodies.get(pair.a), bodies.get(pair.b), points, feet, directions, len(limits), triplets, rhs)
             limits.append(pair.limit / mm_per_unit)
     if not limits:
         return {}
@@ -292,16 +292,20 @@ def _gaps(mine, theirs, mm_per_unit: float, reach: float):
 def _junction_ends(mine: np.ndarray, theirs: np.ndarray, reach: float):
     """(ends of ``mine`` (M, 3), the ends of ``theirs`` they meet (M, 3), the direction along
     ``mine`` there (M, 1, 3)) for the ends of two edges' points (N, 3) that lie within
-    ``reach`` of each other; None where no end meets one."""
+    ``reach`` of each other, the edges taken the way round that pairs their ends nearest
+    (each end of one meets at most one end of the other); None where no end meets one or
+    either edge is shorter than twice the reach (its two ends are one junction)."""
     ends, tangents = mine[[0, -1]], mine[[1, -1]] - mine[[0, -2]]
     other = theirs[[0, -1]]
-    distance = np.linalg.norm(ends[:, None, :] - other[None, :, :], axis=2)
-    nearest = distance.argmin(axis=1)
-    meet = distance[np.arange(2), nearest] <= reach
-    if not meet.any() or np.allclose(ends[0], ends[1]):
+    if min(np.linalg.norm(ends[1] - ends[0]), np.linalg.norm(other[1] - other[0])) < 2.0 * reach:
+        return None
+    if np.linalg.norm(ends - other, axis=1).sum() > np.linalg.norm(ends - other[::-1], axis=1).sum():
+        other = other[::-1]
+    meet = np.linalg.norm(ends - other, axis=1) <= reach
+    if not meet.any():
         return None
     along = tangents[meet] / np.maximum(np.linalg.norm(tangents[meet], axis=1, keepdims=True), 1e-300)
-    return ends[meet], other[nearest[meet]], along[:, None, :]
+    return ends[meet], other[meet], along[:, None, :]
 
 
 def _solve(bodies: dict, size: int, triplets: list, rhs: list, limits: np.ndarray, mm_per_unit: float) -> dict:
