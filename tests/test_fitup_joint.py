@@ -481,3 +481,17 @@ def test_two_strips_that_slide_along_their_butt_keep_their_corners_together():
     # every plate stays within the tolerance of the plane
     for name in ("A", "B"):
         assert np.abs(moved(name, records[name][1].hull.result.mesh[0])[:, 2]).max() <= TOLERANCE
+
+
+def test_two_edges_ends_are_paired_the_way_round_that_meets():
+    from pipeline.hull.joint import _junction_ends
+
+    mine = np.column_stack([np.linspace(0.0, 1000.0, 11), np.zeros(11), np.zeros(11)])
+    theirs = mine[::-1] + np.array([3.0, 0.5, 0.0])  # the same edge, the other way round
+    ends, met, along = _junction_ends(mine, theirs, 10.0)
+    assert np.allclose(met - ends, [3.0, 0.5, 0.0]) and np.allclose(along[:, 0], [1.0, 0.0, 0.0])
+    # a butt beside a longer seam: only the end they share is a junction
+    ends, met, _ = _junction_ends(mine[:6], theirs, 10.0)
+    assert np.allclose(ends, [[0.0, 0.0, 0.0]]) and np.allclose(met, [[3.0, 0.5, 0.0]])
+    # an edge shorter than twice the reach has one junction at both ends: none is held
+    assert _junction_ends(mine[:2] * 0.01, theirs[-2:] * 0.01, 10.0) is None
