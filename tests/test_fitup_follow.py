@@ -475,7 +475,7 @@ def _t_junction(monkeypatch, left: tuple, right: tuple, upper_step: float, left_
     hull = SimpleNamespace(fit_tolerance=5.0, distance=lambda points: np.abs(np.asarray(points).reshape(-1, 3)[:, 2]))
 
     def grid(x0, x1, step, y0, z=0.0):
-        cols = int(round((x1 - x0) / step)) + 1
+        cols = round((x1 - x0) / step) + 1
         y, x = np.meshgrid(np.linspace(y0, y0 + 2000.0, 5), np.linspace(x0, x1, cols), indexing="ij")
         return np.stack([x, y, np.full_like(x, z)], axis=-1)
 
