@@ -26,7 +26,8 @@ edge takes the flat plates' step at its end, and within a grid cell or two no lo
 discrete Laplace equation damps a difference along a joined edge by about 0.27 per point).
 A formed plate's corner between two flat or strip neighbours whose corners part goes between
 them, and a formed corner whose neighbours there are formed goes where theirs go
-(:mod:`.junction`).
+(:mod:`.junction`); a formed plate's edge that runs past such a junction (a T) passes
+through it.
 A formed plate stays formed: the strips and the flat plates left flat keep their
 developments, the formed ones that move are developed again from their moved shape (pin jig, templates and heating
 lines follow it). Before the forming, a flat plate that misfits a flat or strip neighbour
@@ -529,7 +530,9 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
     edge points on a flat or strip neighbour's edge moved onto it (ending within the fit
     tolerance of the hull, :func:`_held`),
     those on a formed neighbour's edge that steps from it over the limit as developed moved
-    halfway to it where no flat or strip neighbour holds them, the shell's free edges still, and the
+    halfway to it where no flat or strip neighbour holds them, corners at junctions and the
+    edge points beside a junction on an edge as :func:`_junction_corners` and
+    :func:`_edges_through_junctions` say, the shell's free edges still, and the
     discrete Laplace equation everywhere else, over all the formed plates' grids joined at
     their other shared edges."""
     names = sorted(grids)
