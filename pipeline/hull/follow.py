@@ -571,7 +571,7 @@ def shell_moves(grids: dict, pairs: list, records: dict, mm_per_unit: float) -> 
             elif other in grids and theirs in grids[other].lines and mine in plate.lines:
                 _join(plate, mine, grids[other], theirs, start[me], start[other], across)
     junctions = _junction_corners(grids, names, start, pairs, records, fixed, value, best)
-    _edges_through_junctions(grids, names, start, junctions, paired, records, fixed, value, best)
+    _edges_through_junctions(grids, names, start, junctions, paired, records, fixed, value)
     # after the flat and strip neighbours' claims, which they keep: a formed plate is shaped to
     # meet those, and can meet its formed neighbour halfway only where nothing else holds it
     best = np.where(fixed, -np.inf, best)
@@ -680,7 +680,7 @@ def _end_junctions(ends: np.ndarray, owners: list, reach: float) -> list:
 
 
 def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: list, paired: dict, records: dict,
-                             fixed, value, best) -> None:
+                             fixed, value) -> None:
     """A formed plate's edge that runs past a junction (:func:`_junction_corners`: where a
     formed plate's corner went, or where flat or strip plates' edge ends meet, on this
     plate's edge: a T) passes through it: its edge point nearer the junction is moved so
@@ -700,32 +700,27 @@ def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: l
     reach = np.array([2.0 * grids[n].hull.fit_tolerance for n in names])[:, None]
     low = np.array([grids[n].flat[grids[n].ring].min(axis=0) for n in names]) - reach
     high = np.array([grids[n].flat[grids[n].ring].max(axis=0) for n in names]) + reach
+    edges = {}  # a plate's ring segments, worked out once for all the junctions near it
     for owner, target in junctions:
         for k in np.flatnonzero(np.all((low <= target) & (target <= high), axis=1)):
             name = names[k]
-            plate = grids[name]
             if name == owner:
                 continue
-            ring = plate.ring
-            a, b = plate.flat[ring], plate.flat[np.roll(ring, -1)]
-            ab = b - a
-            length = np.linalg.norm(ab, axis=1)
+            plate = grids[name]
+            if name not in edges:
+                edges[name] = _ring_segments(plate, paired[name], records[name][0] if name in records else None)
+            a, ab, length, usable, pinned, size = edges[name]
             f = np.clip(np.einsum("ij,ij->i", target - a, ab) / np.maximum(length**2, 1e-300), 0.0, 1.0)
             feet = a + f[:, None] * ab
-            gap = np.linalg.norm(feet - target, axis=1)
-            sides = [CODES[side] for side in paired[name] if side in CODES]
-            size = float(np.ptp(plate.flat[ring], axis=0).max())
-            # on a shared side (both ends), not a collapsed seam end's run of one point
-            usable = np.isin(plate.codes, sides) & np.isin(np.roll(plate.codes, -1), sides) & (length > 1e-9 * size)
-            gap = np.where(usable, gap, np.inf)
+            gap = np.where(usable, np.linalg.norm(feet - target, axis=1), np.inf)
             segment = int(np.argmin(gap))
             if gap[segment] > reach[k, 0]:
                 continue  # the junction is not on this plate's edge
+            ring = plate.ring
             near, far, w = ring[segment], ring[(segment + 1) % len(ring)], float(f[segment])
             if w > 0.5:
                 near, far, w = far, near, 1.0 - w
             at, beyond = start[name] + near, start[name] + far
-            pinned = _trim_corners(plate, records[name][0] if name in records else None)
             at_corner = np.linalg.norm(plate.flat[plate.corners] - plate.flat[near], axis=1).min() <= 1e-9 * size
             if at_corner or fixed[at] or np.isin([near, far], pinned).any():
                 continue  # a corner is the junction rule's, a claim made stands, a trim's corner stays
@@ -733,10 +728,23 @@ def _edges_through_junctions(grids: dict, names: list, start: dict, junctions: l
             mine = (target - w * far_moved) / (1.0 - w) - plate.flat[near]
             along = ab[segment] / length[segment]
             mine = mine - (mine @ along) * along
-            mine = _held(plate.flat[near][None], mine[None], plate.hull.fit_tolerance, plate.distance)[0]
             fixed[at] = True
-            value[at] = mine
-            best[at] = min(float(np.linalg.norm(mine)), plate.hull.fit_tolerance)
+            value[at] = _held(plate.flat[near][None], mine[None], plate.hull.fit_tolerance, plate.distance)[0]
+
+
+def _ring_segments(plate: _PlateGrid, paired: set, edges) -> tuple:
+    """A formed plate's ring segments (each from a ring point to the next): their starts (N, 3),
+    vectors (N, 3) and lengths (N,), which of them lie on a side the plate shares with a
+    neighbour (``paired``; both ends, and not a collapsed seam end's run of one point), the
+    grid corners where its TRIM edge ends (``edges``: its PlateEdges) and the ring's size."""
+    ring = plate.ring
+    a = plate.flat[ring]
+    ab = plate.flat[np.roll(ring, -1)] - a
+    length = np.linalg.norm(ab, axis=1)
+    size = float(np.ptp(a, axis=0).max())
+    sides = [CODES[side] for side in paired if side in CODES]
+    usable = np.isin(plate.codes, sides) & np.isin(np.roll(plate.codes, -1), sides) & (length > 1e-9 * size)
+    return a, ab, length, usable, _trim_corners(plate, edges), size
 
 
 def _held(points: np.ndarray, move: np.ndarray, tolerance: float, distance) -> np.ndarray:
