@@ -100,6 +100,10 @@ def test_two_flat_plates_that_step_are_pulled_to_meet_on_the_hull(monkeypatch, u
         assert check.share == 1.0 and not check.refused
         assert 0.45 * lift < check.largest_pull_mm < 0.6 * lift
         assert check.distance_mm <= 0.5 * lift + 1e-6 and check.strain < PULL_STRAIN
+        # the root mean square is of the same pulled points as the largest distance
+        gaps = np.abs(pulls[name].apply(points)[:, 2] - hull_z)
+        assert check.distance == pytest.approx(gaps.max())
+        assert check.rms_distance == pytest.approx(np.sqrt(np.mean(gaps ** 2)))
 
 
 K = (DEGREE + 1) ** 2  # the pull's polynomial terms
@@ -191,6 +195,9 @@ def test_the_shoulder_plates_pulled_at_erection_meet_and_keep_their_developments
         assert plate["erection_pull"]["bending_stress_mpa"] <= 0.25 * 355.0
         assert plate["erection_pull"]["stretch"] <= PULL_STRAIN
         assert plate["hull_fit"]["max_distance"] <= 5.0 and plate["hull_fit"]["passed"]
+        # the rms is the pulled plate's too (no larger than its largest distance), the one before kept
+        assert plate["hull_fit"]["rms_distance"] <= plate["hull_fit"]["max_distance"]
+        assert plate["hull_fit"]["before_pull_rms_distance"] == was["hull_fit"]["rms_distance"]
         # the OBJ is the plate as pulled: its vertices moved by about the pull, not more (a flat
         # plate's OBJ is its region on the hull, the pull measured on its plane: within 0.1 %)
         moved = _obj(outs["pull"] / f"{name}.obj") - _obj(outs["follow"] / f"{name}.obj")

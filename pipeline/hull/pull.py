@@ -328,8 +328,8 @@ def bending(before: np.ndarray, after: np.ndarray, faces: np.ndarray) -> np.ndar
 class PullCheck:
     """What a pull does to its plate: the share of it taken (0: none), its largest move
     (mm), the plate's largest distance from its surface as pulled (mm), the bending stress
-    and the stretch it puts in, and why a larger share was refused ("" when the whole was
-    taken)."""
+    and the stretch it puts in, why a larger share was refused ("" when the whole was
+    taken) and the root mean square of its points' distances as pulled."""
 
     share: float
     largest_pull_mm: float
@@ -338,6 +338,7 @@ class PullCheck:
     stress_mpa: float
     strain: float
     refused: str = ""
+    rms_distance: float = 0.0  # model units
 
 
 def check_pull(base: np.ndarray, faces: np.ndarray, steps: tuple, distance, tolerance: float, thickness_mm: float,
@@ -358,7 +359,8 @@ def check_pull(base: np.ndarray, faces: np.ndarray, steps: tuple, distance, tole
     for share in (*PULL_SHARES, 0.0):
         moved = apply_steps((*steps[:-1], steps[-1].scaled(share)), base)
         largest = float(np.linalg.norm(moved - base, axis=1).max()) if len(base) else 0.0
-        off = float(np.max(distance(moved))) if len(moved) else 0.0
+        gaps = np.asarray(distance(moved), dtype=np.float64) if len(moved) else np.zeros(1)
+        off = float(np.max(gaps))
         kappa = bending(base, moved, faces)
         stress = float(modulus * thickness_mm * (kappa.max() if len(kappa) else 0.0) / mm_per_unit / 2.0)
         strain = float(np.max(np.abs(np.linalg.norm(moved[edges[:, 0]] - moved[edges[:, 1]], axis=1) / length - 1.0)))
@@ -369,7 +371,8 @@ def check_pull(base: np.ndarray, faces: np.ndarray, steps: tuple, distance, tole
              f"bends it to {stress:.0f} MPa, over {PULL_STRESS_SHARE:g} of the yield stress {sigma_y:.0f} MPa"),
             (strain > PULL_STRAIN, f"stretches it by {strain:.2g}, over {PULL_STRAIN:g}")) if bad]
         if not reasons or share == 0.0:
-            return PullCheck(share, largest * mm_per_unit, off, off * mm_per_unit, stress, strain, why)
+            return PullCheck(share, largest * mm_per_unit, off, off * mm_per_unit, stress, strain, why,
+                             float(np.sqrt(np.mean(gaps ** 2))))
         if not why:
             why = "the whole pull " + ", ".join(reasons)
     raise AssertionError("unreachable: a zero share always passes")
@@ -395,9 +398,10 @@ def pulled(result, steps: tuple, check: PullCheck):
     out.figures = dict(result.figures)
     out.figures["fitup_edges"] = moved_edges(kept_edges(result), transform)
     before = dict(result.figures.get("hull_fit") or {})
-    out.figures["hull_fit"] = dict(before, max_distance=check.distance, passed=True,
+    out.figures["hull_fit"] = dict(before, max_distance=check.distance, rms_distance=check.rms_distance, passed=True,
                                    measured_on="the pulled plate's points, their distance from the hull",
-                                   before_pull_max_distance=before.get("max_distance"))
+                                   before_pull_max_distance=before.get("max_distance"),
+                                   before_pull_rms_distance=before.get("rms_distance"))
     if "plate_class" in out.figures:
         out.figures["plate_class"] = dict(out.figures["plate_class"],
                                           max_deviation=out.figures["hull_fit"]["max_distance"])
