@@ -31,9 +31,15 @@ def tapered_iges(path: Path, r_aft=8000.0, r_fore=1200.0, length=20000.0, angle_
     return write_iges_surface(path, 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
 
 
+# sheets that hold every plate these plans make: the tests here are of the plan's own stock
+# and objective (the plates' developments against the sheets: tests/test_plan_sheets.py)
+ANY_SHEET = [[10000.0, 40000.0]]
+
+
 def _config(tmp_path: Path, name: str, iges: Path, plan: dict, **strake) -> Path:
     data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
-            "strake": {"surface": {"iges": str(iges)}, "margin": 0.2, "fit_tolerance": 5.0, "plan": plan, **strake}}
+            "strake": {"surface": {"iges": str(iges)}, "margin": 0.2, "fit_tolerance": 5.0, "plan": plan, **strake},
+            "shop": {"stock": ANY_SHEET}}
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data))
     return path

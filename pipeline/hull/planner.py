@@ -43,6 +43,7 @@ from flatten.plane import Plane
 from .region import Girth, load_plan_surfaces, long_axis_of, plate_part, seam_curve
 from .seamlines import least_curvature_seams
 from .sewing import overlap_cuts
+from .sheets import Sheets, development_need
 from .objective import PlanPoint, PlanRecord, split_priority, worth
 from .splitting import choose_split, estimate, sample_region
 from .yardrules import (SeamRule, YardRule, butt_rule, plate_corners, seam_rule, seam_sides, stagger_of, yard_layout,
@@ -271,11 +272,15 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     spread = (getattr(evaluate, "map_each", None) or getattr(evaluate, "map", None)
               or (lambda func, items: (func(item) for item in items)))
     record = record if record is not None else PlanRecord()
-    context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger, spread)
+    develop = getattr(evaluate, "developed", None)
+    sheets = Sheets.of_shop(spec.shop) if develop is not None else None
+    context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger, spread, develop,
+                       sheets)
     if plan.objective is None:
         kept = _split_all(cells, build, context)
     else:
         kept = _split_for(cells, build, context)
+    kept = _onto_sheets(kept, build, context)
     return [c.part for c in sorted(kept, key=lambda c: c.k)]  # stable: each face's plates in plan order
 
 
@@ -304,6 +309,8 @@ class _Context:
     yard: bool
     stagger: float
     spread: object  # spread(func, items): func over items on the evaluator's workers, the answers in order
+    develop: object = None  # develop(results): the results with their owed developments done
+    sheets: Sheets | None = None  # the stock sheets the kept plates' developments must fit
 
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
@@ -489,6 +496,93 @@ def _stock_split(job: tuple):
     if past or estimate(sample, tolerance) <= tolerance:
         kinds = excess
     return choose_split(sample, tolerance, min_length, min_width, None, strict, kinds)
+
+
+def _onto_sheets(kept: list, build, ctx: _Context) -> list:
+    """The kept plates, each one whose development no stock sheet holds (:mod:`.sheets`)
+    split until its halves are held, up to STOCK_SPLITS times. Both kinds of split are
+    tried (each kind's best, :func:`.splitting.choose_split`; under the yard's rules one
+    that keeps them) and judged by their halves' own developments: the split whose halves
+    a sheet holds, then the one whose halves fit the hull over more area, then the shorter
+    new weld (a length split shortens a long plate's bow, a girth split its girth; which
+    one a sheet takes depends on the shape). A split within the stagger of another taken
+    in the same round waits for the next. The plates are developed first (a formed plate's
+    development is owed by its evaluation; a kept plate needs it anyway). A plate no
+    allowed split helps is kept, its record saying so, and the shop's stock check warns of
+    it as before."""
+    if ctx.sheets is None or ctx.develop is None:
+        return kept
+    mm, weld, splits, stuck = ctx.mm_per_unit, 0.0, 0, set()
+    _developed(kept, ctx)
+    for _ in range(STOCK_SPLITS):
+        over = [c for c in kept if id(c) not in stuck and not _on_a_sheet(c, ctx)]
+        if not over:
+            break
+        sides = seam_sides([c.part for c in kept]) if ctx.yard else None
+        rules = _yard_rules(over, kept, sides, ctx)
+        jobs = [_split_job(c, ctx, rule, (kind,)) for c, rule in zip(over, rules) for kind in SPLIT_KINDS]
+        chosen = list(ctx.spread(_region_split, jobs))
+        options = {}
+        for k, cell in enumerate(over):
+            for split in chosen[k * len(SPLIT_KINDS):(k + 1) * len(SPLIT_KINDS)]:
+                kids = [] if split is None else [h for h in _children(cell, split) if build(h) is not None]
+                if len(kids) == 2:
+                    options.setdefault(id(cell), []).append((split, kids))
+        tried = [kid for opts in options.values() for _, kids in opts for kid in kids]
+        _developed(_evaluate_built(tried, ctx), ctx)
+        halves, new_butts, new_ends = {}, {}, []
+        for cell, rule in zip(over, rules):
+            ranked = sorted(options.get(id(cell), []), key=lambda o: _sheet_rank(o, ctx))
+            free = [(split, kids) for split, kids in ranked
+                    if rule is None or not _clash(cell, split, sides, new_butts, new_ends, rule, ctx)]
+            if not free:
+                if not ranked:
+                    need = development_need(cell.result, ctx.sheets, mm)
+                    ruled = " and the yard's rules" if sides is not None else ""
+                    _settle(cell, f"no stock sheet holds its development ({need[0]:.0f} x {need[1]:.0f} mm with "
+                            f"margins) and no split keeps both halves within the minimum stock sizes{ruled}",
+                            ctx.plan.method)
+                    stuck.add(id(cell))
+                continue  # its splits came near one taken this round: chosen again the next
+            split, kids = free[0]
+            if rule is not None:
+                _claim(cell, split, new_butts, new_ends, ctx)
+            for kid in kids:
+                _settle(kid, "fits" if _fits(kid) else "split for a stock sheet (not for its fit)", ctx.plan.method)
+            halves[id(cell)] = kids
+            weld += split.weld * mm / 1000.0
+            splits += 1
+        kept = [k for c in kept for k in halves.get(id(c), [c])]
+    if splits:
+        ctx.record.splits_taken += splits
+        last = ctx.record.points[-1]
+        ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, False)
+        ctx.record.add(last.round + 1, len(kept), last.weld_m + weld, _share(kept), True)
+    return kept
+
+
+def _developed(cells: list, ctx: _Context) -> list:
+    """The cells, their results' owed developments done (on the evaluator's workers)."""
+    for cell, result in zip(cells, ctx.develop([c.result for c in cells])):
+        cell.result = cell.part.hull.result = result
+    return cells
+
+
+def _on_a_sheet(cell: Cell, ctx: _Context) -> bool:
+    """Whether a sheet of the stock holds the cell's development (a plate without one: yes,
+    nothing to judge it by)."""
+    need = development_need(cell.result, ctx.sheets, ctx.mm_per_unit)
+    return need is None or ctx.sheets.holding(need) is not None
+
+
+def _sheet_rank(option: tuple, ctx: _Context) -> tuple:
+    """Smaller first: halves a sheet holds, then a larger share of their area fitting the hull
+    (to a hundredth, as :func:`.splitting.choose_split` ranks), then less weld."""
+    split, kids = option
+    held = all(_on_a_sheet(kid, ctx) for kid in kids)
+    total = sum(_area(k) for k in kids)
+    share = sum(_area(k) for k in kids if _fits(k)) / total if total > 0 else 0.0
+    return (not held, -round(share, 2), split.weld)
 
 
 def _children(cell: Cell, split) -> list[Cell]:

@@ -1,0 +1,130 @@
+"""A plan's plates fit the stock sheets by their developments, not only by their regions
+(pipeline/hull/sheets.py, ``planner._onto_sheets``): a strake that runs round a cone
+develops into an annular sector whose rectangle is wider than its girth."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.hull.sheets import Sheets, development_need
+from tests.hull_shapes import write_iges_surface
+
+HALF_ARC = np.radians(15.0)  # the strake runs from -15 to +15 deg round the cone's axis (z)
+R_LOW, R_HIGH, RISE = 18500.0, 21500.0, 1500.0  # mm: the frustum's radii at z = 0 and z = RISE
+
+
+def frustum_iges(path: Path) -> Path:
+    """A strake of a cone of axis z: u round the axis (a rational arc of 30 deg, symmetric
+    about the y axis, so the plane x = 0 is a generator), v up the generators from radius
+    18.5 m to 21.5 m over a 1.5 m rise."""
+    c, s = np.cos(HALF_ARC), np.sin(HALF_ARC)
+
+    def arc(r, z):
+        return [[-r * s, r * c, z], [0.0, r / c, z], [r * s, r * c, z]]
+
+    poles = np.array([arc(R_LOW, 0.0), arc(R_HIGH, RISE)]).transpose(1, 0, 2)
+    weights = np.array([[1.0, 1.0], [c, c], [1.0, 1.0]])
+    return write_iges_surface(path, 2, 1, poles, weights, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
+
+
+def sector_need(clearance: float, pieces: int = 1) -> np.ndarray:
+    """(short, long) mm of the development of the cone strake (or of one of ``pieces`` equal
+    pieces cut along generators), an annular sector of the developed cone (slant radii
+    r / sin a, angle 2 HALF_ARC sin a / pieces), in its symmetric rectangle, plus the
+    clearance on every side."""
+    sin_a = (R_HIGH - R_LOW) / np.hypot(R_HIGH - R_LOW, RISE)
+    inner, outer, half = R_LOW / sin_a, R_HIGH / sin_a, HALF_ARC * sin_a / pieces
+    return np.sort([outer - inner * np.cos(half), 2.0 * outer * np.sin(half)]) + 2.0 * clearance
+
+
+def _config(tmp_path: Path, name: str, sheets: list, objective: dict | None = None) -> Path:
+    data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
+            "strake": {"surface": {"iges": str(frustum_iges(tmp_path / "frustum.igs"))}, "margin": 0.2,
+                       "fit_tolerance": 5.0,
+                       "plan": {"method": "adaptive", "max_splits": 0,
+                                "stock": {"max_length": 12000, "max_width": 3500, "min_length": 1000,
+                                          "min_width": 1000}}},
+            "shop": {"stock": sheets, "stock_margin": 10.0}}
+    if objective is not None:  # the yard's plan: its rules (the butt stagger) on the split too
+        data["strake"]["plan"]["objective"] = objective
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_the_smallest_rectangle_of_a_turned_rectangle_is_its_own_sides_plus_the_clearance():
+    angle = np.radians(30.0)
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    corners = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 1000.0], [0.0, 1000.0]]) @ turn.T + [500.0, -200.0]
+    sheets = Sheets(((1020.0, 3020.0), (2000.0, 4000.0)), 10.0)
+    assert sheets.need(corners) == pytest.approx([1020.0, 3020.0], abs=1e-6)
+    assert sheets.holding(sheets.need(corners)) == (1020.0, 3020.0)  # the smaller of the two that hold it
+    assert Sheets(((1019.0, 3020.0),), 10.0).holding(sheets.need(corners)) is None
+    points_on_a_line = np.array([[0.0, 0.0], [1000.0, 1000.0], [2000.0, 2000.0]])
+    assert Sheets((), 5.0).need(points_on_a_line) == pytest.approx([10.0, 2000.0 * np.sqrt(2) + 10.0])
+
+
+def test_the_clearance_is_the_stock_margin_and_the_largest_allowance():
+    from pipeline.config import Shop
+
+    shop = Shop(stock=[(16000.0, 3500.0)], stock_margin=12.0, excess={"c": 0, "d": 0, "start": 30, "end": 50},
+                shrinkage=5.0)
+    sheets = Sheets.of_shop(shop)
+    assert sheets.sizes == ((3500.0, 16000.0),)
+    assert sheets.clearance == 12.0 + 55.0
+
+
+@pytest.mark.parametrize("objective", [None, {"maximise": "flat_strip", "weld_factor": 1.5}])
+def test_a_plate_whose_development_no_sheet_holds_is_split_until_its_halves_are_held(tmp_path, monkeypatch,
+                                                                                    objective):
+    """The cone strake (30 deg round at 18.5-21.5 m, 3.35 m up the generators) is one plate
+    within the plan's stock (12 m x 3.5 m), formed (an end plate both ways, rolled only;
+    ``max_splits: 0`` keeps it whole for its fit), but its development, an annular sector,
+    needs 3.94 x 11.18 m with 10 mm margins: no 3.6 m sheet holds it (measured against the
+    sector's closed form). The plan splits it at the butt x = 0, a generator: the two halves
+    are strips a sheet holds (3.52 x 5.64 m), where a girth split's would be formed."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    path = _config(tmp_path, "cone", [[3600, 12000]], objective)
+    sheets = Sheets(((3600.0, 12000.0),), 10.0)
+    with monkeypatch.context() as patched, plate_evaluator(1) as evaluator:
+        patched.setattr(planner, "_onto_sheets", lambda kept, build, ctx: kept)
+        unchecked = load_run(path, evaluator)
+        evaluator.develop([p.hull.result for p in unchecked.parts], unchecked)
+    assert len(unchecked.parts) == 1
+    whole = development_need(unchecked.parts[0].hull.result, sheets, 1.0)
+    assert whole == pytest.approx(sector_need(10.0), abs=5.0)
+    assert sheets.holding(whole) is None
+
+    with plate_evaluator(1) as evaluator:
+        run = load_run(path, evaluator)
+    assert len(run.parts) == 2
+    assert {p.hull.butt_names for p in run.parts} == {("HULL END", "BUTT X0"), ("BUTT X0", "HULL END")}
+    for part in run.parts:
+        need = development_need(part.hull.result, sheets, 1.0)
+        assert sheets.holding(need) == (3600.0, 12000.0), need
+        assert part.hull.result.figures["plan"]["stopped"] == "fits"
+    assert run.plan_record.splits_taken == 1
+    assert run.plan_record.points[-1].plates == 2 and run.plan_record.points[-1].kept
+
+
+def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path):
+    """The whole run, judged by the shop's own stock check on each plate's cut outline: every
+    plate is placed on a sheet, needing what half the sector does, and none warns that no
+    stock plate fits."""
+    import json
+
+    from pipeline.cli import main
+
+    out = tmp_path / "out"
+    assert main(["run", str(_config(tmp_path, "cone", [[3600, 12000]])), "--out", str(out)]) == 0
+    plates = [json.loads(p.read_text()) for p in out.glob("cone_*.json") if "summary" not in p.name]
+    assert len(plates) == 2
+    for plate in plates:
+        assert plate["stock"]["fits_on"] == [3600.0, 12000.0]
+        assert plate["stock"]["needed"] == pytest.approx(sector_need(10.0, pieces=2), abs=5.0)
+        assert not [w for w in plate["warnings"] if "no stock plate fits" in w]
