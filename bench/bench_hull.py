@@ -13,7 +13,8 @@ or butt sections fits the hull within the tolerance and covers the region), patc
 fits; the hull patch's minimal-strain development is within the tolerance: rolled), formed,
 failed; flat + strip is the honest share. The plan's cost (pipeline/hull/cost.py): metres of
 weld between plates (seams + butts), per m^2 of shell, the narrowest plate's width and the
-cross joints (four plates at a point off the block joints). The
+cross joints (four plates at a point off the block joints), the plates no stock sheet holds
+(their developments, pipeline/hull/sheets.py). The
 worst deviation from the hull (flat and strip plates), the worst in-plane strain (patch and
 formed plates), crashes, time; the hull picture coloured by class, the plan (plate outlines
 in 3D, one DXF layer per class) and the shell expansion (DXF and PDF) go to --out.
@@ -138,9 +139,11 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     total = sum(areas.values())
     from pipeline.hull.cost import block_joints, plan_cost, stock_min_width
     from pipeline.hull.expansion import shell_edges, write_expansion
+    from pipeline.hull.sheets import Sheets
 
     edges = shell_edges(results)
-    cost = plan_cost(results, edges, config.mm_per_unit, stock_min_width(config.spec), block_joints(config.spec))
+    cost = plan_cost(results, edges, config.mm_per_unit, stock_min_width(config.spec), block_joints(config.spec),
+                     Sheets.of_shop(config.spec.shop))
     out.mkdir(parents=True, exist_ok=True)
     tag = (f"{hull}_{method}" + ("" if seams == "iso" else f"_{seams}") + ("" if objective == "none" else
                                                                           f"_{objective}")
@@ -154,7 +157,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
             "worst_deviation": worst_dev, "worst_strain": worst_strain, "crashes": crashes, "seconds": seconds,
             "cpu_seconds": cpu, "evaluated": computed, "cached": asked - computed,
             "weld_per_m2": cost.weld_per_m2, "weld_m": cost.weld_m, "narrowest_m": (cost.narrowest or {}).get("width_m"),
-            "cross_joints": len(cost.cross_joints),
+            "cross_joints": len(cost.cross_joints), "off_sheets": len(cost.off_sheets),
             "fitup": fit, "record": config.plan_record, "objective": objective, "fit_up": fit_up}
 
 
@@ -263,7 +266,7 @@ def main(argv=None) -> int:
 
     print(f"{'hull':<9}{'plan':<10}{'seams':<6}{'plates':>7}{'area m2':>9}{'flat %':>8}{'strip %':>8}{'patch %':>8}"
           f"{'formed %':>9}{'failed %':>9}{'flat+strip %':>13}{'weld m':>8}{'weld m/m2':>10}{'narrowest m':>12}{'cross':>6}"
-          f"{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'CPU s':>7}{'eval/cached':>12}"
+          f"{'no sheet':>9}{'worst dev mm':>13}{'worst strain':>13}{'crashes':>8}{'time s':>8}{'CPU s':>7}{'eval/cached':>12}"
           f"{'covered %':>10}{'overlap %':>10}{'fit-up p95/max mm':>18}{'step p95/max mm':>16}{'>3mm':>6}"
           f"  objective, fit-up")
     for hull in args.hulls:
@@ -277,7 +280,8 @@ def main(argv=None) -> int:
                   f"{r['area_m2']:>9.0f}{100 * s['flat']:>8.1f}"
                   f"{100 * s['strip']:>8.1f}{100 * s['patch']:>8.1f}{100 * s['formed']:>9.1f}{100 * s['failed']:>9.1f}"
                   f"{100 * (s['flat'] + s['strip']):>13.1f}{r['weld_m']:>8.0f}{r['weld_per_m2']:>10.3f}"
-                  f"{r['narrowest_m'] or float('nan'):>12.2f}{r['cross_joints']:>6}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
+                  f"{r['narrowest_m'] or float('nan'):>12.2f}{r['cross_joints']:>6}"
+                  f"{r['off_sheets']:>9}{r['worst_deviation']:>13.2f}{r['worst_strain']:>13.2e}{r['crashes']:>8}{r['seconds']:>8.0f}"
                   f"{r['cpu_seconds']:>7.0f}{r['evaluated']:>6}/{r['cached']:<5}"
                   f"{fitup_columns(r['fitup'])}  {objective}, {fit_up}", flush=True)
             for line in front_lines(r["record"], r["area_m2"]):

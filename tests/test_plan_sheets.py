@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from pipeline.hull.cost import off_sheets
 from pipeline.hull.sheets import Sheets, development_need
 from tests.hull_shapes import write_iges_surface
 
@@ -99,6 +100,9 @@ def test_a_plate_whose_development_no_sheet_holds_is_split_until_its_halves_are_
     whole = development_need(unchecked.parts[0].hull.result, sheets, 1.0)
     assert whole == pytest.approx(sector_need(10.0), abs=5.0)
     assert sheets.holding(whole) is None
+    # the plan's cost judges a plate without the shop's check by its development
+    assert off_sheets([p.hull.result for p in unchecked.parts], 1.0, sheets) == [
+        {"plate": unchecked.parts[0].name, "needed_mm": list(whole)}]
 
     with plate_evaluator(1) as evaluator:
         run = load_run(path, evaluator)
@@ -109,22 +113,40 @@ def test_a_plate_whose_development_no_sheet_holds_is_split_until_its_halves_are_
         assert sheets.holding(need) == (3600.0, 12000.0), need
         assert part.hull.result.figures["plan"]["stopped"] == "fits"
     assert run.plan_record.splits_taken == 1
+    assert off_sheets([p.hull.result for p in run.parts], 1.0, sheets) == []
     assert run.plan_record.points[-1].plates == 2 and run.plan_record.points[-1].kept
 
 
-def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path):
+def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path, monkeypatch, capsys):
     """The whole run, judged by the shop's own stock check on each plate's cut outline: every
     plate is placed on a sheet, needing what half the sector does, and none warns that no
-    stock plate fits."""
+    stock plate fits. The control, the plan's check left out: the one plate needs the whole
+    sector, the shop warns, and the plan's cost and its console line name it."""
     import json
 
     from pipeline.cli import main
+    from pipeline.hull import planner
 
-    out = tmp_path / "out"
-    assert main(["run", str(_config(tmp_path, "cone", [[3600, 12000]])), "--out", str(out)]) == 0
-    plates = [json.loads(p.read_text()) for p in out.glob("cone_*.json") if "summary" not in p.name]
+    def plates_of(out: Path) -> list:
+        return [json.loads(p.read_text()) for p in out.glob("cone_*.json") if "summary" not in p.name]
+
+    path = _config(tmp_path, "cone", [[3600, 12000]])
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    plates = plates_of(tmp_path / "out")
     assert len(plates) == 2
     for plate in plates:
         assert plate["stock"]["fits_on"] == [3600.0, 12000.0]
         assert plate["stock"]["needed"] == pytest.approx(sector_need(10.0, pieces=2), abs=5.0)
         assert not [w for w in plate["warnings"] if "no stock plate fits" in w]
+    summary = json.loads((tmp_path / "out" / "cone_summary.json").read_text())
+    assert summary["plan_cost"]["off_sheets"] == []
+    assert "on no stock sheet" not in capsys.readouterr().out
+
+    monkeypatch.setattr(planner, "_onto_sheets", lambda kept, build, ctx: kept)
+    assert main(["run", str(path), "--out", str(tmp_path / "control")]) == 0
+    [plate] = plates_of(tmp_path / "control")
+    assert plate["stock"]["fits_on"] is None and plate["stock"]["needed"] == pytest.approx(sector_need(10.0), abs=5.0)
+    assert [w for w in plate["warnings"] if "no stock plate fits" in w]
+    summary = json.loads((tmp_path / "control" / "cone_summary.json").read_text())
+    assert summary["plan_cost"]["off_sheets"] == [{"plate": plate["name"], "needed_mm": plate["stock"]["needed"]}]
+    assert "1 on no stock sheet" in capsys.readouterr().out

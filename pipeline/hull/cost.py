@@ -139,7 +139,10 @@ class PlanCost:
     the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
     that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
     first; ``cross_joints`` the points where four plates meet off the block joints (two
-    seams and two butts in line, :func:`.yardrules.cross_joints`), each with its plates."""
+    seams and two butts in line, :func:`.yardrules.cross_joints`), each with its plates;
+    ``off_sheets`` the plates no stock sheet holds, with the rectangle they need (mm: the
+    shop's stock check on the cut outline, or :mod:`.sheets` on the development of a plate
+    without one)."""
 
     plates: int
     shell_area_m2: float
@@ -153,6 +156,7 @@ class PlanCost:
     share_area_m2: dict
     narrower_than_stock: list
     cross_joints: list
+    off_sheets: list
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -173,6 +177,9 @@ def plan_line(cost: dict, min_width: float | None = None, mm_per_unit: float = 1
         said.append(f"{narrow or 'none'} narrower than the stock's {min_width * mm_per_unit / 1000.0:g} m")
     crosses = len(cost["cross_joints"])
     said.append(f"{crosses or 'no'} cross joint{'' if crosses == 1 else 's'}")
+    off = cost.get("off_sheets") or []  # (said only when a plate is on none)
+    if off:
+        said.append(f"{len(off)} on no stock sheet")
     shares = ", ".join(f"{name} {100.0 * share:.1f} %" for name, share in cost["shares"].items()
                        if cost["share_area_m2"][name] > 0.0)
     return f"plan: {', '.join(said)}; {shares}"
@@ -197,10 +204,11 @@ def block_joints(spec) -> tuple:
 
 
 def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None,
-              joints=()) -> PlanCost:
+              joints=(), sheets=None) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
     from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any;
-    ``joints``: the plan's block joints (x, config units)."""
+    ``joints``: the plan's block joints (x, config units); ``sheets``: the stock sheets
+    (:class:`.sheets.Sheets`) a plate without the shop's stock check is judged against."""
     from .yardrules import cross_joints
 
     metre = mm_per_unit / 1000.0
@@ -226,4 +234,25 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_wid
         shares={k: (v / total if total > 0 else 0.0) for k, v in area.items()}, share_area_m2=area,
         narrower_than_stock=[{"plate": name, "width_m": width * metre} for width, name in sorted(below)],
         cross_joints=[{"at": list(at), "plates": list(names)}
-                      for at, names in cross_joints(results, joints, CROSS_REACH_MM / mm_per_unit, lambda r: r)])
+                      for at, names in cross_joints(results, joints, CROSS_REACH_MM / mm_per_unit, lambda r: r)],
+        off_sheets=off_sheets(results, mm_per_unit, sheets))
+
+
+def off_sheets(results, mm_per_unit: float, sheets=None) -> list:
+    """[{plate, needed_mm}] of the plates no stock sheet holds: by the shop's stock check
+    (``figures['stock']``) where the plate has one, else by its development against
+    ``sheets`` (:mod:`.sheets`; none judged without)."""
+    from .sheets import development_need
+
+    off = []
+    for r in results:
+        stock = r.figures.get("stock")
+        if stock is not None:
+            need, held = stock["needed"], stock["fits_on"] is not None
+        elif sheets is not None and (need := development_need(r, sheets, mm_per_unit)) is not None:
+            held = sheets.holding(need) is not None
+        else:
+            continue
+        if not held:
+            off.append({"plate": r.name, "needed_mm": [float(v) for v in need]})
+    return off
