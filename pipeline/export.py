@@ -367,9 +367,11 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
     cost = None
     if any(r.part.hull is not None for r in results):  # a strake or hull: what the plan costs
         from .hull.cost import block_joints, plan_cost, stock_min_width
+        from .hull.sheets import Sheets
 
         cost = plan_cost([r for r in results if r.part.hull is not None], edges, config.mm_per_unit,
-                         stock_min_width(config.spec), block_joints(config.spec)).as_dict()
+                         stock_min_width(config.spec), block_joints(config.spec),
+                         Sheets.of_shop(config.spec.shop)).as_dict()
     write_text(written[0], summary_csv(results))
     extra = {} if cost is None else {"plan_cost": cost}
     config.plan_cost = cost  # the console's plan line reads it

@@ -227,9 +227,10 @@ def test_plates_the_plan_drops_never_get_shop_data(tmp_path, monkeypatch):
 
 def test_formed_plates_the_plan_drops_are_never_developed(tmp_path, monkeypatch):
     """A formed candidate's development (its hull patch's ARAP) is owed while the plan
-    evaluates (the plan reads its class and wholeness): the formed plates it splits are never
-    developed, each kept formed plate once, when the plan checks the kept plates against the
-    stock sheets (:func:`pipeline.hull.planner._onto_sheets`), not again when it is run."""
+    evaluates (the plan reads its class and wholeness): the formed plates it splits for their
+    fit are never developed, each kept formed plate once, when the plan checks the kept
+    plates against the stock sheets (:func:`pipeline.hull.planner._onto_sheets`: a plate it
+    splits for the sheets is developed first; none here), not again when it is run."""
     import pipeline.hull.plates as plates
 
     developed: list = []

@@ -16,16 +16,16 @@ HALF_ARC = np.radians(15.0)  # the strake runs from -15 to +15 deg round the con
 R_LOW, R_HIGH, RISE = 18500.0, 21500.0, 1500.0  # mm: the frustum's radii at z = 0 and z = RISE
 
 
-def frustum_iges(path: Path) -> Path:
+def frustum_iges(path: Path, r_high: float = R_HIGH, rise: float = RISE) -> Path:
     """A strake of a cone of axis z: u round the axis (a rational arc of 30 deg, symmetric
     about the y axis, so the plane x = 0 is a generator), v up the generators from radius
-    18.5 m to 21.5 m over a 1.5 m rise."""
+    18.5 m to ``r_high`` (21.5 m) over a ``rise`` (1.5 m)."""
     c, s = np.cos(HALF_ARC), np.sin(HALF_ARC)
 
     def arc(r, z):
         return [[-r * s, r * c, z], [0.0, r / c, z], [r * s, r * c, z]]
 
-    poles = np.array([arc(R_LOW, 0.0), arc(R_HIGH, RISE)]).transpose(1, 0, 2)
+    poles = np.array([arc(R_LOW, 0.0), arc(r_high, rise)]).transpose(1, 0, 2)
     weights = np.array([[1.0, 1.0], [c, c], [1.0, 1.0]])
     return write_iges_surface(path, 2, 1, poles, weights, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
 
@@ -40,12 +40,14 @@ def sector_need(clearance: float, pieces: int = 1) -> np.ndarray:
     return np.sort([outer - inner * np.cos(half), 2.0 * outer * np.sin(half)]) + 2.0 * clearance
 
 
-def _config(tmp_path: Path, name: str, sheets: list, objective: dict | None = None) -> Path:
+def _config(tmp_path: Path, name: str, sheets: list, objective: dict | None = None, iges: Path | None = None,
+            max_length: float = 12000.0) -> Path:
+    iges = iges or frustum_iges(tmp_path / "frustum.igs")
     data = {"name": name, "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
-            "strake": {"surface": {"iges": str(frustum_iges(tmp_path / "frustum.igs"))}, "margin": 0.2,
+            "strake": {"surface": {"iges": str(iges)}, "margin": 0.2,
                        "fit_tolerance": 5.0,
                        "plan": {"method": "adaptive", "max_splits": 0,
-                                "stock": {"max_length": 12000, "max_width": 3500, "min_length": 1000,
+                                "stock": {"max_length": max_length, "max_width": 3500, "min_length": 1000,
                                           "min_width": 1000}}},
             "shop": {"stock": sheets, "stock_margin": 10.0}}
     if objective is not None:  # the yard's plan: its rules (the butt stagger) on the split too
@@ -150,3 +152,56 @@ def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path, monkeypatch
     summary = json.loads((tmp_path / "control" / "cone_summary.json").read_text())
     assert summary["plan_cost"]["off_sheets"] == [{"plate": plate["name"], "needed_mm": plate["stock"]["needed"]}]
     assert "1 on no stock sheet" in capsys.readouterr().out
+
+
+def test_neighbours_split_for_the_sheets_keep_their_butts_staggered(tmp_path):
+    """Twice the cone's girth (18.5 to 24.5 m over a 3 m rise): two strakes of one plate each,
+    neither held by a 3.6 m sheet. Under the yard's rules both are split for the sheets, and
+    the butts across their common seam keep the 300 mm stagger: the second plate's best butt
+    (x = 0, in line with the first's) waits a round and is chosen again against it."""
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.yardrules import butt_violations
+    from pipeline.runner import plate_evaluator
+
+    iges = frustum_iges(tmp_path / "wide.igs", r_high=24500.0, rise=3000.0)
+    path = _config(tmp_path, "wide", [[3600, 16000]], {"maximise": "flat_strip", "weld_factor": 1.5}, iges, 16000.0)
+    sheets = Sheets(((3600.0, 16000.0),), 10.0)
+    with plate_evaluator(1) as evaluator:
+        run = load_run(path, evaluator)
+    assert len({p.hull.seam_names for p in run.parts}) == 2  # two strakes
+    assert all(sheets.holding(development_need(p.hull.result, sheets, 1.0)) for p in run.parts)
+    assert len(run.parts) >= 4 and run.plan_record.splits_taken >= 2
+    assert butt_violations(run.parts, 300.0) == []
+    butts = sorted(round(b.offset) for p in run.parts for b in p.hull.butts if b is not None)
+    assert len(set(butts)) >= 2  # not one butt line across both strakes
+
+
+def test_a_split_is_ranked_by_how_near_its_worse_half_comes_to_a_sheet():
+    """The ranking of splits for the sheets: halves a sheet holds first, then the split whose
+    worse half comes nearer one; a failed half (no development) ranks last: failing a plate
+    is no remedy. Among held halves, the larger share fitting the hull, then less weld."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.planner import _sheet_excess, _sheet_rank
+
+    ctx = SimpleNamespace(sheets=Sheets(((3000.0, 12000.0),), 0.0), mm_per_unit=1.0)
+
+    def kid(width, length, fits=True):
+        pattern = None if width is None else SimpleNamespace(
+            outline=np.array([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]]))
+        figures = {"region": {"area_m2": 1.0},
+                   "plate_class": {"class": "flat" if fits else "formed"}}
+        return SimpleNamespace(result=SimpleNamespace(pattern=pattern, figures=figures, ok=True, part=None))
+
+    def option(kind, weld, *kids):
+        return SimpleNamespace(kind=kind, at=0.0, weld=weld), list(kids)
+
+    assert _sheet_excess(kid(3200.0, 5000.0), ctx) == pytest.approx(200.0)
+    assert _sheet_excess(kid(2900.0, 13000.0), ctx) == pytest.approx(1000.0)
+    assert _sheet_excess(kid(None, None), ctx) == 0.0  # nothing to judge: left alone
+    held = option("girth", 9000.0, kid(1500.0, 9000.0), kid(1500.0, 9000.0))
+    nearer = option("length", 3000.0, kid(3100.0, 4500.0), kid(3050.0, 4500.0))
+    failed = option("length", 2000.0, kid(2000.0, 4500.0), kid(None, None))
+    formed = option("length", 3000.0, kid(2000.0, 4500.0), kid(2000.0, 4500.0, fits=False))
+    ranked = sorted([failed, nearer, held, formed], key=lambda o: _sheet_rank(o, ctx))
+    assert ranked == [held, formed, nearer, failed]

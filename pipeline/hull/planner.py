@@ -502,20 +502,22 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
     """The kept plates, each one whose development no stock sheet holds (:mod:`.sheets`)
     split until its halves are held, up to STOCK_SPLITS times. Both kinds of split are
     tried (each kind's best, :func:`.splitting.choose_split`; under the yard's rules one
-    that keeps them) and judged by their halves' own developments: the split whose halves
-    a sheet holds, then the one whose halves fit the hull over more area, then the shorter
-    new weld (a length split shortens a long plate's bow, a girth split its girth; which
-    one a sheet takes depends on the shape). A split within the stagger of another taken
-    in the same round waits for the next. The plates are developed first (a formed plate's
-    development is owed by its evaluation; a kept plate needs it anyway). A plate no
-    allowed split helps is kept, its record saying so, and the shop's stock check warns of
-    it as before."""
+    that keeps them) and judged by their halves' own developments (:func:`_sheet_rank`):
+    the split whose halves a sheet holds, or else comes nearest to holding, then the one
+    whose halves fit the hull over more area, then the shorter new weld (a length split
+    shortens a long plate's bow, a girth split its girth; which one a sheet takes depends
+    on the shape). A split that brings neither half nearer a sheet is not taken. Under the
+    yard's rules the best split waits a round when it comes within the stagger of one
+    taken in the same round. The plates are developed first (a formed plate's development
+    is owed by its evaluation; a kept plate needs it anyway). A plate left on no sheet is
+    kept, its record saying why, and the shop's stock check warns of it. The stock is not
+    a choice: these splits may take an objective's plan past its weld budget."""
     if ctx.sheets is None or ctx.develop is None:
         return kept
-    mm, weld, splits, stuck = ctx.mm_per_unit, 0.0, 0, set()
+    mm, weld, splits, left, taken = ctx.mm_per_unit, 0.0, 0, set(), {}
     _developed(kept, ctx)
-    for _ in range(STOCK_SPLITS):
-        over = [c for c in kept if id(c) not in stuck and not _on_a_sheet(c, ctx)]
+    for _ in range(2 * STOCK_SPLITS):  # (a split that waits for a neighbour's loses a round)
+        over = [c for c in kept if id(c) not in left and _sheet_excess(c, ctx) > 0.0]
         if not over:
             break
         sides = seam_sides([c.part for c in kept]) if ctx.yard else None
@@ -532,33 +534,40 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
         _developed(_evaluate_built(tried, ctx), ctx)
         halves, new_butts, new_ends = {}, {}, []
         for cell, rule in zip(over, rules):
-            ranked = sorted(options.get(id(cell), []), key=lambda o: _sheet_rank(o, ctx))
-            free = [(split, kids) for split, kids in ranked
-                    if rule is None or not _clash(cell, split, sides, new_butts, new_ends, rule, ctx)]
-            if not free:
-                if not ranked:
-                    need = development_need(cell.result, ctx.sheets, mm)
-                    ruled = " and the yard's rules" if sides is not None else ""
-                    _settle(cell, f"no stock sheet holds its development ({need[0]:.0f} x {need[1]:.0f} mm with "
-                            f"margins) and no split keeps both halves within the minimum stock sizes{ruled}",
-                            ctx.plan.method)
-                    stuck.add(id(cell))
-                continue  # its splits came near one taken this round: chosen again the next
-            split, kids = free[0]
+            excess = _sheet_excess(cell, ctx)
+            ranked = sorted((_sheet_rank(o, ctx), o) for o in options.get(id(cell), []))
+            helping = [o for rank, o in ranked if rank[0] < excess - SHEET_GAIN_MM]
+            if not helping:
+                left.add(id(cell))
+                _left_off(cell, ctx, "no split within the minimum stock sizes" if not ranked
+                          else "no split brings its halves nearer a sheet", sides is not None)
+                continue
+            split, kids = helping[0]
             if rule is not None:
+                if _clash(cell, split, sides, new_butts, new_ends, rule, ctx):
+                    continue  # chosen again next round, against the split it came near
                 _claim(cell, split, new_butts, new_ends, ctx)
             for kid in kids:
+                taken[id(kid)] = taken.get(id(cell), 0) + 1
                 _settle(kid, "fits" if _fits(kid) else "split for a stock sheet (not for its fit)", ctx.plan.method)
+                if taken[id(kid)] >= STOCK_SPLITS:
+                    left.add(id(kid))  # judged below, with the plates still waiting
             halves[id(cell)] = kids
             weld += split.weld * mm / 1000.0
             splits += 1
         kept = [k for c in kept for k in halves.get(id(c), [c])]
+    for cell in kept:
+        if _sheet_excess(cell, ctx) > 0.0 and not cell.settled.startswith("no stock sheet"):
+            _left_off(cell, ctx, f"{taken.get(id(cell), 0)} splits for the sheets taken", False)
     if splits:
         ctx.record.splits_taken += splits
         last = ctx.record.points[-1]
         ctx.record.points[-1] = PlanPoint(last.round, last.plates, last.weld_m, last.flat_strip, False)
         ctx.record.add(last.round + 1, len(kept), last.weld_m + weld, _share(kept), True)
     return kept
+
+
+SHEET_GAIN_MM = 1.0  # a split for the sheets must bring its worse half this much nearer a sheet
 
 
 def _developed(cells: list, ctx: _Context) -> list:
@@ -568,21 +577,35 @@ def _developed(cells: list, ctx: _Context) -> list:
     return cells
 
 
-def _on_a_sheet(cell: Cell, ctx: _Context) -> bool:
-    """Whether a sheet of the stock holds the cell's development (a plate without one: yes,
-    nothing to judge it by)."""
+def _sheet_excess(cell: Cell, ctx: _Context) -> float:
+    """How far (mm) the cell's development is from the nearest sheet: the least, over the
+    sheets, of the larger overhang of its rectangle with margins (0: a sheet holds it); 0
+    for a plate without a development (nothing to judge it by)."""
     need = development_need(cell.result, ctx.sheets, ctx.mm_per_unit)
-    return need is None or ctx.sheets.holding(need) is not None
+    if need is None:
+        return 0.0
+    return min((max(need[0] - w, need[1] - h, 0.0) for w, h in ctx.sheets.sizes), default=float("inf"))
 
 
 def _sheet_rank(option: tuple, ctx: _Context) -> tuple:
-    """Smaller first: halves a sheet holds, then a larger share of their area fitting the hull
-    (to a hundredth, as :func:`.splitting.choose_split` ranks), then less weld."""
+    """Smaller first: the worse half's distance from a sheet (:func:`_sheet_excess`, a half
+    without a development as far as can be: a failed half is no remedy), then a larger share
+    of the halves' area fitting the hull (to a hundredth, as :func:`.splitting.choose_split`
+    ranks), then less weld."""
     split, kids = option
-    held = all(_on_a_sheet(kid, ctx) for kid in kids)
+    worst = max(_sheet_excess(k, ctx) if development_need(k.result, ctx.sheets, ctx.mm_per_unit) is not None
+                else float("inf") for k in kids)
     total = sum(_area(k) for k in kids)
     share = sum(_area(k) for k in kids if _fits(k)) / total if total > 0 else 0.0
-    return (not held, -round(share, 2), split.weld)
+    return (round(min(worst, 1e12)), -round(share, 2), split.weld, split.kind, split.at)
+
+
+def _left_off(cell: Cell, ctx: _Context, why: str, ruled: bool) -> None:
+    """Record why a plate no stock sheet holds is kept as it is."""
+    need = development_need(cell.result, ctx.sheets, ctx.mm_per_unit)
+    rules = " and the yard's rules" if ruled else ""
+    _settle(cell, f"no stock sheet holds its development ({need[0]:.0f} x {need[1]:.0f} mm with margins): "
+            f"{why}{rules}", ctx.plan.method)
 
 
 def _children(cell: Cell, split) -> list[Cell]:

@@ -6,9 +6,11 @@ curved shape whose rectangle on the sheet is wider than its girth: KVLCC2's stri
 ``S08_B02-1-2`` of the yard's plan, 4 m in girth, needs 4790 x 5717 mm where the widest sheet
 is 4500 mm. The check takes the development's smallest rectangle (any rotation), adds the
 cut's largest allowance and the stock margin on every side, and asks for a sheet of
-``shop.stock`` that holds it. The cut outline lies within the largest allowance of the
-development, so a plate this check passes also passes the shop's own check on its cut
-(:func:`pipeline.shop.plate.stock_check`).
+``shop.stock`` that holds it. It judges the development the plan has, not the cut: the
+shop's own check (:func:`pipeline.shop.plate.stock_check`) measures the cut outline traced
+from the exact development, whose corners an allowance mitres out further at acute angles
+(up to ten allowances), so the two can differ by a few millimetres where a plate needs
+nearly a whole sheet, and the shop's check stays the judge (and warns).
 """
 
 from __future__ import annotations
