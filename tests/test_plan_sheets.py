@@ -182,26 +182,32 @@ def test_a_split_is_ranked_by_how_near_its_worse_half_comes_to_a_sheet():
     is no remedy. Among held halves, the larger share fitting the hull, then less weld."""
     from types import SimpleNamespace
 
-    from pipeline.hull.planner import _sheet_excess, _sheet_rank
+    from pipeline.hull.planner import _sheet_rank
 
     ctx = SimpleNamespace(sheets=Sheets(((3000.0, 12000.0),), 0.0), mm_per_unit=1.0)
+    needs = {}
 
     def kid(width, length, fits=True):
         pattern = None if width is None else SimpleNamespace(
             outline=np.array([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]]))
         figures = {"region": {"area_m2": 1.0},
                    "plate_class": {"class": "flat" if fits else "formed"}}
-        return SimpleNamespace(result=SimpleNamespace(pattern=pattern, figures=figures, ok=True, part=None))
+        cell = SimpleNamespace(result=SimpleNamespace(pattern=pattern, figures=figures, ok=True, part=None))
+        needs[id(cell)] = development_need(cell.result, ctx.sheets, 1.0)
+        return cell
 
     def option(kind, weld, *kids):
         return SimpleNamespace(kind=kind, at=0.0, weld=weld), list(kids)
 
-    assert _sheet_excess(kid(3200.0, 5000.0), ctx) == pytest.approx(200.0)
-    assert _sheet_excess(kid(2900.0, 13000.0), ctx) == pytest.approx(1000.0)
-    assert _sheet_excess(kid(None, None), ctx) == 0.0  # nothing to judge: left alone
+    def excess(cell):
+        return ctx.sheets.excess(needs[id(cell)])
+
+    assert excess(kid(3200.0, 5000.0)) == pytest.approx(200.0)
+    assert excess(kid(2900.0, 13000.0)) == pytest.approx(1000.0)
+    assert excess(kid(None, None)) == 0.0  # nothing to judge: left alone
     held = option("girth", 9000.0, kid(1500.0, 9000.0), kid(1500.0, 9000.0))
     nearer = option("length", 3000.0, kid(3100.0, 4500.0), kid(3050.0, 4500.0))
     failed = option("length", 2000.0, kid(2000.0, 4500.0), kid(None, None))
     formed = option("length", 3000.0, kid(2000.0, 4500.0), kid(2000.0, 4500.0, fits=False))
-    ranked = sorted([failed, nearer, held, formed], key=lambda o: _sheet_rank(o, ctx))
+    ranked = sorted([failed, nearer, held, formed], key=lambda o: _sheet_rank(o, needs, ctx))
     assert ranked == [held, formed, nearer, failed]

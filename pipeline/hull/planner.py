@@ -514,10 +514,13 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
     a choice: these splits may take an objective's plan past its weld budget."""
     if ctx.sheets is None or ctx.develop is None:
         return kept
-    mm, weld, splits, left, taken = ctx.mm_per_unit, 0.0, 0, set(), {}
-    _developed(kept, ctx)
+    needs: dict = {}  # id(cell): what its development needs on a sheet (None: it has none)
+    left: dict = {}  # id(cell): why it is split for the sheets no further
+    taken: dict = {}  # id(cell): the splits for the sheets its lineage took
+    weld, splits = 0.0, 0
+    _developed(kept, ctx, needs)
     for _ in range(2 * STOCK_SPLITS):  # (a split that waits for a neighbour's loses a round)
-        over = [c for c in kept if id(c) not in left and _sheet_excess(c, ctx) > 0.0]
+        over = [c for c in kept if id(c) not in left and ctx.sheets.excess(needs[id(c)]) > 0.0]
         if not over:
             break
         sides = seam_sides([c.part for c in kept]) if ctx.yard else None
@@ -531,16 +534,16 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
                 if len(kids) == 2:
                     options.setdefault(id(cell), []).append((split, kids))
         tried = [kid for opts in options.values() for _, kids in opts for kid in kids]
-        _developed(_evaluate_built(tried, ctx), ctx)
+        _developed(_evaluate_built(tried, ctx), ctx, needs)
         halves, new_butts, new_ends = {}, {}, []
         for cell, rule in zip(over, rules):
-            excess = _sheet_excess(cell, ctx)
-            ranked = sorted((_sheet_rank(o, ctx), o) for o in options.get(id(cell), []))
+            excess = ctx.sheets.excess(needs[id(cell)])
+            ranked = sorted((_sheet_rank(o, needs, ctx), o) for o in options.get(id(cell), []))
             helping = [o for rank, o in ranked if rank[0] < excess - SHEET_GAIN_MM]
             if not helping:
-                left.add(id(cell))
-                _left_off(cell, ctx, "no split within the minimum stock sizes" if not ranked
-                          else "no split brings its halves nearer a sheet", sides is not None)
+                ruled = " and the yard's rules" if sides is not None else ""
+                left[id(cell)] = (("no split within the minimum stock sizes" if not ranked
+                                   else "no split brings its halves nearer a sheet") + ruled)
                 continue
             split, kids = helping[0]
             if rule is not None:
@@ -551,14 +554,17 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
                 taken[id(kid)] = taken.get(id(cell), 0) + 1
                 _settle(kid, "fits" if _fits(kid) else "split for a stock sheet (not for its fit)", ctx.plan.method)
                 if taken[id(kid)] >= STOCK_SPLITS:
-                    left.add(id(kid))  # judged below, with the plates still waiting
+                    left[id(kid)] = f"{STOCK_SPLITS} splits for the sheets taken"
             halves[id(cell)] = kids
-            weld += split.weld * mm / 1000.0
+            weld += split.weld * ctx.mm_per_unit / 1000.0
             splits += 1
         kept = [k for c in kept for k in halves.get(id(c), [c])]
-    for cell in kept:
-        if _sheet_excess(cell, ctx) > 0.0 and not cell.settled.startswith("no stock sheet"):
-            _left_off(cell, ctx, f"{taken.get(id(cell), 0)} splits for the sheets taken", False)
+    for cell in kept:  # a plate left on no sheet says why (one still waiting: the splits it took)
+        need = needs[id(cell)]
+        if ctx.sheets.excess(need) > 0.0:
+            why = left.get(id(cell), f"{taken.get(id(cell), 0)} splits for the sheets taken")
+            _settle(cell, f"no stock sheet holds its development ({need[0]:.0f} x {need[1]:.0f} mm with margins): "
+                    f"{why}", ctx.plan.method)
     if splits:
         ctx.record.splits_taken += splits
         last = ctx.record.points[-1]
@@ -570,42 +576,25 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
 SHEET_GAIN_MM = 1.0  # a split for the sheets must bring its worse half this much nearer a sheet
 
 
-def _developed(cells: list, ctx: _Context) -> list:
-    """The cells, their results' owed developments done (on the evaluator's workers)."""
+def _developed(cells: list, ctx: _Context, needs: dict) -> list:
+    """The cells, their results' owed developments done (on the evaluator's workers), and
+    what each development needs on a sheet in ``needs`` (by id(cell))."""
     for cell, result in zip(cells, ctx.develop([c.result for c in cells])):
         cell.result = cell.part.hull.result = result
+        needs[id(cell)] = development_need(result, ctx.sheets, ctx.mm_per_unit)
     return cells
 
 
-def _sheet_excess(cell: Cell, ctx: _Context) -> float:
-    """How far (mm) the cell's development is from the nearest sheet: the least, over the
-    sheets, of the larger overhang of its rectangle with margins (0: a sheet holds it); 0
-    for a plate without a development (nothing to judge it by)."""
-    need = development_need(cell.result, ctx.sheets, ctx.mm_per_unit)
-    if need is None:
-        return 0.0
-    return min((max(need[0] - w, need[1] - h, 0.0) for w, h in ctx.sheets.sizes), default=float("inf"))
-
-
-def _sheet_rank(option: tuple, ctx: _Context) -> tuple:
-    """Smaller first: the worse half's distance from a sheet (:func:`_sheet_excess`, a half
-    without a development as far as can be: a failed half is no remedy), then a larger share
-    of the halves' area fitting the hull (to a hundredth, as :func:`.splitting.choose_split`
-    ranks), then less weld."""
+def _sheet_rank(option: tuple, needs: dict, ctx: _Context) -> tuple:
+    """Smaller first: the worse half's distance from a sheet (:meth:`.sheets.Sheets.excess`;
+    a half without a development as far as can be: a failed half is no remedy), then a
+    larger share of the halves' area fitting the hull (to a hundredth, as
+    :func:`.splitting.choose_split` ranks), then less weld."""
     split, kids = option
-    worst = max(_sheet_excess(k, ctx) if development_need(k.result, ctx.sheets, ctx.mm_per_unit) is not None
-                else float("inf") for k in kids)
+    worst = max(float("inf") if needs[id(k)] is None else ctx.sheets.excess(needs[id(k)]) for k in kids)
     total = sum(_area(k) for k in kids)
     share = sum(_area(k) for k in kids if _fits(k)) / total if total > 0 else 0.0
     return (round(min(worst, 1e12)), -round(share, 2), split.weld, split.kind, split.at)
-
-
-def _left_off(cell: Cell, ctx: _Context, why: str, ruled: bool) -> None:
-    """Record why a plate no stock sheet holds is kept as it is."""
-    need = development_need(cell.result, ctx.sheets, ctx.mm_per_unit)
-    rules = " and the yard's rules" if ruled else ""
-    _settle(cell, f"no stock sheet holds its development ({need[0]:.0f} x {need[1]:.0f} mm with margins): "
-            f"{why}{rules}", ctx.plan.method)
 
 
 def _children(cell: Cell, split) -> list[Cell]:

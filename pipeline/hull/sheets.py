@@ -36,25 +36,26 @@ class Sheets:
         return cls(sizes, float(shop.stock_margin) + max(shop.allowance().values()))
 
     def need(self, outline_mm: np.ndarray) -> np.ndarray:
-        """(short, long) mm of the smallest rectangle holding the outline (N, 2) mm, any
-        rotation, with the clearance on every side."""
-        import shapely
+        """(short, long) mm of the smallest rectangle holding the closed outline (N, 2) mm,
+        any rotation, with the clearance on every side (as the shop's stock check measures a
+        cut outline, :func:`pipeline.shop.plate.part_rectangle`)."""
+        from ..shop.plate import part_rectangle
 
-        rect = shapely.minimum_rotated_rectangle(shapely.MultiPoint(np.asarray(outline_mm, dtype=float)))
-        corners = np.asarray(rect.exterior.coords)[:3] if rect.geom_type == "Polygon" else _segment(rect)
-        sides = np.sort(np.linalg.norm(np.diff(corners, axis=0), axis=1))
-        return sides + 2.0 * self.clearance
+        return part_rectangle(np.asarray(outline_mm, dtype=float)) + 2.0 * self.clearance
 
     def holding(self, need: np.ndarray) -> tuple | None:
         """The smallest sheet (by area) that holds a rectangle ``need`` (short, long) mm, or None."""
-        fits = [(w * h, (w, h)) for w, h in self.sizes if need[0] <= w and need[1] <= h]
-        return min(fits)[1] if fits else None
+        from ..shop.plate import smallest_sheet
 
+        return smallest_sheet(need, self.sizes)
 
-def _segment(line) -> np.ndarray:
-    """A degenerate rectangle (the outline's points on a line): its ends, twice."""
-    ends = np.asarray(line.coords)[[0, -1]]
-    return np.array([ends[0], ends[1], ends[1]])
+    def excess(self, need: np.ndarray | None) -> float:
+        """How far (mm) a rectangle ``need`` is from the nearest sheet: the least, over the
+        sheets, of its larger overhang (0: a sheet holds it; 0 for None, a plate without a
+        development: nothing to judge it by)."""
+        if need is None:
+            return 0.0
+        return min((max(need[0] - w, need[1] - h, 0.0) for w, h in self.sizes), default=float("inf"))
 
 
 def development_need(result, sheets: Sheets, mm_per_unit: float) -> np.ndarray | None:

@@ -348,16 +348,32 @@ def allowance_cut(outline: Outline, hull, settings, per_edge: bool):
 def stock_check(outline_mm: np.ndarray, stock: list, margin: float) -> dict:
     """The smallest rectangle holding the part (any rotation) plus the margin on every side,
     and the smallest configured stock plate (by area) it fits on; None when none fits."""
-    import shapely
-
-    rect = shapely.minimum_rotated_rectangle(shapely.Polygon(outline_mm))
-    corners = np.asarray(rect.exterior.coords)[:3]
-    sides = np.sort(np.linalg.norm(np.diff(corners, axis=0), axis=1))
+    sides = part_rectangle(outline_mm)
     need = sides + 2.0 * margin
-    fits = [(w * h, (w, h)) for w, h in (sorted(s) for s in stock) if need[0] <= w and need[1] <= h]
-    best = min(fits)[1] if fits else None
+    best = smallest_sheet(need, stock)
     return {"units": "mm", "part_rectangle": sides.tolist(), "margin": margin, "needed": need.tolist(),
             "stock": [list(s) for s in stock], "fits_on": list(best) if best else None}
+
+
+def part_rectangle(outline: np.ndarray) -> np.ndarray:
+    """(short, long) sides of the smallest rectangle (any rotation) holding the closed outline
+    (N, 2); an outline whose points lie on a line gives (0, its length)."""
+    import shapely
+
+    rect = shapely.minimum_rotated_rectangle(shapely.Polygon(outline))
+    if rect.geom_type != "Polygon":
+        ends = np.asarray(rect.coords)[[0, -1]]
+        corners = np.array([ends[0], ends[1], ends[1]])
+    else:
+        corners = np.asarray(rect.exterior.coords)[:3]
+    return np.sort(np.linalg.norm(np.diff(corners, axis=0), axis=1))
+
+
+def smallest_sheet(need: np.ndarray, stock) -> tuple | None:
+    """The smallest stock plate (by area; each given as two sides in any order) that holds a
+    rectangle ``need`` (short, long), as (width, length); None when none does."""
+    fits = [(w * h, (w, h)) for w, h in (sorted(s) for s in stock) if need[0] <= w and need[1] <= h]
+    return min(fits)[1] if fits else None
 
 
 def mirrored(layout, side_of_model: str):
