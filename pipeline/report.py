@@ -87,6 +87,9 @@ def part_report(result: PartResult, units: str) -> dict:
         report["templates"] = result.figures["templates"]
     if result.figures.get("pinjig") is not None:
         report["pinjig"] = result.figures["pinjig"]
+    hull = result.part.hull
+    if hull is not None and hull.plan is not None:  # the adaptive plan's depth, class and why it stopped splitting
+        report["plan"] = dict(hull.plan)
     if result.figures.get("edge_fit") is not None:  # developed on the hull for its edges' fit-up
         report["edge_fit"] = result.figures["edge_fit"]
     if result.figures.get("follow") is not None:  # formed to meet its flat and strip neighbours' edges

@@ -113,7 +113,7 @@ def test_a_plate_whose_development_no_sheet_holds_is_split_until_its_halves_are_
     for part in run.parts:
         need = development_need(part.hull.result, sheets, 1.0)
         assert sheets.holding(need) == (3600.0, 12000.0), need
-        assert part.hull.result.figures["plan"]["stopped"] == "fits"
+        assert part.hull.plan["stopped"] == "fits"
     assert run.plan_record.splits_taken == 1
     assert off_sheets([p.hull.result for p in run.parts], 1.0, sheets) == []
     assert run.plan_record.points[-1].plates == 2 and run.plan_record.points[-1].kept
@@ -140,6 +140,9 @@ def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path, monkeypatch
         assert plate["stock"]["fits_on"] == [3600.0, 12000.0]
         assert plate["stock"]["needed"] == pytest.approx(sector_need(10.0, pieces=2), abs=5.0)
         assert not [w for w in plate["warnings"] if "no stock plate fits" in w]
+        # the plate's JSON says how the plan came to it: one split deep, kept for its fit
+        assert plate["plan"]["depth"] == 1 and plate["plan"]["stopped"] == "fits"
+        assert plate["plan"]["class_for_plan"] == plate["plate_class"]["class"]
     summary = json.loads((tmp_path / "out" / "cone_summary.json").read_text())
     assert summary["plan_cost"]["off_sheets"] == []
     assert "on no stock sheet" not in capsys.readouterr().out
@@ -149,6 +152,8 @@ def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path, monkeypatch
     [plate] = plates_of(tmp_path / "control")
     assert plate["stock"]["fits_on"] is None and plate["stock"]["needed"] == pytest.approx(sector_need(10.0), abs=5.0)
     assert [w for w in plate["warnings"] if "no stock plate fits" in w]
+    assert plate["plan"] == {"depth": 0, "class_for_plan": plate["plate_class"]["class"], "method": "adaptive",
+                             "stopped": "max_splits = 0"}  # the plan's check left out
     summary = json.loads((tmp_path / "control" / "cone_summary.json").read_text())
     assert summary["plan_cost"]["off_sheets"] == [{"plate": plate["name"], "needed_mm": plate["stock"]["needed"]}]
     assert "1 on no stock sheet" in capsys.readouterr().out

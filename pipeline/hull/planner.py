@@ -581,6 +581,8 @@ def _developed(cells: list, ctx: _Context, needs: dict) -> list:
     what each development needs on a sheet in ``needs`` (by id(cell))."""
     for cell, result in zip(cells, ctx.develop([c.result for c in cells])):
         cell.result = cell.part.hull.result = result
+        if cell.part.hull.plan is not None:  # a development that raised failed the plate
+            cell.part.hull.plan["class_for_plan"] = honest_class(result)
         needs[id(cell)] = development_need(result, ctx.sheets, ctx.mm_per_unit)
     return cells
 
@@ -615,10 +617,11 @@ def _children(cell: Cell, split) -> list[Cell]:
 
 
 def _settle(cell: Cell, why: str, method: str) -> Cell:
-    """A plate the adaptive plan keeps, with why it stopped splitting (``figures['plan']``)."""
-    record = {"depth": cell.depth, "class_for_plan": honest_class(cell.result), "method": method, "stopped": why}
-    if getattr(cell.result, "figures", None) is not None:
-        cell.result.figures["plan"] = record
+    """A plate the adaptive plan keeps, with why it stopped splitting (``part.hull.plan``, which
+    the plate's JSON reports whatever result the fit-up delivers)."""
+    if cell.part is not None:
+        cell.part.hull.plan = {"depth": cell.depth, "class_for_plan": honest_class(cell.result), "method": method,
+                               "stopped": why}
     cell.settled = why
     return cell
 

@@ -98,6 +98,9 @@ class HullPlate:
     # the fit-up's request that a flat plate be delivered as a strip instead (its plane stepped
     # from a flat or strip neighbour's beyond the limit: {step_mm, neighbours}): no plane is tried
     as_strip: dict | None = None
+    # the adaptive plan's record of the plate: its depth of splits, the class it was planned
+    # with and why it stopped splitting ({depth, class_for_plan, method, stopped}: planner._settle)
+    plan: dict | None = None
 
 
 def load_surface(spec, base: Path, mm_per_unit: float, scale: float = 1.0) -> NurbsSurface:
