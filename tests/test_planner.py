@@ -217,6 +217,32 @@ def test_a_butt_split_keeps_each_half_as_wide_as_the_stock_by_its_own_columns():
     assert loose.at == pytest.approx(4000.0) and strict.at == pytest.approx(5000.0)
 
 
+def test_a_girth_split_for_the_sheets_may_taper_where_the_plate_does():
+    """A flat plate 8 m long tapering from a point to 2.8 m of girth (0.35 m wider each
+    metre): every girth split leaves halves narrower than the 1 m stock near the point, so
+    none is allowed by the stock's width over every column. For a plate no sheet holds
+    (``tapering``) the halves keep 1 m only where the plate is wide enough for two cut at a
+    row (2 m and the rows' spacing, x >= 7 m): the middle row splits it, each half 1.4 m wide
+    at the wide end and tapering with the plate. A row off the middle leaves one half 0.92 m
+    wide where the plate is 2.45 m wide."""
+    from pipeline.hull.splitting import RegionSample
+
+    x = np.arange(9) * 1000.0
+    widths = 350.0 * np.arange(9)
+    rows = np.linspace(0.0, 1.0, 9)
+    points = np.stack(np.broadcast_arrays(x[None, :], rows[:, None] * widths[None, :], 0.0 * x[None, :]), axis=-1)
+    ones = np.ones(points.shape[:2])
+    sample = RegionSample(points, rows, 0.0 * ones, ones, 0.0 * ones, np.broadcast_to(x, ones.shape).copy(),
+                          rows[:, None] * widths[None, :], ones)
+    assert choose_split(sample, 5.0, 3000.0, 1000.0, kinds=("girth",)) is None
+    split = choose_split(sample, 5.0, 3000.0, 1000.0, kinds=("girth",), tapering=True)
+    assert split.kind == "girth" and split.at == pytest.approx(0.5)
+    # where the plate is narrower than two widths everywhere, no girth split at all
+    narrow = RegionSample(points * [1.0, 0.5, 1.0], rows, 0.0 * ones, ones, 0.0 * ones,
+                          np.broadcast_to(x, ones.shape).copy(), 0.5 * rows[:, None] * widths[None, :], ones)
+    assert choose_split(narrow, 5.0, 3000.0, 1000.0, kinds=("girth",), tapering=True) is None
+
+
 def test_the_split_chooser_asks_fewer_plane_fits_for_the_same_split(monkeypatch):
     """On the 160 m hull's surface (real data), 40 regions drawn with a fixed seed: the
     splits chosen with each answer of flatness reused for the halves it settles (a plane

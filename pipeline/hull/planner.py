@@ -483,6 +483,19 @@ def _region_split(job: tuple):
     return choose_split(sample, tolerance, min_length, min_width, rule.butts, strict, kinds, rule.seams)
 
 
+def _sheet_split(job: tuple):
+    """:func:`_region_split` for a plate that no stock sheet holds: a girth split may taper
+    where the plate does (:func:`.splitting.choose_split`'s ``tapering``): the sheets are not
+    a choice, and a half narrower than the stock where the whole is too narrow for two halves
+    adds no sliver the plate did not have (DTMB 5415's stern plate tapers to a point)."""
+    surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
+    sample = sample_region(surface, axis, girths, pair)
+    if sample is None:
+        return None
+    butts, seams = (None, None) if rule is None else (rule.butts, rule.seams)
+    return choose_split(sample, tolerance, min_length, min_width, butts, strict, kinds, seams, tapering=True)
+
+
 def _stock_split(job: tuple):
     """The split of a plate larger than the stock chosen before it is evaluated: job (a
     :func:`_split_job`, the kinds of its excess, whether it is past ``max_splits``). As
@@ -526,7 +539,7 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
         sides = seam_sides([c.part for c in kept]) if ctx.yard else None
         rules = _yard_rules(over, kept, sides, ctx)
         jobs = [_split_job(c, ctx, rule, (kind,)) for c, rule in zip(over, rules) for kind in SPLIT_KINDS]
-        chosen = list(ctx.spread(_region_split, jobs))
+        chosen = list(ctx.spread(_sheet_split, jobs))
         options = {}
         for k, cell in enumerate(over):
             for split in chosen[k * len(SPLIT_KINDS):(k + 1) * len(SPLIT_KINDS)]:

@@ -147,7 +147,8 @@ def _half_scores(s: RegionSample, masks, lengths, widths, tol: float, flat: _Fla
 
 
 def choose_split(s: RegionSample, tol: float, min_length: float, min_width: float, allow=None,
-                 strict_width: bool = False, kinds: tuple = ("length", "girth"), allow_seam=None) -> Split | None:
+                 strict_width: bool = False, kinds: tuple = ("length", "girth"), allow_seam=None,
+                 tapering: bool = False) -> Split | None:
     """The best split of the plate within the minimum sizes, or None when none is allowed.
     Candidates: a butt plane through each interior grid column (x = its mean x), a seam
     along each interior grid row; the halves share that column or row. ``allow(x)``: whether
@@ -155,7 +156,10 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
     of a butt split keeps a girth width of at least ``min_width`` somewhere (a plate tapering
     to the stem is not cut into a sliver); ``kinds``: the kinds of split considered;
     ``allow_seam(ends)``: whether a new seam ending at those points (2, 3) keeps the yard's
-    rule against the seams across the plate's butts (no cross joints)."""
+    rule against the seams across the plate's butts (no cross joints); ``tapering``: a girth
+    split's halves keep ``min_width`` only where the plate is wide enough for two cut at a
+    grid row (twice the width and the rows' spacing there; where it tapers narrower, to a
+    point at a stern or stem, so do they), somewhere at least."""
     laid = []  # (kind, at, masks, lengths, widths, weld, ends) of each split allowed
     x = s.points[..., 0]
     row_len = s.along[:, -1]
@@ -178,9 +182,11 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         upper = sign * (x - X) >= -1e-9 * np.ptp(x)
         laid.append(("length", X, (lower, upper), lengths, widths, float(s.across[-1, j]), ()))
     col_w = s.across[-1, :]
-    for i in range(1, n_rows - 1) if "girth" in kinds else ():
+    # wide enough for two halves cut at a grid row: twice the width and the rows' spacing
+    wide = col_w >= 2.0 * min_width + np.diff(s.across, axis=0).max(axis=0) if tapering else np.ones(n_cols, bool)
+    for i in range(1, n_rows - 1) if "girth" in kinds and wide.any() else ():
         cut = s.across[i, :]
-        if cut.min() < min_width or (col_w - cut).min() < min_width:
+        if cut[wide].min() < min_width or (col_w - cut)[wide].min() < min_width:
             continue
         ends = s.points[i, [0, -1]]
         if allow_seam is not None and not allow_seam(ends):
