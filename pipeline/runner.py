@@ -501,7 +501,8 @@ def _loads(blob: bytes, shared: list):
 
 
 def _pristine(result):
-    """The cache's copy: its own figures and warnings (a plan writes its record into them)."""
+    """The cache's copy: its own figures and warnings (the plan, the fit-up and the shop write
+    into a result's afterwards)."""
     return replace(result, figures=_copied(result.figures), warnings=list(result.warnings))
 
 

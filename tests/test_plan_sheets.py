@@ -119,6 +119,45 @@ def test_a_plate_whose_development_no_sheet_holds_is_split_until_its_halves_are_
     assert run.plan_record.points[-1].plates == 2 and run.plan_record.points[-1].kept
 
 
+def test_the_plan_splits_for_the_sheets_with_tapering_halves_allowed(tmp_path, monkeypatch):
+    """The splits for the sheets are chosen with the tapering rule (a plate that no sheet
+    holds is not left whole for a taper it has anyway): every split chosen for the cone
+    (``max_splits: 0``: the plan itself splits nothing) is chosen with it."""
+    from pipeline.hull import planner
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    asked = []
+
+    def choose(*args, tapering=False, **kwargs):
+        asked.append(tapering)
+        return choose_split(*args, tapering=tapering, **kwargs)
+
+    choose_split = planner.choose_split
+    monkeypatch.setattr(planner, "choose_split", choose)
+    with plate_evaluator(1) as evaluator:
+        run = load_run(_config(tmp_path, "cone", [[3600, 12000]]), evaluator)
+    assert len(run.parts) == 2 and asked and all(asked)
+
+
+def test_the_plan_record_reads_the_class_again_once_the_kept_plate_is_developed(tmp_path, monkeypatch):
+    """The cone plate is kept formed (a sheet holds anything here); its development, done
+    once it is kept, fails it: its plan record says failed, not the class it was kept with."""
+    from pipeline.hull import plateshop
+    from pipeline.hull.plan import load_run
+    from pipeline.runner import plate_evaluator
+
+    def failing(result, config):
+        result.status, result.reason = "failed", "the development raised (made up)"
+        return result
+
+    monkeypatch.setattr(plateshop, "develop", failing)
+    with plate_evaluator(1) as evaluator:
+        run = load_run(_config(tmp_path, "cone", [[10000, 40000]]), evaluator)
+    [part] = run.parts
+    assert part.hull.plan["class_for_plan"] == "failed" and part.hull.plan["depth"] == 0
+
+
 def test_the_shop_finds_a_sheet_for_every_plate_of_the_run(tmp_path, monkeypatch, capsys):
     """The whole run, judged by the shop's own stock check on each plate's cut outline: every
     plate is placed on a sheet, needing what half the sector does, and none warns that no

@@ -243,6 +243,32 @@ def test_a_girth_split_for_the_sheets_may_taper_where_the_plate_does():
     assert choose_split(narrow, 5.0, 3000.0, 1000.0, kinds=("girth",), tapering=True) is None
 
 
+def test_a_tapering_girth_split_leaves_no_sliver_where_the_rows_bunch():
+    """A plate 1.9 m wide over its first 7 m and 2.8 m at its end, its grid rows bunched
+    towards one seam there (girth fraction r^3 of row fraction r). The middle row halves the
+    wide end (1.4 m each) but leaves a 0.24 m sliver over the first 7 m, where the plate is
+    too narrow for two 1 m halves; a tapering split keeps each half a third of the plate's
+    width there, and no row does both: no split. Rows spread evenly, the middle row is taken."""
+    from pipeline.hull.splitting import RegionSample
+
+    x = np.arange(9) * 1000.0
+    widths = np.where(x < 7000.0, 1900.0, 2800.0)
+    rows = np.linspace(0.0, 1.0, 9)
+    ones = np.ones((9, 9))
+
+    def sample(fractions):
+        across = fractions * widths[None, :]
+        points = np.stack(np.broadcast_arrays(x[None, :], across, 0.0 * ones), axis=-1)
+        return RegionSample(points, rows, 0.0 * ones, ones, 0.0 * ones, np.broadcast_to(x, ones.shape).copy(),
+                            across, ones)
+
+    bunched = np.where(x[None, :] < 7000.0, rows[:, None] ** 3, rows[:, None] * ones)
+    assert 1900.0 * 0.5 ** 3 == pytest.approx(237.5)
+    assert choose_split(sample(bunched), 5.0, 3000.0, 1000.0, kinds=("girth",), tapering=True) is None
+    even = choose_split(sample(rows[:, None] * ones), 5.0, 3000.0, 1000.0, kinds=("girth",), tapering=True)
+    assert even.at == pytest.approx(0.5)
+
+
 def test_the_split_chooser_asks_fewer_plane_fits_for_the_same_split(monkeypatch):
     """On the 160 m hull's surface (real data), 40 regions drawn with a fixed seed: the
     splits chosen with each answer of flatness reused for the halves it settles (a plane

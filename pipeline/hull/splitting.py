@@ -157,9 +157,10 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
     to the stem is not cut into a sliver); ``kinds``: the kinds of split considered;
     ``allow_seam(ends)``: whether a new seam ending at those points (2, 3) keeps the yard's
     rule against the seams across the plate's butts (no cross joints); ``tapering``: a girth
-    split's halves keep ``min_width`` only where the plate is wide enough for two cut at a
-    grid row (twice the width and the rows' spacing there; where it tapers narrower, to a
-    point at a stern or stem, so do they), somewhere at least."""
+    split's halves keep ``min_width`` where the plate is wide enough for two cut at a grid
+    row (twice the width and the rows' spacing there), somewhere at least; where it tapers
+    narrower (to a point at a stern or stem) each half keeps a third of its width there,
+    at least half as wide as the other: no sliver."""
     laid = []  # (kind, at, masks, lengths, widths, weld, ends) of each split allowed
     x = s.points[..., 0]
     row_len = s.along[:, -1]
@@ -182,11 +183,16 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
         upper = sign * (x - X) >= -1e-9 * np.ptp(x)
         laid.append(("length", X, (lower, upper), lengths, widths, float(s.across[-1, j]), ()))
     col_w = s.across[-1, :]
-    # wide enough for two halves cut at a grid row: twice the width and the rows' spacing
-    wide = col_w >= 2.0 * min_width + np.diff(s.across, axis=0).max(axis=0) if tapering else np.ones(n_cols, bool)
-    for i in range(1, n_rows - 1) if "girth" in kinds and wide.any() else ():
+    need, slack = np.full(n_cols, min_width), 0.0
+    if tapering:
+        # wide enough for two halves cut at a grid row: twice the width and the rows' spacing;
+        # narrower, a row is not the middle where the rows bunch: each half keeps a third
+        wide = col_w >= 2.0 * min_width + np.diff(s.across, axis=0).max(axis=0)
+        need = np.where(wide, min_width, np.minimum(min_width, col_w / 3.0)) if wide.any() else None
+        slack = 1e-9 * float(col_w.max())  # the point a plate tapers to: both halves nil there
+    for i in range(1, n_rows - 1) if "girth" in kinds and need is not None else ():
         cut = s.across[i, :]
-        if cut[wide].min() < min_width or (col_w - cut)[wide].min() < min_width:
+        if np.any(np.minimum(cut, col_w - cut) < need - slack):
             continue
         ends = s.points[i, [0, -1]]
         if allow_seam is not None and not allow_seam(ends):
