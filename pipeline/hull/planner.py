@@ -472,15 +472,7 @@ def _region_split(job: tuple):
     length and width, :class:`.yardrules.YardRule` or None, strict width, kinds of split);
     module-level, so that the plan's workers can compute it (:func:`_splits_under_rules`,
     :func:`_split_all`)."""
-    surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
-    if not kinds:
-        return None
-    sample = sample_region(surface, axis, girths, pair)
-    if sample is None:
-        return None
-    if rule is None:
-        return choose_split(sample, tolerance, min_length, min_width, None, strict, kinds)
-    return choose_split(sample, tolerance, min_length, min_width, rule.butts, strict, kinds, rule.seams)
+    return _chosen_split(job, False)
 
 
 def _sheet_split(job: tuple):
@@ -488,12 +480,18 @@ def _sheet_split(job: tuple):
     where the plate does (:func:`.splitting.choose_split`'s ``tapering``): the sheets are not
     a choice, and a half narrower than the stock where the whole is too narrow for two halves
     adds no sliver the plate did not have (DTMB 5415's stern plate tapers to a point)."""
+    return _chosen_split(job, True)
+
+
+def _chosen_split(job: tuple, tapering: bool):
     surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
+    if not kinds:
+        return None
     sample = sample_region(surface, axis, girths, pair)
     if sample is None:
         return None
     butts, seams = (None, None) if rule is None else (rule.butts, rule.seams)
-    return choose_split(sample, tolerance, min_length, min_width, butts, strict, kinds, seams, tapering=True)
+    return choose_split(sample, tolerance, min_length, min_width, butts, strict, kinds, seams, tapering=tapering)
 
 
 def _stock_split(job: tuple):

@@ -159,8 +159,8 @@ def choose_split(s: RegionSample, tol: float, min_length: float, min_width: floa
     rule against the seams across the plate's butts (no cross joints); ``tapering``: a girth
     split's halves keep ``min_width`` where the plate is wide enough for two cut at a grid
     row (twice the width and the rows' spacing there), somewhere at least; where it tapers
-    narrower (to a point at a stern or stem) each half keeps a third of its width there,
-    at least half as wide as the other: no sliver."""
+    narrower (to a point at a stern or stem) each half keeps a third of the plate's width
+    there, so at least half as wide as the other: no sliver."""
     laid = []  # (kind, at, masks, lengths, widths, weld, ends) of each split allowed
     x = s.points[..., 0]
     row_len = s.along[:, -1]
