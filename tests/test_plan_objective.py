@@ -460,9 +460,9 @@ def test_a_plate_whose_split_did_not_pay_is_offered_the_other_kind(tmp_path, mon
     real = planner.choose_split
 
     def butts_first(sample, tol, min_length, min_width, allow=None, strict_width=False, kinds=planner.SPLIT_KINDS,
-                    allow_seam=None):
+                    allow_seam=None, tapering=False):
         kinds = ("length",) if "length" in kinds else kinds
-        return real(sample, tol, min_length, min_width, allow, strict_width, kinds, allow_seam)
+        return real(sample, tol, min_length, min_width, allow, strict_width, kinds, allow_seam, tapering=tapering)
 
     monkeypatch.setattr(planner, "choose_split", butts_first)
     steered = load_run(_cs(tmp_path, "steer", "adaptive", objective), _plain_evaluator())
