@@ -472,26 +472,28 @@ def _region_split(job: tuple):
     length and width, :class:`.yardrules.YardRule` or None, strict width, kinds of split);
     module-level, so that the plan's workers can compute it (:func:`_splits_under_rules`,
     :func:`_split_all`)."""
-    return _chosen_split(job, False)
+    kinds = job[-1]
+    return _splits_of(job, [kinds], False)[0] if kinds else None
 
 
-def _sheet_split(job: tuple):
-    """:func:`_region_split` for a plate that no stock sheet holds: a girth split may taper
+def _sheet_split(job: tuple) -> list:
+    """Each kind's best split (one per kind of the job's, None where there is none) of a
+    plate that no stock sheet holds, from one sample of its region: a girth split may taper
     where the plate does (:func:`.splitting.choose_split`'s ``tapering``): the sheets are not
     a choice, and a half narrower than the stock where the whole is too narrow for two halves
     adds no sliver the plate did not have (DTMB 5415's stern plate tapers to a point)."""
-    return _chosen_split(job, True)
+    return _splits_of(job, [(kind,) for kind in job[-1]], True)
 
 
-def _chosen_split(job: tuple, tapering: bool):
-    surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, kinds = job
-    if not kinds:
-        return None
+def _splits_of(job: tuple, kind_sets: list, tapering: bool) -> list:
+    """:func:`.splitting.choose_split` of the job's region for each set of kinds of split."""
+    surface, axis, girths, pair, tolerance, min_length, min_width, rule, strict, _ = job
     sample = sample_region(surface, axis, girths, pair)
     if sample is None:
-        return None
+        return [None] * len(kind_sets)
     butts, seams = (None, None) if rule is None else (rule.butts, rule.seams)
-    return choose_split(sample, tolerance, min_length, min_width, butts, strict, kinds, seams, tapering=tapering)
+    return [choose_split(sample, tolerance, min_length, min_width, butts, strict, kinds, seams, tapering=tapering)
+            for kinds in kind_sets]
 
 
 def _stock_split(job: tuple):
@@ -536,11 +538,10 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
             break
         sides = seam_sides([c.part for c in kept]) if ctx.yard else None
         rules = _yard_rules(over, kept, sides, ctx)
-        jobs = [_split_job(c, ctx, rule, (kind,)) for c, rule in zip(over, rules) for kind in SPLIT_KINDS]
-        chosen = list(ctx.spread(_sheet_split, jobs))
+        jobs = [_split_job(c, ctx, rule, SPLIT_KINDS) for c, rule in zip(over, rules)]
         options = {}
-        for k, cell in enumerate(over):
-            for split in chosen[k * len(SPLIT_KINDS):(k + 1) * len(SPLIT_KINDS)]:
+        for cell, each_kind in zip(over, ctx.spread(_sheet_split, jobs)):
+            for split in each_kind:
                 kids = [] if split is None else [h for h in _children(cell, split) if build(h) is not None]
                 if len(kids) == 2:
                     options.setdefault(id(cell), []).append((split, kids))
