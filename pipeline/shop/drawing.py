@@ -128,9 +128,9 @@ def lengthwise(cut: np.ndarray, bends: list) -> np.ndarray:
     """The 2 x 2 rotation that lays the plate lengthwise: its minimum rectangle's long side
     along +x, and the bending lines' d ends above their c ends (else the first frame... the
     plate as it is turned no further)."""
-    import shapely
+    from flatten.rectangle import minimum_rectangle
 
-    rect = np.asarray(shapely.minimum_rotated_rectangle(shapely.Polygon(cut)).exterior.coords)[:3]
+    rect = minimum_rectangle(cut)[:3]
     sides = np.diff(rect, axis=0)
     long_side = sides[np.argmax(np.linalg.norm(sides, axis=1))]
     a = -np.arctan2(long_side[1], long_side[0])

@@ -15,6 +15,8 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
+from flatten.rectangle import minimum_rectangle
+
 CHAR_WIDTH = 1.0  # box width per character, in text heights (conservative for TXT / monospace fonts)
 LINE_GAP = 1.5  # baseline to baseline, in text heights
 
@@ -545,8 +547,7 @@ def plate_layout(net: np.ndarray, cut: np.ndarray, edges: dict, bends: list, fra
     if bend_lines:
         d = np.mean([p[-1] - p[0] for _, p in bend_lines], axis=0)
         angles.append(readable(np.degrees(np.arctan2(d[1], d[0]))))
-    rect = shapely.minimum_rotated_rectangle(plate)
-    corners = np.asarray(rect.exterior.coords)[:3]
+    corners = minimum_rectangle(np.asarray(plate.exterior.coords))[:3]
     sides = np.diff(corners, axis=0)
     long_side = sides[np.argmax(np.linalg.norm(sides, axis=1))]
     angles += [readable(np.degrees(np.arctan2(long_side[1], long_side[0]))), 0.0, 90.0]

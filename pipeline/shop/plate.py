@@ -358,15 +358,9 @@ def stock_check(outline_mm: np.ndarray, stock: list, margin: float) -> dict:
 def part_rectangle(outline: np.ndarray) -> np.ndarray:
     """(short, long) sides of the smallest rectangle (any rotation) holding the closed outline
     (N, 2); an outline whose points lie on a line gives (0, its length)."""
-    import shapely
+    from flatten.rectangle import rectangle_sides
 
-    rect = shapely.minimum_rotated_rectangle(shapely.Polygon(outline))
-    if rect.geom_type != "Polygon":
-        ends = np.asarray(rect.coords)[[0, -1]]
-        corners = np.array([ends[0], ends[1], ends[1]])
-    else:
-        corners = np.asarray(rect.exterior.coords)[:3]
-    return np.sort(np.linalg.norm(np.diff(corners, axis=0), axis=1))
+    return rectangle_sides(outline)
 
 
 def smallest_sheet(need: np.ndarray, stock) -> tuple | None:
