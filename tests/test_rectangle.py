@@ -9,7 +9,7 @@ noise) had zero width."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from flatten.rectangle import minimum_rectangle, rectangle_sides
 
@@ -61,16 +61,24 @@ def test_points_on_a_line_give_a_rectangle_of_no_width_and_bad_points_are_refuse
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(st.integers(min_value=3, max_value=40).flatmap(
     lambda n: st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), min_size=n, max_size=n)))
+@example([(1.0, 0.0), (1.0, 0.0), (3.0, 1.0)])  # two distinct points: a segment of no width
 def test_the_rectangle_holds_every_point_and_no_whole_degree_turn_does_better(points):
     p = np.asarray(points, dtype=float)
     corners = minimum_rectangle(p)
     a, b = corners[1] - corners[0], corners[3] - corners[0]
     la, lb = np.linalg.norm(a), np.linalg.norm(b)
     scale = max(float(np.ptp(p, axis=0).max()), 1.0)
-    if la > 0 and lb > 0:
+    if la > 1e-9 * scale and lb > 1e-9 * scale:
         u, v = (p - corners[0]) @ (a / la), (p - corners[0]) @ (b / lb)
         assert u.min() >= -1e-9 * scale and u.max() <= la + 1e-9 * scale
         assert v.min() >= -1e-9 * scale and v.max() <= lb + 1e-9 * scale
+    else:  # points on a line (or one point): the rectangle is the segment between the extremes
+        side = a if la >= lb else b
+        length = max(la, lb)
+        along = (p - corners[0]) @ side / length if length > 0 else np.zeros(len(p))
+        off = np.linalg.norm(p - corners[0] - np.outer(along, side / length if length > 0 else [0.0, 0.0]), axis=1)
+        assert off.max() <= 1e-9 * scale
+        assert along.min() >= -1e-9 * scale and along.max() <= length + 1e-9 * scale
     turns = np.radians(np.arange(180.0))
     brute = min(np.ptp(p @ [np.cos(t), np.sin(t)]) * np.ptp(p @ [-np.sin(t), np.cos(t)]) for t in turns)
     assert la * lb <= brute + 1e-9 * scale ** 2
