@@ -82,6 +82,16 @@ def objective_of(name: str) -> dict | None:
 FIT_UPS = ("report", "repair", "follow", "follow_pull", "follow_pull_hold", "follow_hold")
 
 
+def replan_where_it_applies(data: dict) -> dict:
+    """The config ``data`` without ``plan.replan_held`` where it does not apply (a uniform plan,
+    or a fit-up without ``hold_steps``: nothing is held to plan again), as the shipped 160 m
+    hull's config sets it and a bench's variant may not."""
+    plan = data["strake"].get("plan") or {}
+    if plan.get("method") == "uniform" or not data["strake"].get("hold_steps"):
+        plan.pop("replan_held", None)
+    return data
+
+
 def fit_up_of(name: str) -> dict:
     """The strake options of a ``--fit-up`` name (one of FIT_UPS)."""
     return {"fit_up": "follow" if name.startswith("follow") else name,
@@ -106,6 +116,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
     if objective_of(objective) is not None:
         data["strake"]["plan"]["objective"] = objective_of(objective)
     data["strake"].update(fit_up_of(fit_up))
+    replan_where_it_applies(data)
     for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
         for key in ("iges", "model"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
             if key in source:
@@ -172,6 +183,7 @@ def lean_vs_full(hull: str, every: int) -> None:
 
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data["strake"]["plan"]["method"] = "uniform"
+    replan_where_it_applies(data)
     data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
         s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())

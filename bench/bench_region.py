@@ -49,6 +49,7 @@ def uniform_plates(hull: str) -> list:
 
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data["strake"]["plan"]["method"] = "uniform"
+    data["strake"]["plan"].pop("replan_held", None)  # (nothing is planned again in a uniform plan)
     for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
         for key in ("iges", "model"):
             if key in source:

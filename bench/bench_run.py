@@ -64,6 +64,10 @@ def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, obj
     if objective is not None:
         data["strake"]["plan"]["objective"] = objective
     data["strake"].update(strake or {})
+    if "replan_held" in data["strake"]["plan"]:  # (a baseline's config may not know it)
+        from bench_hull import replan_where_it_applies
+
+        replan_where_it_applies(data)
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):
             if key in surface:

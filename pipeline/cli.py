@@ -210,7 +210,7 @@ def _run(args, early) -> int:
             print(plan_line(config.plan_cost, stock_min_width(config.spec), config.mm_per_unit))
         if shell is not None:
             print(shell.one_line())
-        for done in (config.fitup_repair, config.fitup_follow):
+        for done in (config.fitup_repair, config.fitup_follow, getattr(config, "replan", None)):
             if done is not None:
                 print(done.one_line())
         print(stage_line(_stages(evaluator, clock, planned, ran, exported, results, config)))

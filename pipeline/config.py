@@ -692,6 +692,11 @@ class PlanSpec(_Strict):
                                                "of them with a gap: kept as the file gives them (keep), or that "
                                                "side faired onto the other face so that they meet (fair; "
                                                "pipeline.hull.fairing.fair_junctions)")
+    replan_held: int = Field(0, ge=0, le=3, description="plans made again after the fit-up (adaptive, with "
+                             "strake.hold_steps): each counts the plates a fit-up held that lost their flat or "
+                             "strip class as plates that do not fit, so that the plan splits them, then fits up "
+                             "again; the plan whose delivered flat + strip share is the highest is kept "
+                             "(pipeline.hull.replan)")
 
 
 class StrakeSpec(_Strict):
@@ -762,6 +767,12 @@ class StrakeSpec(_Strict):
         if self.hold_steps and self.fit_up != "follow":
             raise ValueError(f"hold_steps: true holds the plates that fit_up: follow leaves stepping, got fit_up: "
                              f"{self.fit_up} (set fit_up: follow, or drop hold_steps)")
+        if self.plan is not None and self.plan.replan_held and not self.hold_steps:
+            raise ValueError(f"plan.replan_held: {self.plan.replan_held} splits the plates hold_steps holds, got "
+                             f"hold_steps: {self.hold_steps} (set hold_steps: true, or drop replan_held)")
+        if self.plan is not None and self.plan.replan_held and self.plan.method != "adaptive":
+            raise ValueError(f"plan.replan_held: {self.plan.replan_held} plans again adaptively, got plan.method: "
+                             f"{self.plan.method} (set method: adaptive, or drop replan_held)")
         return self
 
     @field_validator("butts")
@@ -878,6 +889,7 @@ class RunConfig:
         self.fitup_repair = None  # what strake.fit_up: repair held on the hull (pipeline.hull.repair)
         self.fitup_follow = None  # what strake.fit_up: follow formed to meet (pipeline.hull.follow)
         self.fitup_seconds = None  # (wall, CPU) s of that fit-up, its plates' evaluations aside
+        self.replan = None  # the plans made again after the fit-up, plan.replan_held (pipeline.hull.replan)
         self.plan_cost = None  # what the plan costs a yard, as its summary says (pipeline.hull.cost.PlanCost.as_dict)
 
     @property

@@ -381,6 +381,8 @@ def export_summary(results: list[PartResult], config: RunConfig, out_dir: Path, 
             extra["shell"]["repair"] = config.fitup_repair.as_dict()
         if getattr(config, "fitup_follow", None) is not None:
             extra["shell"]["follow"] = config.fitup_follow.as_dict()
+        if getattr(config, "replan", None) is not None:
+            extra["shell"]["replan"] = config.replan.as_dict()
     for kind, key in (("overlap", "faired_overlaps"), ("junction", "faired_junctions")):
         # faces faired into the faces they overlap, or onto the faces they meet
         done = [{k: v for k, v in f.items() if k != "kind"} for f in getattr(config, "plan_fairings", None) or []

@@ -5,6 +5,9 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import yaml
+
+from tests.shipped_configs import plain_uniform
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -19,7 +22,10 @@ def test_end_plates_get_their_frames_marked(tmp_path):
     from pipeline.hull.plan import load_run
     from pipeline.hull.plates import run_part
 
-    plan = load_run(ROOT / "configs" / "hull160_shell.yaml")
+    data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
+    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    (tmp_path / "hull160.yaml").write_text(yaml.safe_dump(data))
+    plan = load_run(tmp_path / "hull160.yaml")
     ends = [p for p in plan.parts if None in p.hull.butts]
     assert len(ends) == 18
     for part in ends:

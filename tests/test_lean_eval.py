@@ -21,6 +21,7 @@ from pipeline.hull.plateshop import develop
 from pipeline.hull.plates import evaluate_plate, run_part
 from pipeline.runner import PlateEvaluator
 from tests.hull_shapes import cylinder_sphere_iges
+from tests.shipped_configs import plain_uniform
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -38,8 +39,7 @@ SHOP_FIGURES = ("bending", "outline", "templates", "pinjig", "heating", "forming
 def hull160(tmp_path_factory):
     """The 160 m hull's uniform layout (no plan evaluation: every plate is run in full by
     ``run_part``), without previews."""
-    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
-    data["strake"]["plan"]["method"] = "uniform"
+    data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
     data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
     data["output"] = {"png": False}
     path = tmp_path_factory.mktemp("hull160") / "hull160.yaml"

@@ -13,6 +13,7 @@ import yaml
 from pipeline.shop.allowance import cut_outline
 from pipeline.cli import main
 from pipeline.config import load_config
+from tests.shipped_configs import plain_uniform
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -378,8 +379,7 @@ def hull160_uniform(folder: Path):
     """The 160 m hull's shell config with the uniform layout, planned (no plate run)."""
     from pipeline.hull.plan import load_run
 
-    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
-    data["strake"]["plan"]["method"] = "uniform"
+    data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
     data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
     config_path = folder / "hull.yaml"
     config_path.write_text(yaml.safe_dump(data))

@@ -76,37 +76,48 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     if spec.strake is None:
         return config
     path = Path(path)
-    record = repair = follow = fairings = fit_started = fit_seconds = None
+    record = repair = follow = fairings = fit_seconds = replanned = None
     try:
-        if spec.strake.plan is not None:
+        plan = spec.strake.plan
+        judge = None if evaluate is None else _Judge(evaluate, config)
+        if plan is not None:
             from .objective import PlanRecord
             from .planner import plan_hull
 
-            judge = None if evaluate is None else _Judge(evaluate, config)
-            record = PlanRecord() if judge is not None and spec.strake.plan.method == "adaptive" else None
+            record = PlanRecord() if judge is not None and plan.method == "adaptive" else None
             fairings = []
             parts = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, record, fairings)
         else:
             parts = plan_strake(spec, path, config.mm_per_unit, config.lines)
         if spec.strake.fit_up in ("repair", "follow") and evaluate is not None:
-            fit_started = _own_clock(evaluate)
-            # the fit-up reads the plates' developments, which a plan's evaluation may owe
-            fitting = _Judge(evaluate, config)
-            fitting.develop_plates(parts)
-        if spec.strake.fit_up == "repair" and evaluate is not None:
-            from .repair import repair_fitup
+            fit_seconds = (0.0, 0.0)
+            repair, follow, fit_seconds = _fit_up(parts, spec, config, evaluate, fit_seconds)
+            if plan is not None and plan.replan_held and follow is not None:
+                from .objective import PlanRecord
+                from .planner import plan_hull
+                from .replan import ReplanReport, delivered_share, lost_plates
 
-            repair = repair_fitup(parts, fitting.many_developed, config.mm_per_unit,
-                                  float(spec.steel.thickness), workers=fitting)
-        elif spec.strake.fit_up == "follow" and evaluate is not None:
-            from .follow import follow_fitup
-
-            follow = follow_fitup(parts, fitting.many_developed, config.mm_per_unit,
-                                  float(spec.steel.thickness), as_strips=spec.strake.flats_as_strips,
-                                  hold=spec.strake.hold_steps, pull=spec.strake.pull_steps,
-                                  workers=fitting)
-        if fit_started is not None:
-            fit_seconds = tuple(now - then for now, then in zip(_own_clock(evaluate), fit_started))
+                replanned = ReplanReport()
+                best = (parts, record, fairings, follow)
+                lost, asked = lost_plates(follow.held), frozenset()
+                replanned.add(parts, lost, asked)
+                for _ in range(plan.replan_held):
+                    if not lost:
+                        replanned.stopped = "the last fit-up held no plate that lost its flat or strip class"
+                        break
+                    asked = asked | lost  # a plate lost once stays counted as not fitting
+                    again, again_fairings = PlanRecord(), []
+                    trial = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, again, again_fairings,
+                                      asked)
+                    _, trial_follow, fit_seconds = _fit_up(trial, spec, config, evaluate, fit_seconds)
+                    lost = lost_plates(trial_follow.held)
+                    replanned.add(trial, lost, asked)
+                    if delivered_share(trial) > delivered_share(best[0]):
+                        best = (trial, again, again_fairings, trial_follow)
+                        replanned.kept = len(replanned.plans) - 1
+                else:
+                    replanned.stopped = f"plan.replan_held = {plan.replan_held} plans made again"
+                parts, record, fairings, follow = best
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None
@@ -120,7 +131,32 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     run.fitup_repair = repair
     run.fitup_follow = follow
     run.fitup_seconds = fit_seconds
+    run.replan = replanned
     return run
+
+
+def _fit_up(parts: list, spec, config, evaluate, seconds: tuple) -> tuple:
+    """The fit-up ``strake.fit_up`` asks for of the planned ``parts`` (their results' owed
+    developments done first): (repair report, follow report, ``seconds`` (wall, CPU) plus its
+    own)."""
+    started = _own_clock(evaluate)
+    # the fit-up reads the plates' developments, which a plan's evaluation may owe
+    fitting = _Judge(evaluate, config)
+    fitting.develop_plates(parts)
+    repair = follow = None
+    if spec.strake.fit_up == "repair":
+        from .repair import repair_fitup
+
+        repair = repair_fitup(parts, fitting.many_developed, config.mm_per_unit, float(spec.steel.thickness),
+                              workers=fitting)
+    else:
+        from .follow import follow_fitup
+
+        follow = follow_fitup(parts, fitting.many_developed, config.mm_per_unit, float(spec.steel.thickness),
+                              as_strips=spec.strake.flats_as_strips, hold=spec.strake.hold_steps,
+                              pull=spec.strake.pull_steps, workers=fitting)
+    return repair, follow, tuple(total + now - then for total, now, then in zip(seconds, _own_clock(evaluate),
+                                                                                started))
 
 
 def _own_clock(evaluator) -> tuple[float, float]:

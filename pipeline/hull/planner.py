@@ -151,6 +151,9 @@ class Cell:
     tried: tuple = ()  # the kinds of split taken of it and given up (an objective's plan)
     size: tuple = (0.0, 0.0)  # (length, width) of its region on a coarse grid when built (model units)
     order: tuple = ()  # its place in the layout: the cell's index there, then each split's half (0, 1)
+    # held by a fit-up of this plan made before, where it lost its flat or strip class
+    # (:mod:`.replan`): it does not fit
+    lost: bool = False
 
 
 @dataclass
@@ -165,11 +168,14 @@ class _Face:
 
 
 def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record: PlanRecord | None = None,
-              fairings: list | None = None) -> list:
+              fairings: list | None = None, lost: frozenset | None = None) -> list:
     """The plates of a planned hull. ``evaluate``: ``evaluate(part) -> result``, or an object
     whose ``many(parts)`` evaluates a batch (spread over workers, cached); ``record``: filled
     with what an adaptive plan evaluated; ``fairings``: filled with what ``plan.overlaps:
-    fair`` and ``plan.junctions: fair`` did (:class:`.fairing.Fairing`, as dicts)."""
+    fair`` and ``plan.junctions: fair`` did (:class:`.fairing.Fairing`, as dicts); ``lost``:
+    the names of the plates a fit-up of this plan made before held and delivered neither flat
+    nor a strip (:mod:`.replan`): planned as plates that do not fit."""
+    lost = lost or frozenset()
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
@@ -264,6 +270,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         part.hull.x_limits = face.limits
         part.hull.face_trim = face.trim
         cell.part = part
+        cell.lost = cell.name in lost
         return part
 
     if plan.method == "uniform" or evaluate is None:
@@ -329,7 +336,7 @@ def _evaluate_built(built: list, ctx: _Context) -> list:
 
 
 def _fits(cell: Cell) -> bool:
-    return honest_class(cell.result) in ("flat", "developable")
+    return not cell.lost and honest_class(cell.result) in ("flat", "developable")
 
 
 def _excess(length: float, width: float, stock) -> tuple:
@@ -633,7 +640,7 @@ def _settle(cell: Cell, why: str, method: str) -> Cell:
     the plate's JSON reports whatever result the fit-up delivers)."""
     if cell.part is not None:
         cell.part.hull.plan = {"depth": cell.depth, "class_for_plan": honest_class(cell.result), "method": method,
-                               "stopped": why}
+                               "stopped": why, **({"held_at_fit_up_before": True} if cell.lost else {})}
     cell.settled = why
     return cell
 
