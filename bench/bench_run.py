@@ -64,10 +64,8 @@ def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, obj
     if objective is not None:
         data["strake"]["plan"]["objective"] = objective
     data["strake"].update(strake or {})
-    if "replan_held" in data["strake"]["plan"]:  # (a baseline's config may not know it)
-        from bench_hull import replan_where_it_applies
-
-        replan_where_it_applies(data)
+    # the plan made once: both checkouts run this config, and a baseline's may not know the key
+    data["strake"]["plan"].pop("replan_held", None)
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):
             if key in surface:

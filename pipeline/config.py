@@ -769,7 +769,7 @@ class StrakeSpec(_Strict):
                              f"{self.fit_up} (set fit_up: follow, or drop hold_steps)")
         if self.plan is not None and self.plan.replan_held and not self.hold_steps:
             raise ValueError(f"plan.replan_held: {self.plan.replan_held} splits the plates hold_steps holds, got "
-                             f"hold_steps: {self.hold_steps} (set hold_steps: true, or drop replan_held)")
+                             "hold_steps: false (set hold_steps: true, or drop replan_held)")
         if self.plan is not None and self.plan.replan_held and self.plan.method != "adaptive":
             raise ValueError(f"plan.replan_held: {self.plan.replan_held} plans again adaptively, got plan.method: "
                              f"{self.plan.method} (set method: adaptive, or drop replan_held)")

@@ -16,6 +16,7 @@ A worker that dies (a signal, the OOM killer) fails only the part it was running
 
 from __future__ import annotations
 
+import copy
 import os
 import signal
 from dataclasses import fields, replace
@@ -502,8 +503,17 @@ def _loads(blob: bytes, shared: list):
 
 def _pristine(result):
     """The cache's copy: its own figures and warnings (the plan, the fit-up and the shop write
-    into a result's afterwards)."""
-    return replace(result, figures=_copied(result.figures), warnings=list(result.warnings))
+    into a result's afterwards), and its owed work's own part as evaluated. Evaluated in this
+    process, that part is the plan's, which a fit-up later moves (``hull.follow``, ``held``,
+    ``plane``, ``result``): a plan made again (:mod:`pipeline.hull.replan`) that asks for the
+    same plate would have its work done on the moved one. A shallow copy of the part and its
+    hull keeps the seam curves (and what the evaluation cached on them)."""
+    work = result.shop_work
+    if work is not None and work.part is not None and getattr(work.part, "hull", None) is not None:
+        part = copy.copy(work.part)
+        part.hull = copy.copy(part.hull)
+        work = replace(work, part=part)
+    return replace(result, figures=_copied(result.figures), warnings=list(result.warnings), shop_work=work)
 
 
 def _copied(figures: dict) -> dict:

@@ -172,3 +172,15 @@ def test_a_held_plate_moved_by_the_forming_is_not_tried_flat_or_as_a_strip_again
     assert held and held <= set(config.fitup_follow.moved)
     assert sorted(name for kind, *rest in tried if kind == "strip" for name, _ in [rest]) == sorted(held)
     assert not any(moved for kind, *rest in tried if kind == "strip" for _, moved in [rest])
+
+
+def test_what_the_hold_reports_is_what_a_plan_made_again_counts_as_lost(shoulders):
+    # plan.replan_held reads the hold's report: every plate held from flat or strip to formed
+    from pipeline.hull.replan import lost_plates, region_key
+
+    (config, _, _), (held_config, _, _) = shoulders
+    report = held_config.fitup_follow
+    by_name = {p.name: p for p in held_config.parts}
+    assert lost_plates(report.held, held_config.parts) == frozenset(
+        (name, region_key(by_name[name].hull)) for name in report.held)
+    assert lost_plates(config.fitup_follow.held, config.parts) == frozenset()  # the control: nothing held

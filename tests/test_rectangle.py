@@ -9,7 +9,8 @@ noise) had zero width."""
 
 import numpy as np
 import pytest
-from hypothesis import example, given, settings, strategies as st
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from flatten.rectangle import minimum_rectangle, rectangle_sides
 

@@ -95,29 +95,20 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
             if plan is not None and plan.replan_held and follow is not None:
                 from .objective import PlanRecord
                 from .planner import plan_hull
-                from .replan import ReplanReport, delivered_share, lost_plates
+                from .replan import plan_again
 
-                replanned = ReplanReport()
-                best = (parts, record, fairings, follow)
-                lost, asked = lost_plates(follow.held), frozenset()
-                replanned.add(parts, lost, asked)
-                for _ in range(plan.replan_held):
-                    if not lost:
-                        replanned.stopped = "the last fit-up held no plate that lost its flat or strip class"
-                        break
-                    asked = asked | lost  # a plate lost once stays counted as not fitting
+                def replan(lost: frozenset) -> tuple:
                     again, again_fairings = PlanRecord(), []
-                    trial = plan_hull(spec, path, config.mm_per_unit, config.lines, judge, again, again_fairings,
-                                      asked)
-                    _, trial_follow, fit_seconds = _fit_up(trial, spec, config, evaluate, fit_seconds)
-                    lost = lost_plates(trial_follow.held)
-                    replanned.add(trial, lost, asked)
-                    if delivered_share(trial) > delivered_share(best[0]):
-                        best = (trial, again, again_fairings, trial_follow)
-                        replanned.kept = len(replanned.plans) - 1
-                else:
-                    replanned.stopped = f"plan.replan_held = {plan.replan_held} plans made again"
-                parts, record, fairings, follow = best
+                    return (plan_hull(spec, path, config.mm_per_unit, config.lines, judge, again, again_fairings,
+                                      lost), again, again_fairings)
+
+                def fit_up(planned: list):
+                    nonlocal fit_seconds
+                    _, done, fit_seconds = _fit_up(planned, spec, config, evaluate, fit_seconds)
+                    return done
+
+                (parts, record, fairings, follow), replanned = plan_again(
+                    plan.replan_held, (parts, record, fairings, follow), replan, fit_up)
     except SourceError as exc:
         line = _line_of(config.lines, ("strake",))
         raise ConfigError(f"{path}{':' + str(line) if line else ''}: strake: {exc}") from None

@@ -173,9 +173,10 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     whose ``many(parts)`` evaluates a batch (spread over workers, cached); ``record``: filled
     with what an adaptive plan evaluated; ``fairings``: filled with what ``plan.overlaps:
     fair`` and ``plan.junctions: fair`` did (:class:`.fairing.Fairing`, as dicts); ``lost``:
-    the names of the plates a fit-up of this plan made before held and delivered neither flat
-    nor a strip (:mod:`.replan`): planned as plates that do not fit."""
+    (name, region) of the plates a fit-up of this plan made before held and delivered neither
+    flat nor a strip (:func:`.replan.lost_plates`): planned as plates that do not fit."""
     lost = lost or frozenset()
+    lost_names = {name for name, _ in lost}
     strake = spec.strake
     plan = strake.plan
     sources = [strake.surface] + list(plan.surfaces)
@@ -270,7 +271,10 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         part.hull.x_limits = face.limits
         part.hull.face_trim = face.trim
         cell.part = part
-        cell.lost = cell.name in lost
+        if cell.name in lost_names:  # (the same name may be another region: a neighbour's split moved its butts)
+            from .replan import region_key
+
+            cell.lost = (cell.name, region_key(part.hull)) in lost
         return part
 
     if plan.method == "uniform" or evaluate is None:
@@ -395,6 +399,8 @@ def _area(cell: Cell) -> float:
 
 
 def _share(cells) -> float:
+    """The flat + strip share of the cells' area as the plan counts it (a plate lost at a
+    fit-up before, :mod:`.replan`, counts as not fitting, as it was delivered)."""
     total = sum(_area(c) for c in cells)
     return sum(_area(c) for c in cells if _fits(c)) / total if total > 0 else 0.0
 

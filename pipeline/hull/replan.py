@@ -11,9 +11,14 @@ minimum stock sizes, ``max_splits``, the yard's rules, an objective's weld budge
 are strips of their own, with edges of their own beside their neighbours'. A split only across
 the edge that held the plate (a butt for a seam edge, to shorten the chord) was tried first:
 most held plates of the 160 m hull are 3.4-5 m long, so no butt keeps both halves within the
-3 m minimum length, and the share rose 0.41 points against 2.03 with either kind (bench/).
-The new plan is fitted up again, and the plan whose delivered flat + strip share is the
-highest is kept; the others are reported.
+3 m minimum length, and the share rose 0.41 points against 2.33 with either kind (bench/).
+The new plan is fitted up again. The plan kept is the one whose fit-up left the fewest pairs
+of flat or strip plates stepping over the limit (``untaken``: the holds did not take them, so
+they count as flat or strips in the share), then the highest delivered flat + strip share.
+
+A lost plate is known by its name and its region (seams and butt planes): a name says only
+where a plate sits in the plan's tree of splits, and under the yard's rules a neighbour's new
+split can move the butts a plate of the same name is split at.
 """
 
 from __future__ import annotations
@@ -23,18 +28,34 @@ from dataclasses import dataclass, field
 from .cost import SHARE_NAMES
 from .hullplots import display_class, shell_area
 
-KEPT_CLASSES = ("flat", "developable")
+FLAT_OR_STRIP = ("flat", "developable")
+SHARE_DIGITS = 6  # shares compared to a millionth of the shell (0.004 m^2 of the 160 m hull's)
 RULE = ("plan.replan_held: the plan is made again with each plate that strake.hold_steps held and delivered neither "
-        "flat nor a strip (in any plan before) counted as a plate that does not fit, split by the plan's own rules; "
-        "the new plan is fitted up again, and the plan whose delivered flat + strip share of the shell is the "
-        "highest is kept (the first on a tie)")
+        "flat nor a strip (in any plan before, known by its name and region) counted as a plate that does not fit, "
+        "split by the plan's own rules; the new plan is fitted up again, and the plan kept is the one whose fit-up "
+        "left the fewest pairs of flat or strip plates stepping over the limit, then the one whose delivered flat + "
+        "strip share of the shell is the highest (the first on a tie)")
 
 
-def lost_plates(held: dict) -> frozenset:
-    """The names of the plates a fit-up held that were flat or strips and are delivered as
-    neither (``held``: :attr:`.follow.FollowReport.held`)."""
-    return frozenset(name for name, record in held.items()
-                     if record["class_before"] in KEPT_CLASSES and record["class_after"] not in KEPT_CLASSES)
+def region_key(hull) -> tuple:
+    """A plate's region as the plan laid it: its seams (girth curves in the surface's
+    parameters) and its butt planes (None: the hull's end)."""
+    return (tuple((tuple(map(float, g.s)), tuple(map(float, g.g))) for g in hull.girths),
+            tuple(None if p is None else (*map(float, p.normal), float(p.offset)) for p in hull.butts))
+
+
+def plate_keys(parts: list) -> frozenset:
+    """(name, :func:`region_key`) of each hull plate of ``parts``."""
+    return frozenset((p.name, region_key(p.hull)) for p in parts if getattr(p, "hull", None) is not None)
+
+
+def lost_plates(held: dict, parts: list) -> frozenset:
+    """(name, :func:`region_key`) of the plates of ``parts`` a fit-up held that were flat or
+    strips and are delivered as neither (``held``: :attr:`.follow.FollowReport.held`)."""
+    by_name = {p.name: p for p in parts if getattr(p, "hull", None) is not None}
+    return frozenset((name, region_key(by_name[name].hull)) for name, record in held.items()
+                     if name in by_name and record["class_before"] in FLAT_OR_STRIP
+                     and record["class_after"] not in FLAT_OR_STRIP)
 
 
 def delivered_share(parts: list) -> float:
@@ -48,24 +69,28 @@ def delivered_share(parts: list) -> float:
 
 @dataclass
 class ReplanReport:
-    """Each plan made (the first as planned, then one per ``plan.replan_held``): its plates,
-    the plates its fit-up held and lost, and its delivered flat + strip share; which was kept."""
+    """Each plan made (the first as planned, then one per ``plan.replan_held`` round): its
+    plates, the plates its fit-up held and lost, the pairs it left stepping and its delivered
+    flat + strip share; which was kept, and why the rounds stopped."""
 
     plans: list = field(default_factory=list)
     kept: int = 0
     stopped: str = ""
 
-    def add(self, parts: list, lost: frozenset, asked: frozenset) -> None:
-        """The plan of ``parts`` after its fit-up: ``lost`` the plates that fit-up held and lost,
-        ``asked`` the lost plates of the plan before that this plan was asked to split."""
-        names = {p.name for p in parts}
+    def add(self, parts: list, follow, lost: frozenset, asked: frozenset) -> tuple:
+        """The plan of ``parts`` after its fit-up (``follow``): ``lost`` the plates that fit-up
+        held and lost, ``asked`` the plates lost in the plans before, counted as not fitting in
+        this one. Returns the plan's standing (larger is better)."""
+        here = plate_keys(parts)
         self.plans.append({
-            "plates": sum(getattr(p, "hull", None) is not None for p in parts),
+            "plates": len(here),
             "delivered_flat_strip": delivered_share(parts),
-            "held_lost": sorted(lost),
-            "asked_split": sorted(asked),
-            "asked_not_split": sorted(n for n in asked if n in names),
+            "untaken": len(follow.untaken),
+            "held_lost": sorted(name for name, _ in lost),
+            "asked_split": sorted(name for name, _ in asked),
+            "asked_not_split": sorted(name for name, region in asked if (name, region) in here),
         })
+        return standing(self.plans[-1])
 
     def as_dict(self) -> dict:
         return {"rule": RULE, "kept": self.kept, "stopped": self.stopped, "plans": self.plans}
@@ -74,3 +99,45 @@ class ReplanReport:
         shares = ", ".join(f"{100 * p['delivered_flat_strip']:.2f} %" for p in self.plans)
         return (f"replan: {len(self.plans)} plan(s), flat + strip after fit-up {shares}; plan {self.kept + 1} kept"
                 + (f" ({self.stopped})" if self.stopped else ""))
+
+
+def standing(plan: dict) -> tuple:
+    """A plan's rank among those made (larger is better): fewer pairs of flat or strip
+    plates left stepping, then a higher delivered flat + strip share (to a millionth: two
+    plans that deliver the same plates differ in the last digits of their sums)."""
+    return (-plan["untaken"], round(plan["delivered_flat_strip"], SHARE_DIGITS))
+
+
+def plan_again(rounds: int, first: tuple, replan, fit_up) -> tuple:
+    """The plan kept of ``first`` and up to ``rounds`` plans made again, and the
+    :class:`ReplanReport`. ``first``: (parts, plan record, fairings, follow report) of the plan
+    as made and fitted up; ``replan(lost) -> (parts, plan record, fairings)`` plans the hull
+    with the plates ``lost`` (:func:`lost_plates`) counted as not fitting; ``fit_up(parts) ->
+    follow report`` fits a plan up. A round whose plan is the plan before (no lost plate could
+    be split) is not fitted up again; one that raises ends the rounds, the plans before kept."""
+    report = ReplanReport()
+    best = first
+    lost, asked = lost_plates(first[3].held, first[0]), frozenset()
+    best_standing = report.add(first[0], first[3], lost, asked)
+    last = plate_keys(first[0])
+    for _ in range(rounds):
+        if not lost:
+            report.stopped = "the last fit-up held no plate that lost its flat or strip class"
+            break
+        asked = asked | lost  # a plate lost once stays counted as not fitting
+        try:
+            parts, record, fairings = replan(asked)
+            if plate_keys(parts) == last:
+                report.stopped = "the plan made again is the plan before: no plate lost could be split"
+                break
+            follow = fit_up(parts)
+        except Exception as exc:  # noqa: BLE001 - a plan made again that fails leaves the plans before standing
+            report.stopped = f"plan {len(report.plans) + 1} failed: {type(exc).__name__}: {exc}"
+            break
+        lost, last = lost_plates(follow.held, parts), plate_keys(parts)
+        here = report.add(parts, follow, lost, asked)
+        if here > best_standing:
+            best, best_standing, report.kept = (parts, record, fairings, follow), here, len(report.plans) - 1
+    else:
+        report.stopped = f"plan.replan_held = {rounds} plans made again"
+    return best, report
