@@ -203,6 +203,14 @@ def block_joints(spec) -> tuple:
     return tuple(getattr(plan, "block_joints", None) or ())
 
 
+def class_areas(results) -> dict[str, float]:
+    """m^2 of shell each share's plates cover (flat, strip, rolled, formed, failed)."""
+    area = {name: 0.0 for name in SHARE_NAMES.values()}
+    for r in results:
+        area[SHARE_NAMES[display_class(r)]] += shell_area(r)
+    return area
+
+
 def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_width: float | None = None,
               joints=(), sheets=None) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
@@ -214,9 +222,7 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_wid
     metre = mm_per_unit / 1000.0
     sampled = [edges[r.name] for r in results if edges.get(r.name) is not None]
     weld = weld_lengths(sampled)
-    area = {name: 0.0 for name in SHARE_NAMES.values()}
-    for r in results:
-        area[SHARE_NAMES[display_class(r)]] += shell_area(r)
+    area = class_areas(results)
     total = sum(area.values())
     narrow, below = None, []
     for plate in sampled:

@@ -25,8 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .cost import SHARE_NAMES
-from .hullplots import display_class, shell_area
+from .cost import class_areas
 
 FLAT_OR_STRIP = ("flat", "developable")
 SHARE_DIGITS = 6  # shares compared to a millionth of the shell (0.004 m^2 of the 160 m hull's)
@@ -61,10 +60,10 @@ def lost_plates(held: dict, parts: list) -> frozenset:
 def delivered_share(parts: list) -> float:
     """The flat + strip share of the shell area the hull plates of ``parts`` deliver (their
     results, as the plan's cost counts them: :func:`.cost.plan_cost`)."""
-    results = [p.hull.result for p in parts if getattr(p, "hull", None) is not None and p.hull.result is not None]
-    areas = [(SHARE_NAMES[display_class(r)], shell_area(r)) for r in results]
-    total = sum(a for _, a in areas)
-    return sum(a for kind, a in areas if kind in ("flat", "strip")) / total if total > 0 else 0.0
+    area = class_areas([p.hull.result for p in parts
+                        if getattr(p, "hull", None) is not None and p.hull.result is not None])
+    total = sum(area.values())
+    return (area["flat"] + area["strip"]) / total if total > 0 else 0.0
 
 
 @dataclass
@@ -77,11 +76,11 @@ class ReplanReport:
     kept: int = 0
     stopped: str = ""
 
-    def add(self, parts: list, follow, lost: frozenset, asked: frozenset) -> tuple:
-        """The plan of ``parts`` after its fit-up (``follow``): ``lost`` the plates that fit-up
-        held and lost, ``asked`` the plates lost in the plans before, counted as not fitting in
-        this one. Returns the plan's standing (larger is better)."""
-        here = plate_keys(parts)
+    def add(self, parts: list, here: frozenset, follow, lost: frozenset, asked: frozenset) -> tuple:
+        """The plan of ``parts`` (their :func:`plate_keys` ``here``) after its fit-up
+        (``follow``): ``lost`` the plates that fit-up held and lost, ``asked`` the plates lost
+        in the plans before, counted as not fitting in this one. Returns the plan's standing
+        (larger is better)."""
         self.plans.append({
             "plates": len(here),
             "delivered_flat_strip": delivered_share(parts),
@@ -117,9 +116,8 @@ def plan_again(rounds: int, first: tuple, replan, fit_up) -> tuple:
     be split) is not fitted up again; one that raises ends the rounds, the plans before kept."""
     report = ReplanReport()
     best = first
-    lost, asked = lost_plates(first[3].held, first[0]), frozenset()
-    best_standing = report.add(first[0], first[3], lost, asked)
-    last = plate_keys(first[0])
+    lost, asked, last = lost_plates(first[3].held, first[0]), frozenset(), plate_keys(first[0])
+    best_standing = report.add(first[0], last, first[3], lost, asked)
     for _ in range(rounds):
         if not lost:
             report.stopped = "the last fit-up held no plate that lost its flat or strip class"
@@ -127,17 +125,18 @@ def plan_again(rounds: int, first: tuple, replan, fit_up) -> tuple:
         asked = asked | lost  # a plate lost once stays counted as not fitting
         try:
             parts, record, fairings = replan(asked)
-            if plate_keys(parts) == last:
+            here = plate_keys(parts)
+            if here == last:
                 report.stopped = "the plan made again is the plan before: no plate lost could be split"
                 break
             follow = fit_up(parts)
         except Exception as exc:  # noqa: BLE001 - a plan made again that fails leaves the plans before standing
             report.stopped = f"plan {len(report.plans) + 1} failed: {type(exc).__name__}: {exc}"
             break
-        lost, last = lost_plates(follow.held, parts), plate_keys(parts)
-        here = report.add(parts, follow, lost, asked)
-        if here > best_standing:
-            best, best_standing, report.kept = (parts, record, fairings, follow), here, len(report.plans) - 1
+        lost, last = lost_plates(follow.held, parts), here
+        standing_here = report.add(parts, here, follow, lost, asked)
+        if standing_here > best_standing:
+            best, best_standing, report.kept = (parts, record, fairings, follow), standing_here, len(report.plans) - 1
     else:
         report.stopped = f"plan.replan_held = {rounds} plans made again"
     return best, report
