@@ -5,6 +5,7 @@ is moved no further than brings the hull within LEAST_FIT of the tolerance."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,8 @@ from hypothesis import strategies as st
 from pipeline.hull.bestfit import end_offsets
 from pipeline.cli import main
 from tests.hull_shapes import bowed_bilge_iges
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_strake(tmp_path, strake: dict, name="t") -> tuple[int, Path]:
@@ -242,7 +245,6 @@ def test_seams_extended_past_the_butts_are_not_tried_for_a_strip_far_off_the_hul
     angles), over HOPELESS tolerances. Extending the seams past the butts only adds rulings
     that lean past them, so that strip is not solved and the plate says why (a strip that
     stops short of a corner still gets it: test_a_seam_strip_whose_rulings_lean_...)."""
-    import re
 
     from pipeline.hull import plates
     from pipeline.hull.platestrip import HOPELESS
@@ -268,3 +270,37 @@ def test_seams_extended_past_the_butts_are_not_tried_for_a_strip_far_off_the_hul
     sagitta = bilge * (1 - np.cos(spread[0] / 2))
     assert stands > HOPELESS * tol
     assert stands == pytest.approx(sagitta, rel=0.03)
+
+
+def test_a_best_fit_whose_centred_rulings_still_miss_stops_and_solving_on_would_not_fit(tmp_path, monkeypatch):
+    """The 160 m hull's plate S06_B05 of the yard's layout (the shipped config's first
+    plan): its seam strip, solved between the seams extended past the butts, misses the hull
+    by 2.3 tolerances. Each of its rulings centred in the hull's gaps around it still
+    leaves the hull over CENTRED_LIMIT tolerances off, so the best fit stops before it
+    solves a strip on them, and says so. Solved on regardless (the limit lifted), the
+    rounds miss the tolerance too: the stop lost no strip."""
+    from pipeline.hull import bestfit
+    from pipeline.hull.plan import load_run
+    from pipeline.hull.plates import _grid
+
+    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
+    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    path = tmp_path / "hull160.yaml"
+    path.write_text(yaml.safe_dump(data))
+    config = load_run(path)  # no evaluator: the yard's layout as the plan starts from it
+    part = next(p for p in config.parts if p.name == "hull160_S06_B05")
+    grid = _grid(part, config)
+    tol = part.hull.fit_tolerance
+    far = bestfit.seam_family_far(part, config, grid, tol)
+    assert not far.ok and 1.5 * tol < far.deviation <= bestfit.WORTH * tol
+    stopped = bestfit.best_fit(far, part, config, grid)
+    assert not stopped.ok and stopped is far
+    assert "best fit stopped: centring its rulings" in stopped.reason
+    left = float(re.search(r"leaves the hull ([\d.]+) off", stopped.reason).group(1))
+    assert left > bestfit.CENTRED_LIMIT * tol
+
+    monkeypatch.setattr(bestfit, "CENTRED_LIMIT", np.inf)
+    again = bestfit.seam_family_far(part, config, grid, tol)
+    solved_on = bestfit.best_fit(again, part, config, grid)
+    assert solved_on is not again and solved_on.figures["best_fit"]["rounds"] >= 1
+    assert not solved_on.ok and solved_on.deviation > tol
