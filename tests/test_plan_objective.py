@@ -648,8 +648,11 @@ def test_the_butt_rule_is_the_stagger_from_the_butts_across_the_seams_or_a_block
 def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path, monkeypatch):
     """A plate the objective does not split this round (the weld budget) asks for its split
     again the next: it is chosen again only when the plates across its seams moved a butt
-    (its rule changed). The control forgets every split between rounds: it computes the same
-    jobs again, and plans the same plates."""
+    (its rule changed). The control forgets every split between rounds (and the run's
+    memory of the jobs answered, kept for plans made again): it computes the same jobs
+    again, and plans the same plates."""
+    from dataclasses import replace
+
     from pipeline.hull import planner
     from pipeline.hull.plan import load_run
     from pipeline.runner import plate_evaluator
@@ -673,7 +676,7 @@ def test_an_objective_plan_chooses_each_plates_split_once_per_butt_rule(tmp_path
     monkeypatch.setattr(planner, "_region_split", counted)
     kept, plates = plan("kept")
     monkeypatch.setattr(planner, "_splits_under_rules", lambda cells, sides, chosen, ctx, *rest: under_rules(
-        cells, sides, {}, ctx, *rest))
+        cells, sides, {}, replace(ctx, remembered=None), *rest))
     forgotten, control = plan("forgot")
     assert len(set(kept)) == len(kept) == len(set(forgotten)) < len(forgotten)
     assert plates == control and len(plates) > 3

@@ -240,3 +240,43 @@ def test_replan_held_without_hold_steps_is_refused_naming_both_fields(tmp_path, 
     err = capsys.readouterr().err
     assert f"{path.name}:" in err and "plan.replan_held: 1" in err and "plan.method: uniform" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_plan_made_again_asks_for_no_split_the_plans_before_chose(tmp_path, monkeypatch):
+    """A bilge tube bowed on a 30 m radius: its 10 m plates stand 420 mm off their strips and
+    are split. A plan made again in the same run (the same judge) asks for the same splits,
+    which are answered from the plans before (a split depends on its job alone), and it is
+    the same plan; a run of its own (another judge) works them out again."""
+    from pipeline.config import load_config
+    from pipeline.hull import planner
+    from pipeline.hull.plan import _Judge
+    from pipeline.runner import plate_evaluator
+    from tests.hull_shapes import bowed_bilge_iges
+
+    iges = bowed_bilge_iges(tmp_path / "bowed.igs", bow=30000.0)
+    path = _config(tmp_path, "bowed", replan_held=0, max_splits=1)
+    data = yaml.safe_load(path.read_text())
+    data["strake"]["surface"]["iges"] = str(iges)
+    data["strake"]["plan"]["stock"] = {"max_length": 10000, "max_width": 3500, "min_length": 3000, "min_width": 1000}
+    path.write_text(yaml.safe_dump(data))
+    config = load_config(path)
+    worked_out = []
+    chooser = planner._region_split
+
+    def counted(job):
+        worked_out.append(planner._without_surface(job))
+        return chooser(job)
+
+    monkeypatch.setattr(planner, "_region_split", counted)
+    judge = _Judge(plate_evaluator(1), config)
+
+    def planned(judge):
+        parts = planner.plan_hull(config.spec, path, config.mm_per_unit, config.lines, judge)
+        return [(p.name, region_key(p.hull)) for p in parts]
+
+    first = planned(judge)
+    chosen = len(worked_out)
+    assert chosen >= 2 and len(set(worked_out)) == chosen
+    assert len(first) > 2  # the two plates split
+    assert planned(judge) == first and len(worked_out) == chosen
+    assert planned(_Judge(plate_evaluator(1), config)) == first and len(worked_out) == 2 * chosen

@@ -165,6 +165,9 @@ class _Judge:
 
     def __init__(self, evaluate, config):
         self.evaluate, self.config = evaluate, config
+        # the plan's split jobs' answers, kept for the plans made again after a fit-up
+        # (:func:`.planner._spread_remembered`)
+        self.remembered = {}
 
     def __call__(self, part):
         return self.evaluate(part, self.config)

@@ -286,7 +286,7 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
     develop = getattr(evaluate, "developed", None)
     sheets = Sheets.of_shop(spec.shop) if develop is not None else None
     context = _Context(faces, plan, stock, tolerance, many, record, mm_per_unit, yard, stagger, spread, develop,
-                       sheets)
+                       sheets, getattr(evaluate, "remembered", None))
     if plan.objective is None:
         kept = _split_all(cells, build, context)
     else:
@@ -322,6 +322,9 @@ class _Context:
     spread: object  # spread(func, items): func over items on the evaluator's workers, the answers in order
     develop: object = None  # develop(results): the results with their owed developments done
     sheets: Sheets | None = None  # the stock sheets the kept plates' developments must fit
+    # each split job's answer (:func:`_spread_remembered`), kept for the plans a run makes
+    # after this one (``plan.replan_held``), or None
+    remembered: dict | None = None
 
 
 def _evaluate(cells: list, build, ctx: _Context) -> list:
@@ -381,7 +384,7 @@ def _within_stock(wave: list, build, ctx: _Context) -> tuple[list, float]:
         over = [(c, k) for c, k in zip(wave, kinds) if k]
         wave = []
         jobs = [(_split_job(c, ctx), k, c.depth >= ctx.plan.max_splits) for c, k in over]
-        for (cell, _), split in zip(over, ctx.spread(_stock_split, jobs)):
+        for (cell, _), split in zip(over, _spread_remembered(_stock_split, [c for c, _ in over], jobs, ctx)):
             halves = [] if split is None else [h for h in _children(cell, split) if build(h) is not None]
             if not halves:
                 out.append(cell)  # no split keeps the minimum sizes: evaluated, and settled as before
@@ -423,7 +426,8 @@ def _splits_under_rules(cells: list, sides, chosen: dict, ctx: _Context, leaves:
     rules = _yard_rules(cells, leaves, sides, ctx)
     keys = [(id(c), rule, c.tried) for c, rule in zip(cells, rules)]
     missing = [(cell, key) for cell, key in zip(cells, keys) if key not in chosen]
-    for (cell, key), split in zip(missing, ctx.spread(_region_split, [_split_job(c, ctx, k[1]) for c, k in missing])):
+    jobs = [_split_job(c, ctx, k[1]) for c, k in missing]
+    for (cell, key), split in zip(missing, _spread_remembered(_region_split, [c for c, _ in missing], jobs, ctx)):
         chosen[key] = (cell, split)  # the cell stays referenced: its id is not reused
     return {key[0]: chosen[key][1] for key in keys}
 
@@ -478,6 +482,35 @@ def _split_job(cell: Cell, ctx: _Context, allow=None, kinds: tuple | None = None
     kinds = _untried(cell) if kinds is None else kinds
     return (face.surface, face.axis, cell.girths, cell.pair, ctx.tolerance, ctx.stock.min_length,
             ctx.stock.min_width, allow, ctx.yard, kinds)
+
+
+def _spread_remembered(func, cells: list, jobs: list, ctx: _Context):
+    """``func`` over the cells' ``jobs`` on the evaluator's workers (handed out now, the
+    answers in order as they are read), each answer kept in ``ctx.remembered`` for any job
+    asked again. A split job's answer depends on the job alone, and a plan made again
+    (``plan.replan_held``) asks for most of its plates' splits again: the same regions, on
+    the same faces (cell ``k``, read and faired alike in every plan of a run), under the
+    same rules. The 160 m hull's third plan asked for all but a few of its splits."""
+    if ctx.remembered is None:
+        return ctx.spread(func, jobs)
+    memo, asked = ctx.remembered, set()
+    keys = [(func.__name__, cell.k, _without_surface(job)) for cell, job in zip(cells, jobs)]
+    todo = [i for i, key in enumerate(keys) if key not in memo and not (key in asked or asked.add(key))]
+    answers = iter(ctx.spread(func, [jobs[i] for i in todo]))
+    todo = set(todo)
+
+    def read():
+        for i, key in enumerate(keys):
+            if i in todo:
+                memo[key] = next(answers)
+            yield memo[key]
+
+    return read()
+
+
+def _without_surface(job: tuple) -> tuple:
+    """A split job (:func:`_split_job`, or one holding it first) without its surface."""
+    return (_without_surface(job[0]), *job[1:]) if isinstance(job[0], tuple) else job[1:]
 
 
 def _region_split(job: tuple):
@@ -553,7 +586,7 @@ def _onto_sheets(kept: list, build, ctx: _Context) -> list:
         rules = _yard_rules(over, kept, sides, ctx)
         jobs = [_split_job(c, ctx, rule, SPLIT_KINDS) for c, rule in zip(over, rules)]
         options = {}
-        for cell, each_kind in zip(over, ctx.spread(_sheet_split, jobs)):
+        for cell, each_kind in zip(over, _spread_remembered(_sheet_split, over, jobs, ctx)):
             for split in each_kind:
                 kids = [] if split is None else [h for h in _children(cell, split) if build(h) is not None]
                 if len(kids) == 2:
@@ -680,8 +713,9 @@ def _split_all(cells: list, build, ctx: _Context) -> list:
         sides = seam_sides([c.part for c in kept + built]) if ctx.yard else None
         rules = _yard_rules(splitting, kept + built, sides, ctx)
         # handed out before the weld and the record are computed, which the workers need not wait for
-        chosen = ctx.spread(_region_split, [_split_job(c, ctx, rule, _stock_kinds(c, oversize[id(c)], plan.max_splits))
-                                            for c, rule in zip(splitting, rules)])
+        chosen = _spread_remembered(_region_split, splitting, [
+            _split_job(c, ctx, rule, _stock_kinds(c, oversize[id(c)], plan.max_splits)) for c, rule in zip(splitting, rules)],
+            ctx)
         if weld is None:
             weld = ctx.record.uniform_weld_m = _uniform_weld_m(layout, ctx)
         weld, presplit = weld + presplit, 0.0
