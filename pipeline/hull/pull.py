@@ -190,20 +190,29 @@ class _Rows:
 
     def solve(self) -> dict:
         """The least-squares coefficients of every plate, {name: (K, 3)}: the normal equations
-        (a few thousand unknowns, every plate's rows keep its own pull short: positive definite)."""
-        from scipy.linalg import LinAlgError, cho_factor, cho_solve, lstsq
+        (a few thousand unknowns, every plate's rows keep its own pull short: positive
+        definite), sparse as the plates are (a plate's unknowns meet only its neighbours'):
+        SuperLU, not a dense Cholesky factor of every plate against every other."""
+        import warnings
+
+        from scipy.linalg import lstsq
         from scipy.sparse import coo_matrix
+        from scipy.sparse.linalg import MatrixRankWarning, spsolve
 
         if not self.rows:
             return {name: np.zeros((self.size // 3, 3)) for name in self.column}
         matrix = coo_matrix((np.concatenate(self.values), (np.concatenate(self.rows), np.concatenate(self.cols))),
                             shape=(len(self.rhs), self.size * len(self.column))).tocsr()
-        normal = (matrix.T @ matrix).toarray()
+        normal = (matrix.T @ matrix).tocsc()
         right = matrix.T @ np.asarray(self.rhs)
-        try:
-            solution = cho_solve(cho_factor(normal), right)
-        except LinAlgError:
-            solution = lstsq(normal, right)[0]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", MatrixRankWarning)
+            try:
+                solution = spsolve(normal, right)
+            except MatrixRankWarning:  # singular (no row keeps some plate's pull short)
+                solution = np.full(len(right), np.nan)
+        if not np.all(np.isfinite(solution)):
+            solution = lstsq(normal.toarray(), right)[0]
         return {name: solution[at:at + self.size].reshape(-1, 3) for name, at in self.column.items()}
 
 
