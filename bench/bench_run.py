@@ -3,7 +3,7 @@ baseline revision, interleaved round by round so that the machine's drift (these
 machines run the same plan 1.3-1.7 times slower one hour than the next) falls on both alike.
 
     python bench/bench_run.py [--baseline REV] [--hull hull160] [--rounds 2] [--jobs 2] [--objective weld1.5]
-                              [--fit-up follow_pull_hold]
+                              [--fit-up follow_pull_hold | --as-shipped]
 
 Each round runs both checkouts in fresh processes (``git archive REV`` for the baseline), in
 alternating order, on this checkout's shell config; per checkout it prints the wall time of
@@ -53,19 +53,20 @@ def interleaved(rounds: int, checkouts: dict, one) -> dict:
 
 
 def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, objective: dict | None = None,
-                 strake: dict | None = None) -> Path:
+                 strake: dict | None = None, replan: bool = False) -> Path:
     """The hull's shell config of the checkout at ``root`` written into ``folder`` with its
     model files as absolute paths (both checkouts run the same config); ``uniform``: its
     plan made uniform; ``objective``: the plan's objective (bench_hull.py's names);
-    ``strake``: strake options set (bench_hull.py's ``fit_up_of``)."""
+    ``strake``: strake options set (bench_hull.py's ``fit_up_of``); ``replan``: its
+    ``plan.replan_held`` kept (else the plan is made once)."""
     data = yaml.safe_load((root / "configs" / f"{hull}_shell.yaml").read_text())
     if uniform:
         data["strake"]["plan"]["method"] = "uniform"
     if objective is not None:
         data["strake"]["plan"]["objective"] = objective
     data["strake"].update(strake or {})
-    # the plan made once: both checkouts run this config, and a baseline's may not know the key
-    data["strake"]["plan"].pop("replan_held", None)
+    if not replan:  # the plan made once: both checkouts run this config, and a baseline's may not know the key
+        data["strake"]["plan"].pop("replan_held", None)
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):
             if key in surface:
@@ -112,14 +113,17 @@ def main(argv=None) -> int:
     parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
     parser.add_argument("--fit-up", default="report", choices=FIT_UPS,
                         help="strake.fit_up and its options, as bench_hull.py names them")
+    parser.add_argument("--as-shipped", action="store_true",
+                        help="the config's own fit-up and plan.replan_held (the baseline must know the key)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         config = shell_config(ROOT, args.hull, tmp, objective=objective_of(args.objective),
-                              strake=fit_up_of(args.fit_up))
+                              strake=None if args.as_shipped else fit_up_of(args.fit_up), replan=args.as_shipped)
         runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
                            lambda label, root, k: whole_run(root, config, args.jobs, tmp / f"{label}-{k}"))
-    print(f"{args.hull} (objective {args.objective}, fit-up {args.fit_up}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
+    fit_up = "as shipped" if args.as_shipped else args.fit_up
+    print(f"{args.hull} (objective {args.objective}, fit-up {fit_up}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
     for label, rounds in runs.items():
         walls = [r["wall"] for r in rounds]
         names = list(rounds[0]["stages"])
