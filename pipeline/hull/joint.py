@@ -362,10 +362,7 @@ def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> n
     Solved as its dual (max -bound . y subject to matrix^T y >= -cost, y >= 0), whose basis is
     as large as the primal's columns (a few thousand) instead of its rows (a hundred thousand
     points of edges and plates: HiGHS takes three to five times as long on the primal); the
-    primal solution is the dual's constraints' marginals. By HiGHS's interior point method,
-    whose crossover ends on a vertex: on the 160 m hull's three programmes of a shipped run
-    (86,000-89,000 rows, 3,250-3,440 columns) the same solution as the dual simplex's (to
-    2e-9, 2e-9 and 6e-6 model units) in 0.77-0.86 of its CPU time."""
+    primal solution is the dual's constraints' marginals."""
     from scipy.optimize import linprog
     from scipy.sparse import csr_matrix, vstack
 
@@ -373,7 +370,7 @@ def _primal(cost: np.ndarray, matrix, bound: np.ndarray, upper: np.ndarray) -> n
     caps = csr_matrix((np.ones(len(capped)), (np.arange(len(capped)), capped)), shape=(len(capped), len(cost)))
     full = vstack([matrix, caps]).tocsr()
     rhs = np.r_[bound, upper[capped]]
-    got = linprog(rhs, A_ub=-full.T, b_ub=cost, bounds=(0, None), method="highs-ipm")
+    got = linprog(rhs, A_ub=-full.T, b_ub=cost, bounds=(0, None), method="highs")
     if not got.success:
         raise ArithmeticError(f"the joint programme's dual was not solved: {got.message}")
     x = np.maximum(-got.ineqlin.marginals, 0.0)
