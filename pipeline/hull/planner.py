@@ -498,11 +498,11 @@ def _spread_remembered(func, cells: list, jobs: list, ctx: _Context):
     keys = [(func.__name__, cell.k, _without_surface(job)) for cell, job in zip(cells, jobs)]
     todo = [i for i, key in enumerate(keys) if key not in memo and not (key in asked or asked.add(key))]
     answers = iter(ctx.spread(func, [jobs[i] for i in todo]))
-    todo = set(todo)
+    first_asked = set(todo)
 
     def read():
         for i, key in enumerate(keys):
-            if i in todo:
+            if i in first_asked:
                 memo[key] = next(answers)
             yield memo[key]
 

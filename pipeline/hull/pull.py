@@ -206,12 +206,9 @@ class _Rows:
         normal = (matrix.T @ matrix).tocsc()
         right = matrix.T @ np.asarray(self.rhs)
         with warnings.catch_warnings():
-            warnings.simplefilter("error", MatrixRankWarning)
-            try:
-                solution = spsolve(normal, right)
-            except MatrixRankWarning:  # singular (no row keeps some plate's pull short)
-                solution = np.full(len(right), np.nan)
-        if not np.all(np.isfinite(solution)):
+            warnings.simplefilter("ignore", MatrixRankWarning)  # singular: NaN, solved below instead
+            solution = spsolve(normal, right)
+        if not np.all(np.isfinite(solution)):  # (no row keeps some plate's pull short)
             solution = lstsq(normal.toarray(), right)[0]
         return {name: solution[at:at + self.size].reshape(-1, 3) for name, at in self.column.items()}
 
