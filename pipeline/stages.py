@@ -206,12 +206,13 @@ def partial_percent(fraction: float) -> str:
 
 
 def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_coverage=None, screen=None,
-                 naive: bool = True) -> bool:
+                 naive: bool = True, unroll: bool = True) -> bool:
     """Solve, strip, check and unroll; False (with the reason in the result) on a geometric
     failure. ``screen(result) -> bool``: a cheaper verdict on the checked strip, run before it is
     developed (False: rejected, the reason set by the screen). ``naive=False``: the naive
     surface's figures are left to :func:`naive_check` (a hull plate's strips are many
-    attempts, one delivered)."""
+    attempts, one delivered); ``unroll=False``: so is the development, to :func:`stage_unroll`
+    (a hull plate's strip families judge their strips on the region first)."""
     part = result.part
     solution = solve(part.c, part.d, DEFAULT_TOLERANCES)
     result.solution = solution
@@ -233,7 +234,8 @@ def develop_part(result: PartResult, config: RunConfig, extra_rulings=None, min_
         return False
     if screen is not None and not screen(result):
         return False
-    stage_unroll(result)
+    if unroll:
+        stage_unroll(result)
     return True
 
 

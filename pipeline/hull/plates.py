@@ -471,14 +471,16 @@ def _followed(grid, v3: np.ndarray, index: np.ndarray, hull):
 def _seam_strip(part: Part, config: RunConfig, grid, tol: float, corner_tol: float) -> tuple:
     """The strip between the plate's seams, cut by its butt planes, judged: (attempt, ok, why
     not, its largest distance from the hull or None)."""
-    from .strake import corner_rulings, stage_trim
+    from .strake import corner_rulings, screen_at_butts, stage_trim
 
     hull = part.hull
     attempt = PartResult(part.name, part)
+    cuts = []
     try:
+        # judged on the hull in 3D first: a strip off it is not developed
         ok = develop_part(attempt, config, lambda sol: corner_rulings(sol, part.c, part.d, hull.butts), 0.0,
-                          naive=False)
-        ok = ok and stage_trim(attempt, 0.0)
+                          lambda solved: screen_at_butts(solved, cuts), naive=False)
+        ok = ok and stage_trim(attempt, cuts[0], 0.0)
         if attempt.strip is not None and attempt.strip.trim is not None:
             # the strip mesh's edges are chords of the seams: allow its chord error on the region
             chord = float(np.max(attempt.strip.max_chord_error))

@@ -26,7 +26,7 @@ from flatten.trim import EDGE_V, StripMap, ruling_intervals
 
 from ..config import Part, RunConfig
 from ..io.sources import SourceError, fit_points
-from ..stages import PartResult, develop_part
+from ..stages import PartResult, develop_part, stage_unroll
 
 SEAM_TO_SEAM = "rulings seam to seam"
 BUTT_TO_BUTT = "rulings butt to butt"
@@ -382,8 +382,10 @@ def butt_family(part: Part, config: RunConfig, grid: PatchGrid, corner_tolerance
 def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, family: str,
                         corner_tolerance: float, figures: dict | None = None) -> Trim:
     """The strip between curves c and d solved, checked and (unless the region's probe finds
-    it hopeless: :func:`hopeless`) developed, then trimmed by the plate's region; ``figures``
-    are added to the trim's once the strip is solved."""
+    it hopeless: :func:`hopeless`) trimmed by the plate's region, and developed when the trim
+    fits (the trim develops the region on its own, from the strip's map; the whole strip's
+    development gives the delivered plate's unroll figures); ``figures`` are added to the
+    trim's once the strip is solved."""
     attempt = PartResult(part.name, Part(part.name, c, d, part.steel))
     hull, probed = part.hull, Trim(family, attempt=attempt)
     smap = None
@@ -396,12 +398,14 @@ def _solved_and_trimmed(part: Part, c, d, config: RunConfig, grid: PatchGrid, fa
             return False
         return True
 
-    if not develop_part(attempt, config, None, 0.0, screen, naive=False):
+    if not develop_part(attempt, config, None, 0.0, screen, naive=False, unroll=False):
         if probed.reason:
             probed.figures.update(figures or {})
             return probed
         return Trim(family, reason=attempt.reason, attempt=attempt)
     trim = trim_by_region(attempt, part, grid, family, hull.fit_tolerance, corner_tolerance, config.mm_per_unit, smap)
+    if trim.ok:
+        stage_unroll(attempt)
     trim.figures.update(figures or {})
     return trim
 

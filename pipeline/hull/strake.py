@@ -3,20 +3,26 @@
 Each plate's strip is computed on its two seams extended past the butts and trimmed by
 the butt planes: a ruling meets a plane in one point, so the trim line is exact at every
 ruling and lies on the strip; plates on either side of a butt share its end points on the
-seams. Also the fit of each plate to the design surface and its frame lines.
+seams. Also the fit of each plate to the design surface, judged on the cut strip in 3D
+before it is developed (:func:`cut_at_butts`), and its frame lines.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flatten import NurbsCurve
 from flatten.closest import SurfaceDistance
+from flatten.plane import Plane, plane_crossings
 from flatten.surface import NurbsSurface
 
-from flatten.plane import Plane, plane_crossings
-
 from .region import HullPlate
+
+if TYPE_CHECKING:
+    from flatten.strip import Strip
 
 
 # ------------------------------------------------------------ trimming
@@ -109,16 +115,30 @@ def surface_distance(surface: NurbsSurface, points: np.ndarray, grid: int = 120)
     return SurfaceDistance(surface, grid)(points)
 
 
-def stage_trim(result, min_coverage: float = 0.0) -> bool:
-    """Cut the plate out of its extended strip with the butt planes, measure its fit to the
-    hull and map the frame lines; False (with the reason) when the plate misses the hull."""
+@dataclass(frozen=True)
+class ButtCut:
+    """A strip cut by a plate's butt planes in 3D, before it is developed: which rulings
+    cross the region (``keep`` (K,) of the strip's), each one's v interval between the
+    planes (``lo``, ``hi`` (R,)), the cut strip and each of its vertices' distance from the
+    hull (``distance`` (R * m,), model units)."""
+
+    keep: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    strip: Strip
+    distance: np.ndarray
+
+
+def cut_at_butts(result) -> ButtCut | None:
+    """The checked strip of ``result`` cut by its plate's butt planes and measured against the
+    hull: all of the trim's verdict that needs no development, so that a strip off the hull
+    is rejected before it is developed (most seam strips of a curved hull's candidates). None,
+    with the reason, when fewer than two rulings reach across the butts; a cut off the hull
+    is kept on the result as its strip, with its ``hull_fit`` figures and the reason."""
     from flatten.strip import Strip, grid_faces
 
-    from ..shop.marks import edge_labels, frame_polylines
-    from ..stages import Pattern, place_flat
-
     hull: HullPlate = result.part.hull
-    strip, dev = result.strip, result.development
+    strip = result.strip
     m = len(strip.samples)
     k = np.arange(strip.n_rulings) * m
     a3, b3 = strip.vertices[k], strip.vertices[k + m - 1]
@@ -127,23 +147,55 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
     if keep.sum() < 2:
         result.reason = (f"the strip does not reach across the butts {hull.butts[0].describe()} and "
                          f"{hull.butts[1].describe()}")
-        return False
+        return None
     lo, hi = intervals[keep, 0], intervals[keep, 1]
     v = lo[:, None] + (hi - lo)[:, None] * strip.samples[None, :]
     a3, b3 = a3[keep], b3[keep]
-    a2, b2 = dev.along_c[keep], dev.along_d[keep]
     vertices = (a3[:, None] + v[..., None] * (b3 - a3)[:, None]).reshape(-1, 3)
+    cut = Strip(strip.rulings[keep], strip.samples, vertices, grid_faces(int(keep.sum()), m),
+                strip.max_chord_error, np.column_stack([lo, hi]))
+    distance = (hull.distance or SurfaceDistance(hull.surface))(vertices)
+    worst = int(np.argmax(distance))
+    result.figures["hull_fit"] = {"max_distance": float(distance.max()),
+                                  "rms_distance": float(np.sqrt(np.mean(distance**2))),
+                                  "worst_point": vertices[worst].tolist(),
+                                  "tolerance": hull.fit_tolerance,
+                                  "passed": bool(distance.max() <= hull.fit_tolerance)}
+    if distance.max() > hull.fit_tolerance:
+        result.strip = cut
+        result.reason = (f"plate deviates from the hull by {distance.max():.4g} (tolerance "
+                         f"{hull.fit_tolerance:g}) at {np.round(vertices[worst], 3).tolist()}")
+    return ButtCut(keep, lo, hi, cut, distance)
+
+
+def screen_at_butts(result, cuts: list) -> bool:
+    """A screen for :func:`pipeline.stages.develop_part`: :func:`cut_at_butts`, appended to
+    ``cuts`` for :func:`stage_trim`; False when the strip misses the butts or the hull."""
+    cut = cut_at_butts(result)
+    cuts.append(cut)
+    return cut is not None and cut.distance.max() <= result.part.hull.fit_tolerance
+
+
+def stage_trim(result, cut: ButtCut, min_coverage: float = 0.0) -> bool:
+    """The developed strip cut out by the butt planes (``cut``: :func:`cut_at_butts` of it, on
+    the hull within the tolerance) laid flat, with its frame lines and edge labels; False
+    (with the reason) when it covers less than ``min_coverage`` of its seams between the butts."""
+    from ..shop.marks import edge_labels, frame_polylines
+    from ..stages import Pattern, place_flat
+
+    hull: HullPlate = result.part.hull
+    dev, keep, lo, hi = result.development, cut.keep, cut.lo, cut.hi
+    m = len(result.strip.samples)
+    v = lo[:, None] + (hi - lo)[:, None] * result.strip.samples[None, :]
+    a2, b2 = dev.along_c[keep], dev.along_d[keep]
     flat = (a2[:, None] + v[..., None] * (b2 - a2)[:, None]).reshape(-1, 2)
-    faces = grid_faces(int(keep.sum()), m)
-    trimmed = Strip(strip.rulings[keep], strip.samples, vertices, faces, strip.max_chord_error,
-                    np.column_stack([lo, hi]))
     rot, shift = place_flat(flat, flat.reshape(-1, m, 2)[:, 0])
     placed = flat @ rot.T + shift
     grid = placed.reshape(-1, m, 2)
     lower, upper = grid[:, 0], grid[:, -1]
     outline = np.vstack([lower, upper[::-1]])
     frame_lines = [(x, pts @ rot.T + shift) for x, pts in frame_polylines(result, hull.frames, lo, hi, keep)]
-    labels = edge_labels(hull, lower, upper, vertices.reshape(-1, m, 3))
+    labels = edge_labels(hull, lower, upper, cut.strip.vertices.reshape(-1, m, 3))
     # how much of each seam between the butts the plate covers (the extended seams' own
     # coverage is partial by design)
     path = result.solution.path.points
@@ -155,6 +207,7 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
         inside = curve.arc_length_at(np.clip(ends, lo_t, hi_t))
         covered[key] = float((inside[1] - inside[0]) / (span[1] - span[0]))
     result.figures["plate_coverage"] = covered
+    result.figures["hull_fit"] = result.figures.pop("hull_fit")  # measured before, reported in the order it was
     result.warnings = [w for w in result.warnings if not w.startswith("partial coverage")]
     if min(covered.values()) < min_coverage:
         result.reason = (f"plate incomplete: the strip covers {100 * covered['c']:.1f}% and {100 * covered['d']:.1f}% "
@@ -164,21 +217,10 @@ def stage_trim(result, min_coverage: float = 0.0) -> bool:
         result.warnings.append(f"plate incomplete: the strip covers {100 * covered['c']:.2f}% of seam "
                                f"{hull.seam_names[0]} and {100 * covered['d']:.2f}% of {hull.seam_names[1]} "
                                "between the butts; increase strake.margin")
-    result.strip = trimmed
+    result.strip = cut.strip
     result.pattern = Pattern(outline, np.stack([lower, upper], axis=1), placed, (rot, shift),
                              tuple(frame_lines), tuple(labels))
-    distance = (hull.distance or SurfaceDistance(hull.surface))(vertices)
-    worst = int(np.argmax(distance))
-    result.figures["hull_fit"] = {"max_distance": float(distance.max()),
-                                  "rms_distance": float(np.sqrt(np.mean(distance**2))),
-                                  "worst_point": vertices[worst].tolist(),
-                                  "tolerance": hull.fit_tolerance,
-                                  "passed": bool(distance.max() <= hull.fit_tolerance)}
     result.figures["trim"] = {"butt_planes": [{"normal": list(p.normal), "offset": p.offset} for p in hull.butts],
                               "rulings_kept": int(keep.sum()),
                               "frames": [x for x, _ in frame_lines]}
-    if distance.max() > hull.fit_tolerance:
-        result.reason = (f"plate deviates from the hull by {distance.max():.4g} (tolerance "
-                         f"{hull.fit_tolerance:g}) at {np.round(vertices[worst], 3).tolist()}")
-        return False
     return True
