@@ -36,8 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from flatten.closest import SurfaceDistance
+from flatten.nurbs import NurbsCurve
 from flatten.patch import region_grid
-
 from flatten.plane import Plane
 
 from .region import Girth, load_plan_surfaces, long_axis_of, plate_part, seam_curve
@@ -250,6 +250,20 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
                 cells.append(Cell(k, f"{prefix}_S{i + 1:02d}_B{j + 1:02d}", (seam_lines[i], seam_lines[i + 1]),
                                   (names[i], names[i + 1]), tuple(planes[j:j + 2]), 0))
 
+    # a seam's curve and its crossings with the butt planes are shared by the plates of the
+    # strakes on either side and by their halves: each is made once per plan
+    seam_curves: dict = {}  # (face, id(girth)) -> (girth, its seam curve)
+    crossings: dict = {}  # (seam curve, plane) -> parameters (region.extended_segment)
+
+    def seam_of(cell: Cell, side: int):
+        girth = cell.girths[side]
+        key = (cell.k, id(girth))  # the girth kept in the value: its id is not reused
+        if key not in seam_curves:
+            face = faces[cell.k]
+            name = f"{cell.name}.{cell.seam_names[side]}"  # (an end plate takes it under its own name)
+            seam_curves[key] = (girth, seam_curve(face.surface, face.axis, girth, name))
+        return seam_curves[key][1]
+
     def build(cell: Cell):
         """The cell's part, or None when its region misses the surface or its trim."""
         face = faces[cell.k]
@@ -258,14 +272,16 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         if length <= 0:
             return None  # the region misses this surface (e.g. a butt beyond a short strake)
         butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in cell.pair)
-        curves = [seam_curve(face.surface, face.axis, g, f"{cell.name}.{n}") for g, n in zip(cell.girths,
-                                                                                              cell.seam_names)]
+        curves = [seam_of(cell, side) for side in (0, 1)]
         inside = 1.0 if face.trim is None else inside_share(face.surface, face.axis, cell.girths, cell.pair,
                                                             face.trim)
         if inside <= 0.0:
             return None  # wholly outside the surface's trim: not shell (another surface covers it)
         part = plate_part(cell.name, face.surface, face.axis, cell.girths, curves, cell.pair, spec.steel, strake,
-                          distance, cell.seam_names, butt_names, resolution, face.note)
+                          distance, cell.seam_names, butt_names, resolution, face.note, crossings)
+        if part.c is curves[0]:  # the seams themselves (an end plate): under the plate's own names
+            part.c, part.d = (NurbsCurve(curve.degree, curve.control_points, curve.weights, curve.knots,
+                                         f"{cell.name}.{name}") for curve, name in zip(curves, cell.seam_names))
         part.hull.inside_trim = inside
         part.hull.trim = face.trim if inside < 1.0 else None
         part.hull.x_limits = face.limits

@@ -383,15 +383,14 @@ def seam_rule(index: int, parts, corners: tuple, stagger: float, joints) -> Seam
     for plane in part.hull.butts:
         if plane is None or any(abs(plane.offset - j) <= near for j in (joints or ())):
             continue
-        on = (owners != index) & (np.abs(plane.signed(points)) <= near)
+        on = points[(owners != index) & (np.abs(plane.signed(points)) <= near)]  # (M, 3)
         mine = own[np.abs(plane.signed(own)) <= near] if len(own) else own
-        for p in points[on]:
-            if len(own) and np.linalg.norm(own - p, axis=1).min() <= near:
-                continue
-            if width is not None and len(mine) == 2 and \
-                    np.linalg.norm(mine - p, axis=1).sum() > float(width) + 2.0 * stagger:
-                continue
-            ends.append(tuple(float(v) for v in p))
+        keep = np.ones(len(on), dtype=bool)
+        if len(own):
+            keep &= np.linalg.norm(on[:, None] - own[None], axis=2).min(axis=1) > near
+        if width is not None and len(mine) == 2:
+            keep &= np.linalg.norm(on[:, None] - mine[None], axis=2).sum(axis=1) <= float(width) + 2.0 * stagger
+        ends.extend(tuple(float(v) for v in p) for p in on[keep])
     return SeamRule(tuple(sorted(set(ends))), float(stagger))
 
 
