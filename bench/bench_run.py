@@ -110,7 +110,8 @@ def main(argv=None) -> int:
 
     parser = comparison_parser(__doc__, "9d0000e")
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--objective", default="none", help="the plan's objective: none, weldF (e.g. weld1.5), cost")
+    parser.add_argument("--objective", default="none",
+                        help="the plan's objective: weldF (e.g. weld1.5), cost, or none (the config's own)")
     parser.add_argument("--fit-up", default="report", choices=FIT_UPS,
                         help="strake.fit_up and its options, as bench_hull.py names them")
     parser.add_argument("--as-shipped", action="store_true",
@@ -123,7 +124,8 @@ def main(argv=None) -> int:
         runs = interleaved(args.rounds, {"this": ROOT, args.baseline: baseline_checkout(args.baseline, tmp)},
                            lambda label, root, k: whole_run(root, config, args.jobs, tmp / f"{label}-{k}"))
     fit_up = "as shipped" if args.as_shipped else args.fit_up
-    print(f"{args.hull} (objective {args.objective}, fit-up {fit_up}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
+    objective = "the config's" if objective_of(args.objective) is None else args.objective
+    print(f"{args.hull} (objective {objective}, fit-up {fit_up}): whole run, --jobs {args.jobs}, wall s per round (interleaved); stages: median wall (CPU) s")
     for label, rounds in runs.items():
         walls = [r["wall"] for r in rounds]
         names = list(rounds[0]["stages"])
