@@ -36,7 +36,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from flatten.closest import SurfaceDistance
-from flatten.nurbs import NurbsCurve
 from flatten.patch import region_grid
 from flatten.plane import Plane
 
@@ -252,17 +251,15 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
 
     # a seam's curve and its crossings with the butt planes are shared by the plates of the
     # strakes on either side and by their halves: each is made once per plan
-    seam_curves: dict = {}  # (face, id(girth)) -> (girth, its seam curve)
+    seam_curves: dict = {}  # (face, girth) -> its seam curve (named for the first plate that asked)
     crossings: dict = {}  # (seam curve, plane) -> parameters (region.extended_segment)
 
     def seam_of(cell: Cell, side: int):
-        girth = cell.girths[side]
-        key = (cell.k, id(girth))  # the girth kept in the value: its id is not reused
+        key = (cell.k, cell.girths[side])
         if key not in seam_curves:
             face = faces[cell.k]
-            name = f"{cell.name}.{cell.seam_names[side]}"  # (an end plate takes it under its own name)
-            seam_curves[key] = (girth, seam_curve(face.surface, face.axis, girth, name))
-        return seam_curves[key][1]
+            seam_curves[key] = seam_curve(face.surface, face.axis, key[1], f"{cell.name}.{cell.seam_names[side]}")
+        return seam_curves[key]
 
     def build(cell: Cell):
         """The cell's part, or None when its region misses the surface or its trim."""
@@ -279,9 +276,6 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
             return None  # wholly outside the surface's trim: not shell (another surface covers it)
         part = plate_part(cell.name, face.surface, face.axis, cell.girths, curves, cell.pair, spec.steel, strake,
                           distance, cell.seam_names, butt_names, resolution, face.note, crossings)
-        if part.c is curves[0]:  # the seams themselves (an end plate): under the plate's own names
-            part.c, part.d = (NurbsCurve(curve.degree, curve.control_points, curve.weights, curve.knots,
-                                         f"{cell.name}.{name}") for curve, name in zip(curves, cell.seam_names))
         part.hull.inside_trim = inside
         part.hull.trim = face.trim if inside < 1.0 else None
         part.hull.x_limits = face.limits

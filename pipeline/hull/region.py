@@ -554,8 +554,9 @@ def plate_part(name, surface, axis, girths, curves, planes, spec_steel, strake, 
             developable, note = False, str(exc)
     else:
         note = "end plate: bounded by the hull's end, not by two butt planes"
-    if c is None:
-        c, d = curves
+    if c is None:  # the seams themselves, under this plate's names (its neighbours may share the curves)
+        c, d = (NurbsCurve(s.degree, s.control_points, s.weights, s.knots, f"{name}.{n}")
+                for s, n in zip(curves, seam_names))
     frames = frames_between(strake.frames, *plate_x_range(planes, surface, axis, girths), name) if strake.frames else []
     hull = HullPlate(surface, tuple(planes), frames, seam_names, butt_names, strake.fit_tolerance, axis,
                      tuple(girths), distance, developable, note, resolution, None, surface_note)

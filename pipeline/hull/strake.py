@@ -119,14 +119,14 @@ def surface_distance(surface: NurbsSurface, points: np.ndarray, grid: int = 120)
 class ButtCut:
     """A strip cut by a plate's butt planes in 3D, before it is developed: which rulings
     cross the region (``keep`` (K,) of the strip's), each one's v interval between the
-    planes (``lo``, ``hi`` (R,)), the cut strip and each of its vertices' distance from the
-    hull (``distance`` (R * m,), model units)."""
+    planes (``lo``, ``hi`` (R,)), the cut strip and its fit to the hull (the ``hull_fit``
+    figures of its vertices' distances; ``passed``: within the tolerance)."""
 
     keep: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
     strip: Strip
-    distance: np.ndarray
+    hull_fit: dict
 
 
 def cut_at_butts(result) -> ButtCut | None:
@@ -134,7 +134,8 @@ def cut_at_butts(result) -> ButtCut | None:
     hull: all of the trim's verdict that needs no development, so that a strip off the hull
     is rejected before it is developed (most seam strips of a curved hull's candidates). None,
     with the reason, when fewer than two rulings reach across the butts; a cut off the hull
-    is kept on the result as its strip, with its ``hull_fit`` figures and the reason."""
+    is kept on the result as its strip, with its ``hull_fit`` figures and the reason (a cut
+    that fits is reported by :func:`stage_trim`)."""
     from flatten.strip import Strip, grid_faces
 
     hull: HullPlate = result.part.hull
@@ -156,16 +157,15 @@ def cut_at_butts(result) -> ButtCut | None:
                 strip.max_chord_error, np.column_stack([lo, hi]))
     distance = (hull.distance or SurfaceDistance(hull.surface))(vertices)
     worst = int(np.argmax(distance))
-    result.figures["hull_fit"] = {"max_distance": float(distance.max()),
-                                  "rms_distance": float(np.sqrt(np.mean(distance**2))),
-                                  "worst_point": vertices[worst].tolist(),
-                                  "tolerance": hull.fit_tolerance,
-                                  "passed": bool(distance.max() <= hull.fit_tolerance)}
-    if distance.max() > hull.fit_tolerance:
+    fit = {"max_distance": float(distance.max()), "rms_distance": float(np.sqrt(np.mean(distance**2))),
+           "worst_point": vertices[worst].tolist(), "tolerance": hull.fit_tolerance,
+           "passed": bool(distance.max() <= hull.fit_tolerance)}
+    if not fit["passed"]:
         result.strip = cut
+        result.figures["hull_fit"] = fit
         result.reason = (f"plate deviates from the hull by {distance.max():.4g} (tolerance "
                          f"{hull.fit_tolerance:g}) at {np.round(vertices[worst], 3).tolist()}")
-    return ButtCut(keep, lo, hi, cut, distance)
+    return ButtCut(keep, lo, hi, cut, fit)
 
 
 def screen_at_butts(result, cuts: list) -> bool:
@@ -173,7 +173,7 @@ def screen_at_butts(result, cuts: list) -> bool:
     ``cuts`` for :func:`stage_trim`; False when the strip misses the butts or the hull."""
     cut = cut_at_butts(result)
     cuts.append(cut)
-    return cut is not None and cut.distance.max() <= result.part.hull.fit_tolerance
+    return cut is not None and cut.hull_fit["passed"]
 
 
 def stage_trim(result, cut: ButtCut, min_coverage: float = 0.0) -> bool:
@@ -207,7 +207,6 @@ def stage_trim(result, cut: ButtCut, min_coverage: float = 0.0) -> bool:
         inside = curve.arc_length_at(np.clip(ends, lo_t, hi_t))
         covered[key] = float((inside[1] - inside[0]) / (span[1] - span[0]))
     result.figures["plate_coverage"] = covered
-    result.figures["hull_fit"] = result.figures.pop("hull_fit")  # measured before, reported in the order it was
     result.warnings = [w for w in result.warnings if not w.startswith("partial coverage")]
     if min(covered.values()) < min_coverage:
         result.reason = (f"plate incomplete: the strip covers {100 * covered['c']:.1f}% and {100 * covered['d']:.1f}% "
@@ -220,6 +219,7 @@ def stage_trim(result, cut: ButtCut, min_coverage: float = 0.0) -> bool:
     result.strip = cut.strip
     result.pattern = Pattern(outline, np.stack([lower, upper], axis=1), placed, (rot, shift),
                              tuple(frame_lines), tuple(labels))
+    result.figures["hull_fit"] = cut.hull_fit
     result.figures["trim"] = {"butt_planes": [{"normal": list(p.normal), "offset": p.offset} for p in hull.butts],
                               "rulings_kept": int(keep.sum()),
                               "frames": [x for x, _ in frame_lines]}
