@@ -62,17 +62,38 @@ class UnitMap:
         return (f(p[:, 0], p[:, 1], 2, 0) * w[0] ** 2, f(p[:, 0], p[:, 1], 1, 1) * w[0] * w[1],
                 f(p[:, 0], p[:, 1], 0, 2) * w[1] ** 2)
 
+    def newton_terms_at(self, x: np.ndarray) -> tuple[float, np.ndarray, tuple]:
+        """f, the unit gradient (2,) and the unit Hessian terms (f_uu, f_uU, f_UU) at one
+        unit point x (2,), with one cell lookup: bitwise the values of the field's call,
+        :meth:`gradient` and :meth:`hessian_terms` at that point (the same products)."""
+        p = self.to_params(x[None])
+        f, ft, fT, ftt, ftT, fTT = self.field.derivatives_at_point(
+            float(p[0, 0]), float(p[0, 1]), ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
+        w = self.width
+        return np.float64(f), np.array([ft, fT]) * w, (ftt * w[0] ** 2, ftT * w[0] * w[1], fTT * w[1] ** 2)
+
     def project_along(self, x: np.ndarray, direction: np.ndarray, iterations: int = 8) -> np.ndarray:
         """Move points (N, 2) along one unit direction (2,) onto f = 0 (Newton on the
         line): a chord's points land on the arc beside them, never on another branch."""
+        return self.project_groups(np.asarray(x)[None], np.asarray(direction)[None], iterations)[0]
+
+    def project_groups(self, x: np.ndarray, directions: np.ndarray, iterations: int = 8) -> np.ndarray:
+        """:meth:`project_along` of groups of points (G, P, 2), each group along its own
+        unit direction (G, 2), in one batch: each group takes the steps, and stops where,
+        it would alone (the field is evaluated point by point and each group's slopes are
+        its own product), so the batch gives each group's own result bit for bit."""
         x = np.array(x, dtype=np.float64, copy=True)
+        directions = np.asarray(directions, dtype=np.float64)
+        moving = np.arange(len(x))
         for _ in range(iterations):
-            p = self.to_params(x)
-            f = self.field(p[:, 0], p[:, 1])
-            slope = self.gradient(x) @ direction
+            p = self.to_params(x[moving].reshape(-1, 2))
+            f, g = self.field.value_gradient(p[:, 0], p[:, 1])
+            f, g = f.reshape(len(moving), -1), (g * self.width).reshape(len(moving), -1, 2)
+            slope = np.matmul(g, directions[moving][:, :, None])[:, :, 0]  # a product per group, as alone
             step = np.divide(f, slope, out=np.zeros_like(f), where=np.abs(slope) > 0)
-            x -= step[:, None] * direction
-            if np.max(np.abs(step), initial=0.0) <= 1e-15:  # converged (quadratically)
+            x[moving] -= step[:, :, None] * directions[moving][:, None, :]
+            moving = moving[np.max(np.abs(step), axis=1, initial=0.0) > 1e-15]  # the rest converged (quadratically)
+            if not len(moving):
                 break
         return x
 
@@ -344,10 +365,7 @@ def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):
     lo, hi = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
     converged = False
     for _ in range(30):
-        p = unit.to_params(x[None])
-        f = unit.field(p[:, 0], p[:, 1])[0]
-        g = unit.gradient(x[None])[0]
-        fuu, fuU, fUU = (h[0] for h in unit.hessian_terms(x[None]))
+        f, g, (fuu, fuU, fUU) = unit.newton_terms_at(x)
         second = np.array([fuu, fuU]) if which == 0 else np.array([fuU, fUU])
         try:
             step = np.linalg.solve(np.array([g, second]), np.array([f, g[which]]))
@@ -529,30 +547,48 @@ def _classes(unit: UnitMap, x: np.ndarray, derivs=None) -> np.ndarray:
     return acc[source]
 
 
-def _class_boundary(unit: UnitMap, a: np.ndarray, b: np.ndarray, column: int) -> tuple[np.ndarray, str]:
-    """Where a branch changes class between two of its points: a turning point (f_t = 0
-    or f_T = 0, by Newton) or else by bisection along the branch (also where c' or d'
-    runs along the ruling)."""
-    ga, gb = unit.gradient(np.vstack([a, b]))
-    kind = "dT/dt=0" if np.sign(ga[0]) != np.sign(gb[0]) else "dt/dT=0"
-    if np.sign(ga[0]) != np.sign(gb[0]) or np.sign(ga[1]) != np.sign(gb[1]):
-        found = _turning_point(unit, a, b)
-        if found is not None:
-            return found
-    else:
-        kind = "ruling tangent to a curve"
-    orientation = 1 if column == 0 else -1
-    lo, hi = a, b
-    start = acceptable_points(unit, a[None], orientation)[0]
-    chord = (b - a) / max(np.hypot(*(b - a)), 1e-300)
-    normal = np.array([-chord[1], chord[0]])
-    for _ in range(4):  # batched bisection: 64 points a round, 64^4 = 1.7e7 subdivisions
-        frac = np.linspace(0.0, 1.0, 65)[:, None]
-        pts = unit.project_along(lo + frac * (hi - lo), normal)
-        same = acceptable_points(unit, pts, orientation) == start
-        k = int(np.argmin(same)) if not same.all() else len(pts) - 1
-        lo, hi = pts[max(k - 1, 0)], pts[k]
-    return unit.project_along(0.5 * (lo + hi)[None], normal)[0], kind
+def _class_boundaries(unit: UnitMap, a: np.ndarray, b: np.ndarray, columns: np.ndarray) -> list[tuple[np.ndarray, str]]:
+    """Where a branch changes class between two of its points a[m], b[m] (M, 2) in the
+    column ``columns[m]`` of :func:`_acceptability`, (point, kind) for each m: a turning
+    point (f_t = 0 or f_T = 0, by Newton) or else by bisection along the branch (also
+    where c' or d' runs along the ruling). The bisections run as one batch."""
+    if not len(a):
+        return []
+    g = unit.gradient(np.vstack([a, b]))
+    ga, gb = g[:len(a)], g[len(a):]
+    found: list = [None] * len(a)
+    kinds = []
+    for m in range(len(a)):
+        turns_t, turns_T = np.sign(ga[m, 0]) != np.sign(gb[m, 0]), np.sign(ga[m, 1]) != np.sign(gb[m, 1])
+        if turns_t or turns_T:
+            found[m] = _turning_point(unit, a[m], b[m])
+        kinds.append("dT/dt=0" if turns_t else "dt/dT=0" if turns_T else "ruling tangent to a curve")
+    left = [m for m in range(len(a)) if found[m] is None]
+    if left:
+        for m, point in zip(left, _bisected_class_changes(unit, a[left], b[left], columns[left])):
+            found[m] = (point, kinds[m])
+    return found
+
+
+def _bisected_class_changes(unit: UnitMap, a: np.ndarray, b: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The point where each branch piece a[m] -> b[m] (M, 2) changes class in column
+    ``columns[m]``, by bisection along the branch (its chord's points projected onto it
+    across the chord), (M, 2); batched bisection: 64 points a round, 64^4 = 1.7e7
+    subdivisions, the M pieces in one batch."""
+    rows = np.arange(len(a))
+    start = np.array([acceptable_points(unit, a[m][None], 1 if columns[m] == 0 else -1)[0] for m in rows])
+    chord = (b - a) / np.maximum(np.hypot(*(b - a).T), 1e-300)[:, None]
+    normal = np.column_stack([-chord[:, 1], chord[:, 0]])
+    frac = np.linspace(0.0, 1.0, 65)[:, None]
+    lo, hi = np.array(a, dtype=np.float64), np.array(b, dtype=np.float64)
+    for _ in range(4):
+        pts = unit.project_groups(lo[:, None, :] + frac[None] * (hi - lo)[:, None, :], normal)
+        flat = pts.reshape(-1, 2)
+        acc = _acceptability(unit, flat, unit.gradient(flat)).reshape(len(a), len(frac), 2)
+        same = acc[rows, :, columns] == start[:, None]
+        k = np.where(same.all(axis=1), len(frac) - 1, np.argmin(same, axis=1))
+        lo, hi = pts[rows, np.maximum(k - 1, 0)], pts[rows, k]
+    return np.array([unit.project_along(0.5 * (lo[m] + hi[m])[None], normal[m])[0] for m in rows])
 
 
 def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, derivs=None):
@@ -566,16 +602,19 @@ def split_pieces(unit: UnitMap, traces: list[Trace], tol: float, derivs=None):
     """
     cuts: list[list[tuple[int, float, np.ndarray]]] = [[] for _ in traces]
     turning = []
+    changes = []  # (trace, segment, column) of every class change, all found in one batch
     for n, trace in enumerate(traces):
-        x = trace.points
-        acc = _classes(unit, x, None if derivs is None else derivs[n])
-        for column, orientation in ((0, 1), (1, -1)):
-            for k in np.flatnonzero(acc[1:, column] != acc[:-1, column]):
-                point, kind = _class_boundary(unit, x[k], x[k + 1], column)
-                seg = x[k + 1] - x[k]
-                frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
-                cuts[n].append((int(k), frac, point))
-                turning.append((point, kind, n, orientation))
+        acc = _classes(unit, trace.points, None if derivs is None else derivs[n])
+        changes += [(n, int(k), column) for column in (0, 1)
+                    for k in np.flatnonzero(acc[1:, column] != acc[:-1, column])]
+    ends = np.array([traces[n].points[k:k + 2] for n, k, _ in changes]).reshape(-1, 2, 2)
+    found = _class_boundaries(unit, ends[:, 0], ends[:, 1], np.array([c for _, _, c in changes], dtype=int))
+    for (n, k, column), (point, kind) in zip(changes, found):
+        x = traces[n].points
+        seg = x[k + 1] - x[k]
+        frac = float(np.clip((point - x[k]) @ seg / max(seg @ seg, 1e-300), 0.0, 1.0))
+        cuts[n].append((k, frac, point))
+        turning.append((point, kind, n, 1 if column == 0 else -1))
     unchecked = []
     for i in range(len(traces)):
         for j in range(i, len(traces)):

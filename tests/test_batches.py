@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 
 import flatten.develop as develop_module
-from flatten import solve
+from flatten import DEFAULT_TOLERANCES, judge, normalized_residual, nurbs_curve, solve
 from flatten.develop import DevelopedStrip, _interval_breaks, develop
+from flatten.equation import developability_field
 from flatten.meshcheck import angle_defects, strip_angle_defects
 from flatten.metrics import distortion, edge_lengths, triangle_areas, unique_edges
 from flatten.judge import UnitMap
 from flatten.strip import PathSampler, batches, build_strip, choose_rulings, grid_faces, sample_path
+from flatten.tracer import trace_zero_set
 from tests import oracles
 
 
@@ -259,3 +261,81 @@ def test_polish_settled_early_is_the_polish_to_round_off(frustum):
         return np.abs(solution.field(p[:, 0], p[:, 1])) / np.linalg.norm(unit.gradient(y), axis=1)
 
     assert distance(early).max() <= max(4 * distance(full).max(), 1e-15)
+
+
+# ---------------------------------------------------------------- the judge's class changes
+def _one_class_boundary(unit, a, b, column):
+    """Where a branch changes class between a and b, one boundary at a time: the judge's
+    computation before its bisections ran as one batch (Newton for a turning point, else
+    4 rounds of 64 chord points projected across the chord), written out independently."""
+    ga, gb = unit.gradient(np.vstack([a, b]))
+    turns = np.sign(ga) != np.sign(gb)
+    if turns.any():
+        found = judge._turning_point(unit, a, b)
+        if found is not None:
+            return found, "newton"
+    kind = "dT/dt=0" if turns[0] else "dt/dT=0" if turns[1] else "ruling tangent to a curve"
+    orientation = 1 if column == 0 else -1
+    start = judge.acceptable_points(unit, a[None], orientation)[0]
+    chord = (b - a) / max(np.hypot(*(b - a)), 1e-300)
+    normal = np.array([-chord[1], chord[0]])
+    lo, hi = a, b
+    for _ in range(4):
+        pts = unit.project_along(lo + np.linspace(0.0, 1.0, 65)[:, None] * (hi - lo), normal)
+        same = judge.acceptable_points(unit, pts, orientation) == start
+        k = int(np.argmin(same)) if not same.all() else len(pts) - 1
+        lo, hi = pts[max(k - 1, 0)], pts[k]
+    return (unit.project_along(0.5 * (lo + hi)[None], normal)[0], kind), "bisection"
+
+
+def _wavy_pair(seed: int):
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0.0, 10.0, 9)
+    c = nurbs_curve(np.column_stack([x, rng.normal(size=9), rng.normal(size=9)]), 3, name="c")
+    d = nurbs_curve(np.column_stack([x[::-1] if seed % 2 else x, 2 + rng.normal(size=9),
+                                     1 + rng.normal(size=9)]), 3, name="d")
+    return c, d
+
+
+def test_the_class_changes_of_all_branches_found_in_one_batch_equal_each_found_alone():
+    """An S curve against a C curve (T turns back) and wavy cubic pairs whose branches turn
+    back and forth: every class change (Newton's turning points and the bisected ones
+    alike) is bit for bit what it is alone."""
+    ways = {"newton": 0, "bisection": 0}
+    for c, d in [oracles.s_and_c_curves()] + [_wavy_pair(seed) for seed in range(16)]:
+        field = developability_field(c, d)
+        unit = judge.UnitMap(field)
+        traces = trace_zero_set(field, DEFAULT_TOLERANCES)[0]
+        changes = [(tr.points[k], tr.points[k + 1], column) for tr in traces
+                   for column, acc in enumerate(judge._classes(unit, tr.points).T)
+                   for k in np.flatnonzero(acc[1:] != acc[:-1])]
+        a, b, columns = (np.array(v) for v in zip(*changes))
+        batch = judge._class_boundaries(unit, a, b, columns)
+        assert len(batch) == len(changes) >= 3
+        for (point, kind), change in zip(batch, changes):
+            (alone, alone_kind), way = _one_class_boundary(unit, *change)
+            ways[way] += 1
+            assert kind == alone_kind
+            assert np.array_equal(point, alone)  # bit for bit
+            assert np.all((point >= 0.0) & (point <= 1.0))
+    assert ways["newton"] >= 10 and ways["bisection"] >= 300, ways
+
+
+def test_projecting_groups_of_points_in_one_batch_equals_projecting_each_group_alone():
+    """Groups of chord points, each along its own direction, some converging sooner than
+    others: each group's points are bit for bit those of project_along on the group alone,
+    and they lie on Z."""
+    c, d = _wavy_pair(4)
+    field = developability_field(c, d)
+    unit = judge.UnitMap(field)
+    trace = max(trace_zero_set(field, DEFAULT_TOLERANCES)[0], key=lambda tr: len(tr.points))
+    pairs = [(trace.points[k], trace.points[k + 3]) for k in range(0, len(trace.points) - 3, 5)]
+    chords = np.array([(b - a) / np.hypot(*(b - a)) for a, b in pairs])
+    normals = np.column_stack([-chords[:, 1], chords[:, 0]])
+    groups = np.array([a + np.linspace(0.0, 1.0, 17)[:, None] * (b - a) for a, b in pairs])
+    together = unit.project_groups(groups, normals)
+    assert len(pairs) >= 8
+    for group, normal, got in zip(groups, normals, together):
+        assert np.array_equal(got, unit.project_along(group, normal))
+    p = unit.to_params(together.reshape(-1, 2))
+    assert np.max(np.abs(normalized_residual(c, d, p[:, 0], p[:, 1]))) < 1e-9
