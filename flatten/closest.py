@@ -43,15 +43,16 @@ class SurfaceDistance:
         return out
 
     def closest(self, points: np.ndarray, index: int = 0, iterations: int = 12,
-                converged: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                converged: float | None = None, nearest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Closest parameters (N, 2) on surface ``index`` of each point (N, 3) and the
         distances (N,). With ``converged`` (a fraction of the domain), a point whose move
         falls below it takes one more step and stops (the others go on): the many points
-        that settle in a few steps no longer wait for the slowest one."""
+        that settle in a few steps no longer wait for the slowest one. ``nearest``: each
+        point's nearest seed sample (N,) on that surface, when already looked up."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         surface = self.surfaces[index]
         uu, vv, tree = self._seeds[index]
-        _, idx = tree.query(points)
+        idx = tree.query(points)[1] if nearest is None else nearest
         pu, pv = uu[idx], vv[idx]
         hu = 1e-7 * np.ptp(surface.domain_u)
         hv = 1e-7 * np.ptp(surface.domain_v)
@@ -108,18 +109,58 @@ class SurfaceDistance:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         if len(self.surfaces) == 1:
             return self.closest(points, 0, converged=CONVERGED)[1]
-        seed = np.stack([tree.query(points)[0] for _, _, tree in self._seeds])  # (S, N)
-        first = np.argmin(seed, axis=0)
+        seeds = _SeedDistances(self, points)
+        first = np.argmin(seeds.distance, axis=0)
         best = np.full(len(points), np.inf)
         for k in range(len(self.surfaces)):
             mine = np.flatnonzero(first == k)
             if len(mine):
-                best[mine] = self.closest(points[mine], k, converged=CONVERGED)[1]
+                best[mine] = self.closest(points[mine], k, converged=CONVERGED, nearest=seeds.nearest[k, mine])[1]
         for k in range(len(self.surfaces)):
-            need = np.flatnonzero((first != k) & (seed[k] - self._reach[k] <= best))
+            seeds.look_up(k, np.flatnonzero((first != k) & (seeds.lower[k] - self._reach[k] <= best)))
+            need = np.flatnonzero((first != k) & (seeds.distance[k] - self._reach[k] <= best))
             if len(need):
-                best[need] = np.minimum(best[need], self.closest(points[need], k, converged=CONVERGED)[1])
+                found = self.closest(points[need], k, converged=CONVERGED, nearest=seeds.nearest[k, need])[1]
+                best[need] = np.minimum(best[need], found)
         return best
+
+    @cached_property
+    def _boxes(self) -> np.ndarray:
+        """(S, 2, 3) the bounding box of each surface's seed samples."""
+        return np.array([(tree.data.min(axis=0), tree.data.max(axis=0)) for _, _, tree in self._seeds])
+
+
+class _SeedDistances:
+    """The distance (S, N) of each point to each surface's nearest seed sample and that
+    sample (S, N), looked up only where they can matter: a point far from a surface's box of
+    samples (a transom's flat samples seen from the hull's length, where a KD-tree search
+    visits most of them) is looked up there only when the surface may be its nearest or
+    lie within reach of its distance; elsewhere the distance reads inf. ``lower`` (S, N)
+    bounds the distances from below (the distance to the box, less round-off)."""
+
+    def __init__(self, distance: SurfaceDistance, points: np.ndarray):
+        self.seeds, self.points = distance._seeds, points
+        lo, hi = distance._boxes[:, 0], distance._boxes[:, 1]
+        outside = np.maximum(np.maximum(lo[:, None, :] - points[None], points[None] - hi[:, None, :]), 0.0)
+        self.lower = np.linalg.norm(outside, axis=2) * (1.0 - 1e-9)
+        self.distance = np.full(self.lower.shape, np.inf)
+        self.nearest = np.zeros(self.lower.shape, dtype=np.int64)
+        self.looked = np.zeros(self.lower.shape, dtype=bool)
+        rows = np.arange(len(points))
+        self.look_each(np.argmin(self.lower, axis=0), rows)  # the nearest box's surface: an upper bound on the least
+        least = self.distance.min(axis=0)
+        for k in range(len(self.seeds)):  # every surface that may be nearer (or as near)
+            self.look_up(k, np.flatnonzero(self.lower[k] <= least))
+
+    def look_each(self, surface: np.ndarray, rows: np.ndarray) -> None:
+        for k in np.unique(surface):
+            self.look_up(int(k), rows[surface == k])
+
+    def look_up(self, k: int, rows: np.ndarray) -> None:
+        rows = rows[~self.looked[k, rows]]
+        if len(rows):
+            self.distance[k, rows], self.nearest[k, rows] = self.seeds[k][2].query(self.points[rows])
+            self.looked[k, rows] = True
 
 
 def closest_with_sides(distance: SurfaceDistance, points: np.ndarray, index: int = 0,
