@@ -81,7 +81,9 @@ class UnitMap:
         """:meth:`project_along` of groups of points (G, P, 2), each group along its own
         unit direction (G, 2), in one batch: each group takes the steps, and stops where,
         it would alone (the field is evaluated point by point and each group's slopes are
-        its own product), so the batch gives each group's own result bit for bit."""
+        its own product), so the batch gives each group's own result bit for bit when
+        P >= 2 (a one-point group alone takes the field's scalar path, in a batch its array
+        path: the same point to round-off, not bit for bit)."""
         x = np.array(x, dtype=np.float64, copy=True)
         directions = np.asarray(directions, dtype=np.float64)
         moving = np.arange(len(x))
@@ -92,7 +94,8 @@ class UnitMap:
             slope = np.matmul(g, directions[moving][:, :, None])[:, :, 0]  # a product per group, as alone
             step = np.divide(f, slope, out=np.zeros_like(f), where=np.abs(slope) > 0)
             x[moving] -= step[:, :, None] * directions[moving][:, None, :]
-            moving = moving[np.max(np.abs(step), axis=1, initial=0.0) > 1e-15]  # the rest converged (quadratically)
+            # the rest converged (quadratically); a NaN step goes on, as it always did
+            moving = moving[~(np.max(np.abs(step), axis=1, initial=0.0) <= 1e-15)]
             if not len(moving):
                 break
         return x
