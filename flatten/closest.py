@@ -145,22 +145,19 @@ class _SeedDistances:
         self.lower = np.linalg.norm(outside, axis=2) * (1.0 - 1e-9)
         self.distance = np.full(self.lower.shape, np.inf)
         self.nearest = np.zeros(self.lower.shape, dtype=np.int64)
-        self.looked = np.zeros(self.lower.shape, dtype=bool)
-        rows = np.arange(len(points))
-        self.look_each(np.argmin(self.lower, axis=0), rows)  # the nearest box's surface: an upper bound on the least
+        nearest_box = np.argmin(self.lower, axis=0)
+        for k in np.unique(nearest_box):  # the nearest box's surface: an upper bound on the least
+            self.look_up(int(k), np.flatnonzero(nearest_box == k))
         least = self.distance.min(axis=0)
         for k in range(len(self.seeds)):  # every surface that may be nearer (or as near)
             self.look_up(k, np.flatnonzero(self.lower[k] <= least))
 
-    def look_each(self, surface: np.ndarray, rows: np.ndarray) -> None:
-        for k in np.unique(surface):
-            self.look_up(int(k), rows[surface == k])
-
     def look_up(self, k: int, rows: np.ndarray) -> None:
-        rows = rows[~self.looked[k, rows]]
+        """Surface k's nearest samples of the points ``rows`` not looked up there yet (a
+        looked-up distance is finite)."""
+        rows = rows[np.isinf(self.distance[k, rows])]
         if len(rows):
             self.distance[k, rows], self.nearest[k, rows] = self.seeds[k][2].query(self.points[rows])
-            self.looked[k, rows] = True
 
 
 def closest_with_sides(distance: SurfaceDistance, points: np.ndarray, index: int = 0,

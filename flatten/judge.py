@@ -359,11 +359,10 @@ def _limit_tangent(curve: NurbsCurve, t: np.ndarray, tangent: np.ndarray, second
     return out
 
 
-def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray):
-    """Solve f = 0 and f_t = 0 (or f_T = 0) between two unit points by Newton; returns
-    (point, kind) or None when Newton does not converge inside the segment's box."""
-    ga, gb = unit.gradient(np.vstack([a, b]))
-    which = 0 if np.sign(ga[0]) != np.sign(gb[0]) else 1
+def _turning_point(unit: UnitMap, a: np.ndarray, b: np.ndarray, which: int):
+    """Solve f = 0 and f_t = 0 (``which`` 0) or f_T = 0 (1) between two unit points by
+    Newton; returns (point, kind) or None when Newton does not converge inside the
+    segment's box."""
     x = 0.5 * (a + b)
     lo, hi = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
     converged = False
@@ -564,7 +563,7 @@ def _class_boundaries(unit: UnitMap, a: np.ndarray, b: np.ndarray, columns: np.n
     for m in range(len(a)):
         turns_t, turns_T = np.sign(ga[m, 0]) != np.sign(gb[m, 0]), np.sign(ga[m, 1]) != np.sign(gb[m, 1])
         if turns_t or turns_T:
-            found[m] = _turning_point(unit, a[m], b[m])
+            found[m] = _turning_point(unit, a[m], b[m], 0 if turns_t else 1)
         kinds.append("dT/dt=0" if turns_t else "dt/dT=0" if turns_T else "ruling tangent to a curve")
     left = [m for m in range(len(a)) if found[m] is None]
     if left:

@@ -271,7 +271,7 @@ def _one_class_boundary(unit, a, b, column):
     ga, gb = unit.gradient(np.vstack([a, b]))
     turns = np.sign(ga) != np.sign(gb)
     if turns.any():
-        found = judge._turning_point(unit, a, b)
+        found = judge._turning_point(unit, a, b, 0 if turns[0] else 1)
         if found is not None:
             return found, "newton"
     kind = "dT/dt=0" if turns[0] else "dt/dT=0" if turns[1] else "ruling tangent to a curve"
