@@ -19,7 +19,7 @@ from __future__ import annotations
 import copy
 import os
 import signal
-from dataclasses import fields, replace
+from dataclasses import dataclass, field, fields, replace
 import sys
 import traceback
 from pathlib import Path
@@ -244,6 +244,21 @@ def _shutdown(pool) -> None:
 
 
 # ------------------------------------------------------------ an adaptive plan's candidates
+@dataclass
+class Wave:
+    """One batch an evaluator handed out and waited for: ``kind`` "plates" (candidates
+    evaluated) or "tasks" (:meth:`PlateEvaluator.map_each`, :meth:`PlateEvaluator.develop`),
+    the CPU seconds of each item in the order handed out, and the wall seconds from handing
+    them out to the last answer read. A plan of rounds is as many waves, each waiting for its
+    slowest item, whatever the number of workers (``bench/bench_waves.py`` models a run on
+    more cores from them)."""
+
+    kind: str
+    start: float  # time.perf_counter() when handed out
+    cpu: list = field(default_factory=list)
+    wall: float = 0.0
+
+
 class PlateEvaluator:
     """``evaluate(part, config)`` for the candidate plates of an adaptive plan: each plate
     evaluated once (cached by its geometry, :func:`pipeline.hull.planner.plate_key`, whatever
@@ -258,11 +273,13 @@ class PlateEvaluator:
     leaves its plates to the parent, which evaluates them itself. Figures (not in any output
     file, so that ``--jobs`` never changes a byte): ``requested`` plates, ``computed`` ones
     (the rest came from the cache), ``seconds`` of wall time in :meth:`many` and the CPU
-    seconds of the evaluations (``cpu_seconds``, this process's and the workers' together)."""
+    seconds of the evaluations (``cpu_seconds``, this process's and the workers' together);
+    ``waves``: each batch computed (:class:`Wave`)."""
 
     def __init__(self, evaluate, jobs: int = 1):
         self.evaluate, self.jobs = evaluate, jobs
         self.cache: dict = {}
+        self.waves: list[Wave] = []
         self.requested = self.computed = 0
         self.seconds = self.cpu_seconds = self.local_cpu_seconds = self.mapped_cpu_seconds = 0.0
         self._pool = None
@@ -298,10 +315,16 @@ class PlateEvaluator:
             return []
         workers = worker_count(self.jobs, len(parts))
         if workers == 1:
-            cpu = time.process_time()
-            results = [self.evaluate(part, config) for part in parts]
-            self.cpu_seconds += time.process_time() - cpu
-            self.local_cpu_seconds += time.process_time() - cpu
+            wave = Wave("plates", time.perf_counter())
+            results = []
+            for part in parts:
+                cpu = time.process_time()
+                results.append(self.evaluate(part, config))
+                wave.cpu.append(time.process_time() - cpu)
+            self.cpu_seconds += sum(wave.cpu)
+            self.local_cpu_seconds += sum(wave.cpu)
+            wave.wall = time.perf_counter() - wave.start
+            self.waves.append(wave)
             return results
         return self._in_pool(parts, config, workers)
 
@@ -332,6 +355,7 @@ class PlateEvaluator:
             finally:
                 if not frozen_before:
                     gc.unfreeze()
+        wave = Wave("plates", time.perf_counter())
         futures = [self._pool.submit(_evaluate_blob, _dumps(part, self._index)) for part in parts]
         results = []
         for part, future in zip(parts, futures):
@@ -339,14 +363,17 @@ class PlateEvaluator:
                 blob, cpu = future.result()
                 result = _loads(blob, self._shared)
                 result.part = part
-                self.cpu_seconds += cpu
             except BrokenProcessPool:
                 self.close()
                 cpu = time.process_time()
                 result = self.evaluate(part, config)
-                self.cpu_seconds += time.process_time() - cpu
-                self.local_cpu_seconds += time.process_time() - cpu
+                cpu = time.process_time() - cpu
+                self.local_cpu_seconds += cpu
+            self.cpu_seconds += cpu
+            wave.cpu.append(cpu)
             results.append(result)
+        wave.wall = time.perf_counter() - wave.start
+        self.waves.append(wave)
         return results
 
     @property
@@ -403,13 +430,19 @@ class PlateEvaluator:
         answers in order. The workers' CPU seconds go into ``mapped_cpu_seconds``; once a
         worker dies the pool is closed and payload ``k``'s answer is ``here(k)``, computed
         in this process."""
-        futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
-        return self._answers(futures, self._shared, here)
+        import time
 
-    def _answers(self, futures: list, shared: list, here):
+        wave = Wave("tasks", time.perf_counter())
+        futures = [self._pool.submit(task, _dumps(payload, self._index)) for payload in payloads]
+        self.waves.append(wave)
+        return self._answers(futures, self._shared, here, wave)
+
+    def _answers(self, futures: list, shared: list, here, wave: Wave):
         """The answers of ``futures`` in order, their shared objects read from ``shared``
         (the workers' list when the work was handed out: a pool forked again for another
-        surface before the last answer is read lists other objects)."""
+        surface before the last answer is read lists other objects); each worker's CPU
+        seconds, and the wall seconds until the last is read, go into ``wave``."""
+        import time
         from concurrent.futures.process import BrokenProcessPool
 
         for k, future in enumerate(futures):
@@ -417,9 +450,11 @@ class PlateEvaluator:
                 blob, cpu = future.result()
                 answer = _loads(blob, shared)
                 self.mapped_cpu_seconds += cpu
+                wave.cpu.append(cpu)
             except BrokenProcessPool:
                 self.close()
                 answer = here(k)
+            wave.wall = time.perf_counter() - wave.start
             yield answer
 
     def close(self) -> None:

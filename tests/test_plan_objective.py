@@ -530,6 +530,15 @@ def test_an_adaptive_plan_chooses_its_splits_on_the_evaluators_workers(tmp_path,
     with plate_evaluator(1) as one:
         alone = validate(config, one)
     assert two.mapped_cpu_seconds > 0.0 and one.mapped_cpu_seconds == 0.0
+    # each batch is a wave: its plates' (or tasks') CPU in the order handed out
+    for evaluator in (one, two):
+        plates = [w for w in evaluator.waves if w.kind == "plates"]
+        assert len(plates) >= 2 and sum(len(w.cpu) for w in plates) == evaluator.computed
+        assert all(c > 0.0 for w in plates for c in w.cpu) and all(w.wall > 0.0 for w in plates)
+        assert sum(c for w in plates for c in w.cpu) == pytest.approx(evaluator.cpu_seconds)
+    tasks = [w for w in two.waves if w.kind == "tasks"]
+    assert tasks and sum(c for w in tasks for c in w.cpu) == pytest.approx(two.mapped_cpu_seconds)
+    assert not [w for w in one.waves if w.kind == "tasks"]  # no workers: the splits were chosen here
     assert [p.name for p in spread.parts] == [p.name for p in alone.parts]
     assert len(spread.parts) > 4  # split twice somewhere
     for a, b in zip(spread.parts, alone.parts):
