@@ -800,37 +800,3 @@ def test_a_plate_that_fits_but_is_wider_than_the_stock_is_split_across_its_girth
     assert sorted(kept) == ["sk_S01_B01", "sk_S02_B01"]
     assert kept["sk_S02_B01"]["width"] == pytest.approx(3650.0, rel=1e-3) and kept["sk_S02_B01"]["klass"] == "flat"
     assert {r["klass"] for r in split.values()} == {"flat"}
-
-
-def test_a_butt_split_holds_back_only_the_plates_across_its_seams_that_reach_it():
-    """A round's butt (length) split: the plates along its seams within the stagger of it in x
-    wait a round (their butt rules may take the new butt, and a butt of theirs could meet it
-    closer than the stagger); a plate farther along is split in the same round (its butt
-    rule reads only the butts of the plates that overlap it). Strake A (x 0-10, 10-20,
-    20-30 m) below strake B (0-15, 15-30 m), a 1 m stagger: splitting A1 holds back B1
-    (overlapping) and A2 (touching A1's butt), not B2 (5 m away), which in turn holds back
-    A3 (under it). Taken first, the whole strakes along the seams waited: one split a round."""
-    from types import SimpleNamespace as NS
-
-    from pipeline.hull.planner import _take
-
-    seam_a, seam_ab, seam_b = NS(), NS(), NS()
-
-    def cell(name, lo, hi, below, above):
-        part = NS(name=name, hull=NS(butts=(NS(offset=lo), NS(offset=hi)), girths=(below, above)))
-        return NS(name=name, part=part, girths=(below, above))
-
-    a1, a2, a3 = (cell(f"A{k + 1}", 10.0 * k, 10.0 * (k + 1), seam_a, seam_ab) for k in range(3))
-    b1, b2 = cell("B1", 0.0, 15.0, seam_ab, seam_b), cell("B2", 15.0, 30.0, seam_ab, seam_b)
-    leaves = [a1, a2, a3, b1, b2]
-    sides = {id(seam_a): (seam_a, [], [a1.part, a2.part, a3.part]),
-             id(seam_ab): (seam_ab, [a1.part, a2.part, a3.part], [b1.part, b2.part]),
-             id(seam_b): (seam_b, [b1.part, b2.part], [])}
-    length = NS(kind="length")
-    options = [(1.0, k, c, length, 1.0, 1.0) for k, c in enumerate([a1, b1, a2, b2, a3])]
-    taken, reserved = _take(options, 0.0, 100.0, sides, leaves, NS(stagger=1.0))
-    assert [c.name for c, _, _ in taken] == ["A1", "B2"] and reserved == 2.0
-    # A1 reaching to 14.5 m, within the stagger of B2: B2 waits, and A3 (beyond it) is split
-    a1.part.hull.butts = (NS(offset=0.0), NS(offset=14.5))
-    taken, _ = _take(options, 0.0, 100.0, sides, leaves, NS(stagger=1.0))
-    assert [c.name for c, _, _ in taken] == ["A1", "A3"]

@@ -45,8 +45,8 @@ from .sewing import overlap_cuts
 from .sheets import Sheets, development_need
 from .objective import PlanPoint, PlanRecord, split_priority, worth
 from .splitting import choose_split, estimate, sample_region
-from .yardrules import (SeamRule, YardRule, butt_rule, butt_x_range, plate_corners, seam_rule, seam_sides, stagger_of,
-                        yard_layout, yard_rules_on)
+from .yardrules import (SeamRule, YardRule, butt_rule, plate_corners, seam_rule, seam_sides, stagger_of, yard_layout,
+                        yard_rules_on)
 
 
 def girth_lengths(surface, axis: int, s_values: np.ndarray, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
@@ -828,12 +828,8 @@ def _undo(leaves: list, objective, done: set, ctx: _Context, final: bool = False
 def _take(options: list, weld: float, budget: float, sides, leaves: list, ctx: _Context) -> tuple[list, float]:
     """The splits of ``options`` (in order) taken this round within the weld budget, and the
     weld (m) they reserve. A butt split's new butt is not yet in ``sides`` (the yard's seam
-    sides): the plates along its seams that reach within the stagger of its plate in x wait
-    a round (their butt rules may take the new butt, and a butt of theirs taken now could
-    meet it closer than the stagger; the butt rule of a plate farther along reads only the
-    butts of the plates that overlap it, and those are not split now). A girth split's new
-    seam is not yet in the others' seam rules: one ending within the stagger of a seam taken
-    this round waits."""
+    sides): the plates across its seams wait a round. A girth split's new seam is not yet in
+    the others' seam rules: one ending within the stagger of a seam taken this round waits."""
     taken, reserved, blocked, new_ends = [], 0.0, set(), []
     for _, _, cell, split, _, cost in options:
         if id(cell) in blocked or weld + reserved + cost > budget + 1e-9:
@@ -845,13 +841,10 @@ def _take(options: list, weld: float, budget: float, sides, leaves: list, ctx: _
         taken.append((cell, split, cost))
         reserved += cost
         if split.kind == "length" and sides is not None:
-            lo, hi = butt_x_range(cell.part)
             for girth in cell.girths:
                 _, below, above = sides.get(id(girth), (None, [], []))
                 for other in below + above:
-                    start, stop = butt_x_range(other)
-                    if stop >= lo - ctx.stagger and start <= hi + ctx.stagger:
-                        blocked.update(id(c) for c in leaves if c.part is other)
+                    blocked.update(id(c) for c in leaves if c.part is other)
     return taken, reserved
 
 

@@ -229,8 +229,7 @@ def _stealers(strakes: range, own_plates: dict, merged_plate: tuple, stock, widt
 
 
 # ------------------------------------------------------------ the rule, checked on a plan
-def butt_x_range(part) -> tuple[float, float]:
-    """The x range between a plate's butts (model units), unbounded at the hull's ends."""
+def _x_range(part) -> tuple[float, float]:
     lo, hi = part.hull.butts
     return (-np.inf if lo is None else lo.offset), (np.inf if hi is None else hi.offset)
 
@@ -254,7 +253,7 @@ def butt_violations(parts, stagger: float, joints=(), eps: float = 1e-6) -> list
     for girth, below, above in seam_sides(parts).values():
         if not below or not above:
             continue  # the keel or the deck edge: no plate on the other side
-        ranges = [butt_x_range(p) for p in below + above]
+        ranges = [_x_range(p) for p in below + above]
         start, stop = min(r[0] for r in ranges), max(r[1] for r in ranges)
 
         def butts(plates):
@@ -300,7 +299,7 @@ def butt_rule(part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> B
     """:class:`ButtRule` of ``part`` in the plan whose :func:`seam_sides` are ``sides``: the
     butts of the plates across its seams that overlap it in x, where they meet the seam
     between its ends."""
-    lo, hi = butt_x_range(part)
+    lo, hi = _x_range(part)
     offsets = set()
     for k, girth in enumerate(part.hull.girths):
         entry = sides.get(id(girth))
@@ -310,10 +309,10 @@ def butt_rule(part, sides: dict, stagger: float, joints, eps: float = 1e-6) -> B
         others = below if k == 0 else above
         if not others:
             continue
-        ranges = [butt_x_range(p) for p in below + above]
+        ranges = [_x_range(p) for p in below + above]
         start, stop = min(r[0] for r in ranges), max(r[1] for r in ranges)
         for other in others:
-            a, b = butt_x_range(other)
+            a, b = _x_range(other)
             if b <= lo or a >= hi:
                 continue
             offsets.update(plane.offset for plane in other.hull.butts
