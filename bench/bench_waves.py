@@ -89,7 +89,7 @@ def child(config: str, out: str, jobs: int) -> dict:
         made.append(make_evaluator(n))
         return made[-1]
 
-    def timed_run_parts(*args, **kwargs):
+    def marked_run_parts(*args, **kwargs):
         marks["ran_start"] = time.perf_counter()
         results = run_parts(*args, **kwargs)
         for result in results:
@@ -97,15 +97,14 @@ def child(config: str, out: str, jobs: int) -> dict:
             shop.append(seconds.get("plates_cpu", 0.0) + seconds.get("shop_cpu", 0.0))
         return results
 
-    runner.plate_evaluator, runner.run_parts = plate_evaluator, timed_run_parts
+    runner.plate_evaluator, runner.run_parts = plate_evaluator, marked_run_parts
     printed = io.StringIO()
     start = time.perf_counter()
     with redirect_stdout(printed):
         code = main(["run", config, "--jobs", str(jobs), "--out", out])
     wall = time.perf_counter() - start
     line = next(ln for ln in printed.getvalue().splitlines() if ln.startswith("time:"))
-    stages = {("evaluate" if name.strip().startswith("evaluate") else name.strip()): (float(w), float(c))
-              for name, w, c in STAGE.findall(line[len("time:"):])}
+    stages = {name.strip(): (float(w), float(c)) for name, w, c in STAGE.findall(line[len("time:"):])}
     plan = next((ln for ln in printed.getvalue().splitlines() if ln.startswith("plan:")), "")
     waves = [{"kind": w.kind, "start": w.start, "cpu": w.cpu, "wall": w.wall} for e in made for w in e.waves]
     return {"code": code, "wall": wall, "stages": stages, "waves": waves, "ran_start": marks["ran_start"],

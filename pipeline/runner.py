@@ -321,8 +321,9 @@ class PlateEvaluator:
                 cpu = time.process_time()
                 results.append(self.evaluate(part, config))
                 wave.cpu.append(time.process_time() - cpu)
-            self.cpu_seconds += sum(wave.cpu)
-            self.local_cpu_seconds += sum(wave.cpu)
+            spent = sum(wave.cpu)
+            self.cpu_seconds += spent
+            self.local_cpu_seconds += spent
             wave.wall = time.perf_counter() - wave.start
             self.waves.append(wave)
             return results
