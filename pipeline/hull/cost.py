@@ -138,8 +138,8 @@ class PlanCost:
     class (flat, strip, rolled, formed, failed) in m^2 and as fractions; ``narrower_than_stock``
     the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
     that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
-    first; ``cross_joints`` the points where four plates meet off the block joints (two
-    seams and two butts in line, :func:`.yardrules.cross_joints`), each with its plates;
+    first; ``cross_joints`` the points where four plates meet off the block joints and
+    the planes where faces are cut together (two seams and two butts in line, :func:`.yardrules.cross_joints`), each with its plates;
     ``off_sheets`` the plates no stock sheet holds, with the rectangle they need (mm: the
     shop's stock check on the cut outline, or :mod:`.sheets` on the development of a plate
     without one)."""
@@ -215,10 +215,12 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_wid
               joints=(), sheets=None) -> PlanCost:
     """The cost of the plan whose plates are ``results`` (hull plates; ``edges`` by plate name,
     from :func:`plate_edges`); ``min_width``: the stock's least width (config units), if any;
-    ``joints``: the plan's block joints (x, config units); ``sheets``: the stock sheets
+    ``joints``: the plan's block joints (x, config units), to which the planes where faces
+    are cut together are added (:func:`.yardrules.face_junctions`); ``sheets``: the stock sheets
     (:class:`.sheets.Sheets`) a plate without the shop's stock check is judged against."""
-    from .yardrules import cross_joints
+    from .yardrules import cross_joints, face_junctions
 
+    joints = tuple(joints) + face_junctions([r.part for r in results if getattr(r, "part", None) is not None])
     metre = mm_per_unit / 1000.0
     sampled = [edges[r.name] for r in results if edges.get(r.name) is not None]
     weld = weld_lengths(sampled)

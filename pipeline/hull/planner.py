@@ -214,18 +214,24 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         if fairings is not None:
             fairings.extend(f.as_dict(mm_per_unit) for f in joined)
     distance = SurfaceDistance(surfaces)  # after any fairing: the plates measure the faces they lie on
-    faces, cells = [], []
+    faces, cells, laid = [], [], []
     for k, surface in enumerate(surfaces):
         axis = long_axis_of(surface)
         seams, butts, s_widest = uniform_layout(surface, axis, stock, limits[k])
+        junction_note = ""
+        if yard and plan.seams != "least_curvature":
+            seams, junction_note = _meet_earlier_faces(k, surface, axis, seams, s_widest, laid, limits, stagger,
+                                                       stock, tolerance, mm_per_unit)
         if plan.seams == "least_curvature":
             seam_lines = least_curvature_seams(surface, axis, seams, s_widest)
         else:
             seam_lines = [Girth.iso(g) for g in seams]
+        laid.append((surface, axis, seam_lines))
         cut_note = "; ".join(f"faces {o.faces[0] + 1} and {o.faces[1] + 1} overlap over x {o.x_range_mm[0]:.0f}.."
                              f"{o.x_range_mm[1]:.0f} ({o.median_distance_mm:.3g} apart, median): cut at x = "
                              f"{o.cut_x_mm:.0f}, step {o.step_at_cut_mm:.3g} there" for o in overlaps if k in o.faces)
-        cut_note = "; ".join(n for n in [cut_note] + [f.note(mm_per_unit) for f in faired if k in (f.face, f.onto)] if n)
+        cut_note = "; ".join(n for n in [cut_note] + [f.note(mm_per_unit) for f in faired if k in (f.face, f.onto)]
+                             + [junction_note] if n)
         faces.append(_Face(surface, axis, loaded[k][1], "; ".join(n for n in (loaded[k][2], cut_note) if n),
                            limits[k]))
         prefix = f"{spec.name}_P{k + 1}" if multi else spec.name
@@ -303,6 +309,42 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         kept = _split_for(cells, build, context)
     kept = _onto_sheets(kept, build, context)
     return [c.part for c in sorted(kept, key=lambda c: c.k)]  # stable: each face's plates in plan order
+
+
+def _meet_earlier_faces(k: int, surface, axis: int, seams: list, s_widest: float, laid: list, limits: list,
+                        stagger: float, stock, tolerance: float, mm_per_unit: float) -> tuple[list, str]:
+    """Face ``k``'s seams moved to meet, or keep the stagger from, the seam ends of the faces
+    laid before it at the planes where they are cut together (:mod:`.faceseams`), and a note
+    of the moves for its plates."""
+    from .faceseams import meet_at_junctions, seam_crossings, shared_planes
+
+    planes = shared_planes(limits, k)
+    if not planes:
+        return seams, ""
+    ends = [(x, seam_crossings(laid[j][0], laid[j][1], laid[j][2], x)) for j, x in planes]
+    cum, g = girth_lengths(surface, axis, np.array([s_widest]))
+
+    def meet(values):
+        return meet_at_junctions(surface, axis, values, lambda v: np.interp(v, g, cum[0]), ends, stagger,
+                                 stock.max_width, 10.0 * tolerance)
+
+    moved, moves, left = meet(seams)
+    added = ""
+    if left:
+        # the strakes are too near the stock's width for a seam to move: one strake more
+        # (equal girth at the widest section, as the uniform layout lays them) leaves room
+        more = [float(v) for v in np.interp(np.linspace(0.0, cum[0, -1], len(seams) + 1), cum[0], g)]
+        more[0], more[-1] = float(g[0]), float(g[-1])
+        again = meet(more)
+        if again[2] < left:
+            (moved, moves, left), added = again, f"one strake more ({len(more) - 1}) to meet them; "
+    if not moves and not added:
+        return seams, ""
+    where = ", ".join(f"x = {x * mm_per_unit:.0f}" for x in sorted({x for _, x in planes}))
+    told = "; ".join(f"SEAM {m.seam + 1} {m.how} ({m.gap * mm_per_unit:.0f} mm from a seam end there before)"
+                     for m in moves)
+    unmet = f"; {left} seams left within the stagger (no room within the stock's width)" if left else ""
+    return moved, f"seams laid to the seam ends at the face junction {where}: {added}{told}{unmet}"
 
 
 def _plane(x):

@@ -234,6 +234,20 @@ def _x_range(part) -> tuple[float, float]:
     return (-np.inf if lo is None else lo.offset), (np.inf if hi is None else hi.offset)
 
 
+def face_junctions(parts) -> tuple[float, ...]:
+    """x of the planes where plates of two faces are cut together (each plate's
+    ``hull.x_limits``; faces told apart by their surface): every strake of both faces butts
+    there, so the plane is a block joint of the plan (:mod:`.faceseams` lays the seams that
+    run on across it)."""
+    faces: dict = {}
+    for part in parts:
+        hull = getattr(part, "hull", None)
+        for x in getattr(hull, "x_limits", None) or ():
+            if x is not None:
+                faces.setdefault(float(x), set()).add(id(hull.surface))
+    return tuple(sorted(x for x, on in faces.items() if len(on) > 1))
+
+
 def seam_sides(parts) -> dict:
     """{id(girth): (girth, [parts below it], [parts above it])} for every seam of the plan."""
     sides = {}
