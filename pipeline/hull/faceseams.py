@@ -1,11 +1,11 @@
 """Seams across a face junction: where two faces of a plan are cut at one transverse plane
-(a shell's loft and the faces beyond its end, or two faces that lay on each other), the
+(a shell's loft and the faces beyond its end, or two faces that lie on each other), the
 later face's seams meet the earlier face's there, or end at least the butt stagger from them.
 
 Each face's seams are laid at equal girth at its own widest section, so at a junction the
 two faces' seams end wherever their layouts put them: on KVLCC2's fore junction (x = 296.1 m)
 the loft's seams and the bow face's ended 92 to 286 mm apart, on KCS's aft one (x = 22.5 m)
-and at DTMB 5415's overlap cut (x = 142.0 m) alike. A seam end that close to another across
+and at DTMB 5415's overlap cut (x = 20.2 m, 17 and 97 mm) alike. A seam end that close to another across
 the butt leaves a few centimetres of butt weld between two T joints, which the yard's stagger
 rule (:mod:`.yardrules`) is there to prevent. Every strake of both faces butts at the
 junction's plane, so it is a joint like a block joint: a seam may run on across it.
@@ -15,7 +15,7 @@ junction lies within the stagger of an end of the earlier face's seams: onto tha
 seam runs on; preferred), else to the stagger from every end there, the nearest such place;
 a move is taken only while each strake stays within the stock's width at the face's widest
 section and no narrower than the stagger. A seam no place suits stays where it is (the
-plan's :func:`.yardrules.seam_end_violations` still shows it).
+plan then tries the face with one strake more: ``planner._meet_earlier_faces``).
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from .region import Girth
 
 SECTION_SAMPLES = 801  # girth samples of a face's section at a junction
 LENGTH_SAMPLES = 201  # samples along a seam where it crosses the junction's plane
@@ -66,7 +68,8 @@ def seam_crossings(surface, axis: int, girths, x: float) -> np.ndarray:
     dom = surface.domain_u if axis == 0 else surface.domain_v
     s = np.linspace(*dom, LENGTH_SAMPLES)
     g = np.stack([np.asarray(girth(s), dtype=np.float64) for girth in girths])  # (N, S)
-    return _crossings(surface, axis, np.broadcast_to(s, g.shape), g, x, lambda lo, hi, t: _girth_at(girths, lo, hi, t))
+    return _crossings(surface, axis, np.broadcast_to(s, g.shape), g, x,
+                      lambda t: np.stack([np.asarray(girth(row), dtype=np.float64) for girth, row in zip(girths, t)]))
 
 
 def section_at(surface, axis: int, x: float, samples: int = SECTION_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
@@ -77,17 +80,13 @@ def section_at(surface, axis: int, x: float, samples: int = SECTION_SAMPLES) -> 
     g = np.linspace(*gdom, samples)
     s = np.linspace(*sdom, LENGTH_SAMPLES)
     grid_s, grid_g = np.meshgrid(s, g)  # (M, S)
-    return g, _crossings(surface, axis, grid_s, grid_g, x, lambda lo, hi, t: np.broadcast_to(g[:, None], t.shape))
-
-
-def _girth_at(girths, lo, hi, t):
-    return np.stack([np.asarray(girth(row), dtype=np.float64) for girth, row in zip(girths, t)])
+    return g, _crossings(surface, axis, grid_s, grid_g, x, lambda t: np.broadcast_to(g[:, None], t.shape))
 
 
 def _crossings(surface, axis: int, s: np.ndarray, g: np.ndarray, x: float, girth_of) -> np.ndarray:
     """Each row's first crossing of x = ``x`` (rows of samples s, g (N, S) in the surface's
-    long and girth parameters), NaN where a row does not cross. ``girth_of(lo, hi, t)``: the
-    girth parameter of each row at long parameters t (N, 1)."""
+    long and girth parameters), NaN where a row does not cross. ``girth_of(t)``: the girth
+    parameter of each row at long parameters t (N, 1)."""
     u, v = (s, g) if axis == 0 else (g, s)
     d = surface(u.ravel(), v.ravel())[:, 0].reshape(s.shape) - x
     # a loft's end plane is its domain's end, where its x meets the plane only to round-off
@@ -101,7 +100,7 @@ def _crossings(surface, axis: int, s: np.ndarray, g: np.ndarray, x: float, girth
     d_lo = d[rows, first]
     for _ in range(BISECTIONS):
         mid = 0.5 * (lo + hi)
-        gm = girth_of(lo, hi, mid[:, None])[:, 0]
+        gm = girth_of(mid[:, None])[:, 0]
         um, vm = (mid, gm) if axis == 0 else (gm, mid)
         dm = surface(um, vm)[:, 0] - x
         same = np.sign(dm) == np.sign(d_lo)
@@ -111,7 +110,7 @@ def _crossings(surface, axis: int, s: np.ndarray, g: np.ndarray, x: float, girth
     # a sample on the plane is the crossing itself
     mid = np.where(on[rows, first], s[rows, first],
                    np.where(on[rows, first + 1] & ~on[rows, first], s[rows, first + 1], mid))
-    gm = girth_of(lo, hi, mid[:, None])[:, 0]
+    gm = girth_of(mid[:, None])[:, 0]
     points = surface(*((mid, gm) if axis == 0 else (gm, mid)))
     points[~found] = np.nan
     return points
@@ -129,7 +128,7 @@ def _along(polyline: np.ndarray, arc: np.ndarray, point: np.ndarray) -> tuple[fl
 
 
 def meet_at_junctions(surface, axis: int, seams: list, widest_girth, ends: list, stagger: float, max_width: float,
-                      reach: float) -> tuple[list, list]:
+                      reach: float) -> tuple[list, list, int]:
     """A face's iso seams (girth values, ascending, the first and last its edges) moved to
     meet or keep the stagger from the seam ends of earlier faces at its junctions.
 
@@ -213,12 +212,11 @@ class _Section:
         marks = np.unique([a for a, gap in found if gap <= reach])
         if not len(marks):
             return None
-        section = _Section(g, at, arc, marks, np.zeros((0, 3)))
-        return _Section(g, at, arc, marks, section.point(marks))
+        return _Section(g, at, arc, marks, _point_at(arc, at, marks))
 
     def point(self, arc) -> np.ndarray:
         """Points (N, 3) of the polyline at arc lengths (N,)."""
-        return np.column_stack([np.interp(arc, self.arc, self.points[:, c]) for c in range(3)])
+        return _point_at(self.arc, self.points, arc)
 
     def gaps(self, value: float, stagger: float) -> tuple[np.ndarray, np.ndarray]:
         """Which ends the seam at girth ``value`` meets (E,) and its distance from each (E,)."""
@@ -245,11 +243,15 @@ class _Section:
         return out
 
 
+def _point_at(arc: np.ndarray, points: np.ndarray, at) -> np.ndarray:
+    """Points (N, 3) at arc lengths ``at`` (N,) along a polyline (M, 3) of cumulative length
+    ``arc`` (M,)."""
+    return np.column_stack([np.interp(at, arc, points[:, c]) for c in range(3)])
+
+
 def _onto_ends(surface, axis: int, value: float, ends: list, reach: float, steps: int = 4) -> float:
     """The girth value near ``value`` whose seam ends on the nearest of ``ends`` (the section's
     sampling put it within a fraction of a millimetre): Gauss-Newton steps on its crossing."""
-    from .region import Girth
-
     gdom = surface.domain_v if axis == 0 else surface.domain_u
     h = 1e-7 * (gdom[1] - gdom[0])
     for _ in range(steps):
