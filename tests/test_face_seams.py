@@ -53,9 +53,11 @@ def _load(path: Path):
     return load_surface(SurfaceSource(iges=str(path)), path.parent, 1.0)
 
 
-def test_a_seams_crossing_with_a_plane_is_the_arc_point_there(tmp_path):
+@pytest.mark.parametrize("x", [12345.0, 12301.0, 12301.9])
+def test_a_seams_crossing_with_a_plane_is_the_arc_point_there(tmp_path, x):
+    """Also at planes 1 and 1.9 mm from a sample along the cone (every 100 mm): the crossing
+    is bisected, not taken at the sample."""
     surface = _load(cone_piece_iges(tmp_path / "c.igs", 0.0, 20000.0, _radius))
-    x = 12345.0
     _, at = section_at(surface, 0, x)
     assert np.allclose(at[:, 0], x, atol=1e-6)
     # the section is the cone's circular arc of radius r(x): every point at r from the axis line
@@ -119,14 +121,15 @@ def test_faces_cut_together_are_found_by_their_shared_plane():
     assert shared_planes(limits, 3) == [(0, 100.0), (1, 100.0)]
 
 
-def _two_cones(tmp_path, stagger=True) -> Path:
+def _two_cones(tmp_path, stagger=True, max_width=1500.0) -> Path:
     """Two pieces of one cone that overlap over x 19..21 m (the plan cuts them at a plane
     there): the aft one 4.5 m in radius at its widest, five strakes of 1.41 m, the fore one
-    3.55 m, four of 1.39 m; at the cut their seams end 275 mm apart twice."""
+    3.55 m, four of 1.39 m (with stock 1.42 to 1.76 m wide); at the cut their seams end 272 mm
+    apart twice."""
     aft = cone_piece_iges(tmp_path / "aft.igs", 0.0, 21000.0, _radius)
     fore = cone_piece_iges(tmp_path / "fore.igs", 19000.0, 30000.0, _radius)
     plan = {"method": "uniform", "surfaces": [{"iges": str(fore)}],
-            "stock": {"max_length": 16000, "max_width": 1500, "min_length": 1000, "min_width": 500}}
+            "stock": {"max_length": 16000, "max_width": max_width, "min_length": 1000, "min_width": 500}}
     if stagger:
         plan["butt_stagger"] = STAGGER
     data = {"name": "cones", "units": "mm", "resolution": {"chord_tolerance": 1.0}, "output": {"png": False},
@@ -154,25 +157,41 @@ def _gaps(ends: dict) -> np.ndarray:
     return np.linalg.norm(second[:, None] - first[None], axis=2).min(axis=1)
 
 
-def test_a_later_faces_seams_meet_the_earlier_faces_at_their_cut_under_the_yards_rules(tmp_path, monkeypatch):
+def _corners(part):
+    """A stand-in for the plate's evaluated result: its region's corners, where its seams cross
+    its butt planes (what :func:`.yardrules.cross_joints` reads)."""
+    from types import SimpleNamespace
+
+    hull = part.hull
+    corners = [point for plane in hull.butts if plane is not None
+               for point in seam_crossings(hull.surface, hull.long_axis, hull.girths, plane.offset)]
+    return SimpleNamespace(figures={"region": {"corners": [list(p) for p in corners]}})
+
+
+@pytest.mark.parametrize("max_width, how", [(1500.0, "staggered"), (1700.0, "runs on")])
+def test_a_later_faces_seams_meet_the_earlier_faces_at_their_cut_under_the_yards_rules(tmp_path, max_width, how):
+    """With 1.5 m stock the fore face's strakes cannot widen by the 0.28 m a seam would need to
+    run on (1.39 + 0.28 m): its two seams end the stagger from the aft face's; with 1.7 m they
+    run on, and the cut is a block joint where they make cross joints."""
     from pipeline.config import load_config
     from pipeline.hull import planner
+    from pipeline.hull.yardrules import cross_joints, face_junctions
 
     def plan(path):
         config = load_config(path)
         return planner.plan_hull(config.spec, path, config.mm_per_unit, config.lines)
 
-    plain = plan(_two_cones(tmp_path, stagger=False))
-    yard = plan(_two_cones(tmp_path))
+    plain = plan(_two_cones(tmp_path, stagger=False, max_width=max_width))
+    yard = plan(_two_cones(tmp_path, max_width=max_width))
     cut, ends = _ends_at_the_cut(yard)
     assert 19000.0 < cut < 21000.0
     assert len(ends["P1"]) == 6 and len(ends["P2"]) == 5  # edges included
     gaps = _gaps(ends)
     met = gaps < 1e-3
-    assert met.sum() >= 2  # the edges (one cone)
-    assert (gaps[~met] >= STAGGER - 1e-6).all()
+    assert met.sum() == (2 if how == "staggered" else 4)  # the edges (one cone), and the seams run on
+    assert (gaps[~met] >= STAGGER).all() and (gaps[~met] < STAGGER + 1.0).sum() == (2 if how == "staggered" else 0)
     note = next(p.hull.surface_note for p in yard if "_P2_" in p.name)
-    assert "face junction" in note
+    assert note.count(how) == 2 and "face junction" in note
     # the control: without the yard's rules the fore face keeps its own seams; the aft face's
     # ends at fifths of the arc, the fore face's at quarters: the first and last a twentieth
     # of the quarter round apart, a chord of 2 r sin(pi / 80) at the cut
@@ -181,10 +200,11 @@ def test_a_later_faces_seams_meet_the_earlier_faces_at_their_cut_under_the_yards
     assert near == pytest.approx([2 * _radius(cut) * np.sin(np.pi / 80)] * 2, abs=0.01)
     assert [p.name for p in plain if "_P1_" in p.name] == [p.name for p in yard if "_P1_" in p.name]
     # the cut is a block joint of the plan: every strake of both faces butts there
-    from pipeline.hull.yardrules import face_junctions
-
     assert face_junctions(yard) == (cut,)
     assert face_junctions([p for p in yard if "_P1_" in p.name]) == ()
+    crosses = [at for at, _ in cross_joints(yard, (), 1.0, _corners) if abs(at[0] - cut) < 1e-6]
+    assert len(crosses) == (0 if how == "staggered" else 2)
+    assert not [at for at, _ in cross_joints(yard, face_junctions(yard), 1.0, _corners) if abs(at[0] - cut) < 1.0]
 
 
 def test_kvlcc2s_bow_and_stern_faces_meet_the_lofts_seam_ends():
@@ -215,3 +235,6 @@ def test_kvlcc2s_bow_and_stern_faces_meet_the_lofts_seam_ends():
                 assert gap < 0.5 or gap >= STAGGER, (part.name, end, gap)
                 checked += 1
         assert checked >= 10
+    # the stern face's nine strakes were within 14 mm of the 4 m stock: no seam could move
+    stern = {p.hull.surface_note for p in parts if "_P2_" in p.name}
+    assert len(stern) == 1 and "one strake more (10)" in stern.pop()

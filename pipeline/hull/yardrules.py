@@ -236,9 +236,11 @@ def _x_range(part) -> tuple[float, float]:
 
 def face_junctions(parts) -> tuple[float, ...]:
     """x of the planes where plates of two faces are cut together (each plate's
-    ``hull.x_limits``; faces told apart by their surface): every strake of both faces butts
-    there, so the plane is a block joint of the plan (:mod:`.faceseams` lays the seams that
-    run on across it)."""
+    ``hull.x_limits``; faces told apart by their surface, which the plan's own parts share
+    per face): every strake of both faces butts there, so the plane is a block joint of the
+    plan for its cost (a cross joint there is a block joint's). Unlike a listed block joint,
+    the seam ends' stagger still holds there (:class:`SeamRule` exempts only
+    ``plan.block_joints``): :mod:`.faceseams` lays the seams to run on across it or keep it."""
     faces: dict = {}
     for part in parts:
         hull = getattr(part, "hull", None)
