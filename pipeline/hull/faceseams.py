@@ -88,7 +88,13 @@ def section_at(surface, axis: int, x: float, samples: int = SECTION_SAMPLES) -> 
 def _crossings(surface, axis: int, s: np.ndarray, g: np.ndarray, x: float, girth_of) -> np.ndarray:
     """Each row's first crossing of x = ``x`` (rows of samples s, g (N, S) in the surface's
     long and girth parameters), NaN where a row does not cross. ``girth_of(t)``: the girth
-    parameter of each row at long parameters t (N, 1)."""
+    parameter of each row at long parameters t (N, 1).
+
+    Not :func:`flatten.plane.plane_crossings` on each iso curve: at a loft's own end plane
+    (KVLCC2's, x = 15.09 and 296.11 m) its exact roots fall a round-off outside the curve's
+    domain, and it found 45 and 78 of 101 of the loft's crossings and none of the stern face's
+    (where it found one, it agrees within 4e-6 mm); a section's 801 lines also take it 15
+    times as long as one evaluation of the grid here."""
     u, v = (s, g) if axis == 0 else (g, s)
     d = surface(u.ravel(), v.ravel())[:, 0].reshape(s.shape) - x
     rows = np.arange(len(s))
@@ -166,11 +172,11 @@ def meet_at_junctions(surface, axis: int, seams: list, widest_girth, ends: list,
         return least >= stagger, meets, least
 
     moves, left = [], 0
+    options = [value for section in sections for value in section.places(stagger * (1 + STAGGER_MARGIN))]
     for i in range(1, len(seams) - 1):
         fine, _, gap = verdict(seams[i])
         if fine:
             continue
-        options = [value for section in sections for value in section.places(stagger * (1 + STAGGER_MARGIN))]
         best = None
         for value in options:
             if not seams[i - 1] < value < seams[i + 1]:

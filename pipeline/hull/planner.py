@@ -68,12 +68,20 @@ def uniform_layout(surface, axis: int, stock, x_limits: tuple = (None, None)) ->
     total = cum[widest, -1]
     s_widest = float(s[widest])
     n_strakes = max(1, int(np.ceil(total / stock.max_width - 1e-9)))
-    seams = list(np.interp(np.linspace(0, total, n_strakes + 1), cum[widest], g))
-    seams[0], seams[-1] = float(g[0]), float(g[-1])
+    seams = equal_girth_seams(cum[widest], g, n_strakes)
     x0, x1 = x_range(surface, x_limits)
     n_butts = max(1, int(np.ceil((x1 - x0) / stock.max_length - 1e-9)))
     butts = list(np.linspace(x0, x1, n_butts + 1)[1:-1])
     return [float(v) for v in seams], [float(x) for x in butts], s_widest
+
+
+def equal_girth_seams(cum: np.ndarray, g: np.ndarray, n_strakes: int) -> list[float]:
+    """Girth values of ``n_strakes`` strakes of equal girth along one section: its
+    cumulative girth length (n,) at the girth samples g (n,); the first and last are the
+    section's ends."""
+    seams = [float(v) for v in np.interp(np.linspace(0, cum[-1], n_strakes + 1), cum, g)]
+    seams[0], seams[-1] = float(g[0]), float(g[-1])
+    return seams
 
 
 def region_size(surface, axis: int, girths, planes) -> tuple[float, float, float, float]:
@@ -321,7 +329,9 @@ def _meet_earlier_faces(k: int, surface, axis: int, seams: list, s_widest: float
     planes = shared_planes(limits, k)
     if not planes:
         return seams, ""
-    ends = [(x, seam_crossings(laid[j][0], laid[j][1], laid[j][2], x)) for j, x in planes]
+    # each plane once, with the seam ends of every earlier face cut there
+    ends = [(x, np.concatenate([seam_crossings(*laid[j], x) for j, at in planes if at == x]))
+            for x in dict.fromkeys(x for _, x in planes)]
     cum, g = girth_lengths(surface, axis, np.array([s_widest]))
 
     def meet(values):
@@ -333,8 +343,7 @@ def _meet_earlier_faces(k: int, surface, axis: int, seams: list, s_widest: float
     if left:
         # the strakes are too near the stock's width for a seam to move: one strake more
         # (equal girth at the widest section, as the uniform layout lays them) leaves room
-        more = [float(v) for v in np.interp(np.linspace(0.0, cum[0, -1], len(seams) + 1), cum[0], g)]
-        more[0], more[-1] = float(g[0]), float(g[-1])
+        more = equal_girth_seams(cum[0], g, len(seams))
         again = meet(more)
         if again[2] < left:
             (moved, moves, left), added = again, f"one strake more ({len(more) - 1}) to meet them"
