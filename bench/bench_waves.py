@@ -21,7 +21,10 @@ stage. A run on W workers is then modelled stage by stage:
 The CPU of an item is what it took here, on a busy 2-core machine (two workers sharing its
 caches); the model at ``--jobs`` is printed beside the measured wall as its check. No wave
 can take less than its slowest item: the sum of those is what a plan of many rounds costs
-on any number of workers.
+on any number of workers. Nor can a run on W cores take less than its CPU seconds (every
+stage's, its own process's and the workers') over W, however its work is scheduled: on
+``--jobs`` cores the gap between that and the measured wall is all that better scheduling
+could win.
 """
 
 from __future__ import annotations
@@ -135,6 +138,9 @@ def report(label: str, run: dict, workers: list) -> list[str]:
                  f"{len(tasks)} of {sum(len(w['cpu']) for w in tasks)} tasks "
                  f"({sum(sum(w['cpu']) for w in tasks):.1f} CPU s), {len(run['shop_cpu'])} final plates "
                  f"({sum(run['shop_cpu']):.1f} CPU s)")
+    cpu = sum(seconds for _, seconds in run["stages"].values())
+    lines.append(f"    {cpu:.1f} CPU s in all stages: on W cores no schedule takes less than CPU / W ("
+                 + ", ".join(f"W = {n}: {cpu / n:.1f} s" for n in workers) + ")")
     lines.append(f"    {run['plan']}")
     return lines
 
