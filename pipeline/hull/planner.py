@@ -349,7 +349,7 @@ def _meet_earlier_faces(k: int, surface, axis: int, seams: list, s_widest: float
             (moved, moves, left), added = again, f"one strake more ({len(more) - 1}) to meet them"
     if not moves and not added:
         return seams, ""
-    where = ", ".join(f"x = {x * mm_per_unit:.0f}" for x in sorted({x for _, x in planes}))
+    where = ", ".join(f"x = {x * mm_per_unit:.0f}" for x in sorted(x for x, _ in ends))
     told = [added] if added else []
     told += [f"SEAM {m.seam + 1} {m.how} ({m.gap * mm_per_unit:.0f} mm from a seam end there before)" for m in moves]
     told += [f"{left} seams left within the stagger (no room within the stock's width)"] if left else []
