@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import (COPLANAR, GENERAL, PARALLEL_PLANES, classify_pair, corner_knots, developability_field,
+from .equation import (COPLANAR, GENERAL, PARALLEL_PLANES, classify_pair, corner_knots, developability_field, fit_plane,
                        normalized_residual)
 from .errors import InvalidInputError
 from .certify import critical_points, enclose, near_gap
@@ -244,7 +244,36 @@ def solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances = DEFAULT_TOLERAN
         # planes parallel to the planarity tolerance but not to the residual bound: the
         # reduced equation h (x'Y' - y'X') is not accurate enough, solve the full one
         solution = _solve(c, d, tolerances, parallel=False)
-    return solution
+    return _flat_beyond_noise(c, d, solution, tolerances)
+
+
+def _flat_beyond_noise(c: NurbsCurve, d: NurbsCurve, solution: SolutionSet, tolerances: Tolerances) -> SolutionSet:
+    """The flat plate between c and d when they lie within ``near_planarity`` of one plane
+    and their general solve finds no path, or one that leaves part of a curve uncovered
+    beside pieces whose rulings cross: f is then the curves' departure from the plane, a
+    CAD model's round-off, and its zero set says nothing of the part. A pair turned against
+    its plane by a smooth angle, however small, has a clean zero set and keeps it (a cubic
+    turned 1e-9 rad: one graph branch over 10 % of c)."""
+    if solution.kind == COPLANAR:
+        return solution
+    if solution and (min(solution.path.coverage.c_fraction, solution.path.coverage.d_fraction) >= 1.0 - 1e-9
+                     or all(piece.acceptable for piece in solution.pieces)):
+        return solution
+    poles = np.vstack([c.control_points, d.control_points])
+    size = float(np.ptp(poles, axis=0).max())
+    plane = fit_plane(poles, tolerances.near_planarity)
+    if plane.max_distance > tolerances.near_planarity * size:
+        return solution
+    cover = ("found no path" if solution.path is None else
+             f"covered {100 * solution.path.coverage.c_fraction:.3g}% of c and "
+             f"{100 * solution.path.coverage.d_fraction:.3g}% of d")
+    note = Finding("NEARLY_COPLANAR", f"c and d lie within {plane.max_distance:.3g} of one plane "
+                   f"({plane.max_distance / size:.2g} of their size): their general solve {cover}, f being that "
+                   "departure; solved as the planar region between them",
+                   {"max_distance": plane.max_distance, "relative": plane.max_distance / size,
+                    "general_kind": solution.kind})
+    flat = flat_plate_solution(c, d, plane.normal)
+    return replace(flat, findings=flat.findings + (note,))
 
 
 def _solve(c: NurbsCurve, d: NurbsCurve, tolerances: Tolerances, parallel: bool) -> SolutionSet:

@@ -18,6 +18,13 @@ class Tolerances:
     planarity : float
         Largest distance from a plane, relative to the curve size, for a curve
         to count as planar.
+    near_planarity : float
+        Largest distance from one plane, relative to the curves' size, for a pair
+        whose general solve leaves part of a curve uncovered to be the planar region
+        between them: a CAD model's flat is flat only to its numbers' precision
+        (KVLCC2's loft sections across its flat bottom: 1.7e-6 mm off their plane
+        over 15.6 m, 1.1e-10 of their size), and f is then that noise, whose
+        branches covered 6 to 20 % of the curves.
     coincidence : float
         Largest distance between the curves, relative to their size, for them to
         count as coincident (bad input).
@@ -47,6 +54,7 @@ class Tolerances:
     residual: float = 1e-12
     zero_relative: float = 1e-11
     planarity: float = 1e-10
+    near_planarity: float = 1e-8
     coincidence: float = 1e-9
     grid_lines_per_span: int = 6
     min_grid_lines: int = 48
