@@ -54,11 +54,18 @@ def fit_plane(points: np.ndarray, relative: float) -> PlaneFit:
     return PlaneFit(normal, float(normal @ centre), float(distance.max()), collinear, vt[0])
 
 
+def pair_plane(c: NurbsCurve, d: NurbsCurve, relative: float) -> tuple[PlaneFit, float]:
+    """The plane of both curves' control points (``fit_plane``) and their size, the largest
+    extent of the points along an axis (the curves lie in the hull of their points, so they
+    are within ``max_distance`` of the plane)."""
+    poles = np.vstack([c.control_points, d.control_points])
+    return fit_plane(poles, relative), float(np.ptp(poles, axis=0).max())
+
+
 def classify_pair(c: NurbsCurve, d: NurbsCurve, relative: float) -> tuple[str, dict]:
     """'coplanar', 'parallel_planes' (polynomial curves only) or 'general', with the plane data."""
     pc, pd = c.control_points, d.control_points
-    size = float(np.ptp(np.vstack([pc, pd]), axis=0).max())
-    both = fit_plane(np.vstack([pc, pd]), relative)
+    both, size = pair_plane(c, d, relative)
     if both.max_distance <= relative * size:
         return COPLANAR, {"normal": both.normal}
     if c.is_rational or d.is_rational:

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .equation import (COPLANAR, GENERAL, PARALLEL_PLANES, classify_pair, corner_knots, developability_field, fit_plane,
-                       normalized_residual)
+from .equation import (COPLANAR, GENERAL, PARALLEL_PLANES, classify_pair, corner_knots, developability_field,
+                       normalized_residual, pair_plane)
 from .errors import InvalidInputError
 from .certify import critical_points, enclose, near_gap
 from .judge import (UnitMap, choose_path, coverage, curvature_mismatches, knot_crossings,
@@ -256,12 +256,9 @@ def _flat_beyond_noise(c: NurbsCurve, d: NurbsCurve, solution: SolutionSet, tole
     turned 1e-9 rad: one graph branch over 10 % of c)."""
     if solution.kind == COPLANAR:
         return solution
-    if solution and (min(solution.path.coverage.c_fraction, solution.path.coverage.d_fraction) >= 1.0 - 1e-9
-                     or all(piece.acceptable for piece in solution.pieces)):
+    if solution and not {"PARTIAL_COVERAGE", "REGRESSION"} <= {f.code for f in solution.findings}:
         return solution
-    poles = np.vstack([c.control_points, d.control_points])
-    size = float(np.ptp(poles, axis=0).max())
-    plane = fit_plane(poles, tolerances.near_planarity)
+    plane, size = pair_plane(c, d, tolerances.near_planarity)
     if plane.max_distance > tolerances.near_planarity * size:
         return solution
     cover = ("found no path" if solution.path is None else

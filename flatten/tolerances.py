@@ -20,11 +20,11 @@ class Tolerances:
         to count as planar.
     near_planarity : float
         Largest distance from one plane, relative to the curves' size, for a pair
-        whose general solve leaves part of a curve uncovered to be the planar region
-        between them: a CAD model's flat is flat only to its numbers' precision
-        (KVLCC2's loft sections across its flat bottom: 1.7e-6 mm off their plane
-        over 15.6 m, 1.1e-10 of their size), and f is then that noise, whose
-        branches covered 6 to 20 % of the curves.
+        whose general solve finds no path, or one that leaves part of a curve
+        uncovered beside crossing rulings, to be the planar region between them: a CAD model's flat is flat only to its numbers' precision
+        (KVLCC2's loft sections across its flat bottom: 1.6e-6 mm off their plane
+        over 15.6 m, 1.0e-10 of their size), and f is then that noise, whose
+        branches covered 5 and 8 % of the two sections.
     coincidence : float
         Largest distance between the curves, relative to their size, for them to
         count as coincident (bad input).
