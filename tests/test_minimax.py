@@ -7,6 +7,8 @@ import itertools
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from flatten.minimax import fits_a_plane, flattest_plane, minimax_plane
 from flatten.patchflat import fit_plane
@@ -100,3 +102,22 @@ def test_the_certificate_closes_on_a_plate_grid_and_the_rms_shortcut_is_safe():
     # fits_a_plane agrees with the minimax fit on either side of it, whichever bound decides
     for tol in (0.99 * rms, 0.999 * fit.max_distance, fit.max_distance * 1.001, fit.least_squares_max):
         assert fits_a_plane(pts, tol) == (fit.max_distance <= tol)
+
+
+@settings(max_examples=60, derandomize=True, deadline=None)
+@given(st.floats(-3e-7, 3e-7), st.floats(-3e-7, 3e-7), st.floats(-2e-7, 2e-7), st.floats(0.0, 0.5),
+       st.integers(0, 10 ** 6), st.sampled_from([0.5, 0.9, 0.999, 1.001, 1.1, 2.0]))
+def test_fits_a_plane_stops_early_with_the_full_fits_answer(kx, ky, kxy, noise, seed, ratio):
+    """Bent, twisted and noisy plate grids (12 m x 3 m, mm) turned anywhere, at tolerances on
+    either side of their minimax distance: the decision that stops at the first round whose
+    plane fits or whose certificate rules every plane out is the full fit's answer (sets
+    thicker than round-off: a flat one's distances are its last digits, whichever way
+    computed)."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(-6000, 6000, 25), np.linspace(-1500, 1500, 7))
+    z = kx * x ** 2 + ky * y ** 2 + kxy * x * y + noise * rng.normal(size=x.shape)
+    pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()]) @ rotation(seed).T + rng.normal(size=3) * 1e4
+    fit = minimax_plane(pts)
+    assume(fit.max_distance > 1e-9 * 12000)
+    tol = ratio * fit.max_distance
+    assert fits_a_plane(pts, tol) == (fit.max_distance <= tol)
