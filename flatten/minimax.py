@@ -162,9 +162,9 @@ def minimax_plane(points: np.ndarray, max_rounds: int = 12, start: PlaneFit | No
 def _minimax_rounds(points: np.ndarray, ls: PlaneFit, max_rounds: int, decide: float | None = None):
     """The rounds of linear programmes from the least-squares plane ``ls``: the points
     relative to its centroid (N, 3), the frame (3, 3) of the thinnest slab found (rows e1,
-    e2, normal), that slab's width and the rounds solved. With ``decide`` (a half-width), the rounds stop as
-    soon as a slab within it is found (some plane fits) or the certificate of a round's
-    frame shows that none is (the frame is then returned as it stands)."""
+    e2, normal), that slab's width and the rounds solved. With ``decide`` (a half-width),
+    the rounds stop as soon as a slab within it is found (some plane fits) or the
+    certificate of a round's frame shows that none is, the thinnest slab so far returned."""
     rel = points - ls.centroid
     frame = np.vstack([ls.axes, ls.normal])
     best = (float(np.ptp(rel @ frame[2])), frame)

@@ -104,20 +104,44 @@ def test_the_certificate_closes_on_a_plate_grid_and_the_rms_shortcut_is_safe():
         assert fits_a_plane(pts, tol) == (fit.max_distance <= tol)
 
 
+def bent_plate(kx: float, ky: float, kxy: float, noise: float, seed: int) -> np.ndarray:
+    """A 12 m x 3 m plate grid (mm) bent about a point off its middle (so that its
+    least-squares plane is not its minimax plane), with noise, turned and moved anywhere."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(-6000, 6000, 25), np.linspace(-1500, 1500, 7))
+    cx, cy = rng.uniform(-6000, 6000), rng.uniform(-1500, 1500)
+    z = kx * (x - cx) ** 2 + ky * (y - cy) ** 2 + kxy * (x - cx) * (y - cy) + noise * rng.normal(size=x.shape)
+    return np.column_stack([x.ravel(), y.ravel(), z.ravel()]) @ rotation(seed).T + rng.normal(size=3) * 1e4
+
+
 @settings(max_examples=60, derandomize=True, deadline=None)
 @given(st.floats(-3e-7, 3e-7), st.floats(-3e-7, 3e-7), st.floats(-2e-7, 2e-7), st.floats(0.0, 0.5),
        st.integers(0, 10 ** 6), st.sampled_from([0.5, 0.9, 0.999, 1.001, 1.1, 2.0]))
 def test_fits_a_plane_stops_early_with_the_full_fits_answer(kx, ky, kxy, noise, seed, ratio):
-    """Bent, twisted and noisy plate grids (12 m x 3 m, mm) turned anywhere, at tolerances on
-    either side of their minimax distance: the decision that stops at the first round whose
-    plane fits or whose certificate rules every plane out is the full fit's answer (sets
-    thicker than round-off: a flat one's distances are its last digits, whichever way
-    computed)."""
-    rng = np.random.default_rng(seed)
-    x, y = np.meshgrid(np.linspace(-6000, 6000, 25), np.linspace(-1500, 1500, 7))
-    z = kx * x ** 2 + ky * y ** 2 + kxy * x * y + noise * rng.normal(size=x.shape)
-    pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()]) @ rotation(seed).T + rng.normal(size=3) * 1e4
+    """Bent, twisted and noisy plate grids at tolerances on either side of their minimax
+    distance: the decision that stops at the first round whose plane fits or whose
+    certificate rules every plane out is the full fit's answer (sets thicker than
+    round-off: a flat one's distances are its last digits, whichever way computed)."""
+    pts = bent_plate(kx, ky, kxy, noise, seed)
     fit = minimax_plane(pts)
     assume(fit.max_distance > 1e-9 * 12000)
     tol = ratio * fit.max_distance
     assert fits_a_plane(pts, tol) == (fit.max_distance <= tol)
+
+
+def test_a_decision_solves_one_programme_where_the_fit_solves_two(monkeypatch):
+    """The first round of a bent plate finds its minimax normal; the full fit solves a
+    second round to see the normal stand still, the decision stops after the first on
+    either side of the tolerance."""
+    from flatten import minimax
+
+    solved = []
+    real = minimax._chart_lp
+    monkeypatch.setattr(minimax, "_chart_lp", lambda xy, z: solved.append(1) or real(xy, z))
+    pts = bent_plate(1e-7, -5e-8, 4e-8, 0.0, 3)
+    fit = minimax_plane(pts)
+    assert fit.rounds == 2 and len(solved) == 2 and fit.proven
+    for ratio, answer in ((0.99, False), (1.01, True)):
+        solved.clear()
+        assert fits_a_plane(pts, ratio * fit.max_distance) is answer
+        assert len(solved) == 1
