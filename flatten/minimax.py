@@ -38,6 +38,8 @@ import numpy as np
 
 from .patchflat import PlaneFit, fit_plane
 
+MAX_ROUNDS = 12  # linear programmes at most (plate-like sets settle in two or three)
+
 
 @dataclass(frozen=True)
 class MinimaxPlaneFit(PlaneFit):
@@ -142,7 +144,7 @@ def _certificate(xy: np.ndarray, z: np.ndarray) -> float:
     return best
 
 
-def minimax_plane(points: np.ndarray, max_rounds: int = 12, start: PlaneFit | None = None) -> MinimaxPlaneFit:
+def minimax_plane(points: np.ndarray, max_rounds: int = MAX_ROUNDS, start: PlaneFit | None = None) -> MinimaxPlaneFit:
     """The minimax plane of points (N, 3), N >= 3 (see the module docstring for the method
     and its certificate). Started from the least-squares plane, which it never does worse
     than: if the programme cannot improve on it, the least-squares normal is kept and only
@@ -214,4 +216,4 @@ def fits_a_plane(points: np.ndarray, tolerance: float) -> bool:
         return True
     if len(points) < 3 or float(np.sqrt(np.mean(ls.distances ** 2))) > tolerance:
         return False
-    return 0.5 * _minimax_rounds(points, ls, 12, decide=tolerance)[2] <= tolerance
+    return 0.5 * _minimax_rounds(points, ls, MAX_ROUNDS, decide=tolerance)[2] <= tolerance

@@ -21,7 +21,8 @@ class Tolerances:
     near_planarity : float
         Largest distance from one plane, relative to the curves' size, for a pair
         whose general solve finds no path, or one that leaves part of a curve
-        uncovered beside crossing rulings, to be the planar region between them: a CAD model's flat is flat only to its numbers' precision
+        uncovered beside crossing rulings, to be the planar region between them:
+        a CAD model's flat is flat only to its numbers' precision
         (KVLCC2's loft sections across its flat bottom: 1.6e-6 mm off their plane
         over 15.6 m, 1.0e-10 of their size), and f is then that noise, whose
         branches covered 5 and 8 % of the two sections.
