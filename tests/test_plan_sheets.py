@@ -236,7 +236,8 @@ def test_a_split_is_ranked_by_how_near_its_worse_half_comes_to_a_sheet():
             outline=np.array([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]]))
         figures = {"region": {"area_m2": 1.0},
                    "plate_class": {"class": "flat" if fits else "formed"}}
-        cell = SimpleNamespace(result=SimpleNamespace(pattern=pattern, figures=figures, ok=True, part=None), lost=False)
+        cell = SimpleNamespace(result=SimpleNamespace(pattern=pattern, figures=figures, ok=True, part=None), lost=False,
+                               area_of=(None, 0.0))  # as a planner.Cell starts
         needs[id(cell)] = development_need(cell.result, ctx.sheets, 1.0)
         return cell
 
