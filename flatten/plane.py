@@ -72,12 +72,12 @@ def plane_crossings(curve: NurbsCurve, plane: Plane) -> np.ndarray:
     widths = np.diff(breaks)
     # PPoly wants powers of (t - b_i), highest first: (degree + 1, n_spans)
     taylor = (coef / widths[:, None] ** np.arange(curve.degree + 1)).T[::-1]
-    # the size of the terms before they cancel: a span's c_0 and its neighbour's value at their
-    # common breakpoint agree to round-off of it, not of what is left of them
-    # (bounded over the curve: |n . A_k| <= sum |A_k|, n a unit vector)
     if len(widths) <= FEW_SPANS:
         roots = PPoly(taylor, breaks, extrapolate=False).roots(extrapolate=False)
     else:
+        # the size of the terms before they cancel: a span's c_0 and its neighbour's value at
+        # their common breakpoint agree to round-off of it, not of what is left of them
+        # (bounded over the curve: |n . A_k| <= sum |A_k|, n a unit vector)
         terms = np.abs(spans).sum(axis=1).max(axis=0)
         solved = np.flatnonzero(~clear_of_zero(coef, float(terms[:3].sum() + abs(plane.offset) * terms[3])))
         if not len(solved):
