@@ -719,9 +719,7 @@ def _sheet_rank(option: tuple, needs: dict, ctx: _Context) -> tuple:
     :func:`.splitting.choose_split` ranks), then less weld."""
     split, kids = option
     worst = max(float("inf") if needs[id(k)] is None else ctx.sheets.excess(needs[id(k)]) for k in kids)
-    total = sum(_area(k) for k in kids)
-    share = sum(_area(k) for k in kids if _fits(k)) / total if total > 0 else 0.0
-    return (round(min(worst, 1e12)), -round(share, 2), split.weld, split.kind, split.at)
+    return (round(min(worst, 1e12)), -round(_share(kids), 2), split.weld, split.kind, split.at)
 
 
 def _children(cell: Cell, split) -> list[Cell]:
