@@ -87,13 +87,27 @@ def draw_class_hull(target: str | Path, rings: list, colours: list, areas: dict,
                     title: str | None) -> None:
     """The picture of :func:`class_hull_png`: rings (N, 3) in model units, their colours,
     the shell area of each class (m^2)."""
+    fig = class_figure(rings, colours, areas, units, title)
+    with atomic_path(target) as tmp:
+        fig.savefig(tmp, format="png")
+
+
+def class_figure(rings: list, colours: list, areas: dict, units: str, title: str | None):
+    """The side and bottom views as a matplotlib ``Figure`` on the Agg canvas: each view as
+    tall as the hull's true aspect asks (a long hull is a thin band: a fixed page height left
+    it two strips in a white page), the legend below both, clear of the plates (drawn inside
+    the side view, it covered the sheer strakes)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import PolyCollection
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(12, 7), dpi=110)
+    points = np.vstack(rings) if rings else np.zeros((1, 3))
+    extent = np.maximum(np.ptp(points, axis=0), 1e-9 * max(float(np.ptp(points)), 1.0))
+    width = 12.0
+    heights = [float(np.clip(0.9 * width * extent[k] / extent[0], 0.6, 4.0)) for k in (2, 1)]
+    fig = Figure(figsize=(width, sum(heights) + 1.8), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
-    axes = fig.subplots(2, 1, sharex=True)
+    axes = fig.subplots(2, 1, sharex=True, height_ratios=heights)
     for ax, (a, b), label in zip(axes, ((0, 2), (0, 1)), ("side view (x, z)", "bottom view (x, y)")):
         polygons = [ring[:, [a, b]] for ring in rings]
         ax.add_collection(PolyCollection(polygons, facecolors=colours, edgecolor="black", linewidth=0.3, alpha=0.85))
@@ -106,9 +120,8 @@ def draw_class_hull(target: str | Path, rings: list, colours: list, areas: dict,
     for k, colour in CLASS_COLOURS.items():
         label = f"{LABELS.get(k, k)}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)"
         axes[0].plot([], [], "s", color=colour, label=label)
-    axes[0].legend(loc="upper left", fontsize=7, ncol=4)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", fontsize=7, ncols=len(CLASS_COLOURS), frameon=False)
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    with atomic_path(target) as tmp:
-        fig.savefig(tmp, format="png")
+    return fig
