@@ -100,6 +100,7 @@ def class_figure(rings: list, colours: list, areas: dict, units: str, title: str
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import PolyCollection
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     points = np.vstack(rings) if rings else np.zeros((1, 3))
     extent = np.maximum(np.ptp(points, axis=0), 1e-9 * max(float(np.ptp(points)), 1.0))
@@ -117,10 +118,8 @@ def class_figure(rings: list, colours: list, areas: dict, units: str, title: str
         ax.set_title(label, fontsize=9)
     axes[-1].set_xlabel(f"x ({units})")
     total = sum(areas.values()) or 1.0
-    for k, colour in CLASS_COLOURS.items():
-        label = f"{LABELS.get(k, k)}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)"
-        axes[0].plot([], [], "s", color=colour, label=label)
-    handles, labels = axes[0].get_legend_handles_labels()
+    handles = [Line2D([], [], marker="s", linestyle="none", color=colour) for colour in CLASS_COLOURS.values()]
+    labels = [f"{LABELS.get(k, k)}: {areas[k]:.1f} m2 ({100 * areas[k] / total:.1f}%)" for k in CLASS_COLOURS]
     fig.legend(handles, labels, loc="outside lower center", fontsize=7, ncols=len(CLASS_COLOURS), frameon=False)
     if title:
         fig.suptitle(title, fontsize=10)
