@@ -275,7 +275,9 @@ def _mirrored_marks(layout):
     out.cut = out.cut + shift
     out.net = None if out.net is None else out.net + shift
     out.lines = [(k, line + shift) for k, line in out.lines]
-    out.texts = [dataclasses.replace(t, at=tuple(np.asarray(t.at) + shift)) for t in out.texts]
+    out.texts = [dataclasses.replace(t, at=tuple(np.asarray(t.at) + shift),
+                                     names=None if t.names is None else tuple(np.asarray(t.names) + shift))
+                 for t in out.texts]
     out.id_at = None if layout.id_at is None else (np.array([-layout.id_at[0][0], layout.id_at[0][1]]), layout.id_at[1])
     return out
 

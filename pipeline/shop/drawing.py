@@ -8,9 +8,13 @@ paper height (ISO 3098: 2.5 mm capital height for labels and tables, 3.5 and 5 m
 headings), upright or turned 90 degrees, and placed on the paper clear of every other text
 and every drawn line (:class:`pipeline.shop.paper.PaperPlacer`): B-numbers beyond the d end of their lines,
 frame names beyond the c end, edge names outside their edges, in as many rows as their
-spacing needs. The bending lines' spacing is dimensioned where it is measured (a chain line
-through the lines' middles, each figure the distance across the rulings between two lines); the
-table (B-number, radius, CVX/CCV, the station: the distance across the rulings from the plate's
+spacing needs. A heating group's name is written beside its line only where it is nearer
+that line than any other; where it has no room there, and a B-number with none beyond
+its line's ends, it is written further away with a straight leader from a dot on the line
+it names, as a drafter does where lines crowd (:mod:`pipeline.shop.leaders`); a name with
+no room even for that is listed in the title block. The bending lines' spacing is
+dimensioned where it is measured (a chain line through the lines' middles, each figure the
+distance across the rulings between two lines); the table (B-number, radius, CVX/CCV, the station: the distance across the rulings from the plate's
 first end at the middles, the ends' ordinates along edges c and d from the corners at
 the start butt) sits beside the plate and continues on a second page when long; the
 templates that check the formed plate get a page of their own.
@@ -31,6 +35,7 @@ import numpy as np
 
 from ..io.atomic import atomic_path
 from ..renderproc import render
+from .leaders import Leaders, slid_along
 from .paper import (CAP, DESCENT, GAP, H_HEAD, H_LABEL, H_TITLE, PITCH, Label, PaperPlacer, axis_angle, beyond,
                     size_of, text_width, unit)
 
@@ -45,9 +50,14 @@ CORE_FONTS = {"pdf.use14corefonts": True, "font.family": "sans-serif", "font.san
 STYLES = {"cut": ("black", 0.9, None), "net": ("black", 0.4, (0, (6, 3))), "frame": ("dimgrey", 0.4, (0, (8, 2, 2, 2))),
           "bend": ("tab:blue", 0.45, (0, (4, 2))), "centre": ("tab:blue", 0.3, (0, (10, 2, 2, 2))),
           "dim": ("black", 0.3, None), "rule": ("black", 0.6, None), "template": ("black", 0.7, None),
-          "sight": ("tab:red", 0.4, (0, (6, 2))), "station": ("grey", 0.25, None)}
+          "sight": ("tab:red", 0.4, (0, (6, 2))), "station": ("grey", 0.25, None),
+          "leader": ("black", 0.3, None)}
 OTHER_COLOURS = ("tab:red", "tab:purple", "tab:brown", "tab:olive")  # mark kinds the drawing does not know
+LEADER_DOT = 0.35  # radius (paper mm) of the dot where a leader meets what its label names
+NEAR_OWN = GAP + 0.7  # paper mm: a label written beside its line without a leader is this near it
+HATCH_DIRECTION = {"////": 45.0, "\\\\": 135.0}  # degrees: the direction of an area's hatch lines
 PAGE_NUMBER = "PAGE 00 OF 00"  # stands for the page number until the pages are counted
+UNNAMED_NOTE = "NOT NAMED FOR LACK OF ROOM (SEE THE DXF): "  # + the texts
 SPACING_NOTE = "SPACING ACROSS THE LINES (CHAIN LINE THROUGH THEIR MIDDLES, TICKS AT THE LINES) "  # + the runs
 
 
@@ -300,10 +310,12 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     if rows and np.isfinite(rows[0].on_c):
         data.append("ON C / ON D: THE LINE ENDS' ORDINATES ALONG EDGES C AND D FROM THE CORNERS MARKED 0; "
                     "AT CL: STATION ACROSS THE LINES, AT THEIR MIDDLES")
+    foreign = [t for t in layout.texts if t.kind not in ("text", "edge", "bend", "frame")]
     if rows:  # room for these lines, whether or not they are said
         data += ["BENDING LINE TABLE ON PAGE 2", SPACING_NOTE + ", ".join([f"B{r.number}-B{r.number}: 00000" for r in rows[1:]] or ["B0-B0: 0"])]
     sheet = choose_sheet(span, bands, len(rows), float(columns.sum()), data)
     scale, pw, ph, title_h = sheet.scale, sheet.width, sheet.height, sheet.title_height
+    title_lines = len(_wrap(data, pw - 2 * MARGIN - 2 * PAD))  # the title block's room
     data[0] = data[0].format(scale=scale, paper=sheet.paper)
     if rows:
         data.pop()
@@ -388,6 +400,14 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         page.add("dim", segs)
         dims.append((f"{span[axis]:.0f}", axis, line, side))
     placer = PaperPlacer(area, [p for style in page.lines.values() for p in style], [a[2] for a in page.areas])
+    # leaders cross no dimension or frame line, nor run along the hatching of an area
+    leaders = Leaders(placer, page.lines.get("dim", []) + page.lines.get("rule", []),
+                      [(HATCH_DIRECTION[hatch], ring) for _, hatch, ring in page.areas], [a[2] for a in page.areas])
+    # the point on its line each text of a mark kind the drawing does not know names (a
+    # leader's dot when it is written away from it): kept clear of the leaders drawn before
+    kin = {t.kind: [paper(line) for kind, line in layout.lines if kind == t.kind] for t in foreign}
+    named = {id(t): _named(t, kin[t.kind], paper) for t in foreign}
+    leaders.reserved = np.array([point for point, _ in named.values()]).reshape(-1, 2)
     for p in page.circles:
         placer.boxes = np.vstack([placer.boxes, [p[0] - p[2], p[1] - p[2], p[0] + p[2], p[1] + p[2]]])
     for x, y, r in page.circles:  # the ordinates' origins
@@ -423,6 +443,11 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         label = placer.place(text, beyond(b, u, text, angle, offsets), angle, style="tab:blue")
         if label is None:  # beyond the c end
             label = placer.place(text, beyond(a, -u, text, angle, offsets), angle, style="tab:blue")
+        if label is None:  # away, with a leader from an end of the line as drawn, else along it
+            own = _nearest_line(page.lines.get("bend", []), 0.5 * (a + b))
+            anchors = [b, a] if own is None else np.vstack(
+                [sorted((own[0], own[-1]), key=lambda e: np.linalg.norm(e - b)), slid_along(own, b)[1:]])
+            label = _led(page, leaders, text, anchors, angle, own, style="tab:blue")
         if label is None:
             findings.append(f"bending line B{row.number}: no room for its number")
         else:
@@ -521,21 +546,39 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         else:  # said in the title block (its room kept)
             placer.boxes = placer.boxes[:chain_start]
             chain_notes = [f"B{rows[k].number}-B{rows[j + 1].number}: {text}" for text, k, j in texts]
-    # texts of mark kinds the drawing does not know (their module's), near where they are
-    for t in layout.texts:
-        if t.kind in ("text", "edge", "bend", "frame"):
-            continue
+    # texts of mark kinds the drawing does not know (their module's): beside the line they
+    # name (nearer it than any other line of their kind), else led from a dot on it
+    unnamed = []
+    for t in foreign:
         at = paper(t.at)
+        point, own = named[id(t)]
         r = np.array([0.0, 2.0, 4.0, 6.0, 9.0, 13.0])
         angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
         centres = np.vstack([at] + [at + rr * np.column_stack([np.cos(angles), np.sin(angles)]) for rr in r[1:]])
-        label = placer.place(t.text, centres, 0)
+        if own is not None:  # beside its own line, along it from the point it names
+            size = size_of(t.text, H_LABEL, 0)
+            centres = _beside(np.vstack([_along(own, point, size), centres]), size, own, kin[t.kind])
+        label = placer.place(t.text, centres, 0) if len(centres) else None
+        if label is None:
+            label = _led(page, leaders, t.text, slid_along(own, point) if own is not None else [point], 0, own)
+        leaders.reserved = leaders.reserved[np.linalg.norm(leaders.reserved - point, axis=1) > 1e-9]
         if label is None:
             findings.append(f"{t.kind} text {t.text!r}: no room")
+            unnamed.append(t.text)
         else:
             page.labels.append(label)
     if chain_notes:
         data.insert(1, SPACING_NOTE + ", ".join(chain_notes))
+    if unnamed:  # texts with no room even for a leader: said in the title block's room left, else on the sheet
+        said = UNNAMED_NOTE + ", ".join(unnamed)
+        if len(_wrap(data + [said], pw - 2 * MARGIN - 2 * PAD)) <= title_lines:
+            data.append(said)
+        else:
+            label = placer.place(said, _sheet_centres(area, said), 0)
+            if label is None:
+                findings.append(f"title block and sheet full: {said!r} not said")
+            else:
+                page.labels.append(label)
     pages = [page]
     left = list(rows)
     note = PAGE_NUMBER
@@ -560,6 +603,82 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             "plate_extent_mm": span.tolist(), "turned_deg": float(np.degrees(np.arctan2(rot[1, 0], rot[0, 0]))),
             "labels": sum(len(p.labels) for p in pages), "not_placed": findings}
     return pages, info
+
+
+def _led(page: Page, leaders: Leaders, text: str, anchors, angle: int, own, style: str = "black") -> Label | None:
+    """A label written away from its line with a leader from a dot on it (the first of
+    ``anchors`` that leaves room, on ``own``), the leader and dot added to the page; None
+    when there is no room for one."""
+    led = leaders.place(text, anchors, angle, own, style=style)
+    if led is None:
+        return None
+    label, leader = led
+    page.lines.setdefault("leader", []).append(leader)
+    page.circles.append((float(leader[0][0]), float(leader[0][1]), LEADER_DOT))
+    return label
+
+
+def _sheet_centres(area: np.ndarray, text: str) -> np.ndarray:
+    """Centres (C, 2) for a one-line text anywhere in the drawing area (x0, y0, x1, y1),
+    rows from the top down, each from the left: where a note is looked for."""
+    w, h = size_of(text, H_LABEL, 0)
+    xs = np.arange(area[0] + 0.5 * w, area[2] - 0.5 * w + 1e-9, 2.0)
+    ys = np.arange(area[3] - 0.5 * h, area[1] + 0.5 * h - 1e-9, -1.0)
+    return np.array([(x, y) for y in ys for x in xs]).reshape(-1, 2)
+
+
+def _nearest_line(polylines: list, point) -> np.ndarray | None:
+    """The polyline of ``polylines`` [(K, 2)] nearest ``point`` (2,), None when there is none."""
+    import shapely
+
+    lines = [p for p in polylines if len(p) >= 2]
+    if not lines:
+        return None
+    at = shapely.Point(point)
+    return lines[int(np.argmin([shapely.LineString(p).distance(at) for p in lines]))]
+
+
+def _named(text, kin: list, paper) -> tuple[np.ndarray, np.ndarray | None]:
+    """The point a text of another module's mark kind names (paper mm) and its line among
+    ``kin`` (its kind's polylines on the paper; None when it has none): the text's own
+    ``names`` point, else the nearest point of its kind's lines."""
+    import shapely
+
+    at = paper(text.names if text.names is not None else text.at)
+    own = _nearest_line(kin, at)
+    if own is None:
+        return at, None
+    path = shapely.LineString(own)
+    return np.asarray(path.interpolate(path.project(shapely.Point(at))).coords[0]), own
+
+
+def _along(line: np.ndarray, point: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Centres (C, 2) of a label's box (size (2,)) GAP + 0.2 mm off either side of the
+    polyline (K, 2), beside the point it names and then along the line (nearest first)."""
+    line = np.asarray(line, dtype=float)
+    at = slid_along(line, point)
+    seg = line[1:] - line[:-1]
+    mid = 0.5 * (line[1:] + line[:-1])
+    d = seg[np.argmin(np.linalg.norm(at[:, None, :] - mid[None, :, :], axis=2), axis=1)]
+    d = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+    n = np.column_stack([-d[:, 1], d[:, 0]])
+    reach = np.abs(n) @ (0.5 * np.asarray(size, dtype=float)) + GAP + 0.2
+    return np.stack([at + reach[:, None] * n, at - reach[:, None] * n], axis=1).reshape(-1, 2)
+
+
+def _beside(centres: np.ndarray, size: np.ndarray, own: np.ndarray, kin: list) -> np.ndarray:
+    """The label centres (C, 2) whose box (size (2,)) lies within NEAR_OWN of the line
+    ``own`` (one of ``kin``) and nearer it than any other of ``kin``: a label there names
+    its line unaided."""
+    import shapely
+
+    half = 0.5 * size
+    boxes = shapely.box(centres[:, 0] - half[0], centres[:, 1] - half[1], centres[:, 0] + half[0],
+                        centres[:, 1] + half[1])
+    mine = shapely.distance(boxes, shapely.LineString(own))
+    others = [shapely.LineString(p) for p in kin if len(p) >= 2 and p is not own]
+    nearest_other = np.min([shapely.distance(boxes, o) for o in others], axis=0) if others else np.full(len(boxes), np.inf)
+    return centres[(mine <= NEAR_OWN) & (mine < nearest_other)]
 
 
 def _chain_label(placer: PaperPlacer, text: str, a: np.ndarray, b: np.ndarray, mids: np.ndarray, near: bool):
@@ -770,7 +889,7 @@ def _labels_artist(labels: list, mm):
 def _circle(x, y, r, mm):
     from matplotlib.patches import Circle
 
-    return Circle((x, y), r, fill=False, lw=0.4, color="black", transform=mm)
+    return Circle((x, y), r, fill=r <= LEADER_DOT, lw=0.4, color="black", transform=mm)
 
 
 def warm_up() -> None:

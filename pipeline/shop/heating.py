@@ -489,10 +489,12 @@ def label_groups(layout, figures: dict | None, net: np.ndarray, smallest: float)
                 d = d / max(np.linalg.norm(d), 1e-300)
                 normal = np.array([-d[1], d[0]])
                 angle = readable(float(np.degrees(np.arctan2(d[1], d[0]))))
+                path = LineString(line)
                 for f in (0.5, 0.3, 0.7):
                     at = line[0] + f * (line[-1] - line[0])
+                    on = np.asarray(path.interpolate(path.project(shapely.Point(at))).coords[0])
                     for side in (1.0, -1.0):
-                        label = Text("heat", text, tuple(at + side * 0.9 * h * normal), h, angle)
+                        label = Text("heat", text, tuple(at + side * 0.9 * h * normal), h, angle, tuple(on))
                         box = label.box()
                         if plate.contains(box) and not len(tree.query(box, predicate="intersects")):
                             layout.texts.append(label)

@@ -24,13 +24,15 @@ LINE_GAP = 1.5  # baseline to baseline, in text heights
 @dataclass(frozen=True)
 class Text:
     """A single-line text centred at ``at`` (mm), rotated ``angle`` degrees, on a mark kind
-    ('text', 'edge', 'bend', 'frame')."""
+    ('text', 'edge', 'bend', 'frame'); ``names``: the point (mm) on the line of its kind it
+    names, where a drawing that writes it further away starts its leader (None: none)."""
 
     kind: str
     text: str
     at: tuple[float, float]
     height: float
     angle: float
+    names: tuple[float, float] | None = None
 
     def box(self) -> Polygon:
         return Polygon(text_corners([self])[0])

@@ -80,10 +80,14 @@ def size_of(text: str, h: float, angle: int) -> np.ndarray:
     return np.array([w, em]) if angle == 0 else np.array([em, w])
 
 
+END_CLEAR = 2.3  # paper mm between a leader's end and any label but its own (its own: GAP)
+
+
 class PaperPlacer:
     """Places label boxes inside ``bounds`` (x0, y0, x1, y1 paper mm), each GAP clear of the
-    boxes placed before, of every segment of ``polylines`` and of the ``areas`` (rings,
-    their insides included)."""
+    boxes placed before, of every segment of ``polylines``, of the ``areas`` (rings, their
+    insides included) and of the leaders drawn before (:mod:`pipeline.shop.leaders`), and
+    END_CLEAR clear of those leaders' ends."""
 
     def __init__(self, bounds, polylines, areas=()):
         import shapely
@@ -96,9 +100,18 @@ class PaperPlacer:
         geoms += [shapely.Polygon(ring).buffer(0) for ring in areas if len(ring) >= 3]
         self.tree = shapely.STRtree(geoms) if geoms else None
         self.boxes = np.zeros((0, 4))
+        self.leaders: list = []  # shapely LineStrings of the leaders placed, from their dots
 
     def first_free(self, boxes: np.ndarray) -> int | None:
         """Index of the first free box of boxes (C, 4), which is taken; None when none is."""
+        idx = self.free(boxes)
+        if not idx.size:
+            return None
+        self.boxes = np.vstack([self.boxes, np.asarray(boxes, dtype=float).reshape(-1, 4)[idx[0]]])
+        return int(idx[0])
+
+    def free(self, boxes: np.ndarray) -> np.ndarray:
+        """Indices (in order) of the boxes (C, 4) inside the bounds and clear of all else."""
         import shapely
 
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
@@ -109,16 +122,23 @@ class PaperPlacer:
             hit = ((boxes[:, None, 0] < p[None, :, 2] + GAP) & (boxes[:, None, 2] > p[None, :, 0] - GAP)
                    & (boxes[:, None, 1] < p[None, :, 3] + GAP) & (boxes[:, None, 3] > p[None, :, 1] - GAP))
             ok &= ~hit.any(axis=1)
+        if self.leaders:
+            ends = np.array([leader.coords[-1] for leader in self.leaders])
+            near = ((ends[None, :, 0] > boxes[:, None, 0] - END_CLEAR) & (ends[None, :, 0] < boxes[:, None, 2] + END_CLEAR)
+                    & (ends[None, :, 1] > boxes[:, None, 1] - END_CLEAR) & (ends[None, :, 1] < boxes[:, None, 3] + END_CLEAR))
+            ok &= ~near.any(axis=1)
         idx = np.flatnonzero(ok)
         if idx.size and self.tree is not None:
             grown = boxes[idx] + np.array([-GAP, -GAP, GAP, GAP])
             hits = self.tree.query(shapely.box(grown[:, 0], grown[:, 1], grown[:, 2], grown[:, 3]),
                                    predicate="intersects")[0]
             idx = np.delete(idx, np.unique(hits))
-        if not idx.size:
-            return None
-        self.boxes = np.vstack([self.boxes, boxes[idx[0]]])
-        return int(idx[0])
+        if idx.size and self.leaders:
+            grown = boxes[idx] + np.array([-GAP, -GAP, GAP, GAP])
+            crossed = shapely.intersects(shapely.box(grown[:, 0], grown[:, 1], grown[:, 2], grown[:, 3])[:, None],
+                                         np.array(self.leaders, dtype=object)[None, :]).any(axis=1)
+            idx = idx[~crossed]
+        return idx
 
     def place(self, text: str, centres: np.ndarray, angle: int, h: float = H_LABEL, style: str = "black"):
         """The label centred at the first free one of centres (C, 2), None when none is."""

@@ -387,7 +387,8 @@ def mirrored(layout, side_of_model: str):
     out.cut = flip(layout.cut)[::-1]
     out.net = None if layout.net is None else flip(layout.net)[::-1]
     out.lines = [(k, flip(line)) for k, line in layout.lines]
-    out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle)) for t in layout.texts]
+    out.texts = [Text(t.kind, t.text, tuple(flip(t.at)), t.height, readable(180.0 - t.angle),
+                      None if t.names is None else tuple(flip(t.names))) for t in layout.texts]
     out.mirror_width = width  # the drawing flips the plate's own marks (bending lines, edges) the same way
     return out
 
