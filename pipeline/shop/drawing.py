@@ -676,9 +676,12 @@ def _beside(centres: np.ndarray, size: np.ndarray, own: np.ndarray, kin: list) -
     boxes = shapely.box(centres[:, 0] - half[0], centres[:, 1] - half[1], centres[:, 0] + half[0],
                         centres[:, 1] + half[1])
     mine = shapely.distance(boxes, shapely.LineString(own))
-    others = [shapely.LineString(p) for p in kin if len(p) >= 2 and p is not own]
-    nearest_other = np.min([shapely.distance(boxes, o) for o in others], axis=0) if others else np.full(len(boxes), np.inf)
-    return centres[(mine <= NEAR_OWN) & (mine < nearest_other)]
+    near = mine <= NEAR_OWN
+    others = [p for p in kin if len(p) >= 2 and p is not own]
+    if near.any() and others:
+        lines = np.array([shapely.LineString(p) for p in others], dtype=object)
+        near[near] = mine[near] < shapely.distance(boxes[near][:, None], lines[None, :]).min(axis=1)
+    return centres[near]
 
 
 def _chain_label(placer: PaperPlacer, text: str, a: np.ndarray, b: np.ndarray, mids: np.ndarray, near: bool):

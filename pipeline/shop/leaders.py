@@ -52,9 +52,11 @@ class Leaders:
         rings = [shapely.LineString(np.vstack([ring, ring[:1]])) for ring in edges if len(ring) >= 3]
         self.edges = shapely.STRtree(rings) if rings else None
         self.reserved = np.zeros((0, 2))
+        self._dots = np.zeros((0, 2))
 
     def dots(self) -> np.ndarray:
-        return np.array([leader.coords[0] for leader in self.placer.leaders]).reshape(-1, 2)
+        """The dots (D, 2) of the leaders placed."""
+        return self._dots
 
     def place(self, text: str, anchors, angle: int, own=None, h: float = H_LABEL,
               style: str = "black") -> tuple[Label, np.ndarray] | None:
@@ -77,8 +79,9 @@ class Leaders:
         which = np.broadcast_to(np.arange(len(anchors))[None, :, None], (len(LEADER_REACH), len(anchors),
                                                                           LEADER_DIRECTIONS)).ravel()
         boxes = np.hstack([centres - half, centres + half])
-        labels = [shapely.box(*b) for b in self.placer.boxes]
-        grown = [shapely.box(*(b + np.array([-GAP, -GAP, GAP, GAP]))) for b in self.placer.boxes]
+        placed = self.placer.boxes
+        labels = shapely.box(placed[:, 0], placed[:, 1], placed[:, 2], placed[:, 3])
+        grown = shapely.box(placed[:, 0] - GAP, placed[:, 1] - GAP, placed[:, 2] + GAP, placed[:, 3] + GAP)
         for i in self.placer.free(boxes):
             point = anchors[which[i]]
             d = centres[i] - point
@@ -87,9 +90,8 @@ class Leaders:
             k = min((k for k in range(2) if d[k] != 0.0), key=lambda k: half[k] / abs(d[k]))
             end = point + d * max(0.0, 1.0 - (half[k] + GAP) / abs(d[k]))
             leader = shapely.LineString([point, end])
-            if any(leader.intersects(g) for g in grown):
-                continue
-            if any(shapely.Point(end).distance(b) < END_CLEAR for b in labels):
+            if len(placed) and (shapely.intersects(leader, grown).any()
+                                or shapely.distance(shapely.Point(end), labels).min() < END_CLEAR):
                 continue
             if self._meets_a_leader(leader) or self._passes_points(point, end, anchors[0]):
                 continue
@@ -97,6 +99,7 @@ class Leaders:
                 continue
             self.placer.boxes = np.vstack([self.placer.boxes, boxes[i]])
             self.placer.leaders.append(leader)
+            self._dots = np.vstack([self._dots, point])
             return label_in(text, centres[i], h, angle, style), np.array([point, end])
         return None
 
