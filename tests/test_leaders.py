@@ -19,13 +19,21 @@ import numpy as np
 import pytest
 import shapely
 
-from pipeline.shop.drawing import UNNAMED_NOTE, plan_pages, write_shop_drawing
+from pipeline.shop.drawing import (
+    UNNAMED_NOTE,
+    _nearer_own,
+    _own_parts,
+    plan_pages,
+    write_shop_drawing,
+)
 from pipeline.shop.layout import Layout, Text
 from pipeline.shop.leaders import (
     DOT_APART,
     DOT_CLEAR,
+    DOT_OFF_EDGES,
     HATCH_CLEAR,
     LEADER_REACH,
+    WORD_GAP,
     Leaders,
     slid_along,
 )
@@ -226,16 +234,12 @@ def test_a_name_with_no_room_even_for_a_leader_is_said_on_the_sheet(tmp_path, be
     room. The names left are listed in the title block where its room allows (with bending
     lines, the room kept for the table's note is free when the table sits beside the plate),
     else in the drawing area."""
-    layout = Layout(np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 1000.0], [0.0, 1000.0]]), None, text_height=20.0)
+    layout = _short_lines(60, 20.0)
     marks = []
     for k in range(bends):
         x = 300.0 + 150.0 * k
         layout.lines.append(("bend", np.array([[x, 100.0], [x, 900.0]])))
         marks.append((k + 1, f"B{k + 1} R1000 CVX", np.array([x, 100.0]), np.array([x, 900.0]), x))
-    for g in range(60):
-        x = 900.0 + 20.0 * g
-        layout.lines.append(("heat", np.array([[x, 450.0], [x, 550.0]])))
-        layout.texts.append(Text("heat", f"G{g + 1}", (x + 5.0, 500.0), 10.0, 90.0, (x, 500.0)))
     pages, info = plan_pages(layout, "dense", ["PART P1"], marks, 150.0 if bends else None, [], None)
     unnamed = [f.split("'")[1] for f in info["not_placed"]]
     assert 0 < len(unnamed) < 60
@@ -277,3 +281,61 @@ def test_bending_numbers_hemmed_in_are_led_from_their_own_lines_ends():
         assert min(np.linalg.norm(leader[0] - own[0]), np.linalg.norm(leader[0] - own[-1])) < 1e-9
         path = shapely.LineString(leader)
         assert not any(path.intersects(_box(other)) for other in page.labels)
+
+
+def test_a_dot_keeps_off_a_hatched_areas_edge_unless_it_runs_alongside():
+    lines = _hatch((100.0, 100.0), 20.0, 4.0)
+    own = lines[5]  # x = 100, from y = 80 to 120
+    ring = np.array([[90.0, 100.0], [110.0, 100.0], [110.0, 130.0], [90.0, 130.0]])  # its edge crosses own at y = 100
+    leaders = Leaders(PaperPlacer((0.0, 0.0, 300.0, 200.0), lines, [ring]), edges=[ring])
+    _, leader = leaders.place("G1", slid_along(own, np.array([100.0, 100.0])), 0, own=own)
+    assert shapely.LineString(np.vstack([ring, ring[:1]])).distance(shapely.Point(leader[0])) >= DOT_OFF_EDGES - 1e-9
+    assert shapely.LineString(own).distance(shapely.Point(leader[0])) < 1e-9
+    # an edge alongside the own line (a line on the area's edge) does not push the dot off
+    beside = np.array([[100.3, 60.0], [140.0, 60.0], [140.0, 140.0], [100.3, 140.0]])
+    leaders = Leaders(PaperPlacer((0.0, 0.0, 300.0, 200.0), lines, [beside]), edges=[beside])
+    _, leader = leaders.place("G1", [np.array([100.0, 90.0])], 0, own=own)
+    np.testing.assert_allclose(leader[0], [100.0, 90.0])
+
+
+def _short_lines(groups: int, pitch: float) -> Layout:
+    """A 3 m x 1 m plate with ``groups`` short heating lines ``pitch`` mm apart (at 1:10,
+    pitch / 10 on the paper), each its own group named beside it."""
+    layout = Layout(np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 1000.0], [0.0, 1000.0]]), None, text_height=20.0)
+    for g in range(groups):
+        x = 900.0 + pitch * g
+        layout.lines.append(("heat", np.array([[x, 450.0], [x, 550.0]])))
+        layout.texts.append(Text("heat", f"G{g + 1}", (x + 5.0, 500.0), 10.0, 90.0, (x, 500.0)))
+    return layout
+
+
+def test_led_labels_keep_a_word_gap_on_their_line_of_text():
+    # twenty names led into rows above and below their lines (1.4 mm apart without the rule)
+    pages, info = plan_pages(_short_lines(20, 40.0), "rows", ["PART P1"], [], None, [], None)
+    assert info["not_placed"] == []
+    page = pages[0]
+    led = [lb for lb in page.labels if any(_short_of(p, lb) == pytest.approx(GAP, abs=1e-9) for p in page.lines["leader"])]
+    assert len(led) >= 10
+    for lb in led:
+        x0, y0, x1, y1 = lb.box()
+        for other in page.labels:
+            ox0, oy0, ox1, oy1 = other.box()
+            if other is not lb and oy0 < y1 and oy1 > y0:  # on the same line of text
+                assert max(ox0 - x1, x0 - ox1) >= WORD_GAP - 1e-9, (lb.text, other.text)
+
+
+def test_a_bending_lines_own_parts_are_found_when_its_middle_lies_off_the_plate():
+    # a line across a U-shaped plate's notch: clipped into two parts, its middle in the notch,
+    # where another line passes nearer than either part
+    a, b = np.array([0.0, 50.0]), np.array([100.0, 50.0])
+    parts = [np.array([[0.0, 50.0], [30.0, 50.0]]), np.array([[70.0, 50.0], [100.0, 50.0]])]
+    other = np.array([[50.0, 48.0], [50.0, 90.0]])
+    own, others = _own_parts([other] + parts, a, b)
+    assert len(own) == 2 and all(any(p is q for q in parts) for p in own)
+    assert len(others) == 1 and others[0] is other
+    # beyond b's end (nearest its own second part) a place is offered; beside the other line not
+    centres = np.array([[105.0, 50.0], [52.0, 70.0]])
+    np.testing.assert_allclose(_nearer_own(centres, np.array([4.0, 3.0]), own, others), centres[:1])
+    # a segment off the parts finds none of them
+    none, every = _own_parts([other] + parts, a + np.array([0.0, 1.0]), b + np.array([0.0, 1.0]))
+    assert none == [] and len(every) == 3

@@ -400,8 +400,8 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         page.add("dim", segs)
         dims.append((f"{span[axis]:.0f}", axis, line, side))
     placer = PaperPlacer(area, [p for style in page.lines.values() for p in style], [a[2] for a in page.areas])
-    # leaders cross no dimension or frame line, nor run along the hatching of an area
-    leaders = Leaders(placer, page.lines.get("dim", []) + page.lines.get("rule", []),
+    # leaders cross no dimension, chain or frame line, nor run along the hatching of an area
+    leaders = Leaders(placer, page.lines.get("dim", []) + page.lines.get("rule", []) + page.lines.get("centre", []),
                       [(HATCH_DIRECTION[hatch], ring) for _, hatch, ring in page.areas], [a[2] for a in page.areas])
     # the point on its line each text of a mark kind the drawing does not know names (a
     # leader's dot when it is written away from it): kept clear of the leaders drawn before
@@ -440,11 +440,15 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         size = size_of(text, H_LABEL, angle)
         step = abs(u[0]) * size[0] + abs(u[1]) * size[1] + GAP
         offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 4)])
-        label = placer.place(text, beyond(b, u, text, angle, offsets), angle, style="tab:blue")
+        # (a place beyond an end nearer another bending line than its own would name that one)
+        parts, others = _own_parts(page.lines.get("bend", []), a, b)
+        label = placer.place(text, _nearer_own(beyond(b, u, text, angle, offsets), size, parts, others), angle,
+                             style="tab:blue")
         if label is None:  # beyond the c end
-            label = placer.place(text, beyond(a, -u, text, angle, offsets), angle, style="tab:blue")
-        if label is None:  # away, with a leader from an end of the line as drawn, else along it
-            own = _nearest_line(page.lines.get("bend", []), 0.5 * (a + b))
+            label = placer.place(text, _nearer_own(beyond(a, -u, text, angle, offsets), size, parts, others), angle,
+                                 style="tab:blue")
+        if label is None:  # away, with a leader from an end of its longest part as drawn, else along it
+            own = parts[0] if parts else None
             anchors = [b, a] if own is None else np.vstack(
                 [sorted((own[0], own[-1]), key=lambda e: np.linalg.norm(e - b)), slid_along(own, b)[1:]])
             label = _led(page, leaders, text, anchors, angle, own, style="tab:blue")
@@ -625,6 +629,36 @@ def _sheet_centres(area: np.ndarray, text: str) -> np.ndarray:
     xs = np.arange(area[0] + 0.5 * w, area[2] - 0.5 * w + 1e-9, 2.0)
     ys = np.arange(area[3] - 0.5 * h, area[1] + 0.5 * h - 1e-9, -1.0)
     return np.array([(x, y) for y in ys for x in xs]).reshape(-1, 2)
+
+
+def _own_parts(drawn: list, a: np.ndarray, b: np.ndarray) -> tuple[list, list]:
+    """The drawn polylines that lie on the segment a-b (a bending line clipped to the plate:
+    one or more parts), longest first, and the others."""
+    d = unit(b - a)
+    on = [p for p in drawn if len(p) >= 2 and np.all(np.abs((p - a) @ np.array([-d[1], d[0]])) < 1e-6)
+          and np.all((p - a) @ d >= -1e-6) and np.all((p - a) @ d <= np.linalg.norm(b - a) + 1e-6)]
+    on.sort(key=lambda p: -float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))))
+    return on, [p for p in drawn if not any(p is q for q in on)]
+
+
+def _nearer_own(centres: np.ndarray, size: np.ndarray, own: list, others: list) -> np.ndarray:
+    """The label centres (C, 2) whose box (size (2,)) is nearer one of the polylines ``own``
+    than any of ``others`` (all of them when either is empty)."""
+    import shapely
+
+    centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+    others = [p for p in others if len(p) >= 2]
+    if not own or not others or not len(centres):
+        return centres
+    half = 0.5 * np.asarray(size, dtype=float)
+    boxes = shapely.box(centres[:, 0] - half[0], centres[:, 1] - half[1], centres[:, 0] + half[0],
+                        centres[:, 1] + half[1])
+
+    def nearest(lines):
+        geoms = np.array([shapely.LineString(p) for p in lines], dtype=object)
+        return shapely.distance(boxes[:, None], geoms[None, :]).min(axis=1)
+
+    return centres[nearest(own) < nearest(others)]
 
 
 def _nearest_line(polylines: list, point) -> np.ndarray | None:

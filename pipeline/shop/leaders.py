@@ -6,11 +6,13 @@ a dot on the line to the label. A plater must still read at a glance which line 
 names, so a leader here:
 
 - starts at a dot on the label's own line, at the point the label names or slid along that
-  line, DOT_APART from every other dot and DOT_OFF_LINES from every other drawn line that
-  does not run alongside its own (a bending line on the plate's edge may have its dot there);
+  line, DOT_APART from every other dot, DOT_OFF_LINES from every other drawn line and
+  DOT_OFF_EDGES from a hatched area's edge, unless that runs alongside its own (a bending
+  line on the plate's edge may have its dot there);
 - runs straight toward its label's centre and stops GAP short of the side it meets, its end
-  END_CLEAR from every other label (the nearer label is always its own);
-- crosses no label, no other leader, no dimension or frame line (``barriers``), and passes
+  END_CLEAR from every other label (the nearer label is always its own), and the label stands
+  WORD_GAP from any text on its line of text (two names would read as one);
+- crosses no label, no other leader, no dimension, chain or frame line (``barriers``), and passes
   DOT_CLEAR from every other dot and from the points still to be led (``reserved``);
 - crosses drawn lines rather than running along them: within LEADER_BAND of a line or an
   area's edge for no more than LEADER_ALONG, and not within HATCH_CLEAR degrees of the
@@ -28,11 +30,13 @@ from .paper import END_CLEAR, GAP, H_LABEL, Label, PaperPlacer, label_in, size_o
 
 LEADER_REACH = (10.0, 14.0, 19.0, 25.0, 32.0, 40.0)  # a label's centre from its dot, paper mm
 LEADER_DIRECTIONS = 24
-LEADER_BAND, LEADER_ALONG = 0.3, 2.4  # no nearer than 0.3 mm to a line for more than 2.4 mm
+LEADER_BAND, LEADER_ALONG = 0.45, 4.0  # no nearer than 0.45 mm to a line for more than 4 mm
 DOT_APART = 2.5  # paper mm between two leaders' dots
 DOT_CLEAR = 1.5  # paper mm between a leader and another's dot or a point still to be led
 DOT_OFF_LINES = 1.0  # paper mm between a dot and every drawn line but its own (or alongside it)
+DOT_OFF_EDGES = 0.5  # paper mm between a dot and a hatched area's edge (or alongside it)
 ALONGSIDE = np.sin(np.radians(15.0))  # a line within 15 degrees of a dot's own line runs alongside it
+WORD_GAP = 2.5  # paper mm between a led label and a text beside it on its line (else read as one)
 HATCH_CLEAR = 10.0  # degrees between a leader and the hatching of an area it crosses
 SLIDE = (0.5, 0.35, 0.65, 0.2, 0.8, 0.1, 0.9)  # where else on its line a dot may go (arc fractions)
 
@@ -91,7 +95,8 @@ class Leaders:
             end = point + d * max(0.0, 1.0 - (half[k] + GAP) / abs(d[k]))
             leader = shapely.LineString([point, end])
             if len(placed) and (shapely.intersects(leader, grown).any()
-                                or shapely.distance(shapely.Point(end), labels).min() < END_CLEAR):
+                                or shapely.distance(shapely.Point(end), labels).min() < END_CLEAR
+                                or _run_on(boxes[i], placed, 0 if angle == 0 else 1)):
                 continue
             if self._meets_a_leader(leader) or self._passes_points(point, end, anchors[0]):
                 continue
@@ -105,7 +110,8 @@ class Leaders:
 
     def _dot_ok(self, point: np.ndarray, own_line) -> bool:
         """A dot DOT_APART from the other dots, DOT_CLEAR from the other leaders and
-        DOT_OFF_LINES from every drawn line but its own."""
+        DOT_OFF_LINES from every drawn line and DOT_OFF_EDGES from every area edge but its own
+        line or one alongside it."""
         import shapely
 
         dots = self.dots()
@@ -114,11 +120,11 @@ class Leaders:
         at = shapely.Point(point)
         if any(leader.distance(at) < DOT_CLEAR for leader in self.placer.leaders):
             return False
-        tree = self.placer.tree
-        if tree is None:
-            return True
-        near = tree.geometries[tree.query(at.buffer(DOT_OFF_LINES), predicate="intersects")]
-        near = [g for g in near if g.geom_type == "LineString"]
+        near = []
+        for tree, off in ((self.placer.tree, DOT_OFF_LINES), (self.edges, DOT_OFF_EDGES)):  # lines, areas' edges
+            if tree is not None:
+                hits = tree.geometries[tree.query(at.buffer(off), predicate="intersects")]
+                near += [g for g in hits if g.geom_type == "LineString"]
         if own_line is None:
             return not near
         mine = own_line.buffer(1e-6)
@@ -154,7 +160,7 @@ class Leaders:
 
     def _runs_along(self, leader) -> bool:
         """Within LEADER_BAND of a drawn line or an area's edge for more than LEADER_ALONG
-        (a crossing under about 15 degrees)."""
+        (a crossing under about 13 degrees)."""
         band = leader.buffer(LEADER_BAND, cap_style="flat")
         for tree in (self.placer.tree, self.edges):
             if tree is None:
@@ -172,6 +178,15 @@ class Leaders:
             if off < HATCH_CLEAR and leader.intersects(area):
                 return True
         return False
+
+
+def _run_on(box: np.ndarray, placed: np.ndarray, along: int) -> bool:
+    """Whether the box (4,) stands on a line of text with a placed box (P, 4), less than
+    WORD_GAP from it along that line (axis ``along``): the two would read as one text."""
+    across = 1 - along
+    side = (placed[:, across] < box[across + 2]) & (placed[:, across + 2] > box[across])
+    gap = np.maximum(placed[:, along] - box[along + 2], box[along] - placed[:, along + 2])
+    return bool(np.any(side & (gap < WORD_GAP)))
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> float:
