@@ -283,19 +283,25 @@ def test_bending_numbers_hemmed_in_are_led_from_their_own_lines_ends():
         assert not any(path.intersects(_box(other)) for other in page.labels)
 
 
-def test_a_dot_keeps_off_a_hatched_areas_edge_unless_it_runs_alongside():
+def test_a_dot_keeps_off_a_hatched_areas_edge_and_off_a_line_alongside_its_own_if_it_can():
     lines = _hatch((100.0, 100.0), 20.0, 4.0)
     own = lines[5]  # x = 100, from y = 80 to 120
     ring = np.array([[90.0, 100.0], [110.0, 100.0], [110.0, 130.0], [90.0, 130.0]])  # its edge crosses own at y = 100
-    leaders = Leaders(PaperPlacer((0.0, 0.0, 300.0, 200.0), lines, [ring]), edges=[ring])
+    leaders = Leaders(PaperPlacer((0.0, 0.0, 300.0, 200.0), lines, [ring]), edges=[ring], lines=lines)
     _, leader = leaders.place("G1", slid_along(own, np.array([100.0, 100.0])), 0, own=own)
     assert shapely.LineString(np.vstack([ring, ring[:1]])).distance(shapely.Point(leader[0])) >= DOT_OFF_EDGES - 1e-9
     assert shapely.LineString(own).distance(shapely.Point(leader[0])) < 1e-9
-    # an edge alongside the own line (a line on the area's edge) does not push the dot off
-    beside = np.array([[100.3, 60.0], [140.0, 60.0], [140.0, 140.0], [100.3, 140.0]])
-    leaders = Leaders(PaperPlacer((0.0, 0.0, 300.0, 200.0), lines, [beside]), edges=[beside])
-    _, leader = leaders.place("G1", [np.array([100.0, 90.0])], 0, own=own)
-    np.testing.assert_allclose(leader[0], [100.0, 90.0])
+    # a drawn line alongside its own (a bending line on the plate's edge): a dot there only
+    # where no dot clear of it leaves room
+    own = np.array([[200.0, 40.0], [200.0, 160.0]])
+    edge = np.array([[200.3, 40.0], [200.3, 110.0]])
+    placer = PaperPlacer((0.0, 0.0, 300.0, 200.0), [own, edge])
+    _, leader = Leaders(placer, lines=[own, edge]).place("B1", [np.array([200.0, 90.0]), np.array([200.0, 140.0])],
+                                                         0, own=own)
+    np.testing.assert_allclose(leader[0], [200.0, 140.0])
+    placer = PaperPlacer((0.0, 0.0, 300.0, 200.0), [own, edge])
+    _, leader = Leaders(placer, lines=[own, edge]).place("B1", [np.array([200.0, 90.0])], 0, own=own)
+    np.testing.assert_allclose(leader[0], [200.0, 90.0])
 
 
 def _short_lines(groups: int, pitch: float) -> Layout:
@@ -339,3 +345,11 @@ def test_a_bending_lines_own_parts_are_found_when_its_middle_lies_off_the_plate(
     # a segment off the parts finds none of them
     none, every = _own_parts([other] + parts, a + np.array([0.0, 1.0]), b + np.array([0.0, 1.0]))
     assert none == [] and len(every) == 3
+
+
+def test_a_leader_along_a_finely_sampled_line_is_caught_whole():
+    # a heating line drawn as 1 mm pieces: a leader lying on it for 8 mm, and one crossing it
+    dense = np.column_stack([np.linspace(0.0, 40.0, 41), np.full(41, 50.0)])
+    leaders = Leaders(PaperPlacer((0.0, 0.0, 100.0, 100.0), [dense]), lines=[dense])
+    assert leaders._runs_along(shapely.LineString([(10.0, 50.05), (18.0, 50.2)]))
+    assert not leaders._runs_along(shapely.LineString([(10.0, 45.0), (13.0, 55.0)]))

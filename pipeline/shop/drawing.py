@@ -55,6 +55,7 @@ STYLES = {"cut": ("black", 0.9, None), "net": ("black", 0.4, (0, (6, 3))), "fram
 OTHER_COLOURS = ("tab:red", "tab:purple", "tab:brown", "tab:olive")  # mark kinds the drawing does not know
 LEADER_DOT = 0.35  # radius (paper mm) of the dot where a leader meets what its label names
 NEAR_OWN = GAP + 0.7  # paper mm: a label written beside its line without a leader is this near it
+NEARER_BY = 0.25  # paper mm: a B-number beyond its line's end is nearer that line than any other by this
 HATCH_DIRECTION = {"////": 45.0, "\\\\": 135.0}  # degrees: the direction of an area's hatch lines
 PAGE_NUMBER = "PAGE 00 OF 00"  # stands for the page number until the pages are counted
 UNNAMED_NOTE = "NOT NAMED FOR LACK OF ROOM (SEE THE DXF): "  # + the texts
@@ -402,7 +403,8 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
     placer = PaperPlacer(area, [p for style in page.lines.values() for p in style], [a[2] for a in page.areas])
     # leaders cross no dimension, chain or frame line, nor run along the hatching of an area
     leaders = Leaders(placer, page.lines.get("dim", []) + page.lines.get("rule", []) + page.lines.get("centre", []),
-                      [(HATCH_DIRECTION[hatch], ring) for _, hatch, ring in page.areas], [a[2] for a in page.areas])
+                      [(HATCH_DIRECTION[hatch], ring) for _, hatch, ring in page.areas], [a[2] for a in page.areas],
+                      [p for style in page.lines.values() for p in style])
     # the point on its line each text of a mark kind the drawing does not know names (a
     # leader's dot when it is written away from it): kept clear of the leaders drawn before
     kin = {t.kind: [paper(line) for kind, line in layout.lines if kind == t.kind] for t in foreign}
@@ -431,6 +433,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             findings.append(f"overall dimension {text}: no room")
         else:
             page.labels.append(label)
+    unnamed = []  # the names with no room even for a leader, said in the title block or on the sheet
     # B-numbers beyond the d ends, rows further out where the lines are close
     for bend, row in zip(bends, rows):
         a, b = paper(bend[2]), paper(bend[3])
@@ -454,6 +457,7 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             label = _led(page, leaders, text, anchors, angle, own, style="tab:blue")
         if label is None:
             findings.append(f"bending line B{row.number}: no room for its number")
+            unnamed.append(text)
         else:
             page.labels.append(label)
     # frame names beyond the frame lines' lower ends
@@ -552,7 +556,6 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
             chain_notes = [f"B{rows[k].number}-B{rows[j + 1].number}: {text}" for text, k, j in texts]
     # texts of mark kinds the drawing does not know (their module's): beside the line they
     # name (nearer it than any other line of their kind), else led from a dot on it
-    unnamed = []
     for t in foreign:
         at = paper(t.at)
         point, own = named[id(t)]
@@ -624,10 +627,11 @@ def _led(page: Page, leaders: Leaders, text: str, anchors, angle: int, own, styl
 
 def _sheet_centres(area: np.ndarray, text: str) -> np.ndarray:
     """Centres (C, 2) for a one-line text anywhere in the drawing area (x0, y0, x1, y1),
-    rows from the top down, each from the left: where a note is looked for."""
+    rows from the bottom up (next to the title block), each from the left: where a note is
+    looked for."""
     w, h = size_of(text, H_LABEL, 0)
     xs = np.arange(area[0] + 0.5 * w, area[2] - 0.5 * w + 1e-9, 2.0)
-    ys = np.arange(area[3] - 0.5 * h, area[1] + 0.5 * h - 1e-9, -1.0)
+    ys = np.arange(area[1] + 0.5 * h, area[3] - 0.5 * h + 1e-9, 1.0)
     return np.array([(x, y) for y in ys for x in xs]).reshape(-1, 2)
 
 
@@ -643,7 +647,7 @@ def _own_parts(drawn: list, a: np.ndarray, b: np.ndarray) -> tuple[list, list]:
 
 def _nearer_own(centres: np.ndarray, size: np.ndarray, own: list, others: list) -> np.ndarray:
     """The label centres (C, 2) whose box (size (2,)) is nearer one of the polylines ``own``
-    than any of ``others`` (all of them when either is empty)."""
+    than any of ``others``, by NEARER_BY (all of them when either is empty)."""
     import shapely
 
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
@@ -658,7 +662,7 @@ def _nearer_own(centres: np.ndarray, size: np.ndarray, own: list, others: list) 
         geoms = np.array([shapely.LineString(p) for p in lines], dtype=object)
         return shapely.distance(boxes[:, None], geoms[None, :]).min(axis=1)
 
-    return centres[nearest(own) < nearest(others)]
+    return centres[nearest(own) + NEARER_BY < nearest(others)]
 
 
 def _nearest_line(polylines: list, point) -> np.ndarray | None:

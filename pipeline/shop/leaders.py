@@ -46,7 +46,7 @@ class Leaders:
     may not cross (``barriers``, (K, 2) polylines), the hatched areas [(hatch direction in
     degrees, (K, 2) ring)] and the points still to be led (``reserved``, (R, 2))."""
 
-    def __init__(self, placer: PaperPlacer, barriers=(), hatched=(), edges=()):
+    def __init__(self, placer: PaperPlacer, barriers=(), hatched=(), edges=(), lines=()):
         import shapely
 
         self.placer = placer
@@ -55,6 +55,9 @@ class Leaders:
         self.hatched = [(float(angle), shapely.Polygon(ring).buffer(0)) for angle, ring in hatched if len(ring) >= 3]
         rings = [shapely.LineString(np.vstack([ring, ring[:1]])) for ring in edges if len(ring) >= 3]
         self.edges = shapely.STRtree(rings) if rings else None
+        # whole lines (the placer keeps their segments): how long a leader runs along one
+        whole = [shapely.LineString(p) for p in lines if len(p) >= 2] + rings
+        self.whole = shapely.STRtree(whole) if whole else None
         self.reserved = np.zeros((0, 2))
         self._dots = np.zeros((0, 2))
 
@@ -71,7 +74,20 @@ class Leaders:
 
         anchors = [np.asarray(a, dtype=float) for a in np.asarray(anchors, dtype=float).reshape(-1, 2)]
         own_line = shapely.LineString(own) if own is not None and len(own) >= 2 else None
-        anchors = [a for a in anchors if self._dot_ok(a, own_line)]
+        verdicts = [self._dot_ok(a, own_line) for a in anchors]
+        # dots clear of every other line first; on a line alongside their own only if none leaves room
+        for accept in ("clear", "alongside"):
+            led = self._place_from([a for a, v in zip(anchors, verdicts) if v == accept], anchors[0], text, angle,
+                                   h, style)
+            if led is not None:
+                return led
+        return None
+
+    def _place_from(self, anchors: list, named: np.ndarray, text: str, angle: int, h: float, style: str):
+        """:meth:`place` from these anchors, all of them fit for a dot (``named``: the point
+        the label names, whose reservation is its own)."""
+        import shapely
+
         if not anchors:
             return None
         turn = np.linspace(0.0, 2 * np.pi, LEADER_DIRECTIONS, endpoint=False)
@@ -98,7 +114,7 @@ class Leaders:
                                 or shapely.distance(shapely.Point(end), labels).min() < END_CLEAR
                                 or _run_on(boxes[i], placed, 0 if angle == 0 else 1)):
                 continue
-            if self._meets_a_leader(leader) or self._passes_points(point, end, anchors[0]):
+            if self._meets_a_leader(leader) or self._passes_points(point, end, named):
                 continue
             if self._crosses_barrier(leader) or self._runs_along(leader) or self._along_hatching(leader, d):
                 continue
@@ -108,29 +124,35 @@ class Leaders:
             return label_in(text, centres[i], h, angle, style), np.array([point, end])
         return None
 
-    def _dot_ok(self, point: np.ndarray, own_line) -> bool:
-        """A dot DOT_APART from the other dots, DOT_CLEAR from the other leaders and
-        DOT_OFF_LINES from every drawn line and DOT_OFF_EDGES from every area edge but its own
-        line or one alongside it."""
+    def _dot_ok(self, point: np.ndarray, own_line) -> str | None:
+        """Whether a dot may go here: 'clear' when it is DOT_APART from the other dots,
+        DOT_CLEAR from the other leaders, DOT_OFF_EDGES from every hatched area's edge and
+        DOT_OFF_LINES from every drawn line but its own; 'alongside' when the only lines that
+        near run alongside its own (a bending line on the plate's edge: one line to the eye);
+        else None."""
         import shapely
 
         dots = self.dots()
         if len(dots) and np.min(np.linalg.norm(dots - point, axis=1)) < DOT_APART:
-            return False
+            return None
         at = shapely.Point(point)
         if any(leader.distance(at) < DOT_CLEAR for leader in self.placer.leaders):
-            return False
-        near = []
-        for tree, off in ((self.placer.tree, DOT_OFF_LINES), (self.edges, DOT_OFF_EDGES)):  # lines, areas' edges
-            if tree is not None:
-                hits = tree.geometries[tree.query(at.buffer(off), predicate="intersects")]
-                near += [g for g in hits if g.geom_type == "LineString"]
+            return None
+        if self.edges is not None and len(self.edges.query(at.buffer(DOT_OFF_EDGES), predicate="intersects")):
+            return None
+        tree = self.placer.tree
+        near = [] if tree is None else [
+            g for g in tree.geometries[tree.query(at.buffer(DOT_OFF_LINES), predicate="intersects")]
+            if g.geom_type == "LineString"]
+        if own_line is not None:
+            mine = own_line.buffer(1e-6)
+            near = [g for g in near if not mine.contains(g)]
+        if not near:
+            return "clear"
         if own_line is None:
-            return not near
-        mine = own_line.buffer(1e-6)
-        # a line alongside its own (a bending line on the plate's edge) is one line to the eye
+            return None
         d = _direction(own_line, at)
-        return all(mine.contains(g) or abs(_cross(d, _direction(g, at))) < ALONGSIDE for g in near)
+        return "alongside" if all(abs(_cross(d, _direction(g, at))) < ALONGSIDE for g in near) else None
 
     def _meets_a_leader(self, leader) -> bool:
         """Whether the leader crosses one placed before (two from one dot meet only there)."""
@@ -161,14 +183,13 @@ class Leaders:
     def _runs_along(self, leader) -> bool:
         """Within LEADER_BAND of a drawn line or an area's edge for more than LEADER_ALONG
         (a crossing under about 13 degrees)."""
+        import shapely
+
+        if self.whole is None:
+            return False
         band = leader.buffer(LEADER_BAND, cap_style="flat")
-        for tree in (self.placer.tree, self.edges):
-            if tree is None:
-                continue
-            near = tree.geometries[tree.query(band, predicate="intersects")]
-            if any(g.geom_type == "LineString" and g.intersection(band).length > LEADER_ALONG for g in near):
-                return True
-        return False
+        near = self.whole.geometries[self.whole.query(band, predicate="intersects")]
+        return bool(len(near)) and bool(np.any(shapely.length(shapely.intersection(near, band)) > LEADER_ALONG))
 
     def _along_hatching(self, leader, d: np.ndarray) -> bool:
         """Within HATCH_CLEAR degrees of the hatching of an area the leader crosses."""
