@@ -20,8 +20,9 @@ import pytest
 import shapely
 
 from pipeline.shop.drawing import (
+    NEARER_BY,
     UNNAMED_NOTE,
-    _nearer_own,
+    _nearer,
     _own_parts,
     plan_pages,
     write_shop_drawing,
@@ -341,7 +342,7 @@ def test_a_bending_lines_own_parts_are_found_when_its_middle_lies_off_the_plate(
     assert len(others) == 1 and others[0] is other
     # beyond b's end (nearest its own second part) a place is offered; beside the other line not
     centres = np.array([[105.0, 50.0], [52.0, 70.0]])
-    np.testing.assert_allclose(_nearer_own(centres, np.array([4.0, 3.0]), own, others), centres[:1])
+    np.testing.assert_allclose(_nearer(centres, np.array([4.0, 3.0]), own, others, NEARER_BY), centres[:1])
     # a segment off the parts finds none of them
     none, every = _own_parts([other] + parts, a + np.array([0.0, 1.0]), b + np.array([0.0, 1.0]))
     assert none == [] and len(every) == 3

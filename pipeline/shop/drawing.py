@@ -14,8 +14,8 @@ its line's ends, it is written further away with a straight leader from a dot on
 it names, as a drafter does where lines crowd (:mod:`pipeline.shop.leaders`); a name with
 no room even for that is listed in the title block. The bending lines' spacing is
 dimensioned where it is measured (a chain line through the lines' middles, each figure the
-distance across the rulings between two lines); the table (B-number, radius, CVX/CCV, the station: the distance across the rulings from the plate's
-first end at the middles, the ends' ordinates along edges c and d from the corners at
+distance across the rulings between two lines); the table (B-number, radius, CVX/CCV, the
+station: the distance across the rulings from the plate's first end at the middles, the ends' ordinates along edges c and d from the corners at
 the start butt) sits beside the plate and continues on a second page when long; the
 templates that check the formed plate get a page of their own.
 
@@ -445,11 +445,11 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         offsets = np.concatenate([GAP + np.array([0.05, 1.0, 2.0]), GAP + 2.0 + step * np.arange(1, 4)])
         # (a place beyond an end nearer another bending line than its own would name that one)
         parts, others = _own_parts(page.lines.get("bend", []), a, b)
-        label = placer.place(text, _nearer_own(beyond(b, u, text, angle, offsets), size, parts, others), angle,
-                             style="tab:blue")
+        label = placer.place(text, _nearer(beyond(b, u, text, angle, offsets), size, parts, others, NEARER_BY),
+                             angle, style="tab:blue")
         if label is None:  # beyond the c end
-            label = placer.place(text, _nearer_own(beyond(a, -u, text, angle, offsets), size, parts, others), angle,
-                                 style="tab:blue")
+            label = placer.place(text, _nearer(beyond(a, -u, text, angle, offsets), size, parts, others,
+                                               NEARER_BY), angle, style="tab:blue")
         if label is None:  # away, with a leader from an end of its longest part as drawn, else along it
             own = parts[0] if parts else None
             anchors = [b, a] if own is None else np.vstack(
@@ -564,7 +564,8 @@ def plan_pages(layout, title: str, part_data: list[str], bends: list, spacing: f
         centres = np.vstack([at] + [at + rr * np.column_stack([np.cos(angles), np.sin(angles)]) for rr in r[1:]])
         if own is not None:  # beside its own line, along it from the point it names
             size = size_of(t.text, H_LABEL, 0)
-            centres = _beside(np.vstack([_along(own, point, size), centres]), size, own, kin[t.kind])
+            centres = _nearer(np.vstack([_along(own, point, size), centres]), size, [own],
+                              [p for p in kin[t.kind] if p is not own], within=NEAR_OWN)
         label = placer.place(t.text, centres, 0) if len(centres) else None
         if label is None:
             label = _led(page, leaders, t.text, slid_along(own, point) if own is not None else [point], 0, own)
@@ -645,24 +646,31 @@ def _own_parts(drawn: list, a: np.ndarray, b: np.ndarray) -> tuple[list, list]:
     return on, [p for p in drawn if not any(p is q for q in on)]
 
 
-def _nearer_own(centres: np.ndarray, size: np.ndarray, own: list, others: list) -> np.ndarray:
-    """The label centres (C, 2) whose box (size (2,)) is nearer one of the polylines ``own``
-    than any of ``others``, by NEARER_BY (all of them when either is empty)."""
+def _nearer(centres: np.ndarray, size: np.ndarray, own: list, others: list, by: float = 0.0,
+            within: float = np.inf) -> np.ndarray:
+    """The label centres (C, 2) whose box (size (2,)) lies within ``within`` of the nearest
+    of the polylines ``own`` and nearer it than any of ``others`` by more than ``by``: a
+    label there names its own line, not another (all of them when ``own`` is empty)."""
     import shapely
 
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+    own = [p for p in own if len(p) >= 2]
     others = [p for p in others if len(p) >= 2]
-    if not own or not others or not len(centres):
+    if not own or not len(centres):
         return centres
     half = 0.5 * np.asarray(size, dtype=float)
     boxes = shapely.box(centres[:, 0] - half[0], centres[:, 1] - half[1], centres[:, 0] + half[0],
                         centres[:, 1] + half[1])
 
-    def nearest(lines):
+    def nearest(lines, at):
         geoms = np.array([shapely.LineString(p) for p in lines], dtype=object)
-        return shapely.distance(boxes[:, None], geoms[None, :]).min(axis=1)
+        return shapely.distance(at[:, None], geoms[None, :]).min(axis=1)
 
-    return centres[nearest(own) + NEARER_BY < nearest(others)]
+    mine = nearest(own, boxes)
+    keep = mine <= within
+    if keep.any() and others:
+        keep[keep] = mine[keep] + by < nearest(others, boxes[keep])
+    return centres[keep]
 
 
 def _nearest_line(polylines: list, point) -> np.ndarray | None:
@@ -702,24 +710,6 @@ def _along(line: np.ndarray, point: np.ndarray, size: np.ndarray) -> np.ndarray:
     n = np.column_stack([-d[:, 1], d[:, 0]])
     reach = np.abs(n) @ (0.5 * np.asarray(size, dtype=float)) + GAP + 0.2
     return np.stack([at + reach[:, None] * n, at - reach[:, None] * n], axis=1).reshape(-1, 2)
-
-
-def _beside(centres: np.ndarray, size: np.ndarray, own: np.ndarray, kin: list) -> np.ndarray:
-    """The label centres (C, 2) whose box (size (2,)) lies within NEAR_OWN of the line
-    ``own`` (one of ``kin``) and nearer it than any other of ``kin``: a label there names
-    its line unaided."""
-    import shapely
-
-    half = 0.5 * size
-    boxes = shapely.box(centres[:, 0] - half[0], centres[:, 1] - half[1], centres[:, 0] + half[0],
-                        centres[:, 1] + half[1])
-    mine = shapely.distance(boxes, shapely.LineString(own))
-    near = mine <= NEAR_OWN
-    others = [p for p in kin if len(p) >= 2 and p is not own]
-    if near.any() and others:
-        lines = np.array([shapely.LineString(p) for p in others], dtype=object)
-        near[near] = mine[near] < shapely.distance(boxes[near][:, None], lines[None, :]).min(axis=1)
-    return centres[near]
 
 
 def _chain_label(placer: PaperPlacer, text: str, a: np.ndarray, b: np.ndarray, mids: np.ndarray, near: bool):
