@@ -117,8 +117,9 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
         data["strake"]["plan"]["objective"] = objective_of(objective)
     data["strake"].update(fit_up_of(fit_up))
     replan_where_it_applies(data)
-    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
-        for key in ("iges", "model"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
+    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", []),
+                   *[deck["curve"] for deck in data["strake"].get("decks", []) if "curve" in deck]]:
+        for key in ("iges", "model", "dxf"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
             if key in source:
                 source[key] = str((ROOT / "configs" / source[key]).resolve())
     with tempfile.TemporaryDirectory() as tmp:
@@ -187,6 +188,9 @@ def lean_vs_full(hull: str, every: int) -> None:
     data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
     for s in data["strake"]["plan"].get("surfaces", []):
         s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())
+    for deck in data["strake"].get("decks", []):
+        if "iges" in deck.get("curve", {}):
+            deck["curve"]["iges"] = str((ROOT / "configs" / deck["curve"]["iges"]).resolve())
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))

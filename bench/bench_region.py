@@ -50,8 +50,9 @@ def uniform_plates(hull: str) -> list:
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data["strake"]["plan"]["method"] = "uniform"
     data["strake"]["plan"].pop("replan_held", None)  # (nothing is planned again in a uniform plan)
-    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", [])]:
-        for key in ("iges", "model"):
+    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", []),
+                   *[deck["curve"] for deck in data["strake"].get("decks", []) if "curve" in deck]]:
+        for key in ("iges", "model", "dxf"):
             if key in source:
                 source[key] = str((ROOT / "configs" / source[key]).resolve())
     with tempfile.TemporaryDirectory() as tmp:

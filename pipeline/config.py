@@ -619,6 +619,41 @@ class FrameSpec(_Strict):
     start: float = 0.0
 
 
+class WaterlineSpec(_Strict):
+    """Waterlines on the shell expansion: planes z = base line + k * spacing (config units,
+    z up), named by their height above the base line; ``design``: the design waterline's
+    height above it, drawn and named DWL."""
+
+    spacing: float = Field(gt=0)
+    design: float | None = Field(None, gt=0)
+
+
+class DeckSpec(_Strict):
+    """A deck where it meets the shell (the deck at side), on the shell expansion: at one
+    ``height`` above the base line all along the hull, through ``at_side`` points [x, height]
+    (config units, x ascending: a sheer, the deck ending where they end), or along a
+    ``curve`` of the model (any curve source: the deck-at-side line; its height read against x)."""
+
+    name: str = Field(min_length=1, max_length=40)
+    height: float | None = None
+    at_side: list[tuple[float, float]] | None = Field(None, min_length=2, max_length=10000)
+    curve: CurveSource | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        given = self._given("height", "at_side", "curve")
+        if len(given) != 1:
+            raise ValueError(f"a deck is given by exactly one of height, at_side, curve; {self.name!r} gives "
+                             f"{', '.join(given) if given else 'none'}")
+        if self.at_side is not None:
+            xs = [x for x, _ in self.at_side]
+            for k in range(1, len(xs)):
+                if not xs[k] > xs[k - 1]:
+                    raise ValueError(f"deck {self.name!r}: at_side x must ascend, got {xs[k - 1]:g} then "
+                                     f"{xs[k]:g} (points {k - 1} and {k})")
+        return self
+
+
 class StockSpec(_Strict):
     """Plate sizes a plan must respect (config units): the developed plate's length along
     the hull and its width across it."""
@@ -711,6 +746,10 @@ class StrakeSpec(_Strict):
     butts: list[float | PlaneSpec] | None = Field(None, min_length=2)
     plan: PlanSpec | None = None
     frames: FrameSpec | None = None
+    base_line: float | None = Field(None, description="z of the moulded base line (config units), from which "
+                                    "waterlines and deck heights are measured; default: the shell's lowest point")
+    waterlines: WaterlineSpec | None = None
+    decks: list[DeckSpec] = Field(default_factory=list, max_length=64)
     margin: float = Field(0.1, ge=0, le=1)
     fit_tolerance: float | None = Field(None, gt=0, description="largest distance from the hull surface (config "
                                         "units; default 5 mm whatever the units)")
@@ -837,6 +876,7 @@ class RunSpec(_Strict):
             sources += [part.curves.c, part.curves.d]
         if self.strake is not None:
             sources += [seam.curve for seam in self.strake.seams or [] if seam.curve is not None]
+            sources += [deck.curve for deck in self.strake.decks if deck.curve is not None]
             if self.strake.fit_tolerance is None:
                 object.__setattr__(self.strake, "fit_tolerance", DEFAULT_FIT_TOLERANCE_MM / mm)
         for source in sources:
@@ -891,6 +931,7 @@ class RunConfig:
         self.fitup_seconds = None  # (wall, CPU) s of that fit-up, its plates' evaluations aside
         self.replan = None  # the plans made again after the fit-up, plan.replan_held (pipeline.hull.replan)
         self.plan_cost = None  # what the plan costs a yard, as its summary says (pipeline.hull.cost.PlanCost.as_dict)
+        self.decks = ()  # strake.decks as heights along the hull (pipeline.hull.levels.DeckProfile)
 
     @property
     def mm_per_unit(self) -> float:

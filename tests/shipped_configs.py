@@ -11,3 +11,19 @@ def plain_uniform(data: dict) -> dict:
     plan.pop("objective", None)
     plan.pop("replan_held", None)
     return data
+
+
+def with_files_from(data: dict, folder) -> dict:
+    """A shipped config's ``data`` with every file it names (the hull's surfaces, deck curves)
+    made absolute from ``folder``, the config's own folder: the config can then be written
+    anywhere."""
+    from pathlib import Path
+
+    strake = data["strake"]
+    sources = [strake["surface"], *strake.get("plan", {}).get("surfaces", [])]
+    sources += [deck["curve"] for deck in strake.get("decks", []) if "curve" in deck]
+    for source in sources:
+        for key in ("iges", "model", "dxf"):
+            if key in source:
+                source[key] = str((Path(folder) / source[key]).resolve())
+    return data

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from pipeline.hull.bestfit import end_offsets
 from pipeline.cli import main
 from tests.hull_shapes import bowed_bilge_iges
+from tests.shipped_configs import with_files_from
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -331,8 +332,7 @@ def test_a_best_fit_whose_centred_rulings_still_miss_stops_and_solving_on_would_
     from pipeline.hull.plan import load_run
     from pipeline.hull.plates import _grid
 
-    data = yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text())
-    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data = with_files_from(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()), ROOT / "configs")
     path = tmp_path / "hull160.yaml"
     path.write_text(yaml.safe_dump(data))
     config = load_run(path)  # no evaluator: the yard's layout as the plan starts from it

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import yaml
 
-from tests.shipped_configs import plain_uniform
+from tests.shipped_configs import plain_uniform, with_files_from
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,7 +23,7 @@ def test_end_plates_get_their_frames_marked(tmp_path):
     from pipeline.hull.plates import run_part
 
     data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
-    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    data = with_files_from(data, ROOT / "configs")
     (tmp_path / "hull160.yaml").write_text(yaml.safe_dump(data))
     plan = load_run(tmp_path / "hull160.yaml")
     ends = [p for p in plan.parts if None in p.hull.butts]

@@ -21,7 +21,7 @@ from pipeline.hull.plateshop import develop
 from pipeline.hull.plates import evaluate_plate, run_part
 from pipeline.runner import PlateEvaluator
 from tests.hull_shapes import cylinder_sphere_iges
-from tests.shipped_configs import plain_uniform
+from tests.shipped_configs import plain_uniform, with_files_from
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -40,7 +40,7 @@ def hull160(tmp_path_factory):
     """The 160 m hull's uniform layout (no plan evaluation: every plate is run in full by
     ``run_part``), without previews."""
     data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
-    data["strake"]["surface"]["iges"] = str(ROOT / "tests" / "data" / "ship" / "test_1_hull_exported.igs")
+    data = with_files_from(data, ROOT / "configs")
     data["output"] = {"png": False}
     path = tmp_path_factory.mktemp("hull160") / "hull160.yaml"
     path.write_text(yaml.safe_dump(data))

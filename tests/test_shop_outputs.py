@@ -13,7 +13,7 @@ import yaml
 from pipeline.shop.allowance import cut_outline
 from pipeline.cli import main
 from pipeline.config import load_config
-from tests.shipped_configs import plain_uniform
+from tests.shipped_configs import plain_uniform, with_files_from
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -380,7 +380,7 @@ def hull160_uniform(folder: Path):
     from pipeline.hull.plan import load_run
 
     data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
-    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
+    data = with_files_from(data, ROOT / "configs")
     config_path = folder / "hull.yaml"
     config_path.write_text(yaml.safe_dump(data))
     return load_run(config_path)

@@ -11,7 +11,7 @@ import pytest
 from flatten import DEFAULT_TOLERANCES, solve
 from flatten.nurbs import nurbs_curve
 from flatten.strip import build_strip, choose_rulings
-from tests.shipped_configs import plain_uniform
+from tests.shipped_configs import plain_uniform, with_files_from
 
 SHIP = Path(__file__).parent / "data" / "ship"
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,7 +85,7 @@ def test_a_butt_corner_the_strip_does_not_reach_keeps_its_ruling_on_the_strip(tm
     from pipeline.hull.strake import corner_rulings
 
     data = plain_uniform(yaml.safe_load((ROOT / "configs" / "hull160_shell.yaml").read_text()))
-    data["strake"]["surface"]["iges"] = str(SHIP / "test_1_hull_exported.igs")
+    data = with_files_from(data, ROOT / "configs")
     path = tmp_path / "hull160.yaml"
     path.write_text(yaml.safe_dump(data))
     config = load_run(path)

@@ -13,9 +13,13 @@ hull's length between) the section is found on each iso-g curve (the crossing of
 narrowed by regula falsi) and its cumulative chord length tabled on g; between stations and
 between g samples the table is interpolated linearly.
 
+Waterlines and decks (``strake.waterlines``, ``strake.decks``) are drawn where the sections
+reach their heights (:mod:`.levels`).
+
 Files (millimetres): NAME_expansion.dxf (R2000, one layer per plate class, frames, seams,
-butts, texts) and NAME_expansion.pdf (one A1 or A0 sheet, the largest standard scale that
-fits, stated on the sheet). A plan of several surfaces draws each in its own band.
+butts, waterlines, decks, texts) and NAME_expansion.pdf (one A1 or A0 sheet, the largest
+standard scale that fits, stated on the sheet). A plan of several surfaces draws each in its
+own band.
 """
 
 from __future__ import annotations
@@ -36,6 +40,10 @@ LAYER_COLOURS = {"flat": 5, "developable": 3, "patch": 4, "formed": 30, "failed"
 LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROLLED", "formed": "EXP_FORMED",
                "failed": "EXP_FAILED"}
 DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
+LEVEL_COLOURS = {"waterline": 150, "deck": 6}  # ACI
+LEVEL_STYLES = {"waterline": {"colors": "#1f5fbf", "linewidths": 0.25, "linestyles": (0, (8, 2, 1, 2))},
+                "design": {"colors": "#1f5fbf", "linewidths": 0.6, "linestyles": "solid"},
+                "deck": {"colors": "#8b1a1a", "linewidths": 0.8, "linestyles": "solid"}}
 SHEETS = {"A1": (841.0, 594.0), "A0": (1189.0, 841.0)}  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 2500, 5000, 10000)
 
@@ -45,12 +53,15 @@ class Sections:
     """Girth along the sections x = stations[k]: ``g`` (n,) girth parameters ascending,
     ``girth`` (K, n) arc length from the section's start (model units; NaN where the iso-g
     curve does not reach x = X), ``from_high``: girth is counted from the high end of g
-    (when that end lies lower, e.g. a surface whose g runs from deck to keel)."""
+    (when that end lies lower, e.g. a surface whose g runs from deck to keel); ``z`` (K, n)
+    the z of the section points girth is tabled for."""
 
     stations: np.ndarray
     g: np.ndarray
     girth: np.ndarray
     from_high: bool
+    z: np.ndarray | None = None  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
+    starts: np.ndarray | None = None  # (K,) g where a section starts on the surface's end edge between samples
 
     def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
@@ -65,8 +76,18 @@ class Sections:
 
         def along(rows):
             a, b = self.girth[rows, j], self.girth[rows, j + 1]
-            a, b = np.where(np.isnan(a), b, a), np.where(np.isnan(b), a, b)
-            return a + t * (b - a)
+            value = np.where(np.isnan(a), b, np.where(np.isnan(b), a, a + t * (b - a)))
+            if self.starts is None:
+                return value
+            # a section that starts on the contour between the two samples, at tau: its girth
+            # grows from 0 there to the present sample's
+            tau = (self.starts[rows] - self.g[j]) / dg
+            inside = (tau > 0.0) & (tau < 1.0)
+            tau = np.where(inside, tau, 0.5)
+            after = inside & np.isnan(a) & np.isfinite(b)  # counted up the g samples
+            before = inside & np.isnan(b) & np.isfinite(a)  # counted down them (from the high end)
+            value = np.where(after, b * np.clip((t - tau) / (1.0 - tau), 0.0, 1.0), value)
+            return np.where(before, a * np.clip((tau - t) / tau, 0.0, 1.0), value)
 
         lo, hi = along(k), along(k + 1)
         # a station where this g is off the section (the hull's end): the other one's value
@@ -139,6 +160,8 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
     if from_high:
         seg = seg[:, ::-1]
     girth = np.full((K, n), np.nan)
+    ends = _end_edges(surface, axis, g[::-1] if from_high else g)
+    starts = np.full(K, np.nan)
     for k in range(K):
         present = np.isfinite(pts[k, ::-1, 0] if from_high else pts[k, :, 0])
         if present.sum() < 2:
@@ -148,20 +171,49 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
         run = present[first:]
         stop = first + (int(np.argmin(run)) if not run.all() else len(run))
         row = np.full(n, np.nan)
-        row[first] = 0.0
-        row[first + 1:stop] = np.cumsum(seg[k, first:stop - 1])
+        if first:
+            row[first], starts[k] = _lead_in(ends, first, stations[k], pts[k, n - 1 - first if from_high else first])
+        else:
+            row[first] = 0.0
+        row[first + 1:stop] = row[first] + np.cumsum(seg[k, first:stop - 1])
         girth[k] = row[::-1] if from_high else row
-    return Sections(stations, g, girth, from_high)
+    z = np.where(np.isfinite(girth), pts[..., 2], np.nan)
+    return Sections(stations, g, girth, from_high, z, starts)
+
+
+def _end_edges(surface, axis: int, g: np.ndarray) -> tuple:
+    """The surface's two end edges (its long parameter's ends) at the girth samples ``g``
+    (n,), in the order the girth counts them: two (n, 3) point arrays and their g."""
+    sdom = surface.domain_u if axis == 0 else surface.domain_v
+    return tuple(surface(*_uv(axis, np.full(len(g), s), g)) for s in sdom), g
+
+
+def _lead_in(ends: tuple, first: int, station: float, start: np.ndarray) -> tuple[float, float]:
+    """The girth of a section's first tabled point ``start`` when the section begins on an end
+    edge of the surface (the stem or stern contour) between girth samples first - 1 and
+    first (in the order girth counts them), and the g of that beginning: the chord from the
+    contour's crossing of x = station (linear between the two samples) to the point. (0, NaN)
+    where neither end edge crosses the station there."""
+    (lo_edge, hi_edge), g = ends
+    for edge in (lo_edge, hi_edge):
+        a, b = edge[first - 1], edge[first]
+        if (a[0] - station) * (b[0] - station) <= 0 and a[0] != b[0]:
+            f = (station - a[0]) / (b[0] - a[0])
+            return float(np.linalg.norm(start - (a + f * (b - a)))), float(g[first - 1] + f * (g[first] - g[first - 1]))
+    return 0.0, float("nan")
 
 
 def stations_for(plates: list[PlateEdges], frames: list[float], count: int = 400) -> np.ndarray:
-    """Every butt's x (the end columns' mean x), the frames, and ``count`` stations evenly
-    over the plates' x range."""
+    """Every butt's x (the end columns' mean x), the frames, ``count`` stations evenly over the
+    plates' x range, and the x of every point of an end column that is no plane x = const (a
+    plate's edge on the hull's end: the stem or stern contour, where each section starts at
+    the contour, so that its points are tabled on sections through them)."""
     xs = np.concatenate([p.points[..., 0].ravel() for p in plates])
     lo, hi = float(xs.min()), float(xs.max())
     butts = [float(np.mean(p.points[:, c, 0])) for p in plates for c in (0, -1)]
+    contour = [p.points[:, c, 0] for p in plates for c in (0, -1) if np.ptp(p.points[:, c, 0]) > 1e-6 * (hi - lo)]
     every = np.linspace(lo, hi, count)
-    return np.unique(np.round(np.concatenate([every, butts, [f for f in frames if lo <= f <= hi]]), 9))
+    return np.unique(np.round(np.concatenate([every, butts, [f for f in frames if lo <= f <= hi], *contour]), 9))
 
 
 @dataclass(frozen=True)
@@ -198,24 +250,35 @@ def _map(plate: PlateEdges, table: Sections, axis: int, offset: float) -> tuple:
 @dataclass(frozen=True)
 class Expansion:
     """The drawing's content, model units: plates, frames (x, girth bottom, girth top, band,
-    frame number) and each band's girth offset and height."""
+    frame number) and each band's girth offset and height; ``levels`` the waterlines and
+    decks (:class:`.levels.Level`), ``base_line`` the z they count from, ``notes`` what is
+    not drawn and why (a deck the shell does not reach)."""
 
     plates: tuple
     frames: tuple
     bands: tuple
     x_range: tuple
     girth_from: str
+    levels: tuple = ()
+    base_line: float | None = None
+    notes: tuple = ()
 
 
-def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float) -> Expansion:
+def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, waterlines=None, decks: list = (),
+           base_line: float | None = None, snap: float = 0.0) -> Expansion:
     """Map every plate of ``results`` (with ``edges`` by name) into girth x length; one band
-    per hull surface, ``gap`` (model units) apart; ``frames`` (number, x)."""
+    per hull surface, ``gap`` (model units) apart; ``frames`` (number, x).
+
+    ``waterlines`` (:class:`pipeline.config.WaterlineSpec`) and ``decks``
+    (:class:`.levels.DeckProfile`) are drawn where the shell reaches them, heights from
+    ``base_line`` (model z; default the shell's lowest point), a point within ``snap`` (model
+    units) of a level on it."""
     groups: dict[int, list] = {}
     for r in results:
         e = edges.get(r.name)
         if e is not None:
             groups.setdefault(id(r.part.hull.surface), []).append((r, e))
-    plates, frame_lines, bands = [], [], []
+    plates, frame_lines, bands, tables = [], [], [], []
     offset = 0.0
     sides = set()
     x_lo, x_hi = np.inf, -np.inf
@@ -223,6 +286,7 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float) ->
         hull = members[0][0].part.hull
         sampled = [e for _, e in members]
         table = section_table(hull.surface, hull.long_axis, stations_for(sampled, [x for _, x in frames]))
+        tables.append((table, offset, band))
         sides.add("high" if table.from_high else "low")
         height = float(np.nanmax(table.girth)) if np.isfinite(table.girth).any() else 0.0
         for r, e in members:
@@ -242,7 +306,42 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float) ->
         offset += height + gap
     side = "the low end of the girth parameter" if sides == {"low"} else (
         "the high end of the girth parameter" if sides == {"high"} else "the lower end of each surface's girth")
-    return Expansion(tuple(plates), tuple(frame_lines), tuple(bands), (float(x_lo), float(x_hi)), side)
+    levels, base, notes = _levels(tables, waterlines, decks, base_line, snap)
+    return Expansion(tuple(plates), tuple(frame_lines), tuple(bands), (float(x_lo), float(x_hi)), side, levels,
+                     base, notes)
+
+
+def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap: float) -> tuple:
+    """The waterlines' and decks' lines on every band, the base line, and notes."""
+    from .levels import Level, crossings, waterline_heights
+
+    if waterlines is None and not decks:
+        return (), base_line, ()
+    z_all = [t.z[np.isfinite(t.z)] for t, _, _ in tables if t.z is not None]
+    z_all = np.concatenate(z_all) if z_all else np.zeros(0)
+    if not len(z_all):
+        return (), base_line, ("no waterlines or decks: the sections have no points",)
+    base = float(z_all.min()) if base_line is None else float(base_line)
+    wanted = [] if waterlines is None else [
+        (name, kind, lambda x, h=h: np.full(len(x), base + h))
+        for name, kind, h in waterline_heights(waterlines.spacing, waterlines.design, float(z_all.max()) - base)]
+    wanted += [(deck.name, "deck", lambda x, deck=deck: deck.at(x, base)) for deck in decks]
+    levels, notes = [], []
+    for name, kind, level_at in wanted:
+        found = []
+        for table, offset, band in tables:
+            lines = crossings(table.stations, table.girth + offset, table.z, level_at(table.stations), snap)
+            if lines:
+                found.append(Level(name, kind, tuple(lines), band))
+        if found:
+            levels += found
+        elif kind == "deck":
+            z = level_at(np.array([x for t, _, _ in tables for x in t.stations]))
+            z = z[np.isfinite(z)]
+            where = (f"at z {z.min():g} to {z.max():g}" if len(z) and np.ptp(z) > 0 else
+                     f"at z {z[0]:g}" if len(z) else "beyond the shell's length")
+            notes.append(f"{name} ({where}) does not meet the shell (z {z_all.min():g} to {z_all.max():g}): not drawn")
+    return tuple(levels), base, tuple(notes)
 
 
 def plan_frames(spec_frames, x_range: tuple[float, float]) -> list[tuple[int, float]]:
@@ -304,7 +403,8 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     msp = doc.modelspace()
     for klass, layer in LAYER_NAMES.items():
         doc.layers.add(layer, color=LAYER_COLOURS[klass])
-    for layer, colour in (("EXP_SEAMS", 7), ("EXP_BUTTS", 7), ("EXP_FRAMES", 8), ("EXP_TEXT", 7)):
+    for layer, colour in (("EXP_SEAMS", 7), ("EXP_BUTTS", 7), ("EXP_FRAMES", 8), ("EXP_TEXT", 7),
+                          ("EXP_WATERLINES", LEVEL_COLOURS["waterline"]), ("EXP_DECKS", LEVEL_COLOURS["deck"])):
         doc.layers.add(layer, color=colour)
     mm = mm_per_unit
     heights = []
@@ -335,11 +435,64 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         msp.add_line((x * mm, lo * mm), (x * mm, hi * mm), dxfattribs={"layer": "EXP_FRAMES"})
         msp.add_text(f"FR {number}", height=0.5 * text_h, dxfattribs={"layer": "EXP_FRAMES"}).set_placement(
             (x * mm, hi * mm + 0.2 * text_h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
+    for level in drawing.levels:
+        layer = "EXP_DECKS" if level.kind == "deck" else "EXP_WATERLINES"
+        for line in level.lines:
+            points = thin(line * mm, DRAWING_TOLERANCE_MM)
+            msp.add_lwpolyline(points.tolist(), dxfattribs={"layer": layer})
+        for point, angle in _label_places(level, drawing.x_range):
+            msp.add_text(level.name, height=0.4 * text_h, rotation=angle, dxfattribs={"layer": layer}).set_placement(
+                (float(point[0]) * mm, float(point[1]) * mm), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
     x0 = drawing.x_range[0] * mm
     top = max((o + h for o, h in drawing.bands), default=0.0) * mm
     msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + 2 * text_h)})
+    for k, note in enumerate(_level_notes(drawing, mm)):
+        msp.add_text(note, height=0.6 * text_h,
+                     dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + (4.5 + 0.9 * k) * text_h)})
     with atomic_path(target) as tmp:
         doc.saveas(tmp)
+
+
+def _label_places(level, x_range: tuple) -> list[tuple[np.ndarray, float]]:
+    """Where a level's name goes (model units) and its angle (degrees, along the line): on each
+    of its lines that runs over a quarter of the drawing's length at least, at a quarter and
+    three quarters of that length where the line reaches (away from the ends, where the
+    waterlines crowd into the stem and stern profiles); else at the middle of its longest line."""
+    x0, x1 = x_range
+    places = []
+    for line in level.lines:
+        if np.ptp(line[:, 0]) < 0.25 * (x1 - x0):
+            continue
+        for x in (x0 + 0.25 * (x1 - x0), x0 + 0.75 * (x1 - x0)):
+            hit = np.flatnonzero((line[:-1, 0] - x) * (line[1:, 0] - x) <= 0)
+            if len(hit):
+                k = int(hit[0])
+                a, b = line[k], line[k + 1]
+                t = 0.0 if b[0] == a[0] else (x - a[0]) / (b[0] - a[0])
+                places.append((a + t * (b - a), _readable_angle(b - a)))
+    if places:
+        return places
+    line = max(level.lines, key=lambda p: float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()))
+    k = len(line) // 2
+    return [(line[k], _readable_angle(line[min(k + 1, len(line) - 1)] - line[max(k - 1, 0)]))]
+
+
+def _readable_angle(direction: np.ndarray) -> float:
+    """The angle (degrees) of a direction, turned to read left to right (-90 to 90)."""
+    angle = float(np.degrees(np.arctan2(direction[1], direction[0])))
+    return angle - 180.0 if angle > 90.0 else angle + 180.0 if angle <= -90.0 else angle
+
+
+def _level_notes(drawing: Expansion, mm: float) -> list[str]:
+    """The sheet's words on its waterlines and decks: the base line they count from, and any
+    deck not drawn."""
+    if not drawing.levels and not drawing.notes:
+        return []
+    out = []
+    if drawing.base_line is not None:
+        out.append(f"WATERLINES (WL) AND DECK HEIGHTS ABOVE THE BASE LINE Z = {drawing.base_line * mm:.0f} MM; "
+                   "DWL: DESIGN WATERLINE; DECKS AT SIDE")
+    return out + [note.upper() for note in drawing.notes]
 
 
 def sheet_and_scale(width_mm: float, height_mm: float, margin: float = 20.0, title: float = 30.0):
@@ -395,6 +548,12 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
             ax.text(centre[0], centre[1], f"{name}\n{thick}" if thick else name, fontsize=size, ha="center",
                     va="center", linespacing=1.1)
+        for level in drawing.levels:
+            style = LEVEL_STYLES[level.kind]
+            ax.add_collection(LineCollection([line * mm for line in level.lines], **style))
+            for point, angle in _label_places(level, drawing.x_range):
+                ax.text(point[0] * mm, point[1] * mm, level.name, fontsize=4.0 if level.kind == "deck" else 3.0,
+                        ha="center", va="bottom", rotation=angle, rotation_mode="anchor", color=style["colors"])
         step = max(1, len(drawing.frames) // 40)  # every frame drawn, a number on some
         for k, (x, lo, hi, _, number) in enumerate(drawing.frames):
             if k % step == 0:
@@ -408,6 +567,8 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
                  f"shell expansion: girth along the sections x = const (from {drawing.girth_from}) "
                  f"upward, length x along the hull; scale 1:{n} on {sheet} ({w:.0f} x {h:.0f} mm); "
                  f"dimensions mm; classes: {legend}", fontsize=6.5, ha="left", va="top")
+        for k, note in enumerate(_level_notes(drawing, mm)):
+            fig.text(margin / w, 1.0 - (26.0 + 4.0 * k) / h, note, fontsize=5.5, ha="left", va="top")
         with atomic_path(target) as tmp:
             fig.savefig(tmp, format="pdf")
     return {"sheet": sheet, "scale": f"1:{n}", "size_mm": [w, h]}
@@ -429,7 +590,10 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
     xs = np.concatenate([edges[r.name].points[..., 0].ravel() for r in hull])
     strake = config.spec.strake
     frames = plan_frames(None if strake is None else strake.frames, (float(xs.min()), float(xs.max())))
-    drawing = expand(hull, edges, frames, gap=0.05 * float(np.ptp(xs)))
+    drawing = expand(hull, edges, frames, gap=0.05 * float(np.ptp(xs)),
+                     waterlines=None if strake is None else strake.waterlines, decks=getattr(config, "decks", ()),
+                     base_line=None if strake is None else strake.base_line,
+                     snap=DRAWING_TOLERANCE_MM / config.mm_per_unit)
     title = f"{style}: shell expansion, {len(hull)} plates"
     written = []
     if dxf:

@@ -77,6 +77,7 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
         return config
     path = Path(path)
     record = repair = follow = fairings = fit_seconds = replanned = None
+    decks = deck_profiles(spec.strake, path, config.mm_per_unit, config.lines)  # bad input fails before the plan
     try:
         plan = spec.strake.plan
         judge = None if evaluate is None else _Judge(evaluate, config)
@@ -123,7 +124,27 @@ def load_run(path: str | Path, evaluate=None) -> RunConfig:
     run.fitup_follow = follow
     run.fitup_seconds = fit_seconds
     run.replan = replanned
+    run.decks = decks
     return run
+
+
+def deck_profiles(strake, config_path: Path, mm_per_unit: float, lines: dict) -> list:
+    """Each of ``strake.decks`` as heights along the hull (:class:`.levels.DeckProfile`); a
+    deck curve that cannot be read, or that does not run along the hull, is a ConfigError
+    naming the file, its line and the deck."""
+    from .levels import deck_profile
+
+    out = []
+    for k, deck in enumerate(strake.decks):
+        curve = None
+        if deck.curve is not None:
+            curve = _curve(deck.curve, ("strake", "decks", k, "curve"), config_path, lines, mm_per_unit, {})
+        try:
+            out.append(deck_profile(deck, curve))
+        except ValueError as exc:
+            line = _line_of(lines, ("strake", "decks", k))
+            raise ConfigError(f"{config_path}{':' + str(line) if line else ''}: strake.decks[{k}]: {exc}") from None
+    return out
 
 
 def _fit_up(parts: list, spec, config, evaluate, seconds: tuple) -> tuple:
