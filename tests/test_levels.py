@@ -130,7 +130,8 @@ def test_the_pdf_names_its_waterlines_and_decks_and_says_what_it_left_out(bilge)
         text = "".join(c["text"] for c in pdf.pages[0].chars)
     for name in ("WL 200", "WL 800", "DWL 500", "SHEER DECK", "TOP DECK"):
         assert text.count(name) >= 2, name
-    assert "BASE LINE Z = 0 MM" in text and "HIGH DECK (AT Z 2000) DOES NOT MEET THE SHELL" in text
+    assert "WATERLINES (WL), THE DESIGN WATERLINE (DWL), DECKS AT SIDE: HEIGHTS ABOVE THE BASE LINE Z = 0 MM" in text
+    assert "HIGH DECK (AT Z 2000) DOES NOT MEET THE SHELL" in text
 
 
 def station_girth(points: np.ndarray, z: float) -> float:
@@ -160,7 +161,8 @@ def test_the_160m_hull_waterlines_and_deck_meet_its_own_station_curves(tmp_path)
     assert main(["run", str(write_config(tmp_path, "hm", strake)), "--out", str(out), "--quiet"]) == 0
     lines, texts = levels_of(out / "hm_expansion.dxf")
     names = {t for layer, t in texts if layer == "EXP_WATERLINES"}
-    assert names == {f"WL {h}" for h in range(2000, 18001, 2000)}
+    # WL 18000 lies on the deck line (z = 10 m): drawn once, as the deck
+    assert names == {f"WL {h}" for h in range(2000, 16001, 2000)}
     iges = read_iges(SHIP / "test_1_hull_sections.igs")
     stations = {}
     for entity in (e for e in iges.entities if e.type == 126):
@@ -170,7 +172,7 @@ def test_the_160m_hull_waterlines_and_deck_meet_its_own_station_curves(tmp_path)
     checked = 0
     for X in range(75000, 100001, 5000):
         points = stations[X]
-        for h in range(2000, 18001, 2000):
+        for h in range(2000, 16001, 2000):
             expected = station_girth(points, -8000.0 + h)
             at = [np.interp(X, *p[np.argsort(p[:, 0])].T) for p in lines["EXP_WATERLINES"]
                   if p[:, 0].min() <= X <= p[:, 0].max()]
@@ -179,7 +181,7 @@ def test_the_160m_hull_waterlines_and_deck_meet_its_own_station_curves(tmp_path)
         whole = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
         deck = [np.interp(X, *p[np.argsort(p[:, 0])].T) for p in lines["EXP_DECKS"]]
         assert min(abs(g - whole) for g in deck) < 5.0, X
-    assert checked == 6 * 9
+    assert checked == 6 * 8
 
 
 @pytest.mark.parametrize("deck, words", [
@@ -279,3 +281,29 @@ def test_a_level_on_a_linear_table_is_found_exactly_where_sections_reach_it(seed
         if not hit:
             assert not len(near)
     assert found >= 1
+
+
+def test_a_hull_ending_in_a_plane_within_millimetres_has_whole_sections_up_to_its_end(tmp_path):
+    """A bilge cylinder whose end poles stand 0, 1 and 2 mm short of x = 20 m (a face cut by
+    a transverse plane, as KCS's fore main-hull face is, within 2 mm): the sections through
+    that last 2 mm are whole (each iso-curve's end taken, not a gap that ended the section
+    and left the end plates' outlines as wedges or NaN), girth R pi / 2 within 2 mm; and a
+    girth asked off every section comes from the nearest section that has it, never NaN."""
+    from pipeline.config import SurfaceSource
+    from pipeline.hull.expansion import section_table
+    from pipeline.hull.region import load_surface_noted, long_axis_of
+    from tests.hull_shapes import write_iges_surface
+
+    h = np.radians(ANGLE) / 2
+    arc = np.array([[-R * np.sin(h), R * (1 - np.cos(h))], [0.0, R - R / np.cos(h)],
+                    [R * np.sin(h), R * (1 - np.cos(h))]])
+    w = np.array([1.0, np.cos(h), 1.0])
+    poles = np.array([[[x, y, z] for y, z in arc] for x in (0.0, LENGTH)])
+    poles[1, :, 0] -= [0.0, 1.0, 2.0]
+    iges = write_iges_surface(tmp_path / "cut.igs", 1, 2, poles, np.vstack([w, w]), [0, 0, 1, 1], [0, 0, 0, 1, 1, 1])
+    surface, _ = load_surface_noted(SurfaceSource(iges=str(iges)), tmp_path, 1.0, 1.0)
+    table = section_table(surface, long_axis_of(surface), np.array([10000.0, LENGTH - 1.5, LENGTH - 0.5]))
+    assert np.isfinite(table.girth).all()
+    assert table.total() == pytest.approx(np.full(3, R * np.radians(ANGLE)), abs=2.0)
+    off = table.at(np.array([LENGTH + 50.0]), np.array([0.5 * (table.g[0] + table.g[-1])]))
+    assert np.isfinite(off).all() and off[0] == pytest.approx(R * np.radians(ANGLE) / 2, abs=5.0)

@@ -44,6 +44,7 @@ LEVEL_COLOURS = {"waterline": 150, "deck": 6}  # ACI
 LEVEL_STYLES = {"waterline": {"colors": "#1f5fbf", "linewidths": 0.25, "linestyles": (0, (8, 2, 1, 2))},
                 "design": {"colors": "#1f5fbf", "linewidths": 0.6, "linestyles": "solid"},
                 "deck": {"colors": "#8b1a1a", "linewidths": 0.8, "linestyles": "solid"}}
+NEAR_END = 1e-4  # of the surface's length: a station this close beyond an iso-curve's end takes the end
 SHEETS = {"A1": (841.0, 594.0), "A0": (1189.0, 841.0)}  # landscape, mm
 SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 2500, 5000, 10000)
 
@@ -92,7 +93,14 @@ class Sections:
         lo, hi = along(k), along(k + 1)
         # a station where this g is off the section (the hull's end): the other one's value
         lo, hi = np.where(np.isnan(lo), hi, lo), np.where(np.isnan(hi), lo, hi)
-        return (1.0 - w) * lo + w * hi
+        out = (1.0 - w) * lo + w * hi
+        for i in np.flatnonzero(np.isnan(out)):  # off both sections: the nearest station that has this g
+            a, b = self.girth[:, j[i]], self.girth[:, j[i] + 1]
+            column = np.where(np.isnan(a), b, np.where(np.isnan(b), a, a + t[i] * (b - a)))
+            has = np.flatnonzero(np.isfinite(column))
+            if len(has):
+                out[i] = column[has[np.argmin(np.abs(self.stations[has] - x[i]))]]
+        return out
 
     def total(self) -> np.ndarray:
         """The whole girth (K,) of each section."""
@@ -118,8 +126,12 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
     hi_s = np.full((K, n), np.nan)
     lo_f = np.full((K, n), np.nan)
     hi_f = np.full((K, n), np.nan)
+    near = NEAR_END * float(np.ptp(x))
     step = np.diff(x, axis=1)
     monotone = np.all(step > 0, axis=1) | np.all(step < 0, axis=1)
+    # which of the surface's two ends lies in a plane x = const (within near), not on a contour
+    low_end, high_end = np.minimum(x[:, 0], x[:, -1])[monotone], np.maximum(x[:, 0], x[:, -1])[monotone]
+    plane_ends = [bool(len(e) and np.ptp(e) <= near) for e in (low_end, high_end)]
     for i in np.flatnonzero(monotone):  # an iso-g curve running one way along x: bisect all stations
         xr = x[i] if step[i, 0] > 0 else x[i, ::-1]
         inside = (stations >= xr[0]) & (stations <= xr[-1])  # a station at the curve's very end included
@@ -128,6 +140,13 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
         a, b = (jj, jj + 1) if step[i, 0] > 0 else (jj - 1, jj)
         lo_s[inside, i], hi_s[inside, i] = s[a], s[b]
         lo_f[inside, i], hi_f[inside, i] = x[i, a] - stations[inside], x[i, b] - stations[inside]
+        # a station just beyond the curve's end takes the end where the hull ends in a plane
+        # x = const whose iso-curves end a millimetre apart: whole sections up to it, not gaps
+        for end, beyond in ((0, (stations < xr[0]) & (stations >= xr[0] - near) & plane_ends[0]),
+                            (-1, (stations > xr[-1]) & (stations <= xr[-1] + near) & plane_ends[1])):
+            at = (0 if step[i, 0] > 0 else probe - 1) if end == 0 else (probe - 1 if step[i, 0] > 0 else 0)
+            lo_s[beyond, i] = hi_s[beyond, i] = s[at]
+            lo_f[beyond, i] = hi_f[beyond, i] = 0.0
     rest = np.flatnonzero(~monotone)
     for k, X in enumerate(stations if len(rest) else []):  # other curves: their first bracketing probes
         f = x[rest] - X
@@ -211,7 +230,7 @@ def stations_for(plates: list[PlateEdges], frames: list[float], count: int = 400
     xs = np.concatenate([p.points[..., 0].ravel() for p in plates])
     lo, hi = float(xs.min()), float(xs.max())
     butts = [float(np.mean(p.points[:, c, 0])) for p in plates for c in (0, -1)]
-    contour = [p.points[:, c, 0] for p in plates for c in (0, -1) if np.ptp(p.points[:, c, 0]) > 1e-6 * (hi - lo)]
+    contour = [p.points[:, c, 0] for p in plates for c in (0, -1) if np.ptp(p.points[:, c, 0]) > 1e-3 * (hi - lo)]
     every = np.linspace(lo, hi, count)
     return np.unique(np.round(np.concatenate([every, butts, [f for f in frames if lo <= f <= hi], *contour]), 9))
 
@@ -322,9 +341,16 @@ def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap
     if not len(z_all):
         return (), base_line, ("no waterlines or decks: the sections have no points",)
     base = float(z_all.min()) if base_line is None else float(base_line)
+    stations = np.concatenate([t.stations for t, _, _ in tables])
+    deck_z = [deck.at(stations, base) for deck in decks]
+
+    def named_by_a_deck(h: float) -> bool:  # a waterline on a deck's own line is drawn once, as the deck
+        return any(np.isfinite(z).all() and np.abs(z - (base + h)).max() <= snap for z in deck_z)
+
     wanted = [] if waterlines is None else [
         (name, kind, lambda x, h=h: np.full(len(x), base + h))
-        for name, kind, h in waterline_heights(waterlines.spacing, waterlines.design, float(z_all.max()) - base)]
+        for name, kind, h in waterline_heights(waterlines.spacing, waterlines.design, float(z_all.max()) - base)
+        if not named_by_a_deck(h)]
     wanted += [(deck.name, "deck", lambda x, deck=deck: deck.at(x, base)) for deck in decks]
     levels, notes = [], []
     for name, kind, level_at in wanted:
@@ -488,10 +514,12 @@ def _level_notes(drawing: Expansion, mm: float) -> list[str]:
     deck not drawn."""
     if not drawing.levels and not drawing.notes:
         return []
+    kinds = {level.kind for level in drawing.levels}
+    said = [text for kind, text in (("waterline", "WATERLINES (WL)"), ("design", "THE DESIGN WATERLINE (DWL)"),
+                                    ("deck", "DECKS AT SIDE")) if kind in kinds]
     out = []
-    if drawing.base_line is not None:
-        out.append(f"WATERLINES (WL) AND DECK HEIGHTS ABOVE THE BASE LINE Z = {drawing.base_line * mm:.0f} MM; "
-                   "DWL: DESIGN WATERLINE; DECKS AT SIDE")
+    if drawing.base_line is not None and said:
+        out.append(f"{', '.join(said)}: HEIGHTS ABOVE THE BASE LINE Z = {drawing.base_line * mm:.0f} MM")
     return out + [note.upper() for note in drawing.notes]
 
 
@@ -552,7 +580,7 @@ def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             style = LEVEL_STYLES[level.kind]
             ax.add_collection(LineCollection([line * mm for line in level.lines], **style))
             for point, angle in _label_places(level, drawing.x_range):
-                ax.text(point[0] * mm, point[1] * mm, level.name, fontsize=4.0 if level.kind == "deck" else 3.0,
+                ax.text(point[0] * mm, point[1] * mm, level.name, fontsize=6.0 if level.kind == "deck" else 5.0,
                         ha="center", va="bottom", rotation=angle, rotation_mode="anchor", color=style["colors"])
         step = max(1, len(drawing.frames) // 40)  # every frame drawn, a number on some
         for k, (x, lo, hi, _, number) in enumerate(drawing.frames):
