@@ -134,6 +134,19 @@ def test_the_pdf_names_its_waterlines_and_decks_and_says_what_it_left_out(bilge)
     assert "HIGH DECK (AT Z 2000) DOES NOT MEET THE SHELL" in text
 
 
+def station_curves() -> dict:
+    """The 160 m hull's 31 station curves (Orca3D's, in mm) as dense points, keel first, by x."""
+    from pipeline.io.iges import iges_curve, read_iges
+
+    iges = read_iges(SHIP / "test_1_hull_sections.igs")
+    curves = {}
+    for entity in (e for e in iges.entities if e.type == 126):
+        curve = iges_curve(iges, entity, 1000.0, "station")
+        points = curve(np.linspace(*curve.domain, 20001))
+        curves[round(float(points[0, 0]))] = points
+    return curves
+
+
 def station_girth(points: np.ndarray, z: float) -> float:
     """Arc length along a station curve's points (keel first) to its first height z (the
     whole length at its top end)."""
@@ -150,7 +163,6 @@ def test_the_160m_hull_waterlines_and_deck_meet_its_own_station_curves(tmp_path)
     and the deck at side given by the model's deck curve (z = 10 m): at the stations
     x = 75 .. 100 m of test_1_hull_sections.igs each waterline's girth is the station curve's
     arc length from the keel to its height, and the deck's the curve's whole length."""
-    from pipeline.io.iges import iges_curve, read_iges
 
     spec = yaml.safe_load((ROOT / "configs" / "hullmod_strake.yaml").read_text())
     strake = dict(spec["strake"], surface={"iges": str(SHIP / "test_1_hull_exported.igs"), "entity": 0},
@@ -163,12 +175,7 @@ def test_the_160m_hull_waterlines_and_deck_meet_its_own_station_curves(tmp_path)
     names = {t for layer, t in texts if layer == "EXP_WATERLINES"}
     # WL 18000 lies on the deck line (z = 10 m): drawn once, as the deck
     assert names == {f"WL {h}" for h in range(2000, 16001, 2000)}
-    iges = read_iges(SHIP / "test_1_hull_sections.igs")
-    stations = {}
-    for entity in (e for e in iges.entities if e.type == 126):
-        curve = iges_curve(iges, entity, 1000.0, "station")
-        points = curve(np.linspace(*curve.domain, 20001))
-        stations[round(float(points[0, 0]))] = points
+    stations = station_curves()
     checked = 0
     for X in range(75000, 100001, 5000):
         points = stations[X]
@@ -218,18 +225,12 @@ def test_sections_that_start_on_the_stern_or_stem_contour_count_their_girth_from
     from pipeline.hull.expansion import section_table
     from pipeline.hull.levels import crossings
     from pipeline.hull.region import load_surface_noted, long_axis_of
-    from pipeline.io.iges import iges_curve, read_iges
 
     surface, _ = load_surface_noted(SurfaceSource(iges=str(SHIP / "test_1_hull_exported.igs"), entity=0), ROOT,
                                     1.0, 1.0)
     stations = np.array([5000.0, 10000.0, 15000.0, 145000.0, 150000.0, 155000.0])
     table = section_table(surface, long_axis_of(surface), stations)
-    iges = read_iges(SHIP / "test_1_hull_sections.igs")
-    curves = {}
-    for entity in (e for e in iges.entities if e.type == 126):
-        curve = iges_curve(iges, entity, 1000.0, "station")
-        points = curve(np.linspace(*curve.domain, 20001))
-        curves[round(float(points[0, 0]))] = points
+    curves = station_curves()
     checked = 0
     for h in range(2000, 18001, 2000):
         z = -8000.0 + h
