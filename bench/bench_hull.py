@@ -64,6 +64,8 @@ sys.path.insert(0, str(ROOT))
 
 import yaml
 
+from tests.shipped_configs import with_files_from
+
 HULLS = {"hull160": "hull160_shell.yaml", "dtmb5415": "dtmb5415_shell.yaml", "kvlcc2": "kvlcc2_shell.yaml",
          "kcs": "kcs_shell.yaml"}
 
@@ -117,11 +119,7 @@ def run(hull: str, method: str, out: Path, seams: str = "iso", objective: str = 
         data["strake"]["plan"]["objective"] = objective_of(objective)
     data["strake"].update(fit_up_of(fit_up))
     replan_where_it_applies(data)
-    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", []),
-                   *[deck["curve"] for deck in data["strake"].get("decks", []) if "curve" in deck]]:
-        for key in ("iges", "model", "dxf"):  # the file, relative to the config (a hull model's too: KCS, KVLCC2)
-            if key in source:
-                source[key] = str((ROOT / "configs" / source[key]).resolve())
+    with_files_from(data, ROOT / "configs")  # the files, relative to the config (a hull model's too: KCS, KVLCC2)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))
@@ -185,12 +183,7 @@ def lean_vs_full(hull: str, every: int) -> None:
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data["strake"]["plan"]["method"] = "uniform"
     replan_where_it_applies(data)
-    data["strake"]["surface"]["iges"] = str((ROOT / "configs" / data["strake"]["surface"]["iges"]).resolve())
-    for s in data["strake"]["plan"].get("surfaces", []):
-        s["iges"] = str((ROOT / "configs" / s["iges"]).resolve())
-    for deck in data["strake"].get("decks", []):
-        if "iges" in deck.get("curve", {}):
-            deck["curve"]["iges"] = str((ROOT / "configs" / deck["curve"]["iges"]).resolve())
+    with_files_from(data, ROOT / "configs")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))

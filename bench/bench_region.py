@@ -25,6 +25,7 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 from flatten import patch as this_patch  # noqa: E402
+from tests.shipped_configs import with_files_from
 
 HULLS = {"hull160": "hull160_shell.yaml", "kvlcc2": "kvlcc2_shell.yaml"}
 
@@ -50,11 +51,7 @@ def uniform_plates(hull: str) -> list:
     data = yaml.safe_load((ROOT / "configs" / HULLS[hull]).read_text())
     data["strake"]["plan"]["method"] = "uniform"
     data["strake"]["plan"].pop("replan_held", None)  # (nothing is planned again in a uniform plan)
-    for source in [data["strake"]["surface"], *data["strake"]["plan"].get("surfaces", []),
-                   *[deck["curve"] for deck in data["strake"].get("decks", []) if "curve" in deck]]:
-        for key in ("iges", "model", "dxf"):
-            if key in source:
-                source[key] = str((ROOT / "configs" / source[key]).resolve())
+    with_files_from(data, ROOT / "configs")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{hull}.yaml"
         path.write_text(yaml.safe_dump(data))

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flatten.metrics import polygon_area
+from flatten.metrics import polygon_area, polyline_length
 
 from ..io.atomic import atomic_path
 from .cost import PlateEdges
@@ -61,8 +61,8 @@ class Sections:
     g: np.ndarray
     girth: np.ndarray
     from_high: bool
-    z: np.ndarray | None = None  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
-    starts: np.ndarray | None = None  # (K,) g where a section starts on the surface's end edge between samples
+    z: np.ndarray  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
+    starts: np.ndarray  # (K,) g where a section starts on the surface's end edge between samples (else NaN)
 
     def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
@@ -77,9 +77,7 @@ class Sections:
 
         def along(rows):
             a, b = self.girth[rows, j], self.girth[rows, j + 1]
-            value = np.where(np.isnan(a), b, np.where(np.isnan(b), a, a + t * (b - a)))
-            if self.starts is None:
-                return value
+            value = _between(a, b, t)
             # a section that starts on the contour between the two samples, at tau: its girth
             # grows from 0 there to the present sample's
             tau = (self.starts[rows] - self.g[j]) / dg
@@ -95,8 +93,7 @@ class Sections:
         lo, hi = np.where(np.isnan(lo), hi, lo), np.where(np.isnan(hi), lo, hi)
         out = (1.0 - w) * lo + w * hi
         for i in np.flatnonzero(np.isnan(out)):  # off both sections: the nearest station that has this g
-            a, b = self.girth[:, j[i]], self.girth[:, j[i] + 1]
-            column = np.where(np.isnan(a), b, np.where(np.isnan(b), a, a + t[i] * (b - a)))
+            column = _between(self.girth[:, j[i]], self.girth[:, j[i] + 1], t[i])
             has = np.flatnonzero(np.isfinite(column))
             if len(has):
                 out[i] = column[has[np.argmin(np.abs(self.stations[has] - x[i]))]]
@@ -105,6 +102,11 @@ class Sections:
     def total(self) -> np.ndarray:
         """The whole girth (K,) of each section."""
         return np.nanmax(self.girth, axis=1, initial=0.0)
+
+
+def _between(a: np.ndarray, b: np.ndarray, t) -> np.ndarray:
+    """a + t (b - a) elementwise; the one that is present where the other is NaN."""
+    return np.where(np.isnan(a), b, np.where(np.isnan(b), a, a + t * (b - a)))
 
 
 def _uv(axis: int, s, g):
@@ -336,7 +338,7 @@ def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap
 
     if waterlines is None and not decks:
         return (), base_line, ()
-    z_all = [t.z[np.isfinite(t.z)] for t, _, _ in tables if t.z is not None]
+    z_all = [t.z[np.isfinite(t.z)] for t, _, _ in tables]
     z_all = np.concatenate(z_all) if z_all else np.zeros(0)
     if not len(z_all):
         return (), base_line, ("no waterlines or decks: the sections have no points",)
@@ -362,7 +364,7 @@ def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap
         if found:
             levels += found
         elif kind == "deck":
-            z = level_at(np.array([x for t, _, _ in tables for x in t.stations]))
+            z = level_at(stations)
             z = z[np.isfinite(z)]
             where = (f"at z {z.min():g} to {z.max():g}" if len(z) and np.ptp(z) > 0 else
                      f"at z {z[0]:g}" if len(z) else "beyond the shell's length")
@@ -495,18 +497,19 @@ def _label_places(level, x_range: tuple) -> list[tuple[np.ndarray, float]]:
                 k = int(hit[0])
                 a, b = line[k], line[k + 1]
                 t = 0.0 if b[0] == a[0] else (x - a[0]) / (b[0] - a[0])
-                places.append((a + t * (b - a), _readable_angle(b - a)))
+                places.append((a + t * (b - a), _along(b - a)))
     if places:
         return places
-    line = max(level.lines, key=lambda p: float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()))
+    line = max(level.lines, key=polyline_length)
     k = len(line) // 2
-    return [(line[k], _readable_angle(line[min(k + 1, len(line) - 1)] - line[max(k - 1, 0)]))]
+    return [(line[k], _along(line[min(k + 1, len(line) - 1)] - line[max(k - 1, 0)]))]
 
 
-def _readable_angle(direction: np.ndarray) -> float:
-    """The angle (degrees) of a direction, turned to read left to right (-90 to 90)."""
-    angle = float(np.degrees(np.arctan2(direction[1], direction[0])))
-    return angle - 180.0 if angle > 90.0 else angle + 180.0 if angle <= -90.0 else angle
+def _along(direction: np.ndarray) -> float:
+    """The angle (degrees) of a text along a direction, turned to read left to right."""
+    from ..shop.layout import readable
+
+    return readable(float(np.degrees(np.arctan2(direction[1], direction[0]))))
 
 
 def _level_notes(drawing: Expansion, mm: float) -> list[str]:
