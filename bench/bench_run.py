@@ -67,7 +67,8 @@ def shell_config(root: Path, hull: str, folder: Path, uniform: bool = False, obj
     data["strake"].update(strake or {})
     if not replan:  # the plan made once: both checkouts run this config, and a baseline's may not know the key
         data["strake"]["plan"].pop("replan_held", None)
-    for key in ("base_line", "waterlines", "decks"):  # the expansion's lines: a baseline before them knows no key
+    # the expansion's lines and bow: a baseline before them knows no such key
+    for key in ("base_line", "waterlines", "decks", "bow"):
         data["strake"].pop(key, None)
     for surface in [data["strake"]["surface"]] + list(data["strake"]["plan"].get("surfaces", [])):
         for key in ("iges", "model"):

@@ -750,6 +750,9 @@ class StrakeSpec(_Strict):
                                     "waterlines and deck heights are measured; default: the shell's lowest point")
     waterlines: WaterlineSpec | None = None
     decks: list[DeckSpec] = Field(default_factory=list, max_length=64)
+    bow: Literal["high", "low"] | None = Field(None, description="the end of the hull's length (high or low x) the "
+                                               "bow is at: the shell expansion marks FWD and names its fore and aft "
+                                               "bodies; default: it marks +x")
     margin: float = Field(0.1, ge=0, le=1)
     fit_tolerance: float | None = Field(None, gt=0, description="largest distance from the hull surface (config "
                                         "units; default 5 mm whatever the units)")

@@ -39,7 +39,7 @@ def levels_of(path: Path) -> dict:
     msp = ezdxf.readfile(path).modelspace()
     lines = {}
     for e in msp.query("LWPOLYLINE"):
-        if e.dxf.layer in ("EXP_WATERLINES", "EXP_DECKS"):
+        if e.dxf.layer in ("EXP_WATERLINES", "EXP_DWL", "EXP_DECKS"):
             lines.setdefault(e.dxf.layer, []).append(np.array([p[:2] for p in e.get_points()]))
     texts = [(e.dxf.layer, e.dxf.text) for e in msp.query("TEXT")]
     return lines, texts
@@ -87,9 +87,11 @@ def assert_on_both_crossings(lines: list, height_at, x_range=(5000.0, 15000.0)):
 def test_waterlines_cross_each_bilge_section_twice_at_their_closed_form_girths(bilge):
     lines, texts = levels_of(bilge / "bilge_expansion.dxf")
     names = {t for layer, t in texts if layer == "EXP_WATERLINES"}
-    # every 200 mm up to the top (878.7 mm), the design waterline named apart
-    assert names == {"WL 200", "WL 400", "WL 600", "WL 800", "DWL 500"}
-    waterlines = lines["EXP_WATERLINES"]
+    # every 200 mm up to the top (878.7 mm), the design waterline named apart on its own layer
+    assert names == {"WL 200", "WL 400", "WL 600", "WL 800"}
+    assert {t for layer, t in texts if layer == "EXP_DWL"} == {"DWL 500"}
+    assert len(lines["EXP_DWL"]) == 2
+    waterlines = lines["EXP_WATERLINES"] + lines["EXP_DWL"]
     assert len(waterlines) == 2 * 5
     for h in (200.0, 400.0, 500.0, 600.0, 800.0):
         low, high = girths_at(h)

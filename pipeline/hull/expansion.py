@@ -17,9 +17,10 @@ Waterlines and decks (``strake.waterlines``, ``strake.decks``) are drawn where t
 reach their heights (:mod:`.levels`).
 
 Files (millimetres): NAME_expansion.dxf (R2000, one layer per plate class, frames, seams,
-butts, waterlines, decks, texts) and NAME_expansion.pdf (one A1 or A0 sheet, the largest
-standard scale that fits, stated on the sheet). A plan of several surfaces draws each in its
-own band.
+butts, waterlines, decks, match lines, texts; the sheet laid out in paper space) and
+NAME_expansion.pdf (one A1 or A0 sheet: the drawing in up to three parts cut at frames, at
+the largest standard scale that fits; :mod:`.expansion_sheet`). A plan of several surfaces
+draws each in its own band.
 """
 
 from __future__ import annotations
@@ -29,11 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from flatten.metrics import polygon_area, polyline_length
+from flatten.metrics import polygon_area
 
 from ..io.atomic import atomic_path
 from .cost import PlateEdges
-from .hullplots import CLASS_COLOURS, LABELS, display_class
+from .expansion_sheet import plan_sheet, write_expansion_pdf
+from .hullplots import display_class
 
 G_SAMPLES = 401
 LAYER_COLOURS = {"flat": 5, "developable": 3, "patch": 4, "formed": 30, "failed": 1}  # ACI
@@ -41,12 +43,12 @@ LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROL
                "failed": "EXP_FAILED"}
 DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
 LEVEL_COLOURS = {"waterline": 150, "deck": 6}  # ACI
-LEVEL_STYLES = {"waterline": {"colors": "#1f5fbf", "linewidths": 0.25, "linestyles": (0, (8, 2, 1, 2))},
-                "design": {"colors": "#1f5fbf", "linewidths": 0.6, "linestyles": "solid"},
-                "deck": {"colors": "#8b1a1a", "linewidths": 0.8, "linestyles": "solid"}}
+DXF_LAYERS = (("EXP_SEAMS", 7, "Continuous"), ("EXP_BUTTS", 7, "Continuous"), ("EXP_FRAMES", 8, "DASHED"),
+              ("EXP_TEXT", 7, "Continuous"), ("EXP_WATERLINES", LEVEL_COLOURS["waterline"], "DASHDOT"),
+              ("EXP_DWL", LEVEL_COLOURS["waterline"], "Continuous"), ("EXP_DECKS", LEVEL_COLOURS["deck"], "Continuous"),
+              ("EXP_MATCH", 7, "CENTER"), ("EXP_SHEET", 7, "Continuous"))
+LEVEL_LAYERS = {"waterline": "EXP_WATERLINES", "design": "EXP_DWL", "deck": "EXP_DECKS"}
 NEAR_END = 1e-4  # of the surface's length: a station this close beyond an iso-curve's end takes the end
-SHEETS = {"A1": (841.0, 594.0), "A0": (1189.0, 841.0)}  # landscape, mm
-SCALES = (1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000, 2000, 2500, 5000, 10000)
 
 
 @dataclass(frozen=True)
@@ -385,17 +387,6 @@ def plan_frames(spec_frames, x_range: tuple[float, float]) -> list[tuple[int, fl
     return [(k, spec_frames.start + k * spec_frames.spacing) for k in range(first, last + 1)]
 
 
-def _centre(ring: np.ndarray) -> np.ndarray:
-    """Area centroid (2,) of a closed ring (N, 2) (the mean point when it has no area)."""
-    x, y = ring[:, 0], ring[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cross = x * yn - xn * y
-    area = cross.sum() / 2
-    if abs(area) < 1e-12 * max(np.ptp(x) * np.ptp(y), 1e-300):
-        return ring.mean(axis=0)
-    return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)
-
-
 def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
     """The polyline (N, 2) with the points Ramer-Douglas-Peucker keeps within ``tolerance``
     (a drawing: a butt, straight in the expansion, keeps its two ends)."""
@@ -417,23 +408,33 @@ def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
     return line[keep]
 
 
-def label(plate: ExpandedPlate) -> tuple[str, str]:
-    thick = "" if plate.thickness is None else f"t {plate.thickness:g}"
-    return plate.name, thick
-
-
-def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str) -> None:
-    """The expansion in model space at 1:1, millimetres: x along the hull, y the girth."""
+def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str,
+                        sheet=None, info: dict | None = None) -> None:
+    """The expansion in model space at 1:1, millimetres: x along the hull, y the girth; with
+    a ``sheet`` (:class:`.expansion_sheet.SheetPlan`) also laid out in paper space as the
+    PDF is (a viewport per part at the sheet's scale, captions, scale bar, title block), and
+    linetypes scaled for plotting at that scale."""
     import ezdxf
 
-    doc = ezdxf.new("R2000")
+    from .expansion_sheet import (
+        add_paper_layout,
+        frame_at,
+        level_label_places,
+        plate_label,
+        ring_centre,
+    )
+
+    doc = ezdxf.new("R2000", setup=["linetypes"])
     doc.header["$INSUNITS"] = 4
+    doc.header["$MEASUREMENT"] = 1
+    if sheet is not None:
+        doc.header["$LTSCALE"] = float(sheet.scale)  # dashes as long on paper at 1:scale as the pattern says
+        doc.header["$PSLTSCALE"] = 0  # and in the viewports, which draw at that scale
     msp = doc.modelspace()
     for klass, layer in LAYER_NAMES.items():
         doc.layers.add(layer, color=LAYER_COLOURS[klass])
-    for layer, colour in (("EXP_SEAMS", 7), ("EXP_BUTTS", 7), ("EXP_FRAMES", 8), ("EXP_TEXT", 7),
-                          ("EXP_WATERLINES", LEVEL_COLOURS["waterline"]), ("EXP_DECKS", LEVEL_COLOURS["deck"])):
-        doc.layers.add(layer, color=colour)
+    for layer, colour, linetype in DXF_LAYERS:
+        doc.layers.add(layer, color=colour, linetype=linetype)
     mm = mm_per_unit
     heights = []
     for p in drawing.plates:
@@ -447,11 +448,13 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
         for line in p.butts:
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
-        centre = _centre(p.outline) * mm
+        centre = ring_centre(p.outline) * mm
         length = float(np.ptp(p.outline[:, 0])) * mm
         width = polygon_area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
-        name, thick = label(p)
+        name, thick = plate_label(p)
         h = max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0)
+        if sheet is not None:  # at most 5 mm on the paper the sheet plots at
+            h = min(h, 5.0 * sheet.scale)
         heights.append(h)
         msp.add_text(name, height=h, dxfattribs={"layer": "EXP_TEXT"}).set_placement(
             (float(centre[0]), float(centre[1]) + 0.1 * h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
@@ -464,11 +467,11 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         msp.add_text(f"FR {number}", height=0.5 * text_h, dxfattribs={"layer": "EXP_FRAMES"}).set_placement(
             (x * mm, hi * mm + 0.2 * text_h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
     for level in drawing.levels:
-        layer = "EXP_DECKS" if level.kind == "deck" else "EXP_WATERLINES"
+        layer = LEVEL_LAYERS[level.kind]
         for line in level.lines:
             points = thin(line * mm, DRAWING_TOLERANCE_MM)
             msp.add_lwpolyline(points.tolist(), dxfattribs={"layer": layer})
-        for point, angle in _label_places(level, drawing.x_range):
+        for point, angle in level_label_places(level, drawing.x_range):
             msp.add_text(level.name, height=0.4 * text_h, rotation=angle, dxfattribs={"layer": layer}).set_placement(
                 (float(point[0]) * mm, float(point[1]) * mm), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
     x0 = drawing.x_range[0] * mm
@@ -477,39 +480,20 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     for k, note in enumerate(_level_notes(drawing, mm)):
         msp.add_text(note, height=0.6 * text_h,
                      dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + (4.5 + 0.9 * k) * text_h)})
+    if sheet is not None:
+        top = max((o + h for o, h in drawing.bands), default=0.0) * mm
+        for cut in sheet.cuts:
+            x = cut[1] * mm
+            msp.add_line((x, 0.0), (x, top), dxfattribs={"layer": "EXP_MATCH"})
+            msp.add_text(f"MATCH LINE {frame_at(cut, mm)}", height=text_h, rotation=90.0,
+                         dxfattribs={"layer": "EXP_MATCH"}).set_placement(
+                (x - 0.3 * text_h, 0.5 * top), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
+        drawn = {"EXP_SEAMS", "EXP_BUTTS"} | ({"EXP_FRAMES"} if drawing.frames else set()) | (
+            {"EXP_MATCH"} if sheet.cuts else set()) | {LEVEL_LAYERS[level.kind] for level in drawing.levels}
+        add_paper_layout(doc, drawing, sheet, mm, title, info or {}, LAYER_NAMES,
+                         [layer for layer, _, _ in DXF_LAYERS if layer in drawn])
     with atomic_path(target) as tmp:
         doc.saveas(tmp)
-
-
-def _label_places(level, x_range: tuple) -> list[tuple[np.ndarray, float]]:
-    """Where a level's name goes (model units) and its angle (degrees, along the line): on each
-    of its lines that runs over a quarter of the drawing's length at least, at a quarter and
-    three quarters of that length where the line reaches (away from the ends, where the
-    waterlines crowd into the stem and stern profiles); else at the middle of its longest line."""
-    x0, x1 = x_range
-    places = []
-    for line in level.lines:
-        if np.ptp(line[:, 0]) < 0.25 * (x1 - x0):
-            continue
-        for x in (x0 + 0.25 * (x1 - x0), x0 + 0.75 * (x1 - x0)):
-            hit = np.flatnonzero((line[:-1, 0] - x) * (line[1:, 0] - x) <= 0)
-            if len(hit):
-                k = int(hit[0])
-                a, b = line[k], line[k + 1]
-                t = 0.0 if b[0] == a[0] else (x - a[0]) / (b[0] - a[0])
-                places.append((a + t * (b - a), _along(b - a)))
-    if places:
-        return places
-    line = max(level.lines, key=polyline_length)
-    k = len(line) // 2
-    return [(line[k], _along(line[min(k + 1, len(line) - 1)] - line[max(k - 1, 0)]))]
-
-
-def _along(direction: np.ndarray) -> float:
-    """The angle (degrees) of a text along a direction, turned to read left to right."""
-    from ..shop.layout import readable
-
-    return readable(float(np.degrees(np.arctan2(direction[1], direction[0]))))
 
 
 def _level_notes(drawing: Expansion, mm: float) -> list[str]:
@@ -524,85 +508,6 @@ def _level_notes(drawing: Expansion, mm: float) -> list[str]:
     if drawing.base_line is not None and said:
         out.append(f"{', '.join(said)}: HEIGHTS ABOVE THE BASE LINE Z = {drawing.base_line * mm:.0f} MM")
     return out + [note.upper() for note in drawing.notes]
-
-
-def sheet_and_scale(width_mm: float, height_mm: float, margin: float = 20.0, title: float = 30.0):
-    """The sheet (name, (w, h) mm) and the scale denominator: the largest standard scale
-    at which the drawing fits A1 landscape, or A0 when A0 allows a larger scale."""
-    best = None
-    for name, (w, h) in SHEETS.items():
-        for n in SCALES:
-            if width_mm / n <= w - 2 * margin and height_mm / n <= h - 2 * margin - title:
-                if best is None or n < best[2]:
-                    best = (name, (w, h), n)
-                break
-    if best is None:
-        raise ValueError(f"the expansion ({width_mm:.0f} x {height_mm:.0f} mm) fits no sheet at 1:{SCALES[-1]}")
-    return best
-
-
-def write_expansion_pdf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str) -> dict:
-    """One sheet, true to the stated scale (x along the hull, girth up); returns the sheet,
-    the scale and the sheet's size in mm."""
-    from matplotlib import rc_context
-    from matplotlib.backends.backend_pdf import FigureCanvasPdf
-    from matplotlib.collections import LineCollection, PolyCollection
-    from matplotlib.figure import Figure
-
-    mm = mm_per_unit
-    x0, x1 = drawing.x_range
-    height = max((o + h for o, h in drawing.bands), default=0.0)
-    sheet, (w, h), n = sheet_and_scale((x1 - x0) * mm, height * mm)
-    margin, title_h = 20.0, 30.0
-    with rc_context({"pdf.fonttype": 42}):  # TrueType text: readable (and searchable) in the PDF
-        fig = Figure(figsize=(w / 25.4, h / 25.4))
-        FigureCanvasPdf(fig)
-        draw_w, draw_h = (x1 - x0) * mm / n, height * mm / n
-        # the drawing right under the title, the legend under it
-        ax = fig.add_axes((margin / w, (h - margin - title_h - draw_h) / h, draw_w / w, draw_h / h))
-        ax.set_xlim(x0 * mm, x1 * mm)
-        ax.set_ylim(0.0, height * mm)
-        ax.set_axis_off()
-        polys = [p.outline * mm for p in drawing.plates]
-        colours = [CLASS_COLOURS.get(p.klass, CLASS_COLOURS["failed"]) for p in drawing.plates]
-        ax.add_collection(PolyCollection(polys, facecolors=colours, edgecolors="black", linewidths=0.3))
-        frames = [[(x * mm, lo * mm), (x * mm, hi * mm)] for x, lo, hi, _, _ in drawing.frames]
-        if frames:
-            ax.add_collection(LineCollection(frames, colors="0.45", linewidths=0.15, linestyles=(0, (4, 2))))
-        pt_per_model = 72.0 / 25.4 * mm / n  # font points per model unit on paper
-        for p in drawing.plates:
-            centre = _centre(p.outline) * mm
-            plate_l = float(np.ptp(p.outline[:, 0])) * pt_per_model
-            # the mean girth width (area / length): a plate whose seams slope is not as wide as its extent
-            plate_h = polygon_area(p.outline) * pt_per_model ** 2 / max(plate_l, 1e-300)
-            name, thick = label(p)
-            size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
-            ax.text(centre[0], centre[1], f"{name}\n{thick}" if thick else name, fontsize=size, ha="center",
-                    va="center", linespacing=1.1)
-        for level in drawing.levels:
-            style = LEVEL_STYLES[level.kind]
-            ax.add_collection(LineCollection([line * mm for line in level.lines], **style))
-            for point, angle in _label_places(level, drawing.x_range):
-                ax.text(point[0] * mm, point[1] * mm, level.name, fontsize=6.0 if level.kind == "deck" else 5.0,
-                        ha="center", va="bottom", rotation=angle, rotation_mode="anchor", color=style["colors"])
-        step = max(1, len(drawing.frames) // 40)  # every frame drawn, a number on some
-        for k, (x, lo, hi, _, number) in enumerate(drawing.frames):
-            if k % step == 0:
-                ax.text(x * mm, hi * mm, f"FR {number}", fontsize=3.0, ha="center", va="bottom", color="0.3")
-        legend = "   ".join(f"{LABELS.get(k, k)}" for k in CLASS_COLOURS)
-        for k, colour in CLASS_COLOURS.items():
-            ax.plot([], [], "s", color=colour, label=LABELS.get(k, k))
-        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.005), fontsize=6, ncol=5, frameon=False)
-        fig.text(margin / w, 1.0 - 12.0 / h, title, fontsize=11, ha="left", va="top")
-        fig.text(margin / w, 1.0 - 20.0 / h,
-                 f"shell expansion: girth along the sections x = const (from {drawing.girth_from}) "
-                 f"upward, length x along the hull; scale 1:{n} on {sheet} ({w:.0f} x {h:.0f} mm); "
-                 f"dimensions mm; classes: {legend}", fontsize=6.5, ha="left", va="top")
-        for k, note in enumerate(_level_notes(drawing, mm)):
-            fig.text(margin / w, 1.0 - (26.0 + 4.0 * k) / h, note, fontsize=5.5, ha="left", va="top")
-        with atomic_path(target) as tmp:
-            fig.savefig(tmp, format="pdf")
-    return {"sheet": sheet, "scale": f"1:{n}", "size_mm": [w, h]}
 
 
 def shell_edges(results) -> dict:
@@ -626,11 +531,36 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
                      base_line=None if strake is None else strake.base_line,
                      snap=DRAWING_TOLERANCE_MM / config.mm_per_unit)
     title = f"{style}: shell expansion, {len(hull)} plates"
+    mm = config.mm_per_unit
+    height = max((o + h for o, h in drawing.bands), default=0.0)
+    sheet = plan_sheet(drawing.x_range, height, mm, frames)
+    info = {"drawing": f"{style.upper()}-EXP: SHELL EXPANSION", "hull": style, "plates": len(hull),
+            "side": side_shown(across(hull, edges)), "girth_from": drawing.girth_from,
+            "bow": None if strake is None else strake.bow, "notes": _level_notes(drawing, mm)}
     written = []
     if dxf:
         written.append(out_dir / f"{style}_expansion.dxf")
-        write_expansion_dxf(written[-1], drawing, config.mm_per_unit, title)
+        write_expansion_dxf(written[-1], drawing, mm, title, sheet, info)
     if pdf:
         written.append(out_dir / f"{style}_expansion.pdf")
-        write_expansion_pdf(written[-1], drawing, config.mm_per_unit, title)
+        write_expansion_pdf(written[-1], drawing, sheet, mm, title, info)
     return written
+
+
+def across(hull: list, edges: dict) -> np.ndarray:
+    """The plates' points' coordinate across the hull (neither along it nor z: y for a hull
+    along x), model units."""
+    axis = hull[0].part.hull.long_axis
+    other = ({0, 1, 2} - {axis, 2}).pop() if axis != 2 else 1
+    return np.concatenate([edges[r.name].points[..., other].ravel() for r in hull])
+
+
+def side_shown(across: np.ndarray) -> str:
+    """The side the expansion draws, as the title block says it: the sign of y (the
+    across coordinate) over 98 % of the plates' points."""
+    lo, hi = np.nanpercentile(across, [1.0, 99.0])
+    if lo >= 0.0:
+        return "Y > 0 (PS WHERE Y POINTS TO PORT), THE OTHER SIDE ITS MIRROR"
+    if hi <= 0.0:
+        return "Y < 0 (SB WHERE Y POINTS TO PORT), THE OTHER SIDE ITS MIRROR"
+    return "AS MODELLED, ACROSS Y = 0"
