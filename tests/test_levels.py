@@ -248,6 +248,36 @@ def test_sections_that_start_on_the_stern_or_stem_contour_count_their_girth_from
     assert checked == 41
 
 
+def test_sections_aft_of_the_transom_edge_continue_the_girths_of_those_that_pass_it():
+    """The 160 m hull's flat bottom ends in the transom's lower edge at x = 158.237 m (its bow
+    is the raked stem at x = 0). Forward of that edge each section runs from the centre plane
+    across the bottom (about 3.4 m) and up the side; aft of it each starts on the transom's
+    edge, off the centre plane, and counts its girth from there along that edge from the
+    centre plane. So at every height the girth runs on smoothly across the edge: within
+    0.5 mm per mm of station spacing + 5 mm (measured: at most 0.3 per mm); counted from 0 at
+    the edge, as it was, it dropped by 3.4 m over 15 mm of length."""
+    from pipeline.config import SurfaceSource
+    from pipeline.hull.expansion import section_table
+    from pipeline.hull.region import load_surface_noted, long_axis_of
+
+    surface, _ = load_surface_noted(SurfaceSource(iges=str(SHIP / "test_1_hull_exported.igs"), entity=0), ROOT,
+                                    1.0, 1.0)
+    stations = np.array([158150.0, 158200.0, 158230.0, 158245.0, 158260.0, 158300.0, 158400.0])
+    table = section_table(surface, long_axis_of(surface), stations)
+    assert np.all(table.start_girth[:3] == 0.0) and np.all(table.start_girth[3:] > 3000.0)
+    for z in (500.0, 1000.0, 2000.0, 4000.0, 8000.0):
+        at, girths = [], []
+        for x, row, heights in zip(stations, table.girth, table.z):
+            ok = np.isfinite(row)
+            g, h = row[ok], heights[ok]
+            k = np.flatnonzero((h[:-1] - z) * (h[1:] - z) <= 0)  # the first crossing, up from the start
+            if len(k):  # (the sections aft of x = 158.3 m start above z = 500)
+                at.append(x)
+                girths.append(g[k[0]] + (z - h[k[0]]) / (h[k[0] + 1] - h[k[0]]) * (g[k[0] + 1] - g[k[0]]))
+        assert len(at) >= 6 and at[3] == 158245.0
+        assert np.all(np.abs(np.diff(girths)) <= 0.5 * np.diff(at) + 5.0), (z, np.round(girths))
+
+
 @settings(max_examples=40, derandomize=True, deadline=None)
 @given(seed=st.integers(0, 100_000))
 def test_a_level_on_a_linear_table_is_found_exactly_where_sections_reach_it(seed):

@@ -2,7 +2,9 @@
 
 Each section x = X of the hull is unrolled: the girth of a point is its arc length along
 that section from where the section starts (the keel centreline, or the stem contour where
-the keel has risen into the stem), and it is drawn at (x, girth). The plates' seams and
+the keel has risen into the stem), and it is drawn at (x, girth). A section that starts on a
+contour off the centre plane (a transom's edge) adds its start's girth along that contour
+from the centre plane, so that it continues the girths of the sections passing the contour. The plates' seams and
 butts, sampled on the hull (:class:`pipeline.hull.cost.PlateEdges`), are mapped point by
 point, so that a seam is drawn where the sections cross it and a butt (a plane x = X) as a
 vertical line. Frames are vertical lines at their x, as tall as the section's girth.
@@ -48,6 +50,7 @@ DXF_LAYERS = (("EXP_SEAMS", 7, "Continuous"), ("EXP_BUTTS", 7, "Continuous"), ("
               ("EXP_DWL", LEVEL_COLOURS["waterline"], "Continuous"), ("EXP_DECKS", LEVEL_COLOURS["deck"], "Continuous"),
               ("EXP_MATCH", 7, "CENTER"), ("EXP_SHEET", 7, "Continuous"))
 LEVEL_LAYERS = {"waterline": "EXP_WATERLINES", "design": "EXP_DWL", "deck": "EXP_DECKS"}
+ON_CENTRE = 1e-5  # of the surface's length: a contour point this near y = 0 is on the centre plane
 NEAR_END = 1e-4  # of the surface's length: a station this close beyond an iso-curve's end takes the end
 
 
@@ -65,6 +68,7 @@ class Sections:
     from_high: bool
     z: np.ndarray  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
     starts: np.ndarray  # (K,) g where a section starts on the surface's end edge between samples (else NaN)
+    start_girth: np.ndarray  # (K,) the girth there: along the contour from the centre plane (0 at a stem)
 
     def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
@@ -81,14 +85,15 @@ class Sections:
             a, b = self.girth[rows, j], self.girth[rows, j + 1]
             value = _between(a, b, t)
             # a section that starts on the contour between the two samples, at tau: its girth
-            # grows from 0 there to the present sample's
+            # grows from the start's (0 on a stem) there to the present sample's
             tau = (self.starts[rows] - self.g[j]) / dg
             inside = (tau > 0.0) & (tau < 1.0)
             tau = np.where(inside, tau, 0.5)
+            start = self.start_girth[rows]
             after = inside & np.isnan(a) & np.isfinite(b)  # counted up the g samples
             before = inside & np.isnan(b) & np.isfinite(a)  # counted down them (from the high end)
-            value = np.where(after, b * np.clip((t - tau) / (1.0 - tau), 0.0, 1.0), value)
-            return np.where(before, a * np.clip((tau - t) / tau, 0.0, 1.0), value)
+            value = np.where(after, start + (b - start) * np.clip((t - tau) / (1.0 - tau), 0.0, 1.0), value)
+            return np.where(before, start + (a - start) * np.clip((tau - t) / tau, 0.0, 1.0), value)
 
         lo, hi = along(k), along(k + 1)
         # a station where this g is off the section (the hull's end): the other one's value
@@ -184,7 +189,9 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
         seg = seg[:, ::-1]
     girth = np.full((K, n), np.nan)
     ends = _end_edges(surface, axis, g[::-1] if from_high else g)
+    on_centre = ON_CENTRE * float(np.ptp(x))
     starts = np.full(K, np.nan)
+    start_girth = np.zeros(K)
     for k in range(K):
         present = np.isfinite(pts[k, ::-1, 0] if from_high else pts[k, :, 0])
         if present.sum() < 2:
@@ -195,13 +202,14 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
         stop = first + (int(np.argmin(run)) if not run.all() else len(run))
         row = np.full(n, np.nan)
         if first:
-            row[first], starts[k] = _lead_in(ends, first, stations[k], pts[k, n - 1 - first if from_high else first])
+            row[first], starts[k], start_girth[k] = _lead_in(
+                ends, first, stations[k], pts[k, n - 1 - first if from_high else first], on_centre)
         else:
             row[first] = 0.0
         row[first + 1:stop] = row[first] + np.cumsum(seg[k, first:stop - 1])
         girth[k] = row[::-1] if from_high else row
     z = np.where(np.isfinite(girth), pts[..., 2], np.nan)
-    return Sections(stations, g, girth, from_high, z, starts)
+    return Sections(stations, g, girth, from_high, z, starts, start_girth)
 
 
 def _end_edges(surface, axis: int, g: np.ndarray) -> tuple:
@@ -211,19 +219,41 @@ def _end_edges(surface, axis: int, g: np.ndarray) -> tuple:
     return tuple(surface(*_uv(axis, np.full(len(g), s), g)) for s in sdom), g
 
 
-def _lead_in(ends: tuple, first: int, station: float, start: np.ndarray) -> tuple[float, float]:
+def _lead_in(ends: tuple, first: int, station: float, start: np.ndarray,
+             on_centre: float) -> tuple[float, float, float]:
     """The girth of a section's first tabled point ``start`` when the section begins on an end
     edge of the surface (the stem or stern contour) between girth samples first - 1 and
     first (in the order girth counts them), and the g of that beginning: the chord from the
-    contour's crossing of x = station (linear between the two samples) to the point. (0, NaN)
-    where neither end edge crosses the station there."""
+    contour's crossing C of x = station (linear between the two samples) to the point, plus
+    the girth of C itself, counted along the contour as the sections count it along
+    themselves: from the centre plane (the last sample within ``on_centre`` of y = 0 before
+    C; where the contour runs on the centre plane, a stem, C is on it and counts 0), or from
+    the contour's start where none is (a face that does not reach the centre plane). So a
+    section that starts on a transom's edge continues the girths of the sections that run
+    from the keel past that edge, instead of starting again from 0. Returns the girth at
+    ``start``, the g of the beginning and the girth there; (0, NaN, 0) where neither end
+    edge crosses the station there."""
     (lo_edge, hi_edge), g = ends
     for edge in (lo_edge, hi_edge):
         a, b = edge[first - 1], edge[first]
         if (a[0] - station) * (b[0] - station) <= 0 and a[0] != b[0]:
             f = (station - a[0]) / (b[0] - a[0])
-            return float(np.linalg.norm(start - (a + f * (b - a)))), float(g[first - 1] + f * (g[first] - g[first - 1]))
-    return 0.0, float("nan")
+            crossing = a + f * (b - a)
+            girth = _along_contour(edge[:first], crossing, on_centre)
+            return (float(np.linalg.norm(start - crossing)) + girth, float(g[first - 1] + f * (g[first] - g[first - 1])),
+                    girth)
+    return 0.0, float("nan"), 0.0
+
+
+def _along_contour(before: np.ndarray, crossing: np.ndarray, on_centre: float) -> float:
+    """The arc length along a contour's samples ``before`` (M, 3) then to ``crossing`` (3,),
+    from the last sample within ``on_centre`` of the centre plane y = 0 (0 when the crossing
+    itself is that near it), else from the first sample."""
+    if abs(crossing[1]) <= on_centre:
+        return 0.0
+    centre = np.flatnonzero(np.abs(before[:, 1]) <= on_centre)
+    run = np.vstack([before[centre[-1] if len(centre) else 0:], crossing[None]])
+    return float(np.linalg.norm(np.diff(run, axis=0), axis=1).sum())
 
 
 def stations_for(plates: list[PlateEdges], frames: list[float], count: int = 400) -> np.ndarray:
