@@ -62,7 +62,9 @@ def test_fore_and_aft_bodies_are_named_from_the_bow():
     low = part_captions(plan, 1.0, "low")
     assert high[0].startswith("AFTBODY PART 1 OF 2") and high[1].startswith("FOREBODY PART 2 OF 2")
     assert low[0].startswith("FOREBODY") and low[1].startswith("AFTBODY")
-    assert "TO THE MATCH LINE AT FR 32, X 0.00 TO 80.00 M" in high[0]
+    assert "PART 1 OF 2: FROM THE AFT END TO THE MATCH LINE AT FR 32, X 0.00 TO 80.00 M" in high[0]
+    assert "PART 2 OF 2: FROM THE MATCH LINE AT FR 32 TO THE FORE END, X 80.00 TO 160.00 M" in high[1]
+    assert "FROM THE FORE END" in low[0] and "FROM THE END TO" in part_captions(plan, 1.0, None)[0]
     assert not part_captions(plan, 1.0, None)[0].startswith(("AFT", "FORE"))
 
 
@@ -185,16 +187,20 @@ def test_the_long_cylinder_dxf_lays_out_the_same_sheet_in_paper_space(long_cylin
     assert len(ports) == 2
     for port, (a, b) in zip(ports, ((0.0, 100000.0), (100000.0, 200000.0))):
         assert port.dxf.view_height / port.dxf.height == pytest.approx(100.0)  # 1:100
-        # the part, and 1 mm of paper beyond its ends (the match line drawn whole)
+        # the part, and 3 mm of paper beyond its ends (the match line and its frame number whole)
         view_w = port.dxf.view_height * port.dxf.width / port.dxf.height
         centre = port.dxf.view_center_point
-        assert (centre.x - view_w / 2, centre.x + view_w / 2) == pytest.approx((a - 100.0, b + 100.0))
+        assert (centre.x - view_w / 2, centre.x + view_w / 2) == pytest.approx((a - 300.0, b + 300.0))
         # the girth from 0 up, and the frame numbers over it
         assert centre.y - port.dxf.view_height / 2 == pytest.approx(0.0, abs=1e-6)
         assert centre.y + port.dxf.view_height / 2 > 3000.0 * np.pi / 2 + 200.0
     texts = [t.dxf.text for t in paper.query("TEXT")]
     assert "1:100" in texts and "SCALE 1:100" in texts and "lc" in texts
     assert any(t.startswith("AFTBODY PART 1 OF 2") for t in texts)
+    assert texts.count("MATCH LINE FR 40") == 2  # beside both viewports
+    # the model space's title clear of what the viewports show
+    title = next(t for t in doc.modelspace().query("TEXT") if t.dxf.text.startswith("lc: shell expansion"))
+    assert title.dxf.insert.y > max(p.dxf.view_center_point.y + p.dxf.view_height / 2 for p in ports)
 
 
 def test_a_bow_that_is_neither_end_exits_2_naming_the_field(tmp_path, capsys):

@@ -506,10 +506,12 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
                 (float(point[0]) * mm, float(point[1]) * mm), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
     x0 = drawing.x_range[0] * mm
     top = max((o + h for o, h in drawing.bands), default=0.0) * mm
-    msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + 2 * text_h)})
+    # over the frame numbers, and over what the sheet's viewports show above the drawing
+    lift = 2 * text_h if sheet is None else max(2 * text_h, 8.0 * sheet.scale)
+    msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift)})
     for k, note in enumerate(_level_notes(drawing, mm)):
         msp.add_text(note, height=0.6 * text_h,
-                     dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + (4.5 + 0.9 * k) * text_h)})
+                     dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift + (2.5 + 0.9 * k) * text_h)})
     if sheet is not None:
         top = max((o + h for o, h in drawing.bands), default=0.0) * mm
         for cut in sheet.cuts:

@@ -43,8 +43,7 @@ FOOT = 46.0  # paper mm: legend, scale bar and title block
 CAPTION = 9.0  # paper mm above each part: its caption and the frame numbers
 BETWEEN = 5.0  # paper mm between one part's foot and the next part's caption
 TITLE_BLOCK_W = 180.0  # paper mm
-GIRTH_DATUM = ("EACH SECTION'S LOWER END (THE KEEL WHERE THE SHELL REACHES THE CENTRE PLANE), CONTINUED ALONG "
-               "STEM AND TRANSOM")
+GIRTH_DATUM = "EACH SECTION'S LOWER END (KEEL AT CL), ALONG STEM / TRANSOM CONTOURS"
 LEVEL_STYLES = {"waterline": {"colors": "#1f5fbf", "linewidths": 0.25, "linestyles": (0, (8, 2, 1, 2))},
                 "design": {"colors": "#1f5fbf", "linewidths": 0.6, "linestyles": "solid"},
                 "deck": {"colors": "#8b1a1a", "linewidths": 0.8, "linestyles": "solid"}}
@@ -147,8 +146,10 @@ def part_captions(plan: SheetPlan, mm: float, bow: str | None) -> list[str]:
             names[order[1]] = "MIDBODY "
     out = []
     for k, (a, b) in enumerate(plan.parts):
-        ends = [f"THE MATCH LINE AT {frame_at(plan.cuts[k - 1], mm)}" if k > 0 else "THE END",
-                f"THE MATCH LINE AT {frame_at(plan.cuts[k], mm)}" if k < count - 1 else "THE END"]
+        low, high = {"high": ("THE AFT END", "THE FORE END"), "low": ("THE FORE END", "THE AFT END")}.get(
+            bow, ("THE END", "THE END"))
+        ends = [f"THE MATCH LINE AT {frame_at(plan.cuts[k - 1], mm)}" if k > 0 else low,
+                f"THE MATCH LINE AT {frame_at(plan.cuts[k], mm)}" if k < count - 1 else high]
         whose = f"PART {k + 1} OF {count}: FROM {ends[0]} TO {ends[1]}, " if count > 1 else ""
         out.append(f"{names[k]}{whose}X {a * mm / 1000:.2f} TO {b * mm / 1000:.2f} M")
     return out
@@ -282,7 +283,7 @@ def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None
     colours = [CLASS_COLOURS.get(p.klass, CLASS_COLOURS["failed"]) for p in drawing.plates]
     frame_xs = np.array([f[0] for f in drawing.frames])
     spacing = float(np.diff(frame_xs).min()) * mm / n if len(frame_xs) > 1 else np.inf  # paper mm
-    step = max(1, int(np.ceil(6.0 / max(spacing, 1e-9))))  # a number every 6 mm of paper at least
+    step = max(1, int(np.ceil(8.0 / max(spacing, 1e-9))))  # numbers 8 mm of paper apart at least
     kinds = {"seam"} | ({"frame"} if drawing.frames else set()) | {lv.kind for lv in drawing.levels}
     if plan.cuts:
         kinds.add("match")
@@ -317,8 +318,8 @@ def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None
         for j, (x, lo, hi, _, number) in enumerate(drawing.frames):
             if j % step == 0 and a <= x <= b:
                 at = to_paper((x, hi)) + (0.0, 0.8)
-                paper.text(at[0], at[1], f"FR {number}", fontsize=4.0, ha="center", va="bottom", color="0.3")
-                taken.append(_text_box(at, len(f"FR {number}"), 4.0, 1, 0.0, 0.0))
+                paper.text(at[0], at[1], f"FR {number}", fontsize=5.0, ha="center", va="bottom", color="0.3")
+                taken.append(_text_box(at, len(f"FR {number}"), 5.0, 1, 0.0, 0.0))
         for level in drawing.levels:
             style = LEVEL_STYLES[level.kind]
             ax.add_collection(LineCollection([line * mm for line in level.lines], **style))
@@ -347,7 +348,8 @@ def _text_box(at: np.ndarray, chars: int, size: float, lines: int, angle: float,
     takes, centred at ``at`` along its direction (``angle`` degrees) and ``rise`` of its
     height above it (0.5: centred across it too; 0: standing on it), as the box around the
     turned text."""
-    width, height = 0.55 * size * chars / PT_PER_MM, 1.15 * size * lines / PT_PER_MM
+    # DejaVu Sans capitals and digits are about 0.68 em wide; 0.4 mm of paper kept clear around
+    width, height = 0.68 * size * chars / PT_PER_MM + 0.8, 1.15 * size * lines / PT_PER_MM + 0.8
     c, s = abs(np.cos(np.radians(angle))), abs(np.sin(np.radians(angle)))
     centre = np.asarray(at, dtype=float) + (0.5 - rise) * height * np.array([-np.sin(np.radians(angle)),
                                                                           np.cos(np.radians(angle))])
@@ -482,6 +484,8 @@ def add_paper_layout(doc, drawing, plan: SheetPlan, mm: float, title: str, info:
     at its ends), the border, the title, the notes, the parts' captions, a legend of the
     layers (``class_layers`` {class: layer}, ``line_layers`` the line layers drawn), the scale
     bar and the title block, so that the layout plots as the PDF's sheet."""
+    from ezdxf.enums import TextEntityAlignment
+
     w, h = plan.size
     n = plan.scale
     doc.layouts.rename("Layout1", "SHELL EXPANSION")
@@ -491,7 +495,8 @@ def add_paper_layout(doc, drawing, plan: SheetPlan, mm: float, title: str, info:
         doc.layers.add("VIEWPORTS")
     sheet = {"layer": "EXP_SHEET"}
     height = max((o + g for o, g in drawing.bands), default=0.0) * mm
-    above, side = CAPTION - 4.0, 1.0  # paper mm: the frame numbers over a part, the match line at its ends
+    # paper mm: the frame numbers over a part; beyond its ends, the match line and its frame number whole
+    above, side = CAPTION - 4.0, 3.0
     for (a, b), (left, bottom, bw, bh) in zip(plan.parts, plan.boxes):
         paper.add_viewport(center=(left + bw / 2, bottom + (bh + above) / 2), size=(bw + 2 * side, bh + above),
                            view_center_point=((a + b) / 2 * mm, (height + above * n) / 2),
@@ -505,9 +510,16 @@ def add_paper_layout(doc, drawing, plan: SheetPlan, mm: float, title: str, info:
     for k, note in enumerate(info.get("notes", [])):
         paper.add_text(note, height=1.8, dxfattribs=dict(sheet, insert=(w / 2, h - MARGIN - 5.0 - 3.5 * k)))
     _paper_legend(paper, plan, sheet, class_layers, line_layers)
-    for caption, (left, bottom, bw, bh) in zip(part_captions(plan, mm, info.get("bow")), plan.boxes):
+    for caption, (a, b), (left, bottom, bw, bh) in zip(part_captions(plan, mm, info.get("bow")), plan.parts,
+                                                       plan.boxes):
         paper.add_text(caption, height=2.5, dxfattribs=dict(sheet, insert=(left, bottom + bh + CAPTION - 3.5)))
         direction = "+X ->" if info.get("bow") is None else ("FWD ->" if info["bow"] == "high" else "<- FWD")
+        for cut in plan.cuts:  # named beside the viewport, as on the PDF
+            if a <= cut[1] <= b:
+                at = left + (cut[1] - a) * mm / n + (side + 1.0 if cut[1] >= b else -side - 1.0)
+                paper.add_text(f"MATCH LINE {frame_at(cut, mm)}", height=2.0, rotation=90.0, dxfattribs=sheet
+                               ).set_placement((at, bottom + bh / 2), align=TextEntityAlignment.TOP_CENTER
+                                               if cut[1] >= b else TextEntityAlignment.BOTTOM_CENTER)
         paper.add_text(direction, height=2.5,
                        dxfattribs=dict(sheet, insert=(left + bw - 20.0, bottom + bh + CAPTION - 3.5)))
     length = scale_bar_length(n)
