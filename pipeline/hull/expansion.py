@@ -4,10 +4,10 @@ Each section x = X of the hull is unrolled: the girth of a point is its arc leng
 that section from where the section starts (the keel centreline, or the stem contour where
 the keel has risen into the stem), and it is drawn at (x, girth). A section that starts on a
 contour off the centre plane (a transom's edge) adds its start's girth along that contour
-from the centre plane, so that it continues the girths of the sections passing the contour. The plates' seams and
-butts, sampled on the hull (:class:`pipeline.hull.cost.PlateEdges`), are mapped point by
-point, so that a seam is drawn where the sections cross it and a butt (a plane x = X) as a
-vertical line. Frames are vertical lines at their x, as tall as the section's girth.
+from the centre plane, so that it continues the girths of the sections passing the contour.
+The plates' seams and butts, sampled on the hull (:class:`pipeline.hull.cost.PlateEdges`),
+are mapped point by point, so that a seam is drawn where the sections cross it and a butt
+(a plane x = X) as a vertical line. Frames are vertical lines at their x, as tall as the section's girth.
 
 Girth at a point (x, g) (g the surface's girth parameter) is interpolated in a table of
 sections: at stations x_k (every butt and frame of the plan, and about every 0.25 % of the
@@ -45,11 +45,15 @@ LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROL
                "failed": "EXP_FAILED"}
 DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
 LEVEL_COLOURS = {"waterline": 150, "deck": 6}  # ACI
+# the DXF's other layers: name, ACI colour, linetype (ezdxf's standard set)
 DXF_LAYERS = (("EXP_SEAMS", 7, "Continuous"), ("EXP_BUTTS", 7, "Continuous"), ("EXP_FRAMES", 8, "DASHED"),
               ("EXP_TEXT", 7, "Continuous"), ("EXP_WATERLINES", LEVEL_COLOURS["waterline"], "DASHDOT"),
               ("EXP_DWL", LEVEL_COLOURS["waterline"], "Continuous"), ("EXP_DECKS", LEVEL_COLOURS["deck"], "Continuous"),
               ("EXP_MATCH", 7, "CENTER"), ("EXP_SHEET", 7, "Continuous"))
 LEVEL_LAYERS = {"waterline": "EXP_WATERLINES", "design": "EXP_DWL", "deck": "EXP_DECKS"}
+# the layers of each line kind of the sheet's legend (:func:`.expansion_sheet.line_kinds`)
+KIND_LAYERS = {"seam": ("EXP_SEAMS", "EXP_BUTTS"), "frame": ("EXP_FRAMES",), "match": ("EXP_MATCH",),
+               **{kind: (layer,) for kind, layer in LEVEL_LAYERS.items()}}
 ON_CENTRE = 1e-5  # of the surface's length: a contour point this near y = 0 is on the centre plane
 NEAR_END = 1e-4  # of the surface's length: a station this close beyond an iso-curve's end takes the end
 
@@ -316,6 +320,11 @@ class Expansion:
     base_line: float | None = None
     notes: tuple = ()
 
+    @property
+    def height(self) -> float:
+        """The drawing's girth extent, every band and the gaps between (model units)."""
+        return max((offset + height for offset, height in self.bands), default=0.0)
+
 
 def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, waterlines=None, decks: list = (),
            base_line: float | None = None, snap: float = 0.0) -> Expansion:
@@ -438,11 +447,11 @@ def thin(line: np.ndarray, tolerance: float) -> np.ndarray:
     return line[keep]
 
 
-def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str,
-                        sheet=None, info: dict | None = None) -> None:
-    """The expansion in model space at 1:1, millimetres: x along the hull, y the girth; with
-    a ``sheet`` (:class:`.expansion_sheet.SheetPlan`) also laid out in paper space as the
-    PDF is (a viewport per part at the sheet's scale, captions, scale bar, title block), and
+def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: float, title: str, sheet,
+                        info: dict) -> None:
+    """The expansion in model space at 1:1, millimetres: x along the hull, y the girth; and
+    the ``sheet`` (:class:`.expansion_sheet.SheetPlan`) laid out in paper space as the PDF
+    is (a viewport per part at the sheet's scale, captions, scale bar, title block), the
     linetypes scaled for plotting at that scale."""
     import ezdxf
 
@@ -450,6 +459,7 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         add_paper_layout,
         frame_at,
         level_label_places,
+        line_kinds,
         plate_label,
         ring_centre,
     )
@@ -457,9 +467,8 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     doc = ezdxf.new("R2000", setup=["linetypes"])
     doc.header["$INSUNITS"] = 4
     doc.header["$MEASUREMENT"] = 1
-    if sheet is not None:
-        doc.header["$LTSCALE"] = float(sheet.scale)  # dashes as long on paper at 1:scale as the pattern says
-        doc.header["$PSLTSCALE"] = 0  # and in the viewports, which draw at that scale
+    doc.header["$LTSCALE"] = float(sheet.scale)  # dashes as long on paper at 1:scale as the pattern says
+    doc.header["$PSLTSCALE"] = 0  # and in the viewports, which draw at that scale
     msp = doc.modelspace()
     for klass, layer in LAYER_NAMES.items():
         doc.layers.add(layer, color=LAYER_COLOURS[klass])
@@ -482,9 +491,8 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
         length = float(np.ptp(p.outline[:, 0])) * mm
         width = polygon_area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
         name, thick = plate_label(p)
-        h = max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0)
-        if sheet is not None:  # at most 5 mm on the paper the sheet plots at
-            h = min(h, 5.0 * sheet.scale)
+        # at most 5 mm on the paper the sheet plots at
+        h = min(max(min(0.25 * width, 0.9 * length / max(len(name), 1)), 1.0), 5.0 * sheet.scale)
         heights.append(h)
         msp.add_text(name, height=h, dxfattribs={"layer": "EXP_TEXT"}).set_placement(
             (float(centre[0]), float(centre[1]) + 0.1 * h), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
@@ -505,25 +513,22 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
             msp.add_text(level.name, height=0.4 * text_h, rotation=angle, dxfattribs={"layer": layer}).set_placement(
                 (float(point[0]) * mm, float(point[1]) * mm), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
     x0 = drawing.x_range[0] * mm
-    top = max((o + h for o, h in drawing.bands), default=0.0) * mm
+    top = drawing.height * mm
     # over the frame numbers, and over what the sheet's viewports show above the drawing
-    lift = 2 * text_h if sheet is None else max(2 * text_h, 8.0 * sheet.scale)
+    lift = max(2 * text_h, 8.0 * sheet.scale)
     msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift)})
     for k, note in enumerate(_level_notes(drawing, mm)):
         msp.add_text(note, height=0.6 * text_h,
                      dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift + (2.5 + 0.9 * k) * text_h)})
-    if sheet is not None:
-        top = max((o + h for o, h in drawing.bands), default=0.0) * mm
-        for cut in sheet.cuts:
-            x = cut[1] * mm
-            msp.add_line((x, 0.0), (x, top), dxfattribs={"layer": "EXP_MATCH"})
-            msp.add_text(f"MATCH LINE {frame_at(cut, mm)}", height=text_h, rotation=90.0,
-                         dxfattribs={"layer": "EXP_MATCH"}).set_placement(
-                (x - 0.3 * text_h, 0.5 * top), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
-        drawn = {"EXP_SEAMS", "EXP_BUTTS"} | ({"EXP_FRAMES"} if drawing.frames else set()) | (
-            {"EXP_MATCH"} if sheet.cuts else set()) | {LEVEL_LAYERS[level.kind] for level in drawing.levels}
-        add_paper_layout(doc, drawing, sheet, mm, title, info or {}, LAYER_NAMES,
-                         [layer for layer, _, _ in DXF_LAYERS if layer in drawn])
+    for cut in sheet.cuts:
+        x = cut[1] * mm
+        msp.add_line((x, 0.0), (x, top), dxfattribs={"layer": "EXP_MATCH"})
+        msp.add_text(f"MATCH LINE {frame_at(cut, mm)}", height=text_h, rotation=90.0,
+                     dxfattribs={"layer": "EXP_MATCH"}).set_placement(
+            (x - 0.3 * text_h, 0.5 * top), align=ezdxf.enums.TextEntityAlignment.BOTTOM_CENTER)
+    drawn = {layer for kind in line_kinds(drawing, sheet) for layer in KIND_LAYERS[kind]}
+    add_paper_layout(doc, drawing, sheet, mm, title, info, LAYER_NAMES,
+                     [layer for layer, _, _ in DXF_LAYERS if layer in drawn])
     with atomic_path(target) as tmp:
         doc.saveas(tmp)
 
@@ -564,11 +569,10 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
                      snap=DRAWING_TOLERANCE_MM / config.mm_per_unit)
     title = f"{style}: shell expansion, {len(hull)} plates"
     mm = config.mm_per_unit
-    height = max((o + h for o, h in drawing.bands), default=0.0)
-    sheet = plan_sheet(drawing.x_range, height, mm, frames)
+    sheet = plan_sheet(drawing.x_range, drawing.height, mm, frames)
     info = {"drawing": f"{style.upper()}-EXP: SHELL EXPANSION", "hull": style, "plates": len(hull),
-            "side": side_shown(across(hull, edges)), "girth_from": drawing.girth_from,
-            "bow": None if strake is None else strake.bow, "notes": _level_notes(drawing, mm)}
+            "side": side_shown(across(hull, edges)), "bow": None if strake is None else strake.bow,
+            "notes": _level_notes(drawing, mm)}
     written = []
     if dxf:
         written.append(out_dir / f"{style}_expansion.dxf")

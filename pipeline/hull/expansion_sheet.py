@@ -47,13 +47,12 @@ GIRTH_DATUM = "EACH SECTION'S LOWER END (KEEL AT CL), ALONG STEM / TRANSOM CONTO
 LEVEL_STYLES = {"waterline": {"colors": "#1f5fbf", "linewidths": 0.25, "linestyles": (0, (8, 2, 1, 2))},
                 "design": {"colors": "#1f5fbf", "linewidths": 0.6, "linestyles": "solid"},
                 "deck": {"colors": "#8b1a1a", "linewidths": 0.8, "linestyles": "solid"}}
-# other layers of the DXF: name, ACI colour, linetype (ezdxf's standard set)
-LINE_KINDS = {  # legend: name, colour, width (pt), dashes
+LINE_KINDS = {  # legend: name, colour, width (pt, the legend's sample), dashes
     "seam": ("SEAM / BUTT", "black", 0.5, None),
     "frame": ("FRAME", "0.45", 0.4, (0, (4, 2))),
-    "waterline": ("WATERLINE (WL)", "#1f5fbf", 0.5, (0, (8, 2, 1, 2))),
-    "design": ("DESIGN WATERLINE (DWL)", "#1f5fbf", 0.9, None),
-    "deck": ("DECK AT SIDE", "#8b1a1a", 0.9, None),
+    **{kind: (name, LEVEL_STYLES[kind]["colors"], width, LEVEL_STYLES[kind]["linestyles"])
+       for kind, name, width in (("waterline", "WATERLINE (WL)", 0.5), ("design", "DESIGN WATERLINE (DWL)", 0.9),
+                                 ("deck", "DECK AT SIDE", 0.9))},
     "match": ("MATCH LINE", "black", 1.0, (0, (10, 2, 2, 2))),
 }
 
@@ -127,6 +126,12 @@ def plan_sheet(x_range: tuple, height: float, mm_per_unit: float, frames: list =
         boxes.append((MARGIN, top - box_h, (b - a) * mm_per_unit / n, box_h))
         top -= box_h + BETWEEN
     return SheetPlan(name, (w, h), n, parts, tuple(boxes), cuts)
+
+
+def line_kinds(drawing, plan: SheetPlan) -> set:
+    """The kinds of line (keys of ``LINE_KINDS``) the drawing has on this sheet."""
+    return ({"seam"} | ({"frame"} if drawing.frames else set()) | {level.kind for level in drawing.levels}
+            | ({"match"} if plan.cuts else set()))
 
 
 def frame_at(cut: tuple, mm: float) -> str:
@@ -247,7 +252,7 @@ def write_expansion_pdf(target: str | Path, drawing, plan: SheetPlan, mm_per_uni
         paper.set_zorder(10)  # over the parts: a frame number above a low section is not under the next plate
         paper.patch.set_visible(False)
         paper.add_patch(Rectangle((MARGIN / 2, MARGIN / 2), w - MARGIN, h - MARGIN, fill=False, linewidth=0.8))
-        kinds = _draw_parts(fig, paper, drawing, plan, mm, info.get("bow"))
+        _draw_parts(fig, paper, drawing, plan, mm, info.get("bow"))
         paper.text(MARGIN, h - MARGIN, title, fontsize=11, ha="left", va="top")
         paper.text(MARGIN, h - MARGIN - 7.0,
                    f"shell expansion: girth along the sections x = const (from {drawing.girth_from}) "
@@ -256,7 +261,7 @@ def write_expansion_pdf(target: str | Path, drawing, plan: SheetPlan, mm_per_uni
         notes = info.get("notes", [])
         for k, note in enumerate(notes):
             paper.text(w - MARGIN, h - MARGIN - 4.0 * k, note, fontsize=5.5, ha="right", va="top")
-        _legend(paper, kinds)
+        _legend(paper, line_kinds(drawing, plan))
         _scale_bar(paper, plan.scale, MARGIN + 150.0, MARGIN + 8.0)
         _title_block(paper, plan, title_rows(info, plan))
         with atomic_path(target) as tmp:
@@ -265,28 +270,22 @@ def write_expansion_pdf(target: str | Path, drawing, plan: SheetPlan, mm_per_uni
             "parts": [[a * mm, b * mm] for a, b in plan.parts]}
 
 
-def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None) -> set:
-    """Every part's axes (plates, frames, levels, labels, match lines); returns the line
-    kinds drawn."""
+def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None) -> None:
+    """Every part's axes (plates, frames, levels, labels, match lines)."""
     import shapely
     from matplotlib.collections import LineCollection, PolyCollection
-
-    from flatten.metrics import polygon_area
 
     from .hullplots import CLASS_COLOURS
 
     w, h = plan.size
     n = plan.scale
-    height = max((o + g for o, g in drawing.bands), default=0.0)
-    pt_per_model = 72.0 / 25.4 * mm / n  # font points per model unit on paper
+    height = drawing.height
+    pt_per_model = PT_PER_MM * mm / n  # font points per model unit on paper
     polys = [p.outline * mm for p in drawing.plates]
     colours = [CLASS_COLOURS.get(p.klass, CLASS_COLOURS["failed"]) for p in drawing.plates]
     frame_xs = np.array([f[0] for f in drawing.frames])
     spacing = float(np.diff(frame_xs).min()) * mm / n if len(frame_xs) > 1 else np.inf  # paper mm
     step = max(1, int(np.ceil(8.0 / max(spacing, 1e-9))))  # numbers 8 mm of paper apart at least
-    kinds = {"seam"} | ({"frame"} if drawing.frames else set()) | {lv.kind for lv in drawing.levels}
-    if plan.cuts:
-        kinds.add("match")
     captions = part_captions(plan, mm, bow)
     for k, ((a, b), (left, bottom, bw, bh)) in enumerate(zip(plan.parts, plan.boxes)):
         ax = fig.add_axes((left / w, bottom / h, bw / w, bh / h))
@@ -303,12 +302,11 @@ def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None
 
         taken = []  # paper boxes (x0, y0, x1, y1) of the plate names and frame numbers
         for p in drawing.plates:
-            place = _label_place(p.outline, a, b, shapely)
-            if place is None:
+            found = _label_place(p.outline, a, b, shapely)
+            if found is None:
                 continue
-            inside = shapely.clip_by_rect(shapely.Polygon(p.outline), a, -np.inf, b, np.inf)
+            place, area = found
             plate_l = float(min(np.ptp(p.outline[:, 0]), b - a)) * pt_per_model
-            area = inside.area if not inside.is_empty else polygon_area(p.outline)
             plate_h = area * pt_per_model ** 2 / max(plate_l, 1e-300)  # the mean girth width
             name, thick = plate_label(p)
             size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
@@ -340,7 +338,6 @@ def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None
         paper.text(left, bottom + bh + CAPTION - 1.0, captions[k], fontsize=7.0, ha="left", va="top",
                    fontweight="bold")
         _direction(paper, left + bw, bottom + bh + CAPTION - 1.0, bow)
-    return kinds
 
 
 def _text_box(at: np.ndarray, chars: int, size: float, lines: int, angle: float, rise: float) -> tuple:
@@ -391,15 +388,18 @@ def _clear_level_places(level, x_range: tuple, taken: list, to_paper, size: floa
     return chosen
 
 
-def _label_place(outline: np.ndarray, a: float, b: float, shapely) -> np.ndarray | None:
-    """Where a plate's name goes in the part x in [a, b] (model units): its centroid when
-    that lies in the part; for a plate cut by the part's end, the centroid of its larger piece
-    when that piece is in this part; else None (named in the other part)."""
+def _label_place(outline: np.ndarray, a: float, b: float, shapely) -> tuple[np.ndarray, float] | None:
+    """Where a plate's name goes in the part x in [a, b] (model units), and the plate's area
+    in the part: its centroid when it lies in the part; for a plate cut by the part's end,
+    the centroid of its larger piece when that piece is in this part; else None (named in
+    the other part)."""
+    from flatten.metrics import polygon_area
+
     x_lo, x_hi = outline[:, 0].min(), outline[:, 0].max()
     if x_hi <= a or x_lo >= b:
         return None
     if a <= x_lo and x_hi <= b:
-        return ring_centre(outline)
+        return ring_centre(outline), polygon_area(outline)
     polygon = shapely.make_valid(shapely.Polygon(outline))
     here = shapely.clip_by_rect(polygon, a, -np.inf, b, np.inf)
     if here.is_empty or here.area < 0.5 * polygon.area:
@@ -407,7 +407,7 @@ def _label_place(outline: np.ndarray, a: float, b: float, shapely) -> np.ndarray
     point = here.representative_point() if here.geom_type != "Polygon" else here.centroid
     if not here.contains(point):
         point = here.representative_point()
-    return np.array([point.x, point.y])
+    return np.array([point.x, point.y]), here.area
 
 
 def _direction(paper, right: float, top: float, bow: str | None) -> None:
@@ -494,7 +494,7 @@ def add_paper_layout(doc, drawing, plan: SheetPlan, mm: float, title: str, info:
     if "VIEWPORTS" not in doc.layers:  # the layout's own viewport's layer
         doc.layers.add("VIEWPORTS")
     sheet = {"layer": "EXP_SHEET"}
-    height = max((o + g for o, g in drawing.bands), default=0.0) * mm
+    height = drawing.height * mm
     # paper mm: the frame numbers over a part; beyond its ends, the match line and its frame number whole
     above, side = CAPTION - 4.0, 3.0
     for (a, b), (left, bottom, bw, bh) in zip(plan.parts, plan.boxes):
@@ -510,10 +510,10 @@ def add_paper_layout(doc, drawing, plan: SheetPlan, mm: float, title: str, info:
     for k, note in enumerate(info.get("notes", [])):
         paper.add_text(note, height=1.8, dxfattribs=dict(sheet, insert=(w / 2, h - MARGIN - 5.0 - 3.5 * k)))
     _paper_legend(paper, plan, sheet, class_layers, line_layers)
+    direction = "+X ->" if info.get("bow") is None else ("FWD ->" if info["bow"] == "high" else "<- FWD")
     for caption, (a, b), (left, bottom, bw, bh) in zip(part_captions(plan, mm, info.get("bow")), plan.parts,
                                                        plan.boxes):
         paper.add_text(caption, height=2.5, dxfattribs=dict(sheet, insert=(left, bottom + bh + CAPTION - 3.5)))
-        direction = "+X ->" if info.get("bow") is None else ("FWD ->" if info["bow"] == "high" else "<- FWD")
         for cut in plan.cuts:  # named beside the viewport, as on the PDF
             if a <= cut[1] <= b:
                 at = left + (cut[1] - a) * mm / n + (side + 1.0 if cut[1] >= b else -side - 1.0)
