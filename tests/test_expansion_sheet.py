@@ -214,3 +214,17 @@ def test_a_bow_that_is_neither_end_exits_2_naming_the_field(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "bad.yaml" in err and "strake.bow" in err and "sideways" in err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_the_side_shown_is_the_sign_of_y_whichever_parameter_runs_along_the_hull():
+    """The title block's side: y of the plates' points (it read x where the surface's v ran
+    along the hull, its long_axis 1 being a parameter's index, not a coordinate's)."""
+    from types import SimpleNamespace
+
+    from pipeline.hull.expansion import across, side_shown
+
+    x, y = np.meshgrid(np.linspace(10.0, 50.0, 5), np.linspace(-8.0, -1.0, 4))
+    points = np.stack([x, y, np.zeros_like(x)], axis=2)  # x > 0 along the hull, y < 0: the starboard side
+    for axis in (0, 1):
+        hull = [SimpleNamespace(name="p", part=SimpleNamespace(hull=SimpleNamespace(long_axis=axis)))]
+        assert side_shown(across(hull, {"p": SimpleNamespace(points=points)})).startswith("Y < 0")

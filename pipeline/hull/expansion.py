@@ -584,11 +584,9 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
 
 
 def across(hull: list, edges: dict) -> np.ndarray:
-    """The plates' points' coordinate across the hull (neither along it nor z: y for a hull
-    along x), model units."""
-    axis = hull[0].part.hull.long_axis
-    other = ({0, 1, 2} - {axis, 2}).pop() if axis != 2 else 1
-    return np.concatenate([edges[r.name].points[..., other].ravel() for r in hull])
+    """The plates' points' y, across the hull (the expansion runs along x whichever of the
+    surface's parameters does), model units."""
+    return np.concatenate([edges[r.name].points[..., 1].ravel() for r in hull])
 
 
 def side_shown(across: np.ndarray) -> str:
