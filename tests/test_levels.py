@@ -217,21 +217,27 @@ def test_bad_deck_input_exits_2_naming_the_file_and_the_deck_and_writes_nothing(
     assert not out.exists() or not any(out.iterdir())
 
 
+def hull160_sections(stations: np.ndarray):
+    """The girth table of the 160 m hull's surface (mm) at ``stations``."""
+    from pipeline.config import SurfaceSource
+    from pipeline.hull.expansion import section_table
+    from pipeline.hull.region import load_surface_noted, long_axis_of
+
+    surface, _ = load_surface_noted(SurfaceSource(iges=str(SHIP / "test_1_hull_exported.igs"), entity=0), ROOT,
+                                    1.0, 1.0)
+    return section_table(surface, long_axis_of(surface), stations)
+
+
 def test_sections_that_start_on_the_stern_or_stem_contour_count_their_girth_from_it():
     """At the 160 m hull's ends the sections x = const start on the stern or stem contour, not
     at the keel: their girth counts from where the contour crosses the section, found between
     the girth samples (it was counted from the first sample on the section: 142 mm off at
     x = 5 m). Each waterline's girth at the stations x = 5, 10, 15, 145, 150 and 155 m against
     the station curves' arc length from their start (measured: at most 2.6 mm)."""
-    from pipeline.config import SurfaceSource
-    from pipeline.hull.expansion import section_table
     from pipeline.hull.levels import crossings
-    from pipeline.hull.region import load_surface_noted, long_axis_of
 
-    surface, _ = load_surface_noted(SurfaceSource(iges=str(SHIP / "test_1_hull_exported.igs"), entity=0), ROOT,
-                                    1.0, 1.0)
     stations = np.array([5000.0, 10000.0, 15000.0, 145000.0, 150000.0, 155000.0])
-    table = section_table(surface, long_axis_of(surface), stations)
+    table = hull160_sections(stations)
     curves = station_curves()
     checked = 0
     for h in range(2000, 18001, 2000):
@@ -256,14 +262,8 @@ def test_sections_aft_of_the_transom_edge_continue_the_girths_of_those_that_pass
     centre plane. So at every height the girth runs on smoothly across the edge: within
     0.5 mm per mm of station spacing + 5 mm (measured: at most 0.3 per mm); counted from 0 at
     the edge, as it was, it dropped by 3.4 m over 15 mm of length."""
-    from pipeline.config import SurfaceSource
-    from pipeline.hull.expansion import section_table
-    from pipeline.hull.region import load_surface_noted, long_axis_of
-
-    surface, _ = load_surface_noted(SurfaceSource(iges=str(SHIP / "test_1_hull_exported.igs"), entity=0), ROOT,
-                                    1.0, 1.0)
     stations = np.array([158150.0, 158200.0, 158230.0, 158245.0, 158260.0, 158300.0, 158400.0])
-    table = section_table(surface, long_axis_of(surface), stations)
+    table = hull160_sections(stations)
     assert np.all(table.start_girth[:3] == 0.0) and np.all(table.start_girth[3:] > 3000.0)
     for z in (500.0, 1000.0, 2000.0, 4000.0, 8000.0):
         at, girths = [], []
