@@ -21,8 +21,10 @@ reach their heights (:mod:`.levels`).
 Files (millimetres): NAME_expansion.dxf (R2000, one layer per plate class, frames, seams,
 butts, waterlines, decks, match lines, texts; the sheet laid out in paper space) and
 NAME_expansion.pdf (one A1 or A0 sheet: the drawing in up to three parts cut at frames, at
-the largest standard scale that fits; :mod:`.expansion_sheet`). A plan of several surfaces
-draws each in its own band.
+the largest standard scale that fits; :mod:`.expansion_sheet`). A shell of several faces is
+one drawing where they join: a face whose sections start on another's continues its girth,
+a plate past its face's trim is drawn as cut, and only faces that overlap or stand across
+the hull get bands of their own (:mod:`.expansion_faces`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,14 @@ from flatten.metrics import polygon_area
 
 from ..io.atomic import atomic_path
 from .cost import PlateEdges
+from .expansion_faces import (
+    JOIN,
+    clipped,
+    cut_at_trim,
+    joined_offsets,
+    place_bands,
+    stands_across,
+)
 from .expansion_sheet import plan_sheet, write_expansion_pdf
 from .hullplots import display_class
 
@@ -73,6 +83,10 @@ class Sections:
     z: np.ndarray  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
     starts: np.ndarray  # (K,) g where a section starts on the surface's end edge between samples (else NaN)
     start_girth: np.ndarray  # (K,) the girth there: along the contour from the centre plane (0 at a stem)
+    points: np.ndarray  # (K, n, 3) the section points girth is tabled for (NaN where girth is)
+    # (K,) the section starts on the surface's girth edge off the centre plane: its girth may
+    # continue another face's (:func:`joined_offsets`)
+    joinable: np.ndarray
 
     def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
@@ -189,6 +203,8 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
     low_z = np.nanmean(pts[:, 0, 2]) if np.isfinite(pts[:, 0, 2]).any() else 0.0
     high_z = np.nanmean(pts[:, -1, 2]) if np.isfinite(pts[:, -1, 2]).any() else 0.0
     from_high = bool(high_z < low_z)
+    if abs(high_z - low_z) <= near:  # both girth edges at one height (a flat bottom): from the one nearer y = 0
+        from_high = bool(np.nanmean(np.abs(pts[:, -1, 1])) < np.nanmean(np.abs(pts[:, 0, 1])))
     if from_high:
         seg = seg[:, ::-1]
     girth = np.full((K, n), np.nan)
@@ -196,6 +212,7 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
     on_centre = ON_CENTRE * float(np.ptp(x))
     starts = np.full(K, np.nan)
     start_girth = np.zeros(K)
+    joinable = np.zeros(K, dtype=bool)
     for k in range(K):
         present = np.isfinite(pts[k, ::-1, 0] if from_high else pts[k, :, 0])
         if present.sum() < 2:
@@ -210,10 +227,11 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
                 ends, first, stations[k], pts[k, n - 1 - first if from_high else first], on_centre)
         else:
             row[first] = 0.0
+            joinable[k] = abs(pts[k, n - 1 if from_high else 0, 1]) > on_centre
         row[first + 1:stop] = row[first] + np.cumsum(seg[k, first:stop - 1])
         girth[k] = row[::-1] if from_high else row
-    z = np.where(np.isfinite(girth), pts[..., 2], np.nan)
-    return Sections(stations, g, girth, from_high, z, starts, start_girth)
+    pts[~np.isfinite(girth)] = np.nan
+    return Sections(stations, g, girth, from_high, pts[..., 2], starts, start_girth, pts, joinable)
 
 
 def _end_edges(surface, axis: int, g: np.ndarray) -> tuple:
@@ -286,22 +304,32 @@ class ExpandedPlate:
     klass: str
     thickness: float | None
     band: int
+    trim_lines: tuple = ()  # where the plate is cut at its face's trim: the cut's runs (M, 2)
 
 
-def _map(plate: PlateEdges, table: Sections, axis: int, offset: float) -> tuple:
+def _map(plate: PlateEdges, table: Sections, hull, offset) -> tuple:
+    """The plate's outline ring, seams, butts and trim lines in (x, girth); ``offset`` x (N,)
+    -> the face's girth offset there. A plate that reaches past its face's trim (``hull.trim``)
+    is drawn as the shop cuts it (:func:`.expansion_faces.cut_at_trim`): its region's part inside the
+    trim, its seams and butts clipped to it, and the trim's run across it as its trim line."""
+    axis = hull.long_axis
     g_of = plate.params[..., 1 - axis]
     x = plate.points[..., 0]
 
     def line(rows, cols):
         xx, gg = x[rows, cols], g_of[rows, cols]
-        return np.column_stack([xx, table.at(xx, gg) + offset])
+        return np.column_stack([xx, table.at(xx, gg) + offset(xx)])
 
     r, c = plate.points.shape[:2]
     every_c, every_r = np.arange(c), np.arange(r)
     s_lo, s_hi = line(np.zeros(c, int), every_c), line(np.full(c, r - 1), every_c)
     b_lo, b_hi = line(every_r, np.zeros(r, int)), line(every_r, np.full(r, c - 1))
     ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
-    return ring, (s_lo, s_hi), (b_lo, b_hi)
+    cut = cut_at_trim(plate, table, hull, offset) if getattr(hull, "trim", None) is not None else None
+    if cut is None:
+        return ring, (s_lo, s_hi), (b_lo, b_hi), ()
+    outline, trim_lines = cut
+    return outline, clipped((s_lo, s_hi), outline), clipped((b_lo, b_hi), outline), trim_lines
 
 
 @dataclass(frozen=True)
@@ -328,8 +356,10 @@ class Expansion:
 
 def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, waterlines=None, decks: list = (),
            base_line: float | None = None, snap: float = 0.0) -> Expansion:
-    """Map every plate of ``results`` (with ``edges`` by name) into girth x length; one band
-    per hull surface, ``gap`` (model units) apart; ``frames`` (number, x).
+    """Map every plate of ``results`` (with ``edges`` by name) into girth x length, the
+    faces (hull surfaces) joined where one's sections start on another's and drawn in one
+    band where their plates do not overlap, other bands ``gap`` (model units) apart
+    (:mod:`.expansion_faces`); ``frames`` (number, x).
 
     ``waterlines`` (:class:`pipeline.config.WaterlineSpec`) and ``decks``
     (:class:`.levels.DeckProfile`) are drawn where the shell reaches them, heights from
@@ -340,37 +370,82 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
         e = edges.get(r.name)
         if e is not None:
             groups.setdefault(id(r.part.hull.surface), []).append((r, e))
-    plates, frame_lines, bands, tables = [], [], [], []
-    offset = 0.0
-    sides = set()
-    x_lo, x_hi = np.inf, -np.inf
-    for band, members in enumerate(groups.values()):
+    faces = list(groups.values())
+    frame_x = [x for _, x in frames]
+    # every face tabled at its own stations and the others' within its x range, so that the
+    # sections of two faces meet at equal stations
+    own = [stations_for([e for _, e in members], frame_x) for members in faces]
+    every = np.unique(np.concatenate(own))
+    tables = []
+    for members, stations in zip(faces, own):
         hull = members[0][0].part.hull
-        sampled = [e for _, e in members]
-        table = section_table(hull.surface, hull.long_axis, stations_for(sampled, [x for _, x in frames]))
-        tables.append((table, offset, band))
-        sides.add("high" if table.from_high else "low")
-        height = float(np.nanmax(table.girth)) if np.isfinite(table.girth).any() else 0.0
-        for r, e in members:
-            ring, seams, butts = _map(e, table, hull.long_axis, offset)
-            steel = getattr(r.part, "steel", None)
-            plates.append(ExpandedPlate(r.name, ring, seams, butts, display_class(r),
-                                        getattr(steel, "thickness", None), band))
-        lo, hi = table.stations[0], table.stations[-1]
-        x_lo, x_hi = min(x_lo, lo), max(x_hi, hi)
-        for number, f in frames:
-            if lo <= f <= hi:
-                k = int(np.argmin(np.abs(table.stations - f)))
-                top = float(table.total()[k])
-                if top > 0:
-                    frame_lines.append((float(f), offset, offset + top, band, number))
-        bands.append((offset, height))
-        offset += height + gap
+        inside = every[(every >= stations[0]) & (every <= stations[-1])]
+        tables.append(section_table(hull.surface, hull.long_axis, inside))
+    x_all = np.concatenate([t.stations for t in tables])
+    join = JOIN * float(np.ptp(x_all))
+    across = [stands_across([e.points for _, e in members]) if len(faces) > 1 else False for members in faces]
+    offsets, continues, order = joined_offsets(tables, join, across)
+    mapped = [_map_face(members, table, offset) for members, table, offset in zip(faces, tables, offsets)]
+    band_of, joined = place_bands(mapped, continues, order, join, across)
+    for f in range(len(faces)):
+        if not joined[f]:
+            offsets[f] = np.zeros(len(tables[f].stations))
+            mapped[f] = _map_face(faces[f], tables[f], offsets[f])
+    heights = {}
+    for f, table in enumerate(tables):
+        top = np.nanmax(table.girth + offsets[f][:, None]) if np.isfinite(table.girth).any() else 0.0
+        heights[band_of[f]] = max(heights.get(band_of[f], 0.0), float(top))
+    bands, base = [], {}
+    for band in range(len(heights)):
+        base[band] = bands[-1][0] + bands[-1][1] + gap if bands else 0.0
+        bands.append((base[band], heights[band]))
+    plates = []
+    for f, members in enumerate(faces):
+        by = base[band_of[f]]
+        for (r, _), (ring, seams, butts, trim_lines) in zip(members, mapped[f]):
+            plates.append(ExpandedPlate(r.name, _shifted(ring, by), tuple(_shifted(s, by) for s in seams),
+                                        tuple(_shifted(b, by) for b in butts), display_class(r),
+                                        getattr(getattr(r.part, "steel", None), "thickness", None), band_of[f],
+                                        tuple(_shifted(t, by) for t in trim_lines)))
+    placed = [(table, base[band_of[f]] + offsets[f], band_of[f]) for f, table in enumerate(tables)]
+    sides = {"high" if table.from_high else "low" for table in tables}
     side = "the low end of the girth parameter" if sides == {"low"} else (
         "the high end of the girth parameter" if sides == {"high"} else "the lower end of each surface's girth")
-    levels, base, notes = _levels(tables, waterlines, decks, base_line, snap)
-    return Expansion(tuple(plates), tuple(frame_lines), tuple(bands), (float(x_lo), float(x_hi)), side, levels,
-                     base, notes)
+    if any(joined[f] and continues[f] for f in range(len(faces))):
+        side += "; a face whose sections start on another face's continues its girth"
+    levels, base_z, notes = _levels(placed, waterlines, decks, base_line, snap)
+    return Expansion(tuple(plates), _frame_lines(placed, frames, len(bands)), tuple(bands),
+                     (float(x_all.min()), float(x_all.max())), side, levels, base_z, notes)
+
+
+def _map_face(members: list, table: Sections, offset: np.ndarray) -> list[tuple]:
+    """Each plate of a face mapped with the face's girth offset (K,) at the table's stations."""
+    out = []
+    for r, e in members:
+        hull = r.part.hull
+        out.append(_map(e, table, hull, lambda x: np.interp(x, table.stations, offset)))
+    return out
+
+
+def _shifted(line: np.ndarray, by: float) -> np.ndarray:
+    return line + np.array([0.0, by]) if by else line
+
+
+def _frame_lines(placed: list, frames: list, bands: int) -> tuple:
+    """(x, girth bottom, girth top, band, number) of each frame in each band its faces reach."""
+    lines = []
+    for band in range(bands):
+        for number, f in frames:
+            ends = []
+            for table, offset, b in placed:
+                if b == band and table.stations[0] <= f <= table.stations[-1]:
+                    k = int(np.argmin(np.abs(table.stations - f)))
+                    top = float(table.total()[k])
+                    if top > 0:
+                        ends.append((float(offset[k]), float(offset[k]) + top))
+            if ends:
+                lines.append((float(f), min(lo for lo, _ in ends), max(hi for _, hi in ends), band, number))
+    return tuple(lines)
 
 
 def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap: float) -> tuple:
@@ -399,7 +474,7 @@ def _levels(tables: list, waterlines, decks: list, base_line: float | None, snap
     for name, kind, level_at in wanted:
         found = []
         for table, offset, band in tables:
-            lines = crossings(table.stations, table.girth + offset, table.z, level_at(table.stations), snap)
+            lines = crossings(table.stations, table.girth + offset[:, None], table.z, level_at(table.stations), snap)
             if lines:
                 found.append(Level(name, kind, tuple(lines), band))
         if found:
@@ -478,12 +553,14 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     heights = []
     for p in drawing.plates:
         layer = LAYER_NAMES.get(p.klass, "EXP_FAILED")
-        # each side thinned alone: the four corners stay vertices
-        (s_lo, s_hi), (b_lo, b_hi) = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in pair]
-                                      for pair in (p.seams, p.butts))
-        ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
+        if p.trim_lines:  # cut at its face's trim: the cut outline, its corners among its points
+            ring = thin(np.vstack([p.outline, p.outline[:1]]) * mm, DRAWING_TOLERANCE_MM)[:-1]
+        else:  # each side thinned alone: the four corners stay vertices
+            (s_lo, s_hi), (b_lo, b_hi) = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in pair]
+                                          for pair in (p.seams, p.butts))
+            ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
         msp.add_lwpolyline(ring.tolist(), close=True, dxfattribs={"layer": layer})
-        for line in p.seams:
+        for line in p.seams + p.trim_lines:  # a trim line is the plate's joint with the next face's
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
         for line in p.butts:
             msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})

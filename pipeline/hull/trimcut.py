@@ -30,7 +30,7 @@ def cut_at_trim(trim, params: np.ndarray, placed: np.ndarray, faces: np.ndarray)
     """The region of a plate's grid (params (R, C, 2), its developed points ``placed``
     (R C, 2), triangles ``faces`` (F, 3)) cut by ``trim`` (outer loop, holes; (u, v)).
     None when the region lies inside the trim; a TrimCut with an empty outline when outside."""
-    region, kept = _kept(trim, params)
+    region, kept = region_in_trim(trim, params)
     if kept.area >= region.area * (1.0 - 1e-9):
         return None
     flat_params = params.reshape(-1, 2)
@@ -65,10 +65,10 @@ def _with_region_points(kept, region, params: np.ndarray):
 def outside_trim(trim, params: np.ndarray) -> bool:
     """Whether a plate's region (grid params (R, C, 2)) lies wholly outside ``trim``: what
     :func:`cut_at_trim` finds before any development."""
-    return _kept(trim, params)[1].is_empty
+    return region_in_trim(trim, params)[1].is_empty
 
 
-def _kept(trim, params: np.ndarray):
+def region_in_trim(trim, params: np.ndarray):
     """The region's polygon in (u, v) and its part inside the trim."""
     from shapely.geometry import Polygon
 

@@ -1,0 +1,187 @@
+"""A shell of several faces in one expansion: girth continued from face to face, plates cut
+at their face's trim, end faces and overlapping faces in bands of their own. Closed forms on
+planes (a flat bottom, a side above it, a raked bow, a transom), and the real hulls: every
+point of KCS's and KVLCC2's flat of bottom drawn at its distance from the centre plane, and
+points of two faces that meet drawn where they meet."""
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import yaml
+
+from flatten.metrics import polygon_area
+from flatten.surface import nurbs_surface
+from pipeline.hull.cost import PlateEdges
+from pipeline.hull.expansion import expand, shell_edges, write_expansion_dxf
+from pipeline.hull.expansion_sheet import plan_sheet
+from pipeline.hull.trims import Trim
+from tests.shipped_configs import plain_uniform, with_files_from
+
+ROOT = Path(__file__).resolve().parents[1]
+BEAM, DEPTH, LENGTH = 3000.0, 5000.0, 20000.0
+
+
+def plane(corners) -> object:
+    """The bilinear surface through corners ((S(0,0), S(0,1)), (S(1,0), S(1,1))): u runs along x."""
+    return nurbs_surface(1, 1, np.asarray(corners, dtype=float), [0, 0, 1, 1], [0, 0, 1, 1])
+
+
+FLAT = plane([[(0, BEAM, 0), (0, 0, 0)], [(LENGTH, BEAM, 0), (LENGTH, 0, 0)]])  # girth parameter from the bilge in
+SIDE = plane([[(0, BEAM, 0), (0, BEAM, DEPTH)], [(LENGTH, BEAM, 0), (LENGTH, BEAM, DEPTH)]])
+BOW = plane([[(LENGTH, 0, 0), (LENGTH, 2000, 4000)], [(LENGTH + 6000, 0, 0), (LENGTH + 6000, 2000, 4000)]])
+TRANSOM = plane([[(-300, 0, 0), (-300, 2000, 0)], [(0, 0, 3000), (0, 2000, 3000)]])  # u runs up its rake
+TWIN = plane([[(0, 0, 0), (0, BEAM, 0)], [(LENGTH, 0, 0), (LENGTH, BEAM, 0)]])  # the flat again, another face
+
+
+def plate(name: str, surface, u: tuple, v: tuple, trim=None, rows: int = 9, cols: int = 17):
+    """A result and its edges for the region u x v of a face (long axis 0)."""
+    uu, vv = np.meshgrid(np.linspace(*u, cols), np.linspace(*v, rows))
+    points = surface(uu.ravel(), vv.ravel()).reshape(rows, cols, 3)
+    hull = SimpleNamespace(surface=surface, long_axis=0, trim=trim)
+    result = SimpleNamespace(name=name, ok=True, figures={"plate_class": {"class": "flat"}},
+                             part=SimpleNamespace(hull=hull, steel=SimpleNamespace(thickness=12.0)))
+    return result, PlateEdges(name, points, np.stack([uu, vv], axis=-1))
+
+
+def drawn(pairs, frames=()):
+    results = [r for r, _ in pairs]
+    return expand(results, {e.name: e for _, e in pairs}, list(frames), gap=1000.0)
+
+
+def by_name(drawing) -> dict:
+    return {p.name: p for p in drawing.plates}
+
+
+def test_a_side_above_a_flat_bottom_continues_its_girth_and_faces_apart_in_x_share_the_band():
+    pairs = [plate("flat", FLAT, (0.1, 0.5), (0.2, 0.9)),  # y 2400 .. 300
+             plate("side", SIDE, (0.1, 0.5), (0.2, 0.8)),  # z 1000 .. 4000
+             plate("bow", BOW, (0.0, 1.0), (0.0, 1.0)),
+             plate("transom", TRANSOM, (0.0, 1.0), (0.0, 1.0)),
+             plate("twin", TWIN, (0.3, 0.9), (0.0, 1.0))]
+    drawing = drawn(pairs, frames=[(4, 8000.0), (9, 23000.0)])
+    plates = by_name(drawing)
+    # the flat counts from the centre plane (its girth parameter runs the other way)
+    assert plates["flat"].outline[:, 1].min() == pytest.approx(300.0, abs=1e-6)
+    assert plates["flat"].outline[:, 1].max() == pytest.approx(2400.0, abs=1e-6)
+    # the side starts where the flat ends, at the beam
+    assert plates["side"].outline[:, 1].min() == pytest.approx(BEAM + 1000.0, abs=1e-6)
+    assert plates["side"].outline[:, 1].max() == pytest.approx(BEAM + 4000.0, abs=1e-6)
+    # the bow, beyond the flat's length, counts from the keel in the same band
+    assert plates["bow"].band == plates["flat"].band == plates["side"].band == 0
+    assert plates["bow"].outline[:, 1].max() == pytest.approx(np.hypot(2000.0, 4000.0), abs=1e-6)
+    # the transom stands across the hull, the twin flat counts from the keel where the flat
+    # does: each in a band of its own, above the first
+    assert {plates["transom"].band, plates["twin"].band} == {1, 2}
+    first = drawing.bands[0]
+    assert first == pytest.approx((0.0, BEAM + DEPTH))
+    assert drawing.bands[1][0] == pytest.approx(BEAM + DEPTH + 1000.0)
+    twin = plates["twin"].outline[:, 1] - drawing.bands[plates["twin"].band][0]
+    assert twin.min() == pytest.approx(0.0, abs=1e-6) and twin.max() == pytest.approx(BEAM, abs=1e-6)
+    # a frame runs from the keel over both faces; one over the bow over the bow alone
+    frames = {(x, band): (lo, hi) for x, lo, hi, band, _ in drawing.frames}
+    assert frames[(8000.0, 0)] == pytest.approx((0.0, BEAM + DEPTH))
+    assert frames[(23000.0, 0)] == pytest.approx((0.0, np.hypot(2000.0, 4000.0)))
+    assert "continues its girth" in drawing.girth_from
+
+
+def test_faces_of_one_surface_kind_alone_keep_their_own_band_and_girth():
+    """Without a face to continue, a side counts from its own lower edge, as before."""
+    drawing = drawn([plate("side", SIDE, (0.1, 0.5), (0.2, 0.8))])
+    side = by_name(drawing)["side"]
+    assert side.outline[:, 1].min() == pytest.approx(1000.0, abs=1e-6)
+    assert drawing.bands == ((0.0, DEPTH),)
+    assert "continues" not in drawing.girth_from
+
+
+def test_a_plate_past_its_face_trim_is_drawn_as_cut_with_its_trim_line(tmp_path):
+    """The flat trimmed along the diagonal v = u of its parameters: a plate over u 0.1-0.5,
+    v 0.2-0.9 keeps the part with v >= u, drawn (x = 20000 u, girth = 3000 v from the centre
+    side) as that polygon mapped affinely; the side still starts at the beam."""
+    loop = np.array([(0.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0)])
+    trim = Trim(1, loop, (), 144)
+    pairs = [plate("flat", FLAT, (0.1, 0.5), (0.2, 0.9), trim=trim), plate("side", SIDE, (0.1, 0.5), (0.2, 0.8))]
+    drawing = drawn(pairs)
+    flat = by_name(drawing)["flat"]
+    # the kept part in (u, v): the rectangle less the triangle below v = u
+    from shapely.geometry import Polygon, box
+
+    kept = box(0.1, 0.2, 0.5, 0.9).intersection(Polygon(loop)).area
+    assert polygon_area(flat.outline) == pytest.approx(kept * LENGTH * BEAM, rel=1e-9)
+    assert len(flat.trim_lines) == 1
+    line = flat.trim_lines[0]
+    u, girth_from_bilge = line[:, 0] / LENGTH, BEAM - line[:, 1]  # the flat's v runs from the bilge in
+    assert np.allclose(girth_from_bilge / BEAM, u, atol=1e-12)  # on v = u
+    assert sorted(np.round(u[[0, -1]], 12)) == [0.2, 0.5]  # from the region's side v = 0.2 to u = 0.5
+    # its seams and butts clipped to the cut: nothing drawn beyond it
+    for piece in flat.seams + flat.butts:
+        assert np.all((BEAM - piece[:, 1]) / BEAM >= piece[:, 0] / LENGTH - 1e-9)
+    assert by_name(drawing)["side"].outline[:, 1].min() == pytest.approx(BEAM + 1000.0, abs=1e-6)
+    # the DXF draws the cut outline, and the trim line with the seams
+    import ezdxf
+
+    sheet = plan_sheet(drawing.x_range, drawing.height, 1.0, [])
+    target = tmp_path / "cut_expansion.dxf"
+    write_expansion_dxf(target, drawing, 1.0, "cut", sheet, {"drawing": "CUT", "hull": "cut", "plates": 2,
+                                                              "side": "Y > 0", "bow": None, "notes": []})
+    msp = ezdxf.readfile(target).modelspace()
+    outlines = [np.array(e.get_points("xy")) for e in msp.query("LWPOLYLINE[layer=='EXP_FLAT']")]
+    assert sorted(polygon_area(o) for o in outlines) == pytest.approx(
+        sorted(polygon_area(p.outline) for p in drawing.plates), rel=1e-9)
+    seams = [np.array(e.get_points("xy")) for e in msp.query("LWPOLYLINE[layer=='EXP_SEAMS']")]
+    assert any(len(s) == 2 and (np.allclose(s, line[[0, -1]]) or np.allclose(s, line[[-1, 0]])) for s in seams)
+
+
+def uniform_shell(name: str, tmp_path: Path):
+    """The shipped shell config's uniform plan: its plates (unevaluated, as the drawing
+    reads them) and their edges on the hull."""
+    from pipeline.hull.plan import load_run
+
+    source = ROOT / "configs" / f"{name}_shell.yaml"
+    data = with_files_from(plain_uniform(yaml.safe_load(source.read_text())), source.parent)
+    config_path = tmp_path / f"{name}.yaml"
+    config_path.write_text(yaml.safe_dump(data))
+    config = load_run(config_path)
+    results = [SimpleNamespace(name=p.name, part=p, ok=True, figures={"plate_class": {"class": "flat"}})
+               for p in config.parts if getattr(p, "hull", None) is not None]
+    return results, shell_edges(results)
+
+
+def ring_points(points: np.ndarray) -> np.ndarray:
+    """A plate grid's boundary (R, C, 3) in the order the drawing's outline runs."""
+    return np.vstack([points[0], points[1:, -1], points[-1, ::-1][1:], points[::-1, 0][1:-1]])
+
+
+@pytest.mark.parametrize("name, girth_error_mm, meet_mm", [("kcs", 5.0, 4.0), ("kvlcc2", 12.0, 10.0)])
+def test_a_real_shell_of_several_faces_is_one_band_girth_from_the_keel(tmp_path, name, girth_error_mm, meet_mm):
+    """KCS (the main hull lofted from two faces, the flat of bottom trimmed, stern and bow
+    faces) and KVLCC2 (the loft of main hull and flat, the faces beyond its end planes): one
+    band; every plate point on the flat of bottom (z = 0) drawn at its distance |y| from the
+    centre plane, whichever face it is on (the side shell's lowest seams continue the flat's
+    girth); two plates' points of different faces within 20 mm of each other drawn as far
+    apart in girth as they are in space, within ``meet_mm``."""
+    from scipy.spatial import cKDTree
+
+    results, edges = uniform_shell(name, tmp_path)
+    drawing = expand(results, edges, [], gap=1000.0)
+    assert len(drawing.bands) == 1
+    face = {r.name: id(r.part.hull.surface) for r in results}
+    assert len(set(face.values())) == 4
+    points, girth, faces = [], [], []
+    on_flat = 0
+    for p in drawing.plates:
+        if p.trim_lines:  # the cut ones' outlines are the trim's, not the grid's
+            continue
+        ring = ring_points(edges[p.name].points)
+        flat = np.abs(ring[:, 2]) < 1.0
+        assert np.abs(p.outline[flat, 1] - np.abs(ring[flat, 1])).max(initial=0.0) <= girth_error_mm, p.name
+        on_flat += int(flat.any())
+        points.append(ring), girth.append(p.outline[:, 1]), faces.append(np.full(len(ring), face[p.name]))
+    assert on_flat >= 25
+    points, girth, faces = np.vstack(points), np.concatenate(girth), np.concatenate(faces)
+    pairs = cKDTree(points).query_pairs(20.0, output_type="ndarray")
+    pairs = pairs[faces[pairs[:, 0]] != faces[pairs[:, 1]]]
+    assert len(pairs) >= 100
+    apart = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
+    assert (np.abs(girth[pairs[:, 0]] - girth[pairs[:, 1]]) - apart).max() <= meet_mm
