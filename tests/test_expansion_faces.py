@@ -10,6 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from flatten.metrics import polygon_area
 from flatten.surface import nurbs_surface
@@ -84,6 +86,26 @@ def test_a_side_above_a_flat_bottom_continues_its_girth_and_faces_apart_in_x_sha
     assert frames[(8000.0, 0)] == pytest.approx((0.0, BEAM + DEPTH))
     assert frames[(23000.0, 0)] == pytest.approx((0.0, np.hypot(2000.0, 4000.0)))
     assert "continues its girth" in drawing.girth_from
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(beam=st.floats(500.0, 8000.0), depth=st.floats(500.0, 8000.0), gap=st.floats(0.0, 19.0),
+       inward=st.booleans(), z0=st.floats(0.0, 0.4), z1=st.floats(0.6, 1.0))
+def test_a_side_continues_a_flat_bottom_across_a_gap_whichever_way_the_flat_runs(beam, depth, gap, inward, z0, z1):
+    """A side standing ``gap`` outboard of a flat bottom's edge (within the join, 0.2 % of the
+    drawing's 10 m: 20 mm) continues its girth: a side point at height z is drawn at beam +
+    gap + z, whichever way the flat's girth parameter runs (from the centre or to it)."""
+    ends = [(0, beam, 0), (0, 0, 0)] if inward else [(0, 0, 0), (0, beam, 0)]
+    flat = plane([ends, [(LENGTH, y, z) for _, y, z in ends]])
+    side = plane([[(0, beam + gap, 0), (0, beam + gap, depth)], [(LENGTH, beam + gap, 0), (LENGTH, beam + gap, depth)]])
+    drawing = drawn([plate("flat", flat, (0.1, 0.6), (0.0, 1.0)), plate("side", side, (0.1, 0.6), (z0, z1))])
+    plates = by_name(drawing)
+    assert plates["flat"].outline[:, 1].min() == pytest.approx(0.0, abs=1e-6)
+    assert plates["flat"].outline[:, 1].max() == pytest.approx(beam, rel=1e-9)
+    girth = plates["side"].outline[:, 1]
+    assert girth.min() == pytest.approx(beam + gap + z0 * depth, rel=1e-9)
+    assert girth.max() == pytest.approx(beam + gap + z1 * depth, rel=1e-9)
+    assert len(drawing.bands) == 1
 
 
 def test_faces_of_one_surface_kind_alone_keep_their_own_band_and_girth():
