@@ -519,12 +519,17 @@ class Output(_Strict):
     # one-page PDF shop drawing per steel plate (NAME_drawing.pdf); default: as png (the
     # previews), so a single part gets it and a hull run without previews does not pay for it
     drawing: bool | None = None
+    # a hull's shell expansion also as NAME_expansion_tiles.pdf: its A1 / A0 sheet on A3 or A4
+    # pages at full size, overlapping, to print at 100 % and tape together (pipeline.io.tiled)
+    expansion_tiles: Literal["A3", "A4"] | None = None
     layers: Layers = Layers()
 
     @model_validator(mode="after")
     def _previews_need_images(self):
         if self.part_previews and not self.png:
             raise ValueError("part_previews: true needs png: true (png: false writes no image)")
+        if self.expansion_tiles and not self.png:
+            raise ValueError("expansion_tiles needs png: true (png: false writes no expansion PDF to tile)")
         return self
 
 

@@ -36,10 +36,11 @@ RUN_FOLDER = "run"
 # every file a part or a run may write, by profile (DXF first: it is removed first)
 PART_SUFFIXES = {"steel": (".dxf", "_P.dxf", "_S.dxf", "_templates.dxf", "_pinjig.csv", "_drawing.pdf", "_P_drawing.pdf", "_S_drawing.pdf", ".obj", "_flat.png", "_solutions.png", ".json"),
                  "textile": (".obj", "_flat.png", "_solutions.png", ".json")}
-RUN_SUFFIXES = {"steel": ("_plan.dxf", "_expansion.dxf", "_expansion.pdf", "_sheet.png", "_classes.png", "_hull.png",
-                          "_summary.csv", "_summary.json"),
-                "textile": (".dxf", ".plt", "_plan.dxf", "_expansion.dxf", "_expansion.pdf", "_print.pdf", "_print.svg",
-                            "_roll.pdf", "_sheet.png", "_classes.png", "_hull.png", "_summary.csv", "_summary.json")}
+RUN_SUFFIXES = {"steel": ("_plan.dxf", "_expansion.dxf", "_expansion.pdf", "_expansion_tiles.pdf", "_sheet.png",
+                          "_classes.png", "_hull.png", "_summary.csv", "_summary.json"),
+                "textile": (".dxf", ".plt", "_plan.dxf", "_expansion.dxf", "_expansion.pdf", "_expansion_tiles.pdf",
+                            "_print.pdf", "_print.svg", "_roll.pdf", "_sheet.png", "_classes.png", "_hull.png",
+                            "_summary.csv", "_summary.json")}
 
 
 class OutputError(DevflatError, OSError):

@@ -656,7 +656,11 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
         write_expansion_dxf(written[-1], drawing, mm, title, sheet, info)
     if pdf:
         written.append(out_dir / f"{style}_expansion.pdf")
-        write_expansion_pdf(written[-1], drawing, sheet, mm, title, info)
+        page = getattr(config.spec.output, "expansion_tiles", None)
+        tiles = None if page is None else (page, out_dir / f"{style}_expansion_tiles.pdf")
+        write_expansion_pdf(written[-1], drawing, sheet, mm, title, info, tiles)
+        if tiles is not None:
+            written.append(tiles[1])
     return written
 
 

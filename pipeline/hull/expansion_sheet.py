@@ -232,9 +232,10 @@ def _along(direction: np.ndarray) -> float:
 
 
 def write_expansion_pdf(target: str | Path, drawing, plan: SheetPlan, mm_per_unit: float, title: str,
-                        info: dict) -> dict:
+                        info: dict, tiles: tuple[str, Path] | None = None) -> dict:
     """The sheet ``plan`` lays out, true to its scale (x along the hull, girth up); returns
-    the sheet, the scale, the sheet's size in mm and the parts' x ranges."""
+    the sheet, the scale, the sheet's size in mm and the parts' x ranges. ``tiles``: (page
+    size, path) to write the same sheet on A3 or A4 pages as well (:mod:`pipeline.io.tiled`)."""
     from matplotlib import rc_context
     from matplotlib.backends.backend_pdf import FigureCanvasPdf
     from matplotlib.figure import Figure
@@ -266,6 +267,11 @@ def write_expansion_pdf(target: str | Path, drawing, plan: SheetPlan, mm_per_uni
         _title_block(paper, plan, title_rows(info, plan))
         with atomic_path(target) as tmp:
             fig.savefig(tmp, format="pdf")
+        if tiles is not None:
+            from ..io.tiled import write_tiles
+
+            page, path = tiles
+            write_tiles(fig, paper, path, (w, h), page, str(info.get("drawing", title)))
     return {"sheet": plan.sheet, "scale": f"1:{plan.scale}", "size_mm": [w, h],
             "parts": [[a * mm, b * mm] for a, b in plan.parts]}
 
