@@ -217,3 +217,47 @@ def test_a_real_shell_of_several_faces_is_one_band_girth_from_the_keel(tmp_path,
     assert len(pairs) >= 100
     apart = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
     assert (np.abs(girth[pairs[:, 0]] - girth[pairs[:, 1]]) - apart).max() <= meet_mm
+
+
+def test_a_plate_past_its_face_trim_is_as_wide_as_the_part_the_shop_cuts():
+    """The flat trimmed to v >= 0.95 - 0.5 u: over u 0.1-0.5 a plate on v 0.2-0.9 keeps, at
+    column u, the girth BEAM (0.9 - max(0.2, 0.95 - 0.5 u)), widest (0.45 BEAM) at u = 0.5;
+    the plan's cost counts that, not the region's 0.7 BEAM."""
+    from pipeline.hull.cost import TRIM_SAMPLES
+
+    loop = np.array([(0.0, 0.95), (1.0, 0.45), (1.0, 1.0), (0.0, 1.0), (0.0, 0.95)])
+    _, edges = plate("flat", FLAT, (0.1, 0.5), (0.2, 0.9), trim=Trim(1, loop, (), 144), rows=33, cols=9)
+    u = edges.params[0, :, 0]
+    expected = BEAM * (0.9 - np.maximum(0.2, 0.95 - 0.5 * u))
+    # each column's step that the trim crosses is measured to 1 / TRIM_SAMPLES of it
+    step = BEAM * 0.7 / 32
+    assert np.abs(edges.widths(Trim(1, loop, (), 144)) - expected).max() <= step / TRIM_SAMPLES + 1e-9
+    assert edges.widths() == pytest.approx(np.full(9, 0.7 * BEAM))
+
+
+def test_kcs_flat_bottom_slivers_are_reported_as_cut():
+    """KCS's uniform plan leaves plates of its trimmed flat of bottom that the trim cuts to
+    slivers (the outermost strake's end plate: 89 mm of its 3.15 m): their widths inside the
+    trim agree with the expansion's cut outlines (a vertical line through each grid column,
+    independent of the widths' sampling: the outline is the trim's polygon cut in (u, v)),
+    and the plate is narrower than the stock's 1 m."""
+    import tempfile
+
+    from shapely.geometry import LineString, Polygon
+
+    with tempfile.TemporaryDirectory() as folder:
+        results, edges = uniform_shell("kcs", Path(folder))
+    drawing = expand(results, edges, [], gap=1000.0)
+    trims = {r.name: r.part.hull.trim for r in results}
+    cut = [p for p in drawing.plates if p.trim_lines]
+    assert len(cut) == 20
+    narrow = []
+    for p in cut:
+        outline = Polygon(p.outline)
+        x0, y0, x1, y1 = outline.bounds
+        columns = np.clip(edges[p.name].points[0, :, 0], x0 + 1e-6, x1 - 1e-6)
+        drawn = max(outline.intersection(LineString([(x, y0 - 1.0), (x, y1 + 1.0)])).length for x in columns)
+        width = edges[p.name].widths(trims[p.name]).max()
+        assert width == pytest.approx(drawn, abs=2.0), p.name
+        narrow += [p.name] if width < 1000.0 else []
+    assert sorted(narrow) == ["kcs_P4_S01_B09", "kcs_P4_S02_B10", "kcs_P4_S03_B11", "kcs_P4_S04_B13", "kcs_P4_S04_B14"]

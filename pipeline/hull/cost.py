@@ -31,6 +31,7 @@ from .hullplots import display_class, shell_area
 # tolerance, or formed but rolling only), formed, failed
 SHARE_NAMES = {"flat": "flat", "developable": "strip", "patch": "rolled", "formed": "formed", "failed": "failed"}
 EDGE_SAMPLES = (33, 129)  # points across the girth (butts) and along the length (seams)
+TRIM_SAMPLES = 64  # points along a grid step that a face's trim crosses, to measure the part inside
 CROSS_REACH_MM = 1.0  # plates' corners this close meet at one point (each plate computes its own)
 SHARED = 0.05  # a segment is shared when its midpoint lies within this share of its length of another edge
 
@@ -50,9 +51,22 @@ class PlateEdges:
         p = self.points
         return {"seam_lo": p[0], "seam_hi": p[-1], "butt_lo": p[:, 0], "butt_hi": p[:, -1]}
 
-    def widths(self) -> np.ndarray:
-        """Girth width (C,) of every column: arc length across the plate (model units)."""
-        return np.linalg.norm(np.diff(self.points, axis=0), axis=2).sum(axis=0)
+    def widths(self, trim=None) -> np.ndarray:
+        """Girth width (C,) of every column: arc length across the plate (model units); with
+        its face's ``trim`` (:class:`.trims.Trim`) only the length inside it, the plate the
+        shop cuts (a column wholly outside has none)."""
+        steps = np.linalg.norm(np.diff(self.points, axis=0), axis=2)
+        if trim is None:
+            return steps.sum(axis=0)
+        uv = self.params
+        ends = trim.inside(uv[..., 0], uv[..., 1])
+        share = (ends[1:] & ends[:-1]).astype(float)
+        # a step the trim crosses: the share of TRIM_SAMPLES points along it inside (in (u, v))
+        rows, cols = np.nonzero(ends[1:] != ends[:-1])
+        t = (np.arange(TRIM_SAMPLES) + 0.5) / TRIM_SAMPLES
+        at = uv[rows, cols][:, None] + t[None, :, None] * (uv[rows + 1, cols] - uv[rows, cols])[:, None]
+        share[rows, cols] = trim.inside(at[..., 0], at[..., 1]).mean(axis=1)
+        return (steps * share).sum(axis=0)
 
     def lengths(self) -> np.ndarray:
         """Length (R,) of every row along the plate (model units)."""
@@ -138,7 +152,7 @@ class PlanCost:
     class (flat, strip, rolled, formed, failed) in m^2 and as fractions; ``narrower_than_stock``
     the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
     that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
-    first; ``cross_joints`` the points where four plates meet off the block joints and
+    first; widths of a plate past its face's trim are those inside it; ``cross_joints`` the points where four plates meet off the block joints and
     off the planes where faces are cut together (two seams and two butts in line,
     :func:`.yardrules.cross_joints`), each with its plates;
     ``off_sheets`` the plates no stock sheet holds, with the rectangle they need (mm: the
@@ -228,8 +242,9 @@ def plan_cost(results, edges: dict[str, PlateEdges], mm_per_unit: float, min_wid
     area = class_areas(results)
     total = sum(area.values())
     narrow, below = None, []
+    trims = {r.name: getattr(getattr(getattr(r, "part", None), "hull", None), "trim", None) for r in results}
     for plate in sampled:
-        widths = plate.widths()
+        widths = plate.widths(trims.get(plate.name))  # a plate past its face's trim: as the shop cuts it
         if narrow is None or widths.max() < narrow[1]:
             narrow = (plate.name, float(widths.max()), float(widths.min()))
         if min_width is not None and widths.max() < min_width:
