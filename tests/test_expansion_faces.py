@@ -108,6 +108,20 @@ def test_a_side_continues_a_flat_bottom_across_a_gap_whichever_way_the_flat_runs
     assert len(drawing.bands) == 1
 
 
+def test_a_face_that_would_draw_over_the_face_it_continues_counts_its_own_girth_in_a_band_of_its_own():
+    """Two sides standing on the same flat's edge over the same length both continue it; the
+    second would cover the first, so it goes to a new band from its own lower edge."""
+    other_side = plane([[(0, BEAM, 0), (0, BEAM, DEPTH)], [(LENGTH, BEAM, 0), (LENGTH, BEAM, DEPTH)]])
+    drawing = drawn([plate("flat", FLAT, (0.1, 0.5), (0.2, 0.9)), plate("side", SIDE, (0.1, 0.5), (0.2, 0.8)),
+                     plate("again", other_side, (0.1, 0.5), (0.2, 0.8))])
+    plates = by_name(drawing)
+    assert plates["side"].band == 0 and plates["again"].band == 1
+    assert plates["side"].outline[:, 1].min() == pytest.approx(BEAM + 1000.0, abs=1e-6)
+    base = drawing.bands[1][0]
+    assert plates["again"].outline[:, 1].min() - base == pytest.approx(1000.0, abs=1e-6)
+    assert drawing.bands[1][1] == pytest.approx(DEPTH)
+
+
 def test_faces_of_one_surface_kind_alone_keep_their_own_band_and_girth():
     """Without a face to continue, a side counts from its own lower edge, as before."""
     drawing = drawn([plate("side", SIDE, (0.1, 0.5), (0.2, 0.8))])

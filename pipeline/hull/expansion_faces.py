@@ -5,8 +5,8 @@ A yard's shell expansion counts girth along each frame from the keel over the wh
 whatever faces the model splits it into. A face's section that starts on its girth edge off
 the centre plane (the side shell above a flat bottom, a face lofted from the flat's edge)
 continues the girth of the face it starts on: the girth of the point on that face's section
-at the same station nearest the start, plus the gap between them (model faces leave gaps
-of up to 0.3 m at ship scale: KVLCC2's main hull and flat bottom at the bow). A section
+at the same station nearest the start, plus the gap between them (model faces leave gaps:
+KVLCC2's main hull and flat bottom part by up to 0.3 m at its loft's ends). A section
 that starts on the centre plane, or on a stem or stern contour (girth counted along it),
 counts from there as before. Faces placed so are drawn in one band unless their plates
 overlap there, then in a band of their own, as are faces that continue no face and share
@@ -21,6 +21,8 @@ import numpy as np
 JOIN = 2e-3  # of the drawing's length: a section's start this near another face's section continues it
 OVERLAP = 0.02  # of the smaller face's plate area: faces overlapping more are drawn in bands of their own
 END_FACE = 0.7  # a face whose normals' x share (area-weighted |n_x|) is larger stands across the hull
+# of the join: a start this near the other section's own start is where both begin, not a continuation
+SAME_START = 0.01
 
 
 def stands_across(grids: list[np.ndarray]) -> bool:
@@ -62,7 +64,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.nda
 
     ``tables``: :class:`.expansion.Sections` of the faces; a section continues the face whose
     section at the same station (equal x) passes within ``join`` of its start, the nearest,
-    not at that section's start (0.01 ``join`` from it); a face that stands ``across`` the
+    not at that section's start (SAME_START ``join`` from it); a face that stands ``across`` the
     hull (:func:`stands_across`) continues none and none continues it."""
     count = len(tables)
     parent = [np.full(len(t.stations), -1) for t in tables]
@@ -79,8 +81,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.nda
                 if not table.joinable[k]:
                     continue
                 girth, gap = nearest_on_section(other.points[kg], other.girth[kg], table.points[k, start])
-                # (a start on the other section's own start is where both begin, not a continuation)
-                if gap <= join and gap < best[k] and girth > 0.01 * join:
+                if gap <= join and gap < best[k] and girth > SAME_START * join:
                     best[k], parent[f][k], parent_station[f][k] = gap, g, kg
                     at_parent[f][k] = girth + gap
     order = _parents_first(parent, count)
@@ -126,9 +127,9 @@ def place_bands(mapped: list, continues: list, order: list, join: float, across:
     Parents first, a face goes to the band of the first face it continues, else to the
     first band whose faces' x ranges it overlaps by ``join`` at most (two faces that count
     girth from the keel at one x would draw over each other), else to a new band; a face
-    whose plates overlap those of its band by more than OVERLAP of the smaller area is
-    placed as one that continues no face, with its own girth. A face that stands
-    ``across`` the hull gets a band of its own."""
+    whose plates overlap those of its band by more than OVERLAP of the smaller area counts
+    its own girth in a new band (its plates drawn so are not those the overlap was measured
+    on). A face that stands ``across`` the hull gets a band of its own."""
     multi = len(mapped) > 1
     regions = [face_region([ring for ring, _, _, _ in face]) if multi else None for face in mapped]
     spans = [(min(ring[:, 0].min() for ring, _, _, _ in face), max(ring[:, 0].max() for ring, _, _, _ in face))
@@ -144,7 +145,7 @@ def place_bands(mapped: list, continues: list, order: list, join: float, across:
     for f in order:
         band = band_of.get(continues[f][0]) if continues[f] else None
         if band is not None and any(overlaps(f, g) for g in members[band]):
-            joined[f], band = False, None
+            joined[f], band = False, len(members)
         if band is None:
             band = len(members) if across[f] else next(
                 (b for b in range(len(members)) if not any(across[g] or not apart(f, g) or overlaps(f, g)
