@@ -152,8 +152,9 @@ class PlanCost:
     class (flat, strip, rolled, formed, failed) in m^2 and as fractions; ``narrower_than_stock``
     the plates whose largest girth width is below the plan's ``stock.min_width`` (no stock
     that wide is cut to them: slivers where strakes converge, or a face's leftover), narrowest
-    first; widths of a plate past its face's trim are those inside it; ``cross_joints`` the points where four plates meet off the block joints and
-    off the planes where faces are cut together (two seams and two butts in line,
+    first (a plate past its face's trim as wide as its part inside it); ``cross_joints`` the
+    points where four plates meet off the block joints and off the planes where faces are
+    cut together (two seams and two butts in line,
     :func:`.yardrules.cross_joints`), each with its plates;
     ``off_sheets`` the plates no stock sheet holds, with the rectangle they need (mm: the
     shop's stock check on the cut outline, or :mod:`.sheets` on the development of a plate

@@ -80,13 +80,17 @@ class Sections:
     g: np.ndarray
     girth: np.ndarray
     from_high: bool
-    z: np.ndarray  # (K, n) the section points' z (NaN where girth is), for waterlines and decks
     starts: np.ndarray  # (K,) g where a section starts on the surface's end edge between samples (else NaN)
     start_girth: np.ndarray  # (K,) the girth there: along the contour from the centre plane (0 at a stem)
     points: np.ndarray  # (K, n, 3) the section points girth is tabled for (NaN where girth is)
     # (K,) the section starts on the surface's girth edge off the centre plane: its girth may
     # continue another face's (:func:`joined_offsets`)
     joinable: np.ndarray
+
+    @property
+    def z(self) -> np.ndarray:
+        """(K, n) the section points' z (NaN where girth is), for waterlines and decks."""
+        return self.points[..., 2]
 
     def at(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Girth (N,) of points at x (N,) on the iso-g curves g (N,): bilinear in the table
@@ -231,7 +235,7 @@ def section_table(surface, axis: int, stations: np.ndarray, n: int = G_SAMPLES, 
         row[first + 1:stop] = row[first] + np.cumsum(seg[k, first:stop - 1])
         girth[k] = row[::-1] if from_high else row
     pts[~np.isfinite(girth)] = np.nan
-    return Sections(stations, g, girth, from_high, pts[..., 2], starts, start_girth, pts, joinable)
+    return Sections(stations, g, girth, from_high, starts, start_girth, pts, joinable)
 
 
 def _end_edges(surface, axis: int, g: np.ndarray) -> tuple:
@@ -434,13 +438,14 @@ def _shifted(line: np.ndarray, by: float) -> np.ndarray:
 def _frame_lines(placed: list, frames: list, bands: int) -> tuple:
     """(x, girth bottom, girth top, band, number) of each frame in each band its faces reach."""
     lines = []
+    totals = [table.total() for table, _, _ in placed]
     for band in range(bands):
         for number, f in frames:
             ends = []
-            for table, offset, b in placed:
+            for (table, offset, b), total in zip(placed, totals):
                 if b == band and table.stations[0] <= f <= table.stations[-1]:
                     k = int(np.argmin(np.abs(table.stations - f)))
-                    top = float(table.total()[k])
+                    top = float(total[k])
                     if top > 0:
                         ends.append((float(offset[k]), float(offset[k]) + top))
             if ends:
@@ -553,17 +558,18 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     heights = []
     for p in drawing.plates:
         layer = LAYER_NAMES.get(p.klass, "EXP_FAILED")
+        seams, butts = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in lines] for lines in (p.seams, p.butts))
         if p.trim_lines:  # cut at its face's trim: the cut outline, its corners among its points
             ring = thin(np.vstack([p.outline, p.outline[:1]]) * mm, DRAWING_TOLERANCE_MM)[:-1]
         else:  # each side thinned alone: the four corners stay vertices
-            (s_lo, s_hi), (b_lo, b_hi) = ([thin(line * mm, DRAWING_TOLERANCE_MM) for line in pair]
-                                          for pair in (p.seams, p.butts))
+            (s_lo, s_hi), (b_lo, b_hi) = seams, butts
             ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
         msp.add_lwpolyline(ring.tolist(), close=True, dxfattribs={"layer": layer})
-        for line in p.seams + p.trim_lines:  # a trim line is the plate's joint with the next face's
-            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_SEAMS"})
-        for line in p.butts:
-            msp.add_lwpolyline(thin(line * mm, DRAWING_TOLERANCE_MM).tolist(), dxfattribs={"layer": "EXP_BUTTS"})
+        # a trim line is the plate's joint with the next face's
+        for line in seams + [thin(t * mm, DRAWING_TOLERANCE_MM) for t in p.trim_lines]:
+            msp.add_lwpolyline(line.tolist(), dxfattribs={"layer": "EXP_SEAMS"})
+        for line in butts:
+            msp.add_lwpolyline(line.tolist(), dxfattribs={"layer": "EXP_BUTTS"})
         centre = ring_centre(p.outline) * mm
         length = float(np.ptp(p.outline[:, 0])) * mm
         width = polygon_area(p.outline) * mm * mm / max(length, 1e-300)  # the mean girth width
@@ -656,7 +662,7 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
         write_expansion_dxf(written[-1], drawing, mm, title, sheet, info)
     if pdf:
         written.append(out_dir / f"{style}_expansion.pdf")
-        page = getattr(config.spec.output, "expansion_tiles", None)
+        page = config.spec.output.expansion_tiles
         tiles = None if page is None else (page, out_dir / f"{style}_expansion_tiles.pdf")
         write_expansion_pdf(written[-1], drawing, sheet, mm, title, info, tiles)
         if tiles is not None:

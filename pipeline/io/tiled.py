@@ -52,9 +52,9 @@ def tile_windows(sheet: tuple[float, float], page: str) -> list[Tile]:
     return [Tile(r + 1, c + 1, x0, y0, (pw, ph)) for r, y0 in enumerate(rows) for c, x0 in enumerate(columns)]
 
 
-def write_tiles(fig, paper, target: str | Path, sheet: tuple[float, float], page: str, title: str) -> list[Tile]:
+def write_tiles(fig, paper, target: str | Path, sheet: tuple[float, float], page: str, title: str) -> None:
     """Every tile of ``fig`` (the sheet, ``paper`` its axes in sheet mm over the whole
-    figure) as one page of a PDF at ``target``; returns the tiles, page by page."""
+    figure) as one page of a PDF at ``target``, in :func:`tile_windows`' order."""
     from matplotlib.backends.backend_pdf import PdfPages
     from matplotlib.transforms import Bbox
 
@@ -80,4 +80,3 @@ def write_tiles(fig, paper, target: str | Path, sheet: tuple[float, float], page
             pdf.savefig(fig, bbox_inches=Bbox([[tile.x0 / 25.4, tile.y0 / 25.4], [x1 / 25.4, y1 / 25.4]]))
             for artist in marks:
                 artist.remove()
-    return tiles
