@@ -263,7 +263,9 @@ def seam_sides(parts) -> dict:
 def butt_violations(parts, stagger: float, joints=(), eps: float = 1e-6) -> list[tuple[str, str, float, float]]:
     """Pairs of butts of plates on either side of one seam that meet the seam off its ends
     closer than ``stagger`` (0 < d < stagger), or at one point off the block joints:
-    (plate, plate, x, x). Butts are the plates' plane ends (the hull's ends are not)."""
+    (plate, plate, x, x). Butts are the plates' plane ends where another plate of the same
+    side takes the seam on (not the hull's ends, nor where the seam stops at a plate that
+    spans it: a drop strake's T)."""
     joint_set = np.array(sorted(float(j) for j in joints))
     bad = []
     for girth, below, above in seam_sides(parts).values():
@@ -273,12 +275,9 @@ def butt_violations(parts, stagger: float, joints=(), eps: float = 1e-6) -> list
         start, stop = min(r[0] for r in ranges), max(r[1] for r in ranges)
 
         def butts(plates):
-            out = []
-            for p in plates:
-                for plane in p.hull.butts:
-                    if plane is not None and start + eps < plane.offset < stop - eps:
-                        out.append((p.name, float(plane.offset)))
-            return out
+            ends = [(p.name, float(plane.offset)) for p in plates for plane in p.hull.butts if plane is not None]
+            return [(name, x) for name, x in ends if start + eps < x < stop - eps
+                    and any(other != name and abs(y - x) <= eps for other, y in ends)]
 
         for name_a, xa in butts(below):
             for name_b, xb in butts(above):
