@@ -55,22 +55,32 @@ class PlateEdges:
         """Girth width (C,) of every column: arc length across the plate (model units); with
         its face's ``trim`` (:class:`.trims.Trim`) only the length inside it, the plate the
         shop cuts (a column wholly outside has none)."""
-        steps = np.linalg.norm(np.diff(self.points, axis=0), axis=2)
+        return self._inside_steps(0, trim).sum(axis=0)
+
+    def lengths(self, trim=None) -> np.ndarray:
+        """Length (R,) of every row along the plate (model units); with its face's ``trim``
+        only the length inside it, as :meth:`widths`."""
+        return self._inside_steps(1, trim).sum(axis=1)
+
+    def _inside_steps(self, axis: int, trim) -> np.ndarray:
+        """The grid's steps along ``axis`` (0: across the girth, 1: along the length), each
+        as long as its part inside ``trim`` (all of it without one)."""
+        steps = np.linalg.norm(np.diff(self.points, axis=axis), axis=2)
         if trim is None:
-            return steps.sum(axis=0)
+            return steps
         uv = self.params
         ends = trim.inside(uv[..., 0], uv[..., 1])
-        share = (ends[1:] & ends[:-1]).astype(float)
+        first = ends[:-1] if axis == 0 else ends[:, :-1]
+        second = ends[1:] if axis == 0 else ends[:, 1:]
+        share = (first & second).astype(float)
         # a step the trim crosses: the share of TRIM_SAMPLES points along it inside (in (u, v))
-        rows, cols = np.nonzero(ends[1:] != ends[:-1])
+        rows, cols = np.nonzero(first != second)
+        step = (1, 0) if axis == 0 else (0, 1)
         t = (np.arange(TRIM_SAMPLES) + 0.5) / TRIM_SAMPLES
-        at = uv[rows, cols][:, None] + t[None, :, None] * (uv[rows + 1, cols] - uv[rows, cols])[:, None]
+        start, stop = uv[rows, cols], uv[rows + step[0], cols + step[1]]
+        at = start[:, None] + t[None, :, None] * (stop - start)[:, None]
         share[rows, cols] = trim.inside(at[..., 0], at[..., 1]).mean(axis=1)
-        return (steps * share).sum(axis=0)
-
-    def lengths(self) -> np.ndarray:
-        """Length (R,) of every row along the plate (model units)."""
-        return np.linalg.norm(np.diff(self.points, axis=1), axis=2).sum(axis=1)
+        return steps * share
 
 
 def plate_edges(name: str, hull, samples: tuple[int, int] = EDGE_SAMPLES) -> PlateEdges | None:

@@ -96,12 +96,16 @@ def region_size(surface, axis: int, girths, planes) -> tuple[float, float, float
     return length, width, float(p[..., 0].min()), float(p[..., 0].max())
 
 
-def inside_share(surface, axis: int, girths, planes, trim) -> float:
-    """Share of a plate region's area inside the surface's trim (a 17 x 49 grid of it)."""
+def trimmed_size(surface, axis: int, girths, planes, trim) -> tuple[float, float, float]:
+    """(share of the area inside ``trim``, length, width) of a plate region's part inside the
+    surface's trim, the plate the shop cuts (a 17 x 49 grid of the region; model units, the
+    longest row's and the widest column's length inside); zeros when the region misses it."""
+    from .cost import PlateEdges
+
     grid = region_grid(surface, axis, girths[0], girths[1], [None if p is None else p.as_tuple() for p in planes],
                        17, 49, probe=160)
     if grid is None:
-        return 0.0
+        return 0.0, 0.0, 0.0
     p = grid.points
     # area per grid point: the product of its half-neighbour spacings along and across
     ds = np.gradient(np.concatenate([np.zeros((p.shape[0], 1)), np.cumsum(
@@ -111,7 +115,11 @@ def inside_share(surface, axis: int, girths, planes, trim) -> float:
     weight = ds * dg
     inside = trim.inside(grid.params[..., 0], grid.params[..., 1])
     total = float(weight.sum())
-    return float(weight[inside].sum()) / total if total > 0 else 0.0
+    share = float(weight[inside].sum()) / total if total > 0 else 0.0
+    if share <= 0.0:
+        return 0.0, 0.0, 0.0
+    edges = PlateEdges("", p, grid.params)
+    return share, float(edges.lengths(trim).max()), float(edges.widths(trim).max())
 
 
 def plate_class(result) -> str:
@@ -156,6 +164,7 @@ class Cell:
     weld_m: float = 0.0  # the weld its split from the parent added (m)
     split: object = None  # the split the plan took of it
     tried: tuple = ()  # the kinds of split taken of it and given up (an objective's plan)
+    merged: str = ""  # the sliver of its face's trim the layout merged into it (:mod:`.trimslivers`)
     size: tuple = (0.0, 0.0)  # (length, width) of its region on a coarse grid when built (model units)
     order: tuple = ()  # its place in the layout: the cell's index there, then each split's half (0, 1)
     # held by a fit-up of this plan made before, where it lost its flat or strip class
@@ -251,11 +260,15 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
             def width_of(lo, hi, a, b, surface=surface, axis=axis, seam_lines=seam_lines):
                 return region_size(surface, axis, (seam_lines[lo], seam_lines[hi]), (_plane(a), _plane(b)))[1]
 
-            for lo, hi, xs, j in yard_layout(len(seams) - 1, x0, x1, limits[k], stock, stagger, plan.block_joints,
-                                             width_of):
-                label = f"S{lo + 1:02d}" if hi == lo + 1 else f"S{lo + 1:02d}-{hi:02d}"
-                cells.append(Cell(k, f"{prefix}_{label}_B{j:02d}", (seam_lines[lo], seam_lines[hi]),
-                                  (names[lo], names[hi]), (_plane(xs[0]), _plane(xs[1])), 0))
+            layout = yard_layout(len(seams) - 1, x0, x1, limits[k], stock, stagger, plan.block_joints, width_of)
+            merged = {}
+            if loaded[k][1] is not None:
+                layout, merged = _trim_slivers_merged(layout, surface, axis, seam_lines, loaded[k][1], stock, stagger,
+                                                      plan.block_joints, (x0, x1), prefix, names, mm_per_unit)
+            for lo, hi, xs, j in layout:
+                name = f"{prefix}_{_strakes_label(lo, hi)}_B{j:02d}"
+                cells.append(Cell(k, name, (seam_lines[lo], seam_lines[hi]), (names[lo], names[hi]),
+                                  (_plane(xs[0]), _plane(xs[1])), 0, merged=merged.get((lo, hi, j), "")))
             continue
         ends = [None if x is None else Plane((1.0, 0.0, 0.0), x) for x in limits[k]]
         planes = [ends[0]] + [Plane((1.0, 0.0, 0.0), x) for x in butts] + [ends[1]]
@@ -285,8 +298,11 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
             return None  # the region misses this surface (e.g. a butt beyond a short strake)
         butt_names = tuple("HULL END" if p is None else f"BUTT X{p.offset:.0f}" for p in cell.pair)
         curves = [seam_of(cell, side) for side in (0, 1)]
-        inside = 1.0 if face.trim is None else inside_share(face.surface, face.axis, cell.girths, cell.pair,
-                                                            face.trim)
+        inside = 1.0
+        if face.trim is not None:
+            inside, cut_length, cut_width = trimmed_size(face.surface, face.axis, cell.girths, cell.pair, face.trim)
+            if inside < 1.0:
+                cell.size = (cut_length, cut_width)  # the stock holds the part the shop cuts
         if inside <= 0.0:
             return None  # wholly outside the surface's trim: not shell (another surface covers it)
         part = plate_part(cell.name, face.surface, face.axis, cell.girths, curves, cell.pair, spec.steel, strake,
@@ -318,6 +334,34 @@ def plan_hull(spec, path, mm_per_unit: float, lines: dict, evaluate=None, record
         kept = _split_for(cells, build, context)
     kept = _onto_sheets(kept, build, context)
     return [c.part for c in sorted(kept, key=lambda c: c.k)]  # stable: each face's plates in plan order
+
+
+def _strakes_label(lo: int, hi: int) -> str:
+    return f"S{lo + 1:02d}" if hi == lo + 1 else f"S{lo + 1:02d}-{hi:02d}"
+
+
+def _trim_slivers_merged(layout: list, surface, axis: int, seam_lines: list, trim, stock, stagger: float, joints,
+                         extent: tuple, prefix: str, names: list, mm_per_unit: float) -> tuple[list, dict]:
+    """A trimmed face's yard layout with the plates its trim cuts to slivers merged into a
+    neighbour (:mod:`.trimslivers`), and a note for each merged plate by (lo, hi, B number)."""
+    from .trimslivers import merge_slivers
+
+    def cut_size(lo, hi, a, b):
+        return trimmed_size(surface, axis, (seam_lines[lo], seam_lines[hi]), (_plane(a), _plane(b)), trim)[1:]
+
+    layout, merges = merge_slivers(layout, cut_size, stock, stagger, joints or (), extent)
+    notes = {}
+    for m in merges:
+        lo, hi = min(m.sliver[0], m.into[0]), max(m.sliver[1], m.into[1])
+        sliver = f"{prefix}_{_strakes_label(*m.sliver[:2])}_B{m.sliver[4]:02d}"
+        how = ("along its strake, the butt between them dropped" if m.how == "along" else
+               f"across {names[m.into[0] if m.into[0] == m.sliver[1] else m.sliver[0]]}, which ends at its butts "
+               "(a drop strake)")
+        key = (lo, hi, m.into[4])
+        notes[key] = "; ".join(n for n in (notes.get(key), (
+            f"took {sliver}, {m.width * mm_per_unit:.0f} mm wide inside the face's trim, {how}: "
+            f"{m.merged_width * mm_per_unit:.0f} mm wide inside it")) if n)
+    return layout, notes
 
 
 def _meet_earlier_faces(k: int, surface, axis: int, seams: list, s_widest: float, laid: list, limits: list,
@@ -419,7 +463,10 @@ def _excess(length: float, width: float, stock) -> tuple:
 def _oversize(cell: Cell, stock) -> tuple:
     """:func:`_excess` of an evaluated plate (its region's widest girth and longest length). A
     strake laid at the hull's widest section can be wider elsewhere (iso-parameter seams:
-    KVLCC2's stern plates 5.1 m wide of a 4 m stock)."""
+    KVLCC2's stern plates 5.1 m wide of a 4 m stock). A plate past its face's trim: its part
+    inside the trim (:func:`trimmed_size`), which the shop cuts."""
+    if getattr(cell.part.hull, "trim", None) is not None:
+        return _excess(*cell.size, stock)
     region = (getattr(cell.result, "figures", None) or {}).get("region") or {}
     return _excess(region.get("length", 0.0), region.get("width", 0.0), stock)
 
@@ -744,7 +791,8 @@ def _settle(cell: Cell, why: str, method: str) -> Cell:
     the plate's JSON reports whatever result the fit-up delivers)."""
     if cell.part is not None:
         cell.part.hull.plan = {"depth": cell.depth, "class_for_plan": honest_class(cell.result), "method": method,
-                               "stopped": why, **({"held_at_fit_up_before": True} if cell.lost else {})}
+                               "stopped": why, **({"held_at_fit_up_before": True} if cell.lost else {}),
+                               **({"merged_sliver": cell.merged} if cell.merged else {})}
     cell.settled = why
     return cell
 
