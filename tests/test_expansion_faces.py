@@ -275,3 +275,57 @@ def test_kcs_flat_bottom_slivers_are_reported_as_cut():
         assert width == pytest.approx(drawn, abs=2.0), p.name
         narrow += [p.name] if width < 1000.0 else []
     assert sorted(narrow) == ["kcs_P4_S01_B09", "kcs_P4_S02_B10", "kcs_P4_S03_B11", "kcs_P4_S04_B13", "kcs_P4_S04_B14"]
+
+
+def test_where_a_face_does_not_meet_the_face_it_continues_the_sheet_says_so():
+    """The flat trimmed to v >= 0.1 max(0, 2u - 1) (u along x, v from the bilge in): from
+    x = 10 m aft its plate stops short of the beam by BEAM (0.2 u - 0.1), 300 mm at the end,
+    while the side still stands on the beam and continues the flat's untrimmed girth there.
+    The drawing leaves that girth open at every station, exactly; the sheet's note names the
+    faces, the stretch where the opening is at least the least asked (150 mm: from x = 15 m)
+    and the widest (300 mm). Without the trim nothing is open and nothing is said."""
+    from pipeline.hull.expansion import gap_notes
+
+    loop = np.array([(0.0, 0.0), (0.5, 0.0), (1.0, 0.1), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0)])
+    pairs = [plate("flat", FLAT, (0.0, 1.0), (0.0, 1.0), trim=Trim(1, loop, (), 144), cols=33),
+             plate("side", SIDE, (0.0, 1.0), (0.0, 0.8))]
+    drawing = drawn(pairs)
+    ((face, other, stations, opened),) = drawing.joins
+    assert (face, other) == ("side", "flat")
+    expected = BEAM * np.maximum(0.0, 0.2 * stations / LENGTH - 0.1)
+    assert np.allclose(opened, expected, atol=1e-6)
+    (note,) = gap_notes(drawing, 150.0, 1.0)
+    first = stations[expected >= 150.0 - 1e-9].min()
+    assert note.startswith(f"SIDE DOES NOT MEET FLAT AT X = {first / 1000:.1f} TO 20.0 M: UP TO 300 MM OF GIRTH OPEN")
+    assert gap_notes(drawing, 301.0, 1.0) == []
+    whole = drawn([plate("flat", FLAT, (0.0, 1.0), (0.0, 1.0)), plate("side", SIDE, (0.0, 1.0), (0.0, 0.8))])
+    assert np.nanmax(whole.joins[0][3]) == pytest.approx(0.0, abs=1e-6) and gap_notes(whole, 1.0, 1.0) == []
+
+
+def test_kvlcc2_bow_hole_between_its_faces_is_measured_and_noted(tmp_path):
+    """KVLCC2's main-hull face beyond its loft (P3) stands on its flat of bottom's untrimmed
+    surface at the bow, while the flat's trim (P4) stops short of it: the drawing leaves that
+    girth open, and its sheet (1:200) says so where it shows (0.5 mm on paper: 100 mm).
+    Independently, from the faces' own sections (the flat cut at its trim; on the flat
+    girth is |y|): at x = 300, 305 and 311 m the opening is the flat's untrimmed girth between
+    its trim and the side's foot plus the foot's height, within 2 mm. KCS's faces meet
+    everywhere to within 50 mm (its 1:100 sheet's 0.5 mm): no note."""
+    from pipeline.hull.expansion import gap_notes
+    from pipeline.hull.shell import face_section
+
+    for name, scale, notes in (("kcs", 100, 0), ("kvlcc2", 200, 1)):
+        results, edges = uniform_shell(name, tmp_path)
+        drawing = expand(results, edges, [], gap=1000.0)
+        found = gap_notes(drawing, 0.5 * scale, 1.0)
+        assert len(found) == notes, found
+    assert found[0].startswith("KVLCC2_P3 DOES NOT MEET KVLCC2_P4 AT X = 299.1 TO 311.9 M")
+    ((_, _, stations, opened),) = [j for j in drawing.joins if j[:2] == ("kvlcc2_P3", "kvlcc2_P4")]
+    hulls = {r.name.split("_")[1]: r.part.hull for r in results}
+    flat, side = hulls["P4"], hulls["P3"]
+    for x in (300e3, 305e3, 311e3):
+        trimmed = face_section(flat.surface, x, flat.face_trim.face_region(flat.surface))
+        edge = max(np.abs(s[:, 1]).max() for s in trimmed)
+        foot = min((s[np.argmin(s[:, 2])] for s in face_section(side.surface, x)), key=lambda p: p[2])
+        k = int(np.argmin(np.abs(stations - x)))
+        assert abs(stations[k] - x) < 100.0
+        assert opened[k] == pytest.approx(abs(foot[1]) - edge + foot[2], abs=2.0), x

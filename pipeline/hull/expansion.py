@@ -29,6 +29,7 @@ the hull get bands of their own (:mod:`.expansion_faces`).
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,7 +43,10 @@ from .expansion_faces import (
     JOIN,
     clipped,
     cut_at_trim,
+    face_region,
+    gap_stretches,
     joined_offsets,
+    open_below,
     place_bands,
     stands_across,
 )
@@ -54,6 +58,7 @@ LAYER_COLOURS = {"flat": 5, "developable": 3, "patch": 4, "formed": 30, "failed"
 LAYER_NAMES = {"flat": "EXP_FLAT", "developable": "EXP_STRIP", "patch": "EXP_ROLLED", "formed": "EXP_FORMED",
                "failed": "EXP_FAILED"}
 DRAWING_TOLERANCE_MM = 0.5  # polylines of the DXF thinned to this
+GAP_SHOWN_MM = 0.5  # paper mm: a gap between faces this wide on the sheet is seen, and the sheet says why
 LEVEL_COLOURS = {"waterline": 150, "deck": 6}  # ACI
 # the DXF's other layers: name, ACI colour, linetype (ezdxf's standard set)
 DXF_LAYERS = (("EXP_SEAMS", 7, "Continuous"), ("EXP_BUTTS", 7, "Continuous"), ("EXP_FRAMES", 8, "DASHED"),
@@ -351,6 +356,10 @@ class Expansion:
     levels: tuple = ()
     base_line: float | None = None
     notes: tuple = ()
+    # faces drawn continuing another: (face, the face it continues, stations (K,), the girth
+    # left open between that face's plates and its section's start there (K,), NaN where it
+    # continues another or none: :func:`.expansion_faces.open_below`), names as the plates'
+    joins: tuple = ()
 
     @property
     def height(self) -> float:
@@ -388,7 +397,7 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
     x_all = np.concatenate([t.stations for t in tables])
     join = JOIN * float(np.ptp(x_all))
     across = [stands_across([e.points for _, e in members]) if len(faces) > 1 else False for members in faces]
-    offsets, continues, order = joined_offsets(tables, join, across)
+    offsets, continues, order, joins = joined_offsets(tables, join, across)
     mapped = [_map_face(members, table, offset) for members, table, offset in zip(faces, tables, offsets)]
     band_of, joined = place_bands(mapped, continues, order, join, across)
     for f in range(len(faces)):
@@ -418,8 +427,37 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
     if any(joined[f] and continues[f] for f in range(len(faces))):
         side += "; a face whose sections start on another face's continues its girth"
     levels, base_z, notes = _levels(placed, waterlines, decks, base_line, snap)
+    labels = [_face_label([r.name for r, _ in members]) for members in faces]
+    drawn_joins = []
+    for f in range(len(faces)):
+        for g in continues[f] if joined[f] and len(faces) > 1 else ():
+            starts = np.where(joins[f][0] == g, offsets[f], np.nan)  # where its sections start, in the band
+            region = face_region([ring for ring, _, _, _ in mapped[g]])
+            drawn_joins.append((labels[f], labels[g], tables[f].stations,
+                                open_below(region, tables[f].stations, starts)))
     return Expansion(tuple(plates), _frame_lines(placed, frames, len(bands)), tuple(bands),
-                     (float(x_all.min()), float(x_all.max())), side, levels, base_z, notes)
+                     (float(x_all.min()), float(x_all.max())), side, levels, base_z, notes, tuple(drawn_joins))
+
+
+def _face_label(names: list[str]) -> str:
+    """A face's name as its plates' names give it: the plan's ``NAME_Pk`` (several faces)."""
+    import re
+
+    found = re.match(r"(.*_P\d+)_", names[0])
+    return found.group(1) if found else os.path.commonprefix(names).rstrip("_")
+
+
+def gap_notes(drawing: Expansion, least: float, mm: float) -> list[str]:
+    """The sheet's words on where the drawing leaves ``least`` or more (model units) of girth
+    open between a face and the plates of the face it continues: the model's faces do not
+    meet there (its shell has a hole), not a plate missing."""
+    out = []
+    for face, other, stations, gaps in drawing.joins:
+        for x0, x1, widest in gap_stretches(stations, gaps, least):
+            where = f"X = {x0 * mm / 1000:.1f} M" if x1 <= x0 else f"X = {x0 * mm / 1000:.1f} TO {x1 * mm / 1000:.1f} M"
+            out.append(f"{face.upper()} DOES NOT MEET {other.upper()} AT {where}: UP TO {widest * mm:.0f} MM OF GIRTH "
+                       "OPEN, A HOLE IN THE HULL MODEL (NO PLATE MISSING)")
+    return out
 
 
 def _map_face(members: list, table: Sections, offset: np.ndarray) -> list[tuple]:
@@ -655,7 +693,7 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
     sheet = plan_sheet(drawing.x_range, drawing.height, mm, frames)
     info = {"drawing": f"{style.upper()}-EXP: SHELL EXPANSION", "hull": style, "plates": len(hull),
             "side": side_shown(across(hull, edges)), "bow": None if strake is None else strake.bow,
-            "notes": _level_notes(drawing, mm)}
+            "notes": _level_notes(drawing, mm) + gap_notes(drawing, GAP_SHOWN_MM * sheet.scale / mm, mm)}
     written = []
     if dxf:
         written.append(out_dir / f"{style}_expansion.dxf")

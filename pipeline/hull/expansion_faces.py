@@ -56,11 +56,12 @@ def nearest_on_section(points: np.ndarray, girth: np.ndarray, target: np.ndarray
     return float(ga[i] + t[i] * (gb[i] - ga[i])), float(dist[i])
 
 
-def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.ndarray], list[tuple[int, ...]], list[int]]:
+def joined_offsets(tables: list, join: float, across: list) -> tuple[list, list, list, list]:
     """Each face's girth offset (K,) at its table's stations (model units, 0 where its
     sections count from the centre plane, a contour or, continuing no face, their own
-    start), the faces each continues, and the faces in an order where each comes after
-    those it continues.
+    start), the faces each continues, the faces in an order where each comes after those
+    it continues, and each face's joins: (face it continues (K,), -1 where none; the gap
+    between its section's start and that face's section (K,), NaN where none).
 
     ``tables``: :class:`.expansion.Sections` of the faces; a section continues the face whose
     section at the same station (equal x) passes within ``join`` of its start, the nearest,
@@ -70,6 +71,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.nda
     parent = [np.full(len(t.stations), -1) for t in tables]
     at_parent = [np.zeros(len(t.stations)) for t in tables]  # the parent's girth at the start, plus the gap
     parent_station = [np.zeros(len(t.stations), dtype=int) for t in tables]
+    gap_at = [np.zeros(len(t.stations)) for t in tables]  # from the start to the parent's section
     for f, table in enumerate(tables):
         best = np.full(len(table.stations), np.inf)
         start = table.points.shape[1] - 1 if table.from_high else 0
@@ -83,7 +85,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.nda
                 girth, gap = nearest_on_section(other.points[kg], other.girth[kg], table.points[k, start])
                 if gap <= join and gap < best[k] and girth > SAME_START * join:
                     best[k], parent[f][k], parent_station[f][k] = gap, g, kg
-                    at_parent[f][k] = girth + gap
+                    at_parent[f][k], gap_at[f][k] = girth + gap, gap
     order = _parents_first(parent, count)
     offsets = [np.zeros(len(t.stations)) for t in tables]
     for f in order:
@@ -91,7 +93,8 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list[np.nda
             g = parent[f][k]
             offsets[f][k] = offsets[g][parent_station[f][k]] + at_parent[f][k]
     continues = [tuple(sorted({int(g) for g in parent[f] if g >= 0})) for f in range(count)]
-    return offsets, continues, order
+    joins = [(parent[f], np.where(parent[f] >= 0, gap_at[f], np.nan)) for f in range(count)]
+    return offsets, continues, order, joins
 
 
 def _parents_first(parent: list[np.ndarray], count: int) -> list[int]:
@@ -201,3 +204,45 @@ def clipped(lines: tuple, outline: np.ndarray) -> tuple:
         merged = line_merge(MultiLineString(parts)) if parts else None
         pieces += [np.asarray(p.coords) for p in getattr(merged, "geoms", [merged]) if merged is not None]
     return tuple(pieces)
+
+
+def open_below(region, stations: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """The girth (K,) left open below a face's section starts ``starts`` (K,) at x =
+    ``stations`` (K,) down to the plates of the face it continues (``region``: their
+    outlines' union, :func:`face_region`, in the same band), the white the drawing shows
+    there (the start lies within the join of that face's untrimmed section: what is open is
+    the part its trim cuts away); NaN where that face has no plate below the start."""
+    from shapely.geometry import LineString
+
+    out = np.full(len(stations), np.nan)
+    lo, hi = region.bounds[1], region.bounds[3]
+    for k, (x, start) in enumerate(zip(stations, starts)):
+        if not np.isfinite(start):
+            continue
+        cut = region.intersection(LineString([(x, lo - 1.0), (x, hi + 1.0)]))
+        pieces = [cut] if cut.geom_type == "LineString" else [g for g in getattr(cut, "geoms", []) if
+                                                               g.geom_type == "LineString"]
+        # each piece of the plates' cover along x: up to the start, or over it (a girth overlap)
+        tops = [min(max(y for _, y in piece.coords), start) for piece in pieces if not piece.is_empty
+                and min(y for _, y in piece.coords) <= start]
+        if tops:
+            out[k] = start - max(tops)
+    return out
+
+
+def gap_stretches(stations: np.ndarray, gaps: np.ndarray, least: float) -> list[tuple[float, float, float]]:
+    """(x from, x to, largest gap) of each run of consecutive stations (K,) where ``gaps``
+    (K,) is at least ``least`` (NaN: none there)."""
+    wide = np.isfinite(gaps) & (np.nan_to_num(gaps, nan=0.0) >= least)
+    out = []
+    k = 0
+    while k < len(wide):
+        if not wide[k]:
+            k += 1
+            continue
+        end = k
+        while end + 1 < len(wide) and wide[end + 1]:
+            end += 1
+        out.append((float(stations[k]), float(stations[end]), float(np.max(gaps[k:end + 1]))))
+        k = end + 1
+    return out
