@@ -6,6 +6,7 @@ The one module that reads YAML (within the limits of :mod:`pipeline.inputs`).
 
 from __future__ import annotations
 
+import datetime
 import re
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -508,6 +509,23 @@ class Shop(_Strict):
         return value
 
 
+class Issue(_Strict):
+    """The drawings' issue as their title blocks give it (ISO 7200's revision index and date
+    of issue, and who drew and approved them); without it a title block says DEVFLAT drew it."""
+
+    revision: str = Field(pattern=r"^[A-Za-z0-9.-]{1,8}$")
+    date: datetime.date
+    drawn_by: str | None = Field(None, min_length=1, max_length=40)
+    approved_by: str | None = Field(None, min_length=1, max_length=40)
+
+    def text(self) -> str:
+        """One line for a title block: REV B   ISSUED 2026-12-08   DRAWN BY ...   APPROVED BY ..."""
+        parts = [f"REV {self.revision}", f"ISSUED {self.date.isoformat()}"]
+        parts += [f"{what} {who}" for what, who in (("DRAWN BY", self.drawn_by), ("APPROVED BY", self.approved_by))
+                  if who]
+        return "   ".join(parts).upper()
+
+
 class Output(_Strict):
     dxf: bool = True
     obj: bool = True
@@ -522,6 +540,8 @@ class Output(_Strict):
     # a hull's shell expansion also as NAME_expansion_tiles.pdf: its A1 / A0 sheet on A3 or A4
     # pages at full size, overlapping, to print at 100 % and tape together (pipeline.io.tiled)
     expansion_tiles: Literal["A3", "A4"] | None = None
+    # the drawings' revision and date of issue in their title blocks (shop drawings, expansion)
+    issue: Issue | None = None
     layers: Layers = Layers()
 
     @model_validator(mode="after")

@@ -693,6 +693,7 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
     sheet = plan_sheet(drawing.x_range, drawing.height, mm, frames)
     info = {"drawing": f"{style.upper()}-EXP: SHELL EXPANSION", "hull": style, "plates": len(hull),
             "side": side_shown(across(hull, edges)), "bow": None if strake is None else strake.bow,
+            "issue": config.spec.output.issue,
             "notes": _level_notes(drawing, mm) + gap_notes(drawing, GAP_SHOWN_MM * sheet.scale / mm, mm)}
     written = []
     if dxf:

@@ -167,7 +167,17 @@ def title_rows(info: dict, plan: SheetPlan) -> list[tuple[str, str]]:
             ("PLATES", str(info.get("plates", ""))),
             ("SCALE", f"1:{plan.scale}"), ("SHEET", f"{plan.sheet} {w:.0f} X {h:.0f} MM, 1 OF 1"),
             ("UNITS", "MM (X AND GIRTH ON THE HULL)"), ("SIDE SHOWN", info.get("side", "")),
-            ("GIRTH FROM", GIRTH_DATUM), ("DRAWN BY", "DEVFLAT")]
+            ("GIRTH FROM", GIRTH_DATUM)] + _issue_rows(info.get("issue"))
+
+
+def _issue_rows(issue) -> list[tuple[str, str]]:
+    """The title block's rows of the drawing's issue (:class:`pipeline.config.Issue`, or None:
+    DEVFLAT drew it)."""
+    if issue is None:
+        return [("DRAWN BY", "DEVFLAT")]
+    rows = [("REVISION", f"{issue.revision}, ISSUED {issue.date.isoformat()}".upper()),
+            ("DRAWN BY", f"{issue.drawn_by.upper()} (DEVFLAT)" if issue.drawn_by else "DEVFLAT")]
+    return rows + ([("APPROVED BY", issue.approved_by.upper())] if issue.approved_by else [])
 
 
 def scale_bar_length(scale: int, room: float = 120.0) -> float:

@@ -409,6 +409,9 @@ def shop_drawing(result, config, layout, target):
     allowance = (result.figures.get("outline") or {}).get("allowance")
     if allowance:
         data.append(allowance["text"] + " (CUT LINE SOLID, NET LINE DASHED)")
+    issue = config.spec.output.issue
+    if issue is not None:
+        data.append(issue.text())
     notes = []
     if plate.bending:
         spacing = plate.bend_spacing if np.isfinite(plate.bend_spacing) and plate.bend_spacing > 0 else None
