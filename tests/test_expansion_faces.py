@@ -329,3 +329,33 @@ def test_kvlcc2_bow_hole_between_its_faces_is_measured_and_noted(tmp_path):
         k = int(np.argmin(np.abs(stations - x)))
         assert abs(stations[k] - x) < 100.0
         assert opened[k] == pytest.approx(abs(foot[1]) - edge + foot[2], abs=2.0), x
+
+
+def test_a_face_across_the_hull_is_drawn_in_true_shape_in_its_own_band():
+    """The transom raked 300 mm aft over its 3 m height, 2 m across: in its own band it is
+    drawn in its plane, from its aft x (-300) forward by its breadth (y 0 to 2000) and up by
+    its length up the rake (hypot(300, 3000)), a plate over v 0.25-0.75, u 0.5-1 exactly at
+    its place there; no frame, waterline or deck is drawn over it (they follow sections
+    x = const, which run across it), and the sheet says how it is drawn."""
+    from pipeline.hull.expansion import shape_notes
+
+    pairs = [plate("flat", FLAT, (0.1, 0.5), (0.2, 0.9)), plate("transom", TRANSOM, (0.0, 1.0), (0.0, 1.0)),
+             plate("upper", TRANSOM, (0.5, 1.0), (0.25, 0.75))]
+    drawing = drawn(pairs, frames=[(0, 0.0), (4, 8000.0)])
+    plates = by_name(drawing)
+    band = plates["transom"].band
+    assert band == plates["upper"].band != plates["flat"].band
+    base = drawing.bands[band][0]
+    rake = np.hypot(300.0, 3000.0)
+    whole = plates["transom"].outline - [0.0, base]
+    assert whole[:, 0].min() == pytest.approx(-300.0) and whole[:, 0].max() == pytest.approx(1700.0)
+    assert whole[:, 1].min() == pytest.approx(0.0, abs=1e-9) and whole[:, 1].max() == pytest.approx(rake)
+    assert polygon_area(whole) == pytest.approx(2000.0 * rake, rel=1e-9)
+    upper = plates["upper"].outline - [0.0, base]
+    assert upper[:, 0].min() == pytest.approx(-300.0 + 500.0) and upper[:, 0].max() == pytest.approx(-300.0 + 1500.0)
+    assert upper[:, 1].min() == pytest.approx(0.5 * rake) and upper[:, 1].max() == pytest.approx(rake)
+    assert drawing.bands[band][1] == pytest.approx(rake)
+    assert all(b != band for _, _, _, b, _ in drawing.frames)
+    (note,) = shape_notes(drawing, 1.0)
+    assert note.startswith("TRANSOM STANDS ACROSS THE HULL: DRAWN IN TRUE SHAPE")
+    assert "EDGE AT X = -0.3 M" in note and "(2.00 M) ALONG THE SHEET TOWARD HIGHER X" in note and "(3.01 M) UPWARD" in note

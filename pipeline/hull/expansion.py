@@ -47,6 +47,7 @@ from .expansion_faces import (
     gap_stretches,
     joined_offsets,
     open_below,
+    true_shape,
     place_bands,
     stands_across,
 )
@@ -316,29 +317,37 @@ class ExpandedPlate:
     trim_lines: tuple = ()  # where the plate is cut at its face's trim: the cut's runs (M, 2)
 
 
-def _map(plate: PlateEdges, table: Sections, hull, offset) -> tuple:
-    """The plate's outline ring, seams, butts and trim lines in (x, girth); ``offset`` x (N,)
-    -> the face's girth offset there. A plate that reaches past its face's trim (``hull.trim``)
-    is drawn as the shop cuts it (:func:`.expansion_faces.cut_at_trim`): its region's part inside the
-    trim, its seams and butts clipped to it, and the trim's run across it as its trim line."""
-    axis = hull.long_axis
-    g_of = plate.params[..., 1 - axis]
-    x = plate.points[..., 0]
+def _map(plate: PlateEdges, hull, to_drawing) -> tuple:
+    """The plate's outline ring, seams, butts and trim lines on the drawing; ``to_drawing``
+    maps points (N, 3) with their parameters (N, 2) there (N, 2). A plate that reaches past its
+    face's trim (``hull.trim``) is drawn as the shop cuts it (:func:`.expansion_faces.cut_at_trim`):
+    its region's part inside the trim, its seams and butts clipped to it, and the trim's run
+    across it as its trim line."""
+    points, params = plate.points, plate.params
 
     def line(rows, cols):
-        xx, gg = x[rows, cols], g_of[rows, cols]
-        return np.column_stack([xx, table.at(xx, gg) + offset(xx)])
+        return to_drawing(points[rows, cols], params[rows, cols])
 
     r, c = plate.points.shape[:2]
     every_c, every_r = np.arange(c), np.arange(r)
     s_lo, s_hi = line(np.zeros(c, int), every_c), line(np.full(c, r - 1), every_c)
     b_lo, b_hi = line(every_r, np.zeros(r, int)), line(every_r, np.full(r, c - 1))
     ring = np.vstack([s_lo, b_hi[1:], s_hi[::-1][1:], b_lo[::-1][1:-1]])
-    cut = cut_at_trim(plate, table, hull, offset) if getattr(hull, "trim", None) is not None else None
+    cut = cut_at_trim(plate, hull, to_drawing) if getattr(hull, "trim", None) is not None else None
     if cut is None:
         return ring, (s_lo, s_hi), (b_lo, b_hi), ()
     outline, trim_lines = cut
     return outline, clipped((s_lo, s_hi), outline), clipped((b_lo, b_hi), outline), trim_lines
+
+
+def girth_map(table: Sections, axis: int, offset: np.ndarray):
+    """Points (N, 3) with their parameters (N, 2) -> (x, girth) (N, 2) by the face's section
+    table, its girth parameter the one across ``axis``, plus its girth offset (K,) at the
+    table's stations."""
+    def to_drawing(points: np.ndarray, params: np.ndarray) -> np.ndarray:
+        x = points[..., 0]
+        return np.column_stack([x, table.at(x, params[..., 1 - axis]) + np.interp(x, table.stations, offset)])
+    return to_drawing
 
 
 @dataclass(frozen=True)
@@ -360,6 +369,8 @@ class Expansion:
     # left open between that face's plates and its section's start there (K,), NaN where it
     # continues another or none: :func:`.expansion_faces.open_below`), names as the plates'
     joins: tuple = ()
+    # faces drawn in true shape: (face, :class:`.expansion_faces.TrueShape`)
+    true_shapes: tuple = ()
 
     @property
     def height(self) -> float:
@@ -404,9 +415,17 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
         if not joined[f]:
             offsets[f] = np.zeros(len(tables[f].stations))
             mapped[f] = _map_face(faces[f], tables[f], offsets[f])
+    # a face that stands across the hull in a band of its own: in true shape, its own plane
+    shapes = {f: true_shape([e.points for _, e in faces[f]], (float(x_all.min()), float(x_all.max())))
+              for f in range(len(faces)) if across[f]}
+    for f, shape in shapes.items():
+        mapped[f] = [_map(e, r.part.hull, shape) for r, e in faces[f]]
     heights = {}
     for f, table in enumerate(tables):
-        top = np.nanmax(table.girth + offsets[f][:, None]) if np.isfinite(table.girth).any() else 0.0
+        if f in shapes:
+            top = shapes[f].height
+        else:
+            top = np.nanmax(table.girth + offsets[f][:, None]) if np.isfinite(table.girth).any() else 0.0
         heights[band_of[f]] = max(heights.get(band_of[f], 0.0), float(top))
     bands, base = [], {}
     for band in range(len(heights)):
@@ -420,7 +439,8 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
                                         tuple(_shifted(b, by) for b in butts), display_class(r),
                                         getattr(getattr(r.part, "steel", None), "thickness", None), band_of[f],
                                         tuple(_shifted(t, by) for t in trim_lines)))
-    placed = [(table, base[band_of[f]] + offsets[f], band_of[f]) for f, table in enumerate(tables)]
+    # (a true shape has no sections x = const to draw frames, waterlines or decks along)
+    placed = [(table, base[band_of[f]] + offsets[f], band_of[f]) for f, table in enumerate(tables) if f not in shapes]
     sides = {"high" if table.from_high else "low" for table in tables}
     side = "the low end of the girth parameter" if sides == {"low"} else (
         "the high end of the girth parameter" if sides == {"high"} else "the lower end of each surface's girth")
@@ -428,6 +448,7 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
         side += "; a face whose sections start on another face's continues its girth"
     levels, base_z, notes = _levels(placed, waterlines, decks, base_line, snap)
     labels = [_face_label([r.name for r, _ in members]) for members in faces]
+    true_shapes = tuple((labels[f], shape) for f, shape in shapes.items())
     drawn_joins = []
     for f in range(len(faces)):
         for g in continues[f] if joined[f] and len(faces) > 1 else ():
@@ -436,7 +457,8 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
             drawn_joins.append((labels[f], labels[g], tables[f].stations,
                                 open_below(region, tables[f].stations, starts)))
     return Expansion(tuple(plates), _frame_lines(placed, frames, len(bands)), tuple(bands),
-                     (float(x_all.min()), float(x_all.max())), side, levels, base_z, notes, tuple(drawn_joins))
+                     (float(x_all.min()), float(x_all.max())), side, levels, base_z, notes, tuple(drawn_joins),
+                     true_shapes)
 
 
 def _face_label(names: list[str]) -> str:
@@ -444,7 +466,16 @@ def _face_label(names: list[str]) -> str:
     import re
 
     found = re.match(r"(.*_P\d+)_", names[0])
-    return found.group(1) if found else os.path.commonprefix(names).rstrip("_")
+    return found.group(1) if found else (os.path.commonprefix(names).rstrip("_") or names[0])
+
+
+def shape_notes(drawing: Expansion, mm: float) -> list[str]:
+    """The sheet's words on the faces it draws in true shape, not in girth x length."""
+    return [f"{face.upper()} STANDS ACROSS THE HULL: DRAWN IN TRUE SHAPE IN ITS OWN PLANE, ITS CENTRE-PLANE EDGE "
+            f"AT X = {shape.start * mm / 1000:.1f} M, ITS BREADTH OUT FROM THE CENTRE PLANE "
+            f"({shape.width * mm / 1000:.2f} M) ALONG THE SHEET TOWARD {'HIGHER' if shape.sign > 0 else 'LOWER'} X, "
+            f"ITS HEIGHT UP ITS FACE ({shape.height * mm / 1000:.2f} M) UPWARD"
+            for face, shape in drawing.true_shapes]
 
 
 def gap_notes(drawing: Expansion, least: float, mm: float) -> list[str]:
@@ -462,11 +493,7 @@ def gap_notes(drawing: Expansion, least: float, mm: float) -> list[str]:
 
 def _map_face(members: list, table: Sections, offset: np.ndarray) -> list[tuple]:
     """Each plate of a face mapped with the face's girth offset (K,) at the table's stations."""
-    out = []
-    for r, e in members:
-        hull = r.part.hull
-        out.append(_map(e, table, hull, lambda x: np.interp(x, table.stations, offset)))
-    return out
+    return [_map(e, r.part.hull, girth_map(table, r.part.hull.long_axis, offset)) for r, e in members]
 
 
 def _shifted(line: np.ndarray, by: float) -> np.ndarray:
@@ -638,7 +665,7 @@ def write_expansion_dxf(target: str | Path, drawing: Expansion, mm_per_unit: flo
     # over the frame numbers, and over what the sheet's viewports show above the drawing
     lift = max(2 * text_h, 8.0 * sheet.scale)
     msp.add_text(title, height=2 * text_h, dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift)})
-    for k, note in enumerate(_level_notes(drawing, mm)):
+    for k, note in enumerate(info["notes"] if "notes" in info else _level_notes(drawing, mm)):
         msp.add_text(note, height=0.6 * text_h,
                      dxfattribs={"layer": "EXP_TEXT", "insert": (x0, top + lift + (2.5 + 0.9 * k) * text_h)})
     for cut in sheet.cuts:
@@ -694,7 +721,8 @@ def write_expansion(results, edges: dict, config, out_dir: Path, style: str, dxf
     info = {"drawing": f"{style.upper()}-EXP: SHELL EXPANSION", "hull": style, "plates": len(hull),
             "side": side_shown(across(hull, edges)), "bow": None if strake is None else strake.bow,
             "issue": config.spec.output.issue,
-            "notes": _level_notes(drawing, mm) + gap_notes(drawing, GAP_SHOWN_MM * sheet.scale / mm, mm)}
+            "notes": _level_notes(drawing, mm) + shape_notes(drawing, mm)
+            + gap_notes(drawing, GAP_SHOWN_MM * sheet.scale / mm, mm)}
     written = []
     if dxf:
         written.append(out_dir / f"{style}_expansion.dxf")

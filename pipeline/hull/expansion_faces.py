@@ -16,6 +16,8 @@ the hull (a transom, whose sections x = const run across it anyhow).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 JOIN = 2e-3  # of the drawing's length: a section's start this near another face's section continues it
@@ -37,6 +39,53 @@ def stands_across(grids: list[np.ndarray]) -> bool:
         total += float(area.sum())
     return total > 0 and weighted / total > END_FACE
 
+
+
+@dataclass(frozen=True)
+class TrueShape:
+    """A face that stands across the hull (a transom) drawn in its own plane, as a yard draws
+    a transom in true shape: ``across`` (3,) the plane's direction nearest the hull's y (away
+    from the centre plane), ``up`` (3,) the plane's direction normal to it, rising; drawn
+    from x = ``start`` along the sheet's x by the distance across (toward ``sign`` x) and
+    upward by the distance up from the face's lowest point. ``width`` and ``height``: its
+    extent on the drawing (model units)."""
+
+    centre: np.ndarray
+    across: np.ndarray
+    up: np.ndarray
+    start: float
+    sign: float
+    low: tuple
+    width: float
+    height: float
+
+    def __call__(self, points: np.ndarray, params=None) -> np.ndarray:
+        d = np.asarray(points, dtype=float) - self.centre
+        a, b = d @ self.across - self.low[0], d @ self.up - self.low[1]
+        return np.column_stack([self.start + self.sign * a, b])
+
+
+def true_shape(grids: list[np.ndarray], x_range: tuple) -> TrueShape:
+    """The :class:`TrueShape` of a face whose plates' points are ``grids`` (R, C, 3) each:
+    its plane the points' least-squares one; drawn from the face's end nearer that end of the
+    drawing's ``x_range`` (x0, x1), inward (a transom at the stern from its own aft x forward)."""
+    points = np.vstack([g.reshape(-1, 3) for g in grids])
+    points = points[np.all(np.isfinite(points), axis=1)]
+    centre = points.mean(axis=0)
+    normal = np.linalg.svd(points - centre, full_matrices=False)[2][2]
+    across = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
+    if np.linalg.norm(across) < 1e-9:  # a face square to y: across along z's normal component
+        across = np.array([0.0, 0.0, 1.0]) - normal[2] * normal
+    across /= np.linalg.norm(across)
+    if np.mean(np.abs(points[:, 1])) > 0 and np.corrcoef(np.abs(points[:, 1]), (points - centre) @ across)[0, 1] < 0:
+        across = -across  # away from the centre plane
+    up = np.cross(normal, across)
+    up = -up if up[2] < 0 else up
+    a, b = (points - centre) @ across, (points - centre) @ up
+    at_low = points[:, 0].mean() - x_range[0] <= x_range[1] - points[:, 0].mean()
+    start = float(points[:, 0].min()) if at_low else float(points[:, 0].max())
+    return TrueShape(centre, across, up, start, 1.0 if at_low else -1.0, (float(a.min()), float(b.min())),
+                     float(np.ptp(a)), float(np.ptp(b)))
 
 def nearest_on_section(points: np.ndarray, girth: np.ndarray, target: np.ndarray) -> tuple[float, float]:
     """The girth of the point of a section's polyline ``points`` (n, 3) (girth (n,), NaN where
@@ -160,12 +209,12 @@ def place_bands(mapped: list, continues: list, order: list, join: float, across:
     return band_of, joined
 
 
-def cut_at_trim(plate, table, hull, offset):
-    """(outline (N, 2), trim lines (M, 2) each) in (x, girth) of a plate's region (its
+def cut_at_trim(plate, hull, to_drawing):
+    """(outline (N, 2), trim lines (M, 2) each) on the drawing of a plate's region (its
     :class:`.cost.PlateEdges`) inside its face's trim, as :func:`.trimcut.cut_at_trim` cuts
     it for the shop; None when the region lies inside the trim, or wholly outside it (a
-    failed plate, drawn whole). ``table`` the face's :class:`.expansion.Sections`, ``offset``
-    x (N,) -> the face's girth offset there."""
+    failed plate, drawn whole). ``to_drawing``: points (N, 3) with their parameters (N, 2)
+    -> the drawing (N, 2)."""
     import shapely
 
     from .trimcut import region_in_trim
@@ -176,9 +225,7 @@ def cut_at_trim(plate, table, hull, offset):
     if kept.geom_type != "Polygon":  # the trim leaves pieces: the plate is the largest (as the shop's cut)
         kept = max(getattr(kept, "geoms", [kept]), key=lambda g: g.area)
     uv = np.asarray(kept.exterior.coords)
-    axis = hull.long_axis
-    xx = hull.surface(uv[:, 0], uv[:, 1])[:, 0]
-    outline = np.column_stack([xx, table.at(xx, uv[:, 1 - axis]) + offset(xx)])
+    outline = to_drawing(hull.surface(uv[:, 0], uv[:, 1]), uv)
     # a segment of the cut outline off the region's boundary runs along the trim
     u0, v0, u1, v1 = region.bounds
     snap = 1e-7 * max(u1 - u0, v1 - v0)
