@@ -47,9 +47,9 @@ from .expansion_faces import (
     gap_stretches,
     joined_offsets,
     open_below,
-    true_shape,
     place_bands,
     stands_across,
+    true_shape,
 )
 from .expansion_sheet import plan_sheet, write_expansion_pdf
 from .hullplots import display_class
