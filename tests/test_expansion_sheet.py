@@ -228,3 +228,18 @@ def test_the_side_shown_is_the_sign_of_y_whichever_parameter_runs_along_the_hull
     for axis in (0, 1):
         hull = [SimpleNamespace(name="p", part=SimpleNamespace(hull=SimpleNamespace(long_axis=axis)))]
         assert side_shown(across(hull, {"p": SimpleNamespace(points=points)})).startswith("Y < 0")
+
+
+def test_a_slanted_plate_name_is_sized_to_its_width_at_its_height_not_its_x_extent():
+    """A parallelogram 1000 wide at every height, leaning 2000 over its 1000 of girth: its x
+    extent is 3000, the room for its name along the line through its centre 1000 (the name
+    was sized to the 3000 and ran over its neighbours: DTMB 5415's raked transom plates); a
+    part's end cuts it."""
+    import shapely
+
+    from pipeline.hull.expansion_sheet import _width_at
+
+    outline = np.array([(0.0, 0.0), (1000.0, 0.0), (3000.0, 1000.0), (2000.0, 1000.0)])
+    assert _width_at(outline, np.array([1500.0, 500.0]), -1e9, 1e9, shapely) == pytest.approx(1000.0)
+    assert _width_at(outline, np.array([500.0, 100.0]), -1e9, 1e9, shapely) == pytest.approx(1000.0)
+    assert _width_at(outline, np.array([1500.0, 500.0]), 1200.0, 1e9, shapely) == pytest.approx(800.0)

@@ -322,8 +322,11 @@ def _draw_parts(fig, paper, drawing, plan: SheetPlan, mm: float, bow: str | None
             if found is None:
                 continue
             place, area = found
-            plate_l = float(min(np.ptp(p.outline[:, 0]), b - a)) * pt_per_model
-            plate_h = area * pt_per_model ** 2 / max(plate_l, 1e-300)  # the mean girth width
+            # the room along the name's line: the plate's width at its height (a slanted plate
+            # is narrower there than its x extent), within the part
+            extent = float(min(np.ptp(p.outline[:, 0]), b - a)) * pt_per_model
+            plate_h = area * pt_per_model ** 2 / max(extent, 1e-300)  # the mean girth width
+            plate_l = _width_at(p.outline, place, a, b, shapely) * pt_per_model
             name, thick = plate_label(p)
             size = float(np.clip(min(0.3 * plate_h, 1.5 * plate_l / max(len(name), 1)), 1.0, 9.0))
             ax.text(place[0] * mm, place[1] * mm, f"{name}\n{thick}" if thick else name, fontsize=size,
@@ -402,6 +405,18 @@ def _clear_level_places(level, x_range: tuple, taken: list, to_paper, size: floa
                 chosen.append(found[:2])
                 taken.append(found[2])
     return chosen
+
+
+def _width_at(outline: np.ndarray, place: np.ndarray, a: float, b: float, shapely) -> float:
+    """The length (model units) of the piece of the horizontal line through ``place`` that
+    lies in the plate's outline (N, 2) and holds ``place``, within x in [a, b]; the plate's x
+    extent there when the line misses it (an outline that crosses itself)."""
+    polygon = shapely.make_valid(shapely.Polygon(outline))
+    lo, hi = max(a, float(outline[:, 0].min())), min(b, float(outline[:, 0].max()))
+    cut = polygon.intersection(shapely.LineString([(lo, place[1]), (hi, place[1])]))
+    pieces = [g for g in getattr(cut, "geoms", [cut]) if g.geom_type == "LineString" and not g.is_empty]
+    holding = [g for g in pieces if g.distance(shapely.Point(place)) <= 1e-9 * max(1.0, hi - lo)]
+    return float(max(g.length for g in holding or pieces)) if pieces else hi - lo
 
 
 def _label_place(outline: np.ndarray, a: float, b: float, shapely) -> tuple[np.ndarray, float] | None:
