@@ -408,7 +408,7 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
     x_all = np.concatenate([t.stations for t in tables])
     join = JOIN * float(np.ptp(x_all))
     across = [stands_across([e.points for _, e in members]) if len(faces) > 1 else False for members in faces]
-    offsets, continues, order, joins = joined_offsets(tables, join, across)
+    offsets, continues, order, parents = joined_offsets(tables, join, across)
     mapped = [_map_face(members, table, offset) for members, table, offset in zip(faces, tables, offsets)]
     band_of, joined = place_bands(mapped, continues, order, join, across)
     for f in range(len(faces)):
@@ -452,7 +452,7 @@ def expand(results, edges: dict, frames: list[tuple[int, float]], gap: float, wa
     drawn_joins = []
     for f in range(len(faces)):
         for g in continues[f] if joined[f] and len(faces) > 1 else ():
-            starts = np.where(joins[f][0] == g, offsets[f], np.nan)  # where its sections start, in the band
+            starts = np.where(parents[f] == g, offsets[f], np.nan)  # where its sections start, in the band
             region = face_region([ring for ring, _, _, _ in mapped[g]])
             drawn_joins.append((labels[f], labels[g], tables[f].stations,
                                 open_below(region, tables[f].stations, starts)))

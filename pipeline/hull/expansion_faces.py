@@ -109,8 +109,8 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list, list,
     """Each face's girth offset (K,) at its table's stations (model units, 0 where its
     sections count from the centre plane, a contour or, continuing no face, their own
     start), the faces each continues, the faces in an order where each comes after those
-    it continues, and each face's joins: (face it continues (K,), -1 where none; the gap
-    between its section's start and that face's section (K,), NaN where none).
+    it continues, and at each face's stations the face it continues there (K,), -1 where
+    none.
 
     ``tables``: :class:`.expansion.Sections` of the faces; a section continues the face whose
     section at the same station (equal x) passes within ``join`` of its start, the nearest,
@@ -120,7 +120,6 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list, list,
     parent = [np.full(len(t.stations), -1) for t in tables]
     at_parent = [np.zeros(len(t.stations)) for t in tables]  # the parent's girth at the start, plus the gap
     parent_station = [np.zeros(len(t.stations), dtype=int) for t in tables]
-    gap_at = [np.zeros(len(t.stations)) for t in tables]  # from the start to the parent's section
     for f, table in enumerate(tables):
         best = np.full(len(table.stations), np.inf)
         start = table.points.shape[1] - 1 if table.from_high else 0
@@ -134,7 +133,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list, list,
                 girth, gap = nearest_on_section(other.points[kg], other.girth[kg], table.points[k, start])
                 if gap <= join and gap < best[k] and girth > SAME_START * join:
                     best[k], parent[f][k], parent_station[f][k] = gap, g, kg
-                    at_parent[f][k], gap_at[f][k] = girth + gap, gap
+                    at_parent[f][k] = girth + gap
     order = _parents_first(parent, count)
     offsets = [np.zeros(len(t.stations)) for t in tables]
     for f in order:
@@ -142,8 +141,7 @@ def joined_offsets(tables: list, join: float, across: list) -> tuple[list, list,
             g = parent[f][k]
             offsets[f][k] = offsets[g][parent_station[f][k]] + at_parent[f][k]
     continues = [tuple(sorted({int(g) for g in parent[f] if g >= 0})) for f in range(count)]
-    joins = [(parent[f], np.where(parent[f] >= 0, gap_at[f], np.nan)) for f in range(count)]
-    return offsets, continues, order, joins
+    return offsets, continues, order, parent
 
 
 def _parents_first(parent: list[np.ndarray], count: int) -> list[int]:

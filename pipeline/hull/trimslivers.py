@@ -66,8 +66,8 @@ def merge_slivers(plates: list, size_of, stock, stagger: float, joints=(), exten
     while True:
         slivers = sorted((p for p in plates if 0.0 < width(p) < stock.min_width), key=lambda p: (width(p), p[0]))
         taken = None
+        before = butt_conflicts(plates, width, (x0, x1), stagger, joints)
         for sliver in slivers:
-            before = butt_conflicts(plates, width, (x0, x1), stagger, joints)
             options = []
             for how, merged, into, layout in _options(sliver, plates, size, (x0, x1)):
                 length, merged_width = size(merged)
@@ -167,8 +167,7 @@ def _move_butt(plates: list, strakes, old: float, new, size, extent):
     would vanish (a plate without steel that would is dropped)."""
     strakes = set(strakes)
     while True:
-        hit = [p for p in plates if p[0] < max(strakes) + 1 and min(strakes) < p[1]
-               and any(p[0] <= i < p[1] for i in strakes) and old in (p[2][0], p[2][1])]
+        hit = [p for p in plates if old in p[2] and any(p[0] <= i < p[1] for i in strakes)]
         wider = {i for p in hit for i in range(p[0], p[1])} - strakes
         if not wider:
             break
